@@ -1,0 +1,40 @@
+"""Layer 2: geometric primitives, versor groups and similarities between primitives."""
+
+from .groups import (
+    TANGENT_BASIS,
+    Dilator,
+    Motor,
+    Rotor,
+    Similarity,
+    Translator,
+    VersorGroup,
+    apply,
+    decompose,
+    exp,
+    log,
+    log_jacobian,
+)
+from .primitives import (
+    KINDS,
+    N_POINTS,
+    Primitive,
+    center,
+    circle,
+    closest_point_to_origin,
+    direction,
+    endpoints,
+    kind_of,
+    line,
+    meet,
+    normal,
+    plane,
+    point,
+    point_pair,
+    primitive_from_points,
+    project,
+    radius,
+    sphere,
+    to_euclidean,
+    well_definedness,
+)
+from .similarity import UNIT_AXIS, primitive_parameters, rotor_between, similarity, similarity_from_unit, unit_primitive

@@ -1,0 +1,216 @@
+"""Similarity transformations between primitives of the same kind (paper §3.3, Eq 18–28).
+
+For two primitives X1, X2 of one kind we build ``V = V_T V_R V_D`` with
+``V X1 Ṽ = λ X2``.  Each primitive is read out as (center c, radius r, axis o):
+
+============  ======================  ===========  =======================================
+kind          c                       r            o (orientation axis)
+============  ======================  ===========  =======================================
+point         the point               —            —
+point_pair    midpoint                half length  direction first → second point
+line          closest point to origin —            direction
+circle        center                  radius       normal (right hand from the point order)
+plane         closest point to origin —            normal
+sphere        center                  radius       —
+============  ======================  ===========  =======================================
+
+then (the paper's recipe, with its typos fixed)
+
+* ``V_D = D(log(r2/r1))`` — Eq 23 as printed, ``exp(r2 r1⁻¹ e∞)``, is a translator-like
+  element, not a dilator; the scale factor r2/r1 enters through its logarithm;
+* ``V_R`` = the minimal rotation taking o1 to o2, ``∝ 1 + o2 o1`` (Eq 26; the printed
+  ``N2 ∧ N2`` is zero — it must be ``o2 ∧ o1``).  When o2 = −o1 that expression
+  vanishes; we then rotate by π about a fixed axis perpendicular to o1 (about +z for
+  point pairs/lines along ±e2, about +x for circles/planes with normal ±e3);
+* ``V_T = T(c2 − (r2/r1) R c1)`` — the translation that puts the rotated and scaled
+  center onto c2 (the paper's "apply V_R V_D first, then translate").
+
+Orientation is respected: ``λ > 0`` for points, point pairs, lines, circles and planes,
+so a circle with the opposite normal is reached by a half-turn, never by a sign flip.
+A sphere's sign (the handedness of its four points) is not changed by any direct
+similarity, so for spheres ``λ`` may be negative.
+
+The rotation about o itself (roll about a circle's normal or a point pair's axis) is
+not determined by the primitive; the minimal-rotation rule fixes it.  It is
+discontinuous where o2 = −o1 (no continuous choice exists on the whole sphere), so
+cooperative systems should order their end points such that the nominal primitive is
+far from the antipode of the unit primitive's axis.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..algebra import backend as B
+from ..algebra.multivector import Multivector
+from ..errors import InvalidInputError
+from .groups import ROTOR_BLADES, _exp_parts
+from .primitives import (
+    KINDS,
+    Primitive,
+    _check_kind,
+    center,
+    closest_point_to_origin,
+    direction,
+    kind_of,
+    normal,
+    primitive_from_points,
+    radius,
+)
+
+__all__ = ["unit_primitive", "similarity", "similarity_from_unit", "primitive_parameters", "UNIT_AXIS", "rotor_between"]
+
+#: The orientation axis of each unit primitive X_u (None: no orientation).
+UNIT_AXIS: dict[str, tuple[float, float, float] | None] = {
+    "point": None,
+    "point_pair": (0.0, 1.0, 0.0),
+    "line": (0.0, 1.0, 0.0),
+    "circle": (0.0, 0.0, 1.0),
+    "plane": (0.0, 0.0, 1.0),
+    "sphere": None,
+}
+
+_UNIT_POINTS = {
+    "point": [(0.0, 0.0, 0.0)],
+    "point_pair": [(0.0, -1.0, 0.0), (0.0, 1.0, 0.0)],
+    "line": [(0.0, 0.0, 0.0), (0.0, 1.0, 0.0)],
+    "circle": [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (-1.0, 0.0, 0.0)],
+    "plane": [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)],
+    "sphere": [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (-1.0, 0.0, 0.0)],
+}
+
+
+def unit_primitive(kind: str) -> Primitive:
+    """The unit primitive X_u of ``kind`` (Table 1): origin; points (0,∓1,0); the e2 axis;
+    the unit circle in z = 0 (normal +z); the plane z = 0 (normal +z); the unit sphere."""
+    kind = _check_kind(kind)
+    return primitive_from_points(kind, [np.array(p) for p in _UNIT_POINTS[kind]])
+
+
+def primitive_parameters(X: Multivector) -> tuple[str, Any, Any, Any]:
+    """``(kind, c, r, o)`` as in the module table; r and o are None where undefined."""
+    kind = kind_of(X)
+    if kind == "point":
+        return kind, center(X), None, None
+    if kind == "point_pair":
+        return kind, center(X), radius(X), direction(X)
+    if kind == "line":
+        return kind, closest_point_to_origin(X), None, direction(X)
+    if kind == "circle":
+        return kind, center(X), radius(X), normal(X)
+    if kind == "plane":
+        return kind, closest_point_to_origin(X), None, normal(X)
+    return kind, center(X), radius(X), None
+
+
+def _tuple3(v: Any) -> tuple[Any, Any, Any]:
+    return v[0], v[1], v[2]
+
+
+def _perp_axis(u: tuple[Any, Any, Any], kind_axis: tuple[float, float, float] | None):
+    """Fixed half-turn axis perpendicular to u, used when the target axis is −u."""
+    if kind_axis == (0.0, 1.0, 0.0):
+        return (0.0, 0.0, 1.0)
+    if kind_axis == (0.0, 0.0, 1.0):
+        return (1.0, 0.0, 0.0)
+    # general u: cross with the basis vector least aligned with u
+    au = [B.fabs(x) for x in u]
+    if B.any_symbolic(*u):
+        raise InvalidInputError("antiparallel fallback for symbolic, non-unit axes is not supported")
+    k = int(np.argmin([float(np.max(np.asarray(a))) for a in au]))
+    ek = [0.0, 0.0, 0.0]
+    ek[k] = 1.0
+    c = (u[1] * ek[2] - u[2] * ek[1], u[2] * ek[0] - u[0] * ek[2], u[0] * ek[1] - u[1] * ek[0])
+    n = np.sqrt(c[0] ** 2 + c[1] ** 2 + c[2] ** 2)
+    return (c[0] / n, c[1] / n, c[2] / n)
+
+
+def rotor_between(u: Any, v: Any, half_turn_axis: tuple[float, float, float] | None = None) -> Multivector:
+    """Minimal rotor R with R u R̃ = v for unit 3-vectors u, v (Eq 26, corrected).
+
+    ``R = (1 + v u)/√(2(1 + u·v))``.  For v = −u it is a half-turn about
+    ``half_turn_axis`` (default: a fixed axis ⟂ u).  Runs on numpy and CasADi.
+    """
+    u, v = _tuple3(u), _tuple3(v)
+    dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+    # v ∧ u as coefficients on e12, e13, e23
+    w12 = v[0] * u[1] - v[1] * u[0]
+    w13 = v[0] * u[2] - v[2] * u[0]
+    w23 = v[1] * u[2] - v[2] * u[1]
+    one_plus = 1.0 + dot
+    anti = one_plus < 1e-12
+    den = B.sqrt(2.0 * B.where(anti, 1.0, one_plus))
+    a = half_turn_axis if half_turn_axis is not None else _perp_axis(u, None)
+    # half-turn about axis a: −(a1 e23 − a2 e13 + a3 e12)
+    half = (0.0, -a[2], a[1], -a[0])
+    gen = (one_plus / den, w12 / den, w13 / den, w23 / den)
+    coeffs = tuple(B.where(anti, h, g) for h, g in zip(half, gen))
+    return Multivector(ROTOR_BLADES, coeffs)
+
+
+def _similarity_from_params(kind, c1, r1, o1, c2, r2, o2) -> Multivector:
+    zero = 0.0 * c2[0]
+    if o1 is not None:
+        R = rotor_between(o1, o2, _perp_axis(o1, UNIT_AXIS[kind] if tuple(o1) == UNIT_AXIS[kind] else None))
+    else:
+        R = Multivector(ROTOR_BLADES, (1.0 + zero, zero, zero, zero))
+    if r1 is not None:
+        scale = r2 / r1
+        beta = B.log(scale)
+    else:
+        scale, beta = 1.0, zero
+    # rotated, scaled c1:  R c1 R̃ (vector part)
+    c1v = Multivector((2, 4, 8), c1)
+    Rc1 = (R * c1v * R.reverse()).grade(1)
+    rc = (Rc1.get(2), Rc1.get(4), Rc1.get(8))
+    t = tuple(c2[i] - scale * rc[i] for i in range(3))
+    return _compose_trd(t, R.coeffs, beta)
+
+
+def _compose_trd(t, Rc, beta) -> Multivector:
+    """V_T(t) · R · V_D(β) built directly from rotor coefficients (no log/exp round trip)."""
+    from .groups import DILATOR_BLADES, SIMILARITY_BLADES, TRANSLATOR_BLADES
+
+    T = Multivector(TRANSLATOR_BLADES, (1.0 + 0.0 * t[0], -0.5 * t[0], -0.5 * t[1], -0.5 * t[2]))
+    R = Multivector(ROTOR_BLADES, Rc)
+    D = Multivector(DILATOR_BLADES, (B.cosh(0.5 * beta), B.sinh(0.5 * beta)))
+    return (T * R * D).with_blades(SIMILARITY_BLADES)  # the similarity blades are closed under *
+
+
+def _unit_params(kind: str):
+    z = (0.0, 0.0, 0.0)
+    r = 1.0 if kind in ("point_pair", "circle", "sphere") else None
+    return z, r, UNIT_AXIS[kind]
+
+
+def similarity_from_unit(X: Multivector) -> Multivector:
+    """V_S(X_u, X): the similarity that maps the unit primitive of X's kind onto X (Eq 28).
+
+    ``V = T(c) R(o_u → o) D(log r)`` with (c, r, o) read from X (module table).  Works
+    on numeric and CasADi coefficients; the result lies on the 12 similarity blades.
+    """
+    kind, c, r, o = primitive_parameters(X)
+    c1, r1, o1 = _unit_params(kind)
+    return _similarity_from_params(kind, c1, r1, o1, _tuple3(c), r, None if o is None else _tuple3(o))
+
+
+def similarity(X_from: Multivector, X_to: Multivector) -> Multivector:
+    """Similarity versor V = V_T V_R V_D with ``X_to ∝ V X_from Ṽ`` (§3.3, Eq 20).
+
+    Both primitives must be of the same kind.  Use :func:`coop_ga.decompose` to get
+    the factors.  See the module docstring for the orientation and half-turn rules.
+    """
+    k1, k2 = kind_of(X_from), kind_of(X_to)
+    if k1 != k2:
+        raise InvalidInputError(
+            f"similarity() maps primitives of the same kind; got a {k1} and a {k2}. "
+            f"Build both as one of {', '.join(KINDS)}"
+        )
+    _, c1, r1, o1 = primitive_parameters(X_from)
+    _, c2, r2, o2 = primitive_parameters(X_to)
+    return _similarity_from_params(
+        k1, _tuple3(c1), r1, None if o1 is None else _tuple3(o1), _tuple3(c2), r2, None if o2 is None else _tuple3(o2)
+    )
+
