@@ -466,9 +466,9 @@ def closest_point_to_origin(X: Multivector) -> Any:
 def project(P: Multivector, X: Multivector) -> Multivector:
     """Projection (P⌋X) X⁻¹ of a point (or any blade) onto the primitive X (Eq 4).
 
-    For rounds the result is the projection onto the carrier (a point pair for a
-    point onto a circle: the two intersections of the circle with the plane through
-    the point and the axis); use :func:`to_euclidean` on flat results.
+    For a point and a line or plane the result is a vector centred at the foot point —
+    an imaginary sphere with squared radius −d², d the distance — so
+    :func:`to_euclidean` of it is the projected point.
     """
     return (P | X) * X.inverse()
 

@@ -109,22 +109,26 @@ def _tuple3(v: Any) -> tuple[Any, Any, Any]:
     return v[0], v[1], v[2]
 
 
-def _perp_axis(u: tuple[Any, Any, Any], kind_axis: tuple[float, float, float] | None):
-    """Fixed half-turn axis perpendicular to u, used when the target axis is −u."""
+def _perp_axis(u: tuple[Any, Any, Any], kind_axis: tuple[float, float, float] | None = None):
+    """Fixed half-turn axis perpendicular to u, used when the target axis is −u.
+
+    For the unit primitives' axes it is a fixed basis vector (+z for ±e2, +x for ±e3);
+    otherwise ``u × e1`` (or ``u × e2`` when u is close to e1), normalised.
+    """
     if kind_axis == (0.0, 1.0, 0.0):
         return (0.0, 0.0, 1.0)
     if kind_axis == (0.0, 0.0, 1.0):
         return (1.0, 0.0, 0.0)
-    # general u: cross with the basis vector least aligned with u
-    au = [B.fabs(x) for x in u]
-    if B.any_symbolic(*u):
-        raise InvalidInputError("antiparallel fallback for symbolic, non-unit axes is not supported")
-    k = int(np.argmin([float(np.max(np.asarray(a))) for a in au]))
-    ek = [0.0, 0.0, 0.0]
-    ek[k] = 1.0
-    c = (u[1] * ek[2] - u[2] * ek[1], u[2] * ek[0] - u[0] * ek[2], u[0] * ek[1] - u[1] * ek[0])
-    n = np.sqrt(c[0] ** 2 + c[1] ** 2 + c[2] ** 2)
-    return (c[0] / n, c[1] / n, c[2] / n)
+    near_e1 = B.fabs(u[0]) > 0.9
+    a = tuple(B.where(near_e1, x2, x1) for x1, x2 in zip((0.0 * u[0], u[2], -u[1]), (-u[2], 0.0 * u[0], u[0])))
+    n = B.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+    return (a[0] / n, a[1] / n, a[2] / n)
+
+
+def _is_unit_axis(o: tuple[Any, Any, Any], kind: str) -> bool:
+    if B.any_symbolic(*o) or UNIT_AXIS[kind] is None:
+        return False
+    return tuple(float(x) for x in o) == UNIT_AXIS[kind]
 
 
 def rotor_between(u: Any, v: Any, half_turn_axis: tuple[float, float, float] | None = None) -> Multivector:
@@ -142,7 +146,7 @@ def rotor_between(u: Any, v: Any, half_turn_axis: tuple[float, float, float] | N
     one_plus = 1.0 + dot
     anti = one_plus < 1e-12
     den = B.sqrt(2.0 * B.where(anti, 1.0, one_plus))
-    a = half_turn_axis if half_turn_axis is not None else _perp_axis(u, None)
+    a = half_turn_axis if half_turn_axis is not None else _perp_axis(u)
     # half-turn about axis a: −(a1 e23 − a2 e13 + a3 e12)
     half = (0.0, -a[2], a[1], -a[0])
     gen = (one_plus / den, w12 / den, w13 / den, w23 / den)
@@ -153,7 +157,7 @@ def rotor_between(u: Any, v: Any, half_turn_axis: tuple[float, float, float] | N
 def _similarity_from_params(kind, c1, r1, o1, c2, r2, o2) -> Multivector:
     zero = 0.0 * c2[0]
     if o1 is not None:
-        R = rotor_between(o1, o2, _perp_axis(o1, UNIT_AXIS[kind] if tuple(o1) == UNIT_AXIS[kind] else None))
+        R = rotor_between(o1, o2, _perp_axis(o1, UNIT_AXIS[kind] if _is_unit_axis(o1, kind) else None))
     else:
         R = Multivector(ROTOR_BLADES, (1.0 + zero, zero, zero, zero))
     if r1 is not None:
