@@ -61,6 +61,11 @@ __all__ = [
     "Motor",
     "Similarity",
     "decompose",
+    "tangent_to_bivector",
+    "bivector_to_tangent",
+    "motor_rotor_translation",
+    "rotor_matrix",
+    "rotor_from_matrix",
 ]
 
 TANGENT_BASIS = ("e12", "e13", "e23", "e0∞", "e1∞", "e2∞", "e3∞")
@@ -306,6 +311,58 @@ def apply(V: Any, X: Multivector) -> Multivector:
     if isinstance(X, Primitive):
         return Primitive.tag(Y, X.kind)
     return Y
+
+
+# ---------------------------------------------------------------------- bivectors <-> 7-vectors
+_TANGENT_BLADES = (_E12, _E13, _E23, _E0I, _E1I, _E2I, _E3I)
+_TANGENT_SIGNS = (1.0, 1.0, 1.0, -1.0, 1.0, 1.0, 1.0)
+
+
+def tangent_to_bivector(b: Any) -> Multivector:
+    """The bivector B with ``exp(ε b) = 1 − ½ ε B + O(ε²)`` (note the dilation slot: B ∋ −β e0∞)."""
+    v = b if isinstance(b, (list, tuple)) else _tangent(b, 7, "similarity")
+    return Multivector(tuple(sorted(_TANGENT_BLADES)), tuple(v[_TANGENT_BLADES.index(k)] * _TANGENT_SIGNS[_TANGENT_BLADES.index(k)] for k in sorted(_TANGENT_BLADES)))
+
+
+def bivector_to_tangent(Bv: Multivector) -> tuple[Any, ...]:
+    """Inverse of :func:`tangent_to_bivector`: the 7 coordinates (a tuple) of a bivector.
+
+    A body-frame velocity is ``bivector_to_tangent(−2 Ṽ V̇)`` (paper Eq 8/30).
+    """
+    return tuple(Bv.get(k) * s for k, s in zip(_TANGENT_BLADES, _TANGENT_SIGNS))
+
+
+def motor_rotor_translation(M: Multivector) -> tuple[tuple[Any, Any, Any, Any], tuple[Any, Any, Any]]:
+    """``(R, t)`` of a *unit* motor ``M = T(t) R``: rotor coefficients (1, e12, e13, e23) and t [m].
+
+    No validation or normalisation (cheap, symbolic-friendly); see :func:`decompose`
+    for general similarity versors.
+    """
+    R = tuple(M.get(k) for k in ROTOR_BLADES)
+    C = tuple(-2.0 * M.get(k) for k in (_E1I, _E2I, _E3I, _E123I))  # t R as (e1, e2, e3, e123)
+    tt = Multivector((_E1, _E2, _E3, _E123), C) * Multivector(ROTOR_BLADES, (R[0], -R[1], -R[2], -R[3]))
+    return R, (tt.get(_E1), tt.get(_E2), tt.get(_E3))
+
+
+def rotor_matrix(R: tuple[Any, Any, Any, Any]) -> list[list[Any]]:
+    """3×3 rotation matrix (nested lists; numpy or CasADi entries) of a unit rotor (1, e12, e13, e23).
+
+    A rotor is a quaternion with ``qw = R0, qx = −R23, qy = R13, qz = −R12``.
+    """
+    w, x, y, z = R[0], -R[3], R[2], -R[1]
+    return [
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ]
+
+
+def rotor_from_matrix(Rm: np.ndarray) -> tuple[float, float, float, float]:
+    """Unit rotor (1, e12, e13, e23) of a numeric rotation matrix (via a robust quaternion)."""
+    from scipy.spatial.transform import Rotation
+
+    qx, qy, qz, qw = Rotation.from_matrix(np.asarray(Rm, dtype=float)).as_quat()
+    return float(qw), float(-qz), float(qy), float(-qx)
 
 
 # ---------------------------------------------------------------------- group classes
