@@ -62,10 +62,16 @@ from .geometry import (
     well_definedness,
 )
 
+from . import systems
+from .cooperative import CooperativeTask, cooperative_task
+
 __version__ = "0.1.0"
 
 __all__ = [
     "Multivector",
+    "systems",
+    "CooperativeTask",
+    "cooperative_task",
     "CoopGAError",
     "DegeneracyWarning",
     "DegeneratePrimitiveError",

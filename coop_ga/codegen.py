@@ -115,6 +115,20 @@ class CompiledFunction:
         self.name = f.name()
 
     @property
+    def inputs(self) -> list[np.ndarray]:
+        """The bound input arrays (write into them, then call :meth:`eval`)."""
+        return self._inputs
+
+    @property
+    def outputs(self) -> list[np.ndarray]:
+        """The bound output arrays (overwritten by every evaluation)."""
+        return self._outputs
+
+    def eval(self) -> None:
+        """Evaluate on the current contents of :attr:`inputs` (no checks, ~0.1 µs overhead)."""
+        self._eval()
+
+    @property
     def n_instructions(self) -> int:
         return self.source.n_instructions() if hasattr(self.source, "n_instructions") else -1
 

@@ -1,0 +1,5 @@
+"""Kinematics layer: motor forward kinematics of Pinocchio models and multi-chain systems."""
+
+from .chains import LOCAL_TO_TANGENT, Joint, KinematicTree, motor_from_se3
+
+__all__ = ["Joint", "KinematicTree", "motor_from_se3", "LOCAL_TO_TANGENT"]

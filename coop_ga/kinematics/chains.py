@@ -1,0 +1,391 @@
+"""Motor forward kinematics of Pinocchio models (paper §2.2, Eq 7–8, 16–17; seed 001).
+
+A :class:`KinematicTree` turns a ``pinocchio.Model`` (revolute and prismatic joints
+only) and a list of end frames into motors:
+
+* every joint ``j`` contributes its fixed placement (a constant motor ``P_j``, from
+  ``model.jointPlacements``) and its motion ``exp(q_j B_j)``: a rotor about the joint
+  axis or a translator along it (Eq 7);
+* the world motor of joint ``j`` is ``C_j = C_parent(j) P_j exp(q_j B_j)``; an end frame
+  adds its constant frame placement.  Chains that share joints (a humanoid's waist)
+  share the products, and q holds every joint once, in Pinocchio's order.
+
+Every function takes ``q`` as a numpy vector or a CasADi SX column and runs the same
+sparse multivector code on both, so later layers differentiate it exactly.
+
+Frames and conventions
+----------------------
+* Motors ``M = T(t) R`` map body coordinates to world coordinates (same as ``oMf``).
+* The **geometric (body) Jacobian** has the 7 rows of
+  :data:`coop_ga.geometry.groups.TANGENT_BASIS` (the e0∞ row is 0 for motors).  Column
+  ``j`` is the body-frame velocity bivector ``−2 M̃ ∂M/∂q_j`` (Eq 8) as a 7-vector.
+  In terms of Pinocchio's ``LOCAL`` frame Jacobian ``[v; ω]`` the rows are
+  ``[ω_z, −ω_y, ω_x, 0, v_x, v_y, v_z]`` (see :data:`LOCAL_TO_TANGENT`).
+* The **analytic Jacobian** is ``∂M/∂q`` itself: 8 motor coefficients per joint,
+  ``∂M/∂q_j = −½ M b_j`` with ``b_j`` the bivector of body column j.
+* The **end-point Jacobian** (Eq 16–17) of the conformal point ``P = M e0 M̃`` is
+  ``∂P/∂q_j = P ⌋ L_j`` where ``L_j = C_j B_j C̃_j`` is joint j's axis in the world
+  (a line for a revolute joint, a direction at infinity for a prismatic one).
+  Its Euclidean part is ``ω_j × (p − o_j)`` (revolute) or ``a_j`` (prismatic) and its
+  e∞ part ``p · ∂p`` (Eq 17); the e0 part is zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..algebra import backend as Bk
+from ..algebra.basis import blade_index
+from ..algebra.multivector import Multivector
+from ..errors import InvalidInputError, NonFiniteError, UnknownNameError, UnsupportedJointError
+from ..geometry.groups import MOTOR_BLADES, bivector_to_tangent, motor_rotor_translation, rotor_from_matrix
+
+__all__ = [
+    "Joint",
+    "KinematicTree",
+    "motor_from_se3",
+    "LOCAL_TO_TANGENT",
+]
+
+
+def _b(name: str) -> int:
+    return blade_index(name)[0]
+
+
+_E0, _E1, _E2, _E3, _EI = _b("e0"), _b("e1"), _b("e2"), _b("e3"), _b("einf")
+_E12, _E13, _E23 = _b("e12"), _b("e13"), _b("e23")
+_E1I, _E2I, _E3I = _b("e1inf"), _b("e2inf"), _b("e3inf")
+_POINT_BLADES = (_E0, _E1, _E2, _E3, _EI)
+
+#: ``LOCAL_TO_TANGENT @ [v; ω]`` (Pinocchio's 6-vector) gives the 7-vector body twist.
+LOCAL_TO_TANGENT = np.zeros((7, 6))
+LOCAL_TO_TANGENT[0, 5] = 1.0  # e12 <- ω_z
+LOCAL_TO_TANGENT[1, 4] = -1.0  # e13 <- −ω_y
+LOCAL_TO_TANGENT[2, 3] = 1.0  # e23 <- ω_x
+LOCAL_TO_TANGENT[4, 0] = LOCAL_TO_TANGENT[5, 1] = LOCAL_TO_TANGENT[6, 2] = 1.0
+
+_PRUNE = 1e-14  # constant placement coefficients below this are structural zeros
+
+
+def _constant_motor(R: tuple[float, float, float, float], t: Sequence[float]) -> Multivector:
+    """Unit motor ``T(t) R`` with exact zeros dropped (sparser symbolic graphs)."""
+    w, r12, r13, r23 = R
+    Rm = Multivector((0, _E12, _E13, _E23), (w, r12, r13, r23))
+    M = Multivector((0, _E1I, _E2I, _E3I), (1.0, -0.5 * t[0], -0.5 * t[1], -0.5 * t[2])) * Rm
+    d = {k: c for k, c in zip(M.blades, M.coeffs) if abs(c) > _PRUNE}
+    return Multivector.from_dict(d)
+
+
+def motor_from_se3(M: Any) -> Multivector:
+    """Unit motor of a ``pinocchio.SE3`` (or a (rotation 3×3, translation 3) pair)."""
+    if isinstance(M, tuple):
+        Rm, t = M
+    else:
+        Rm, t = M.rotation, M.translation
+    R = rotor_from_matrix(np.asarray(Rm))
+    if R[0] < 0:  # canonical sheet: keeps identities exactly 1
+        R = tuple(-c for c in R)
+    return _constant_motor(R, np.asarray(t, dtype=float))
+
+
+@dataclass(frozen=True)
+class Joint:
+    """One 1-DOF joint of the tree.
+
+    Attributes
+    ----------
+    name: Pinocchio joint name.
+    index: Pinocchio joint id.
+    q_index: position of its coordinate in q (``model.idx_qs``).
+    parent: Pinocchio id of the parent joint (0 = world).
+    kind: ``"revolute"`` or ``"prismatic"``.
+    axis: unit axis in the joint frame.
+    placement: constant motor of ``model.jointPlacements[index]`` (parent joint frame).
+    """
+
+    name: str
+    index: int
+    q_index: int
+    parent: int
+    kind: str
+    axis: tuple[float, float, float]
+    placement: Multivector
+
+    def bivector(self) -> Multivector:
+        """B_j with ``exp(q B_j)`` written as ``1 − ½ q B_j + …`` : the joint's local screw."""
+        ax, ay, az = self.axis
+        if self.kind == "revolute":
+            # θ on (e12, e13, e23) = (a_z, −a_y, a_x)·q; bivector = θ (TANGENT signs +1)
+            d = {_E12: az, _E13: -ay, _E23: ax}
+        else:
+            d = {_E1I: ax, _E2I: ay, _E3I: az}
+        return Multivector.from_dict({k: v for k, v in d.items() if v != 0.0})
+
+    def motion(self, qj: Any) -> Multivector:
+        """``exp(q_j B_j)``: the joint's motor at coordinate ``q_j`` (rad or m)."""
+        ax, ay, az = self.axis
+        if self.kind == "revolute":
+            c, s = Bk.cos(0.5 * qj), Bk.sin(0.5 * qj)
+            d = {0: c, _E12: -s * az, _E13: s * ay, _E23: -s * ax}
+        else:
+            h = -0.5 * qj
+            d = {0: 1.0, _E1I: h * ax, _E2I: h * ay, _E3I: h * az}
+        return Multivector.from_dict({k: v for k, v in d.items() if not (isinstance(v, float) and v == 0.0 and k != 0)})
+
+
+_SUPPORTED = {
+    "JointModelRX": ("revolute", (1.0, 0.0, 0.0)),
+    "JointModelRY": ("revolute", (0.0, 1.0, 0.0)),
+    "JointModelRZ": ("revolute", (0.0, 0.0, 1.0)),
+    "JointModelPX": ("prismatic", (1.0, 0.0, 0.0)),
+    "JointModelPY": ("prismatic", (0.0, 1.0, 0.0)),
+    "JointModelPZ": ("prismatic", (0.0, 0.0, 1.0)),
+    "JointModelRevoluteUnaligned": ("revolute", None),
+    "JointModelPrismaticUnaligned": ("prismatic", None),
+}
+
+
+def _joint_axis(model: Any, jid: int, kind: str) -> tuple[float, float, float]:
+    """Unit axis from the joint's motion subspace (robust to every 1-DOF revolute/prismatic class)."""
+    import pinocchio as pin
+
+    jm = model.joints[jid]
+    jd = jm.createData()
+    jm.calc(jd, pin.neutral(model))
+    S = np.asarray(jd.S).reshape(6)
+    v, w = S[:3], S[3:]
+    a = w if kind == "revolute" else v
+    if kind == "revolute" and np.linalg.norm(v) > 1e-12:
+        raise UnsupportedJointError(f"joint '{model.names[jid]}': revolute axis does not pass through its frame origin")
+    n = float(np.linalg.norm(a))
+    a = a / n
+    return tuple(0.0 if abs(x) < 1e-15 else float(x) for x in a)
+
+
+def _as_q(q: Any, nq: int, what: str = "q") -> Any:
+    if Bk.is_symbolic(q):
+        if q.numel() != nq:
+            raise InvalidInputError(f"{what} must have {nq} entries, got a CasADi expression of shape {q.shape}")
+        return q
+    a = np.asarray(q, dtype=float)
+    if a.shape != (nq,):
+        raise InvalidInputError(f"{what} must be a vector of {nq} joint values, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise NonFiniteError(f"{what} contains NaN or inf at indices {np.flatnonzero(~np.isfinite(a)).tolist()}")
+    return a
+
+
+class KinematicTree:
+    """The motor kinematics of a Pinocchio model restricted to the paths to ``end_frames``.
+
+    Parameters
+    ----------
+    model:
+        ``pinocchio.Model`` with revolute/prismatic joints only (lock others with
+        ``pinocchio.buildReducedModel`` first); ``nq == nv``.
+    end_frames:
+        Names of the frames whose motors/points are the chain ends, in the order
+        the cooperative layer will use them.
+    """
+
+    def __init__(self, model: Any, end_frames: Sequence[str]):
+        self.model = model
+        if model.nq != model.nv:
+            raise UnsupportedJointError(
+                f"model has nq={model.nq} != nv={model.nv}: it contains a floating base, spherical or "
+                "continuous (unbounded) joint. Lock it with pinocchio.buildReducedModel, or give continuous "
+                "joints limits (type 'revolute') in the URDF."
+            )
+        names = [f.name for f in model.frames]
+        self.end_frames = tuple(end_frames)
+        if not self.end_frames:
+            raise InvalidInputError("end_frames is empty: name at least one frame, e.g. an end-effector link")
+        self.joints: dict[int, Joint] = {}
+        self.frame_parent: list[int] = []
+        self.frame_placement: list[Multivector] = []
+        self.chains: list[tuple[int, ...]] = []
+        for fname in self.end_frames:
+            if fname not in names:
+                raise UnknownNameError(
+                    f"unknown frame '{fname}'. Available frames: {', '.join(sorted(set(names)))}"
+                )
+            fid = model.getFrameId(fname)
+            f = model.frames[fid]
+            parent = int(f.parentJoint)
+            self.frame_parent.append(parent)
+            self.frame_placement.append(motor_from_se3(f.placement))
+            chain = []
+            j = parent
+            while j > 0:
+                chain.append(j)
+                self._add_joint(j)
+                j = int(model.parents[j])
+            self.chains.append(tuple(reversed(chain)))
+        self.nq = model.nq
+        # evaluation order: parents before children
+        self._order = sorted(self.joints)
+
+    def _add_joint(self, jid: int) -> None:
+        if jid in self.joints:
+            return
+        m = self.model
+        jm = m.joints[jid]
+        short = jm.shortname()
+        if short not in _SUPPORTED:
+            raise UnsupportedJointError(
+                f"joint '{m.names[jid]}' has type {short}; coop_ga supports revolute and prismatic joints "
+                "(RX/RY/RZ, PX/PY/PZ, unaligned). Lock it with pinocchio.buildReducedModel (or "
+                "coop_ga.systems.from_urdf(..., locked_joints=[...]))."
+            )
+        kind, axis = _SUPPORTED[short]
+        if axis is None:
+            axis = _joint_axis(m, jid, kind)
+        self.joints[jid] = Joint(
+            name=m.names[jid],
+            index=jid,
+            q_index=int(m.idx_qs[jid]),
+            parent=int(m.parents[jid]),
+            kind=kind,
+            axis=axis,
+            placement=motor_from_se3(m.jointPlacements[jid]),
+        )
+
+    # ------------------------------------------------------------------ joints
+    @property
+    def joint_columns(self) -> list[tuple[int, ...]]:
+        """For each chain, the q indices of its joints (root to tip)."""
+        return [tuple(self.joints[j].q_index for j in ch) for ch in self.chains]
+
+    def joint_motors(self, q: Any) -> dict[int, Multivector]:
+        """World motors ``C_j`` (after the joint's motion) of every joint on a chain."""
+        q = _as_q(q, self.nq)
+        C: dict[int, Multivector] = {}
+        for jid in self._order:
+            J = self.joints[jid]
+            local = J.placement * J.motion(q[J.q_index])
+            C[jid] = (C[J.parent] * local if J.parent in C else local).project(MOTOR_BLADES)
+        return C
+
+    # ------------------------------------------------------------------ forward kinematics
+    def frame_motors(self, q: Any, C: dict[int, Multivector] | None = None) -> list[Multivector]:
+        """Motor of each end frame in the world (equals Pinocchio's ``oMf``)."""
+        if C is None:
+            C = self.joint_motors(q)
+        out = []
+        for parent, Pf in zip(self.frame_parent, self.frame_placement):
+            out.append((C[parent] * Pf).project(MOTOR_BLADES) if parent > 0 else Pf)
+        return out
+
+    def end_points(self, q: Any, motors: list[Multivector] | None = None) -> list[tuple[Any, Any, Any]]:
+        """Euclidean end points [m] of every end frame (translation parts of the motors)."""
+        if motors is None:
+            motors = self.frame_motors(q)
+        return [motor_rotor_translation(M)[1] for M in motors]
+
+    def end_points_array(self, q: Any) -> np.ndarray:
+        """End points as a numeric (k, 3) array."""
+        return np.array([[float(c) for c in p] for p in self.end_points(q)])
+
+    def conformal_points(self, q: Any) -> list[Multivector]:
+        """End points as conformal points ``P = e0 + p + ½|p|² e∞`` (Eq 2)."""
+        pts = self.end_points(q)
+        return [
+            Multivector(_POINT_BLADES, (1.0, p[0], p[1], p[2], 0.5 * (p[0] * p[0] + p[1] * p[1] + p[2] * p[2])))
+            for p in pts
+        ]
+
+    # ------------------------------------------------------------------ Jacobians
+    def joint_lines(self, q: Any, C: dict[int, Multivector] | None = None) -> dict[int, Multivector]:
+        """World axis ``L_j = C_j B_j C̃_j`` of every joint (a line, or a direction for prismatic joints)."""
+        if C is None:
+            C = self.joint_motors(q)
+        return {j: (C[j] * self.joints[j].bivector() * C[j].reverse()).grade(2) for j in self._order}
+
+    def geometric_jacobians(self, q: Any) -> list[Any]:
+        """Body-frame geometric Jacobian of each end frame, 7×nq (Eq 8), numpy or CasADi.
+
+        Column j is ``−2 M̃ ∂M/∂q_j = M̃ L_j M`` as a 7-vector; columns of joints
+        not on the chain are zero.
+        """
+        qv = _as_q(q, self.nq)
+        C = self.joint_motors(qv)
+        Ms = self.frame_motors(qv, C)
+        L = self.joint_lines(qv, C)
+        sym = Bk.is_symbolic(qv)
+        out = []
+        for M, chain in zip(Ms, self.chains):
+            cols = {}
+            Mr = M.reverse()
+            for j in chain:
+                Bb = (Mr * L[j] * M).grade(2)
+                cols[self.joints[j].q_index] = bivector_to_tangent(Bb)
+            out.append(_assemble(cols, 7, self.nq, sym))
+        return out
+
+    def analytic_jacobians(self, q: Any) -> list[list[Multivector | None]]:
+        """∂M/∂q_j for each end frame and joint (Eq 8 before the frame change), None off-chain.
+
+        ``∂M/∂q_j = −½ L_j M``: the joint's world axis acting on the motor from the left.
+        """
+        qv = _as_q(q, self.nq)
+        C = self.joint_motors(qv)
+        Ms = self.frame_motors(qv, C)
+        L = self.joint_lines(qv, C)
+        out = []
+        for M, chain in zip(Ms, self.chains):
+            cols: list[Multivector | None] = [None] * self.nq
+            for j in chain:
+                cols[self.joints[j].q_index] = (L[j] * M).project(MOTOR_BLADES).scale(-0.5)
+            out.append(cols)
+        return out
+
+    def point_jacobians(self, q: Any) -> tuple[list[Multivector], list[list[Multivector | None]]]:
+        """Conformal end points and their Jacobians ``∂P/∂q_j = P ⌋ L_j`` (Eq 16–17).
+
+        Returns ``(points, columns)`` with ``columns[i][j]`` the vector ∂P_i/∂q_j (None
+        when joint j is not on chain i).
+        """
+        qv = _as_q(q, self.nq)
+        C = self.joint_motors(qv)
+        Ms = self.frame_motors(qv, C)
+        L = self.joint_lines(qv, C)
+        P = []
+        for M in Ms:
+            p = motor_rotor_translation(M)[1]
+            P.append(Multivector(_POINT_BLADES, (1.0, p[0], p[1], p[2], 0.5 * (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]))))
+        cols = []
+        for Pi, chain in zip(P, self.chains):
+            c: list[Multivector | None] = [None] * self.nq
+            for j in chain:
+                c[self.joints[j].q_index] = Pi.lc(L[j]).grade(1)
+            cols.append(c)
+        return P, cols
+
+    def euclidean_point_jacobians(self, q: Any) -> list[Any]:
+        """3×nq world-frame Jacobians of the end points (the e1, e2, e3 part of Eq 17)."""
+        qv = _as_q(q, self.nq)
+        _, cols = self.point_jacobians(qv)
+        sym = Bk.is_symbolic(qv)
+        out = []
+        for c in cols:
+            d = {j: (v.get(_E1), v.get(_E2), v.get(_E3)) for j, v in enumerate(c) if v is not None}
+            out.append(_assemble(d, 3, self.nq, sym))
+        return out
+
+
+def _assemble(cols: dict[int, tuple[Any, ...]], rows: int, n: int, sym: bool) -> Any:
+    if sym:
+        import casadi as ca
+
+        J = ca.SX.zeros(rows, n)
+        for j, v in cols.items():
+            for r in range(rows):
+                J[r, j] = v[r]
+        return J
+    J = np.zeros((rows, n))
+    for j, v in cols.items():
+        J[:, j] = [float(x) for x in v]
+    return J
