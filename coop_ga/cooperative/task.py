@@ -411,7 +411,7 @@ class CooperativeTask:
         bad = np.flatnonzero(~(C[0] > self.warn_below))
         for i in bad[:1]:
             self._degeneracy(float(C[0, i]), np.asarray(P)[:, i].reshape(-1, 3))
-        J = np.asarray(J).reshape(7, N, self.nq, order="F").transpose(1, 0, 2)
+        J = np.asarray(J).reshape(7, N, self.nq).transpose(1, 0, 2)  # map concatenates horizontally
         return np.asarray(V).T, np.asarray(B).T, J
 
     # ------------------------------------------------------------------ reference routes (tests)
@@ -435,6 +435,19 @@ class CooperativeTask:
         self._run(q)  # same input checks and degeneracy guard
         return np.array(self._ad_function(np.asarray(q, float))[1])
 
+    def jacobian_analytic(self, q: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Route (a): ``(J^A (12×nq), J^G (7×nq))`` from the closed forms of
+        :mod:`coop_ga.cooperative.analytic` (Eq 15–17, 29–30), numpy only, no AD."""
+        from .analytic import analytic_similarity_jacobian
+        from .primitive import primitive_jacobian
+
+        self._run(q)  # same input checks and degeneracy guard as every route
+        P, dP = self.tree.point_jacobians(np.asarray(q, dtype=float))
+        X = cooperative_primitive(self.kind, P)
+        cols = primitive_jacobian(self.kind, P, dP)
+        _, JA, JG = analytic_similarity_jacobian(self.kind, X, _stack_columns(cols))
+        return JA, JG
+
     def similarity_numpy(self, q: Any) -> Multivector:
         """V_Sc from the numpy multivector code (no CasADi), for cross-checks."""
         pts = self.tree.end_points_array(np.asarray(q, dtype=float))
@@ -444,6 +457,17 @@ class CooperativeTask:
         from ..geometry.primitives import point
 
         return similarity_from_unit(cooperative_primitive(self.kind, [point(p) for p in pts]))
+
+
+def _stack_columns(cols: Sequence[Multivector]) -> Multivector:
+    """Columns (multivectors) → one multivector with (m,)-array coefficients."""
+    blades = sorted({k for c in cols for k in c.blades})
+    m = len(cols)
+    data = np.zeros((len(blades), m))
+    for j, c in enumerate(cols):
+        for k, v in zip(c.blades, c.coeffs):
+            data[blades.index(k), j] = float(v)
+    return Multivector(tuple(blades), tuple(data[i] for i in range(len(blades))))
 
 
 def _versor_times_tangents(V: Multivector, J: np.ndarray, s: float) -> np.ndarray:

@@ -5,8 +5,8 @@ Run ``python -m coop_ga.systems`` to list them with their DOF and end points.
 
 from __future__ import annotations
 
-from .kinematics import library as _library  # noqa: F401  (registers the systems)
-from .kinematics.systems import (
+from ..kinematics import library as _library  # noqa: F401  (registers the systems)
+from ..kinematics.systems import (
     ROBOTS_DIR,
     System,
     append_robots,
@@ -19,14 +19,3 @@ from .kinematics.systems import (
 )
 
 __all__ = ["System", "load", "names", "register", "from_urdf", "from_model", "append_robots", "prefixed", "ROBOTS_DIR"]
-
-
-def _main() -> None:
-    print(f"{'system':<18} {'DOF':>4}  end points")
-    for n in names():
-        s = load(n)
-        print(f"{n:<18} {s.nq:>4}  {', '.join(s.end_frames)}")
-
-
-if __name__ == "__main__":
-    _main()

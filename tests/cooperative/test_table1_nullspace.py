@@ -1,0 +1,102 @@
+"""Table 1 (rank of J^G = the primitive's DOF), manipulability (Eq 59) and nullspace (Eq 58)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import coop_ga as cg
+from coop_ga import systems
+from coop_ga.cooperative import (
+    CooperativeTask,
+    damped_pinv,
+    force_manipulability,
+    manipulability,
+    manipulability_ellipsoid,
+    manipulability_index,
+    nullspace_projector,
+)
+
+#: degrees of freedom of each primitive = rank of J^G at non-degenerate configurations
+DOF = {"point": 3, "point_pair": 6, "line": 4, "circle": 6, "plane": 3, "sphere": 4}
+
+
+@pytest.mark.parametrize("kind", list(DOF))
+def test_rank_equals_primitive_dof(kind: str, cartesian4) -> None:
+    """On the Cartesian system the end points move freely, so rank J^G is the primitive's own DOF."""
+    task = CooperativeTask(cartesian4, kind, codegen=False)
+    rng = np.random.default_rng(11)
+    for _ in range(20):
+        q = rng.uniform(-0.4, 0.4, cartesian4.nq)
+        s = np.linalg.svd(task.jacobian(q), compute_uv=False)
+        rank = int(np.sum(s > 1e-8 * s[0]))
+        assert rank == DOF[kind], (kind, s)
+
+
+@pytest.mark.parametrize("name,kind", [("three_franka", k) for k in ("point", "point_pair", "line", "circle", "plane")])
+def test_rank_on_robots(name: str, kind: str) -> None:
+    sys = systems.load(name)
+    task = CooperativeTask(sys, kind, codegen=False)
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        q = np.clip(sys.q0 + rng.uniform(-0.3, 0.3, sys.nq), sys.q_lower, sys.q_upper)
+        assert np.linalg.matrix_rank(task.jacobian(q), tol=1e-8) == DOF[kind]
+
+
+def test_table1_controllable_space_is_not_a_coordinate_subspace(cartesian4) -> None:
+    """Table 1 lists coordinate blades (e.g. circle: e13, e23, e0∞, e1∞, e2∞, e3∞).  The range of
+    J^G has that *dimension*, but in general it is not spanned by those blades: the minimal-rotation
+    chart couples roll (e12) into tilts.  At the unit circle itself the paper's claim holds exactly."""
+    task = CooperativeTask(cartesian4, "circle", codegen=False)
+    # points on the unit circle: X_c = X_u, V_Sc = 1
+    q_unit = np.zeros(cartesian4.nq)
+    J = task.jacobian(q_unit)
+    assert np.abs(J[0]).max() < 1e-12  # no e12 (roll) row at the unit circle: Table 1 holds
+    q = np.random.default_rng(2).uniform(-0.4, 0.4, cartesian4.nq)
+    J = task.jacobian(q)
+    assert np.abs(J[0]).max() > 1e-3  # elsewhere the e12 row is non-zero, rank still 6
+    assert np.linalg.matrix_rank(J, tol=1e-8) == 6
+
+
+def test_nullspace_motion_leaves_vsc_unchanged_to_first_order() -> None:
+    sys = systems.load("three_franka")
+    task = CooperativeTask(sys, "circle", codegen=False)
+    rng = np.random.default_rng(0)
+    q = np.clip(sys.q0 + rng.uniform(-0.3, 0.3, sys.nq), sys.q_lower, sys.q_upper)
+    J = task.jacobian(q)
+    N = nullspace_projector(J)
+    v = rng.normal(size=sys.nq)
+    w = N @ v
+    assert np.linalg.norm(w) > 0.5  # the nullspace is large (21 − 6 = 15 dimensions)
+    np.testing.assert_allclose(J @ w, 0.0, atol=1e-12)
+    V0 = task.similarity(q)
+    d1 = np.linalg.norm(cg.log(~V0 * task.similarity(q + 1e-3 * w)))
+    d2 = np.linalg.norm(cg.log(~V0 * task.similarity(q + 2e-3 * w)))
+    assert d1 < 1e-5 and d2 / d1 == pytest.approx(4.0, rel=0.05)  # second order in the step
+    # an unprojected motion moves V_Sc to first order
+    d_free = np.linalg.norm(cg.log(~V0 * task.similarity(q + 1e-3 * v)))
+    assert d_free > 100 * d1
+
+
+def test_damped_pinv_and_manipulability() -> None:
+    rng = np.random.default_rng(1)
+    J = rng.normal(size=(7, 21))
+    J[0] = 0.0  # rank 6, like a circle
+    Jp = damped_pinv(J, 0.0)
+    np.testing.assert_allclose(J @ Jp @ J, J, atol=1e-10)
+    Jd = damped_pinv(J, 1e-3)
+    np.testing.assert_allclose(Jd, J.T @ np.linalg.inv(J @ J.T + 1e-6 * np.eye(7)), atol=1e-8)
+    M = manipulability(J)
+    np.testing.assert_allclose(M, J @ J.T)
+    w, Q = manipulability_ellipsoid(J)
+    assert w[0] == pytest.approx(0.0, abs=1e-10) and np.all(w[1:] > 0)
+    Mi = force_manipulability(J)
+    np.testing.assert_allclose(M @ Mi @ M, M, atol=1e-8)
+    s = np.linalg.svd(J, compute_uv=False)
+    assert manipulability_index(J) == pytest.approx(np.prod(s[:6]))
+    N = nullspace_projector(J, 0.0)
+    np.testing.assert_allclose(N @ N, N, atol=1e-10)
+    with pytest.raises(cg.NonFiniteError):
+        damped_pinv(np.full((7, 3), np.nan))
+    with pytest.raises(cg.InvalidInputError):
+        damped_pinv(J, -1.0)
