@@ -205,7 +205,10 @@ class CooperativeTask:
         ca = _sx()
         q = ca.SX.sym("q", self.nq)
         s = self.symbolic(q)
-        checks = ca.vertcat(s["well_definedness"], ca.dot(q, q))
+        qq = ca.dot(q, q)
+        # one scalar for the hot path: the measure if q is finite, else −1 (NaN/inf → slow path)
+        ok = ca.if_else(qq < 1e300, s["well_definedness"], -1.0)
+        checks = ca.vertcat(ok, s["well_definedness"], qq)
         return ca.Function(
             f"coop_{self.name}", [q], [s["versor"], s["log"], ca.densify(s["jacobian"]), checks, s["points"]],
             ["q"], ["V", "B", "J", "checks", "points"],
@@ -216,11 +219,13 @@ class CooperativeTask:
         """The fast path: generated C (or the VM) bound to numpy buffers; built on first use."""
         cf = CompiledFunction(self.casadi_function, codegen=self.codegen, check_finite=False)
         self._qbuf = cf.inputs[0].reshape(-1)  # a view: q is copied straight into the bound buffer
+        self._eval = cf.eval
+        self._outputs = cf.outputs
         return cf
 
     # ================================================================== evaluation
     def _run(self, q: Any) -> list[np.ndarray]:
-        cf = self.compiled
+        self.compiled  # noqa: B018  (built on first use; afterwards a dict lookup)
         try:
             np.copyto(self._qbuf, q, casting="unsafe")
         except (ValueError, TypeError):
@@ -228,13 +233,14 @@ class CooperativeTask:
             raise InvalidInputError(
                 f"task '{self.name}' expects q with {self.nq} entries (system '{self.system.name}'), got shape {a.shape}"
             ) from None
-        cf.eval()
-        out = cf.outputs
-        self._check(out[3], q, out[4])
+        self._eval()
+        out = self._outputs
+        if not out[3].item(0) > self.warn_below:
+            self._check(out[3], q, out[4])
         return out
 
     def _check(self, checks: np.ndarray, q: Any, pts: np.ndarray) -> None:
-        w, qq = checks.item(0), checks.item(1)
+        w, qq = checks.item(1), checks.item(2)
         if not math.isfinite(qq):
             raise NonFiniteError(
                 f"q contains NaN or inf at indices {np.flatnonzero(~np.isfinite(np.asarray(q, dtype=float))).tolist()}"
@@ -268,7 +274,7 @@ class CooperativeTask:
         """V_Sc, B_Sc, J^G, end points and well-definedness in one compiled call (copies)."""
         out = self._run(q)
         return TaskState(out[0].reshape(-1).copy(), out[1].reshape(-1).copy(), out[2].copy(),
-                         out[4].reshape(-1, 3).copy(), out[3].item(0))
+                         out[4].reshape(-1, 3).copy(), out[3].item(1))
 
     def evaluate_views(self, q: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Hot-loop variant: ``(V (12,1), B (7,1), J (7,nq))`` as internal buffers, overwritten by the next call."""
@@ -293,7 +299,7 @@ class CooperativeTask:
 
     def well_definedness(self, q: Any) -> float:
         """:func:`coop_ga.well_definedness` of the end points (1 best, 0 degenerate)."""
-        return self._run(q)[3].item(0)
+        return self._run(q)[3].item(1)
 
     def primitive(self, q: Any) -> Primitive:
         """X_c(q) = ∧ P_i(q) (∧ e∞) (Eq 14), from the compiled end points."""
@@ -391,28 +397,37 @@ class CooperativeTask:
     def _batch_fn(self):
         return {}
 
-    def evaluate_batch(self, Q: Any, *, threads: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def evaluate_batch(self, Q: Any, *, parallel: str = "serial", threads: int = 2
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Evaluate N configurations in one call: returns V (N, 12), B (N, 7), J (N, 7, nq).
 
-        Uses ``casadi.Function.map`` (``thread`` parallelisation) over the compiled
-        function, so the Python call overhead is paid once per batch.
+        Uses ``casadi.Function.map`` over the compiled function, bound to preallocated
+        buffers per N, so the Python overhead is paid once per batch.  ``parallel`` is
+        ``"serial"`` (default: fastest on 2 cores, see ``benchmarks/cooperative.py``) or
+        ``"thread"`` (``threads`` workers).  Degenerate or NaN configurations raise
+        as in :meth:`evaluate` (the first offending one is named).
         """
         Q = np.asarray(Q, dtype=float)
         if Q.ndim != 2 or Q.shape[1] != self.nq:
             raise InvalidInputError(f"Q must have shape (N, {self.nq}), got {Q.shape}")
         if not np.all(np.isfinite(Q)):
-            raise NonFiniteError("Q contains NaN or inf")
+            bad = np.argwhere(~np.isfinite(Q))[0]
+            raise NonFiniteError(f"Q contains NaN or inf (first at configuration {bad[0]}, joint {bad[1]})")
         N = Q.shape[0]
-        key = (N, threads)
-        if key not in self._batch_fn:
-            self._batch_fn[key] = self.compiled.function.map(N, "thread", threads)
-        V, B, J, C, P = self._batch_fn[key](Q.T)
-        C = np.asarray(C)
-        bad = np.flatnonzero(~(C[0] > self.warn_below))
-        for i in bad[:1]:
-            self._degeneracy(float(C[0, i]), np.asarray(P)[:, i].reshape(-1, 3))
-        J = np.asarray(J).reshape(7, N, self.nq).transpose(1, 0, 2)  # map concatenates horizontally
-        return np.asarray(V).T, np.asarray(B).T, J
+        key = (N, parallel, threads)
+        cf = self._batch_fn.get(key)
+        if cf is None:
+            F = self.compiled.function.map(N, parallel, threads) if parallel == "thread" else self.compiled.function.map(N, "serial")
+            cf = CompiledFunction(F, codegen=False, check_finite=False)
+            self._batch_fn[key] = cf
+        cf.inputs[0][...] = Q.T
+        cf.eval()
+        V, B, J, C, P = cf.outputs
+        bad = np.flatnonzero(~(C[1] > self.warn_below))
+        if bad.size:
+            self._degeneracy(float(C[1, bad[0]]), P[:, bad[0]].reshape(-1, 3))
+        J = J.reshape(7, N, self.nq).transpose(1, 0, 2)  # map concatenates horizontally
+        return V.T.copy(), B.T.copy(), J.copy()
 
     # ------------------------------------------------------------------ reference routes (tests)
     @cached_property

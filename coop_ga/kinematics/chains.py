@@ -41,7 +41,7 @@ from ..algebra import backend as Bk
 from ..algebra.basis import blade_index
 from ..algebra.multivector import Multivector
 from ..errors import InvalidInputError, NonFiniteError, UnknownNameError, UnsupportedJointError
-from ..geometry.groups import MOTOR_BLADES, bivector_to_tangent, motor_rotor_translation, rotor_from_matrix
+from ..geometry.groups import MOTOR_BLADES, bivector_to_tangent, motor_rotor_translation, rotor_from_matrix, rotor_matrix
 
 __all__ = [
     "Joint",
@@ -365,14 +365,38 @@ class KinematicTree:
         return P, cols
 
     def euclidean_point_jacobians(self, q: Any) -> list[Any]:
-        """3×nq world-frame Jacobians of the end points (the e1, e2, e3 part of Eq 17)."""
+        """3×nq world-frame Jacobians of the end points (the e1, e2, e3 part of Eq 17).
+
+        Evaluated in the cheap vector form ``ω_j × (p − o_j)`` (revolute) / ``a_j``
+        (prismatic), with the world axis ``ω_j = R_j a_j`` and origin ``o_j`` read off the
+        joint motor ``C_j``; it is the Euclidean part of ``P ⌋ L_j``
+        (:meth:`point_jacobians`), and about 4× fewer operations in a symbolic graph.
+        """
         qv = _as_q(q, self.nq)
-        _, cols = self.point_jacobians(qv)
+        C = self.joint_motors(qv)
+        Ms = self.frame_motors(qv, C)
         sym = Bk.is_symbolic(qv)
+        frames: dict[int, tuple[Any, Any]] = {}
+        for j in {j for ch in self.chains for j in ch}:
+            R, o = motor_rotor_translation(C[j])
+            Rm = rotor_matrix(R)
+            a = self.joints[j].axis
+            w = tuple(sum(Rm[r][k] * a[k] for k in range(3) if a[k] != 0.0) for r in range(3))
+            frames[j] = (w, o)
         out = []
-        for c in cols:
-            d = {j: (v.get(_E1), v.get(_E2), v.get(_E3)) for j, v in enumerate(c) if v is not None}
-            out.append(_assemble(d, 3, self.nq, sym))
+        for M, chain in zip(Ms, self.chains):
+            p = motor_rotor_translation(M)[1]
+            cols = {}
+            for j in chain:
+                w, o = frames[j]
+                if self.joints[j].kind == "revolute":
+                    d = (p[0] - o[0], p[1] - o[1], p[2] - o[2])
+                    cols[self.joints[j].q_index] = (
+                        w[1] * d[2] - w[2] * d[1], w[2] * d[0] - w[0] * d[2], w[0] * d[1] - w[1] * d[0]
+                    )
+                else:
+                    cols[self.joints[j].q_index] = w
+            out.append(_assemble(cols, 3, self.nq, sym))
         return out
 
 
