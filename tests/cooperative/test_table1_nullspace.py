@@ -100,3 +100,40 @@ def test_damped_pinv_and_manipulability() -> None:
         damped_pinv(np.full((7, 3), np.nan))
     with pytest.raises(cg.InvalidInputError):
         damped_pinv(J, -1.0)
+
+
+#: the paper's "controllable bivector space" column of Table 1
+PAPER_ROWS = {
+    "point": ("e1∞", "e2∞", "e3∞"),
+    "point_pair": ("e12", "e23", "e0∞", "e1∞", "e2∞", "e3∞"),
+    "line": ("e12", "e23", "e1∞", "e3∞"),
+    "circle": ("e13", "e23", "e0∞", "e1∞", "e2∞", "e3∞"),
+    "plane": ("e13", "e23", "e3∞"),
+    "sphere": ("e0∞", "e1∞", "e2∞", "e3∞"),
+}
+UNIT_POINTS = {
+    "point": [(0, 0, 0)],
+    "point_pair": [(0, -1, 0), (0, 1, 0)],
+    "line": [(0, 0, 0), (0, 1, 0)],
+    "circle": [(1, 0, 0), (0, 1, 0), (-1, 0, 0)],
+    "plane": [(0, 0, 0), (1, 0, 0), (0, 1, 0)],
+    "sphere": [(1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0)],
+}
+
+
+@pytest.mark.parametrize("kind", list(PAPER_ROWS))
+def test_table1_rows_exact_at_the_unit_primitive(kind: str, cartesian4) -> None:
+    """At X_c = X_u the range of J^G is exactly the span of the paper's blades (docs/table1.md)."""
+    from .conftest import BASES
+
+    task = CooperativeTask(cartesian4, kind, codegen=False)
+    q = np.zeros(cartesian4.nq)
+    for i, p in enumerate(UNIT_POINTS[kind]):
+        q[3 * i : 3 * i + 3] = np.array(p, float) - BASES[i]
+    np.testing.assert_allclose(task.log(q), 0.0, atol=1e-12)  # V_Sc = 1
+    J = task.jacobian(q)
+    names = list(cg.TANGENT_BASIS)
+    allowed = [names.index(n) for n in PAPER_ROWS[kind]]
+    excluded = [i for i in range(7) if i not in allowed]
+    assert np.abs(J[excluded]).max(initial=0.0) < 1e-12
+    assert np.linalg.matrix_rank(J[allowed], tol=1e-9) == len(allowed)
