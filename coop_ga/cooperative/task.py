@@ -242,9 +242,11 @@ class CooperativeTask:
     def _check(self, checks: np.ndarray, q: Any, pts: np.ndarray) -> None:
         w, qq = checks.item(1), checks.item(2)
         if not math.isfinite(qq):
-            raise NonFiniteError(
-                f"q contains NaN or inf at indices {np.flatnonzero(~np.isfinite(np.asarray(q, dtype=float))).tolist()}"
-            )
+            bad = np.flatnonzero(~np.isfinite(np.asarray(q, dtype=float))).tolist()
+            if not bad:
+                raise InvalidInputError(f"q is too large (|q|² overflows: max |q_i| = {np.abs(q).max():.3g}); "
+                                        "joint values must be finite angles [rad] or lengths [m]")
+            raise NonFiniteError(f"q contains NaN or inf at indices {bad}")
         if not w > self.warn_below:
             self._degeneracy(float(w), pts.reshape(-1, 3))
 
@@ -290,7 +292,13 @@ class CooperativeTask:
         return self._run(q)[1].reshape(-1).copy()
 
     def jacobian(self, q: Any) -> np.ndarray:
-        """J^G(q), 7×nq, body frame (Eq 30): column i = lim log(Ṽ_Sc(q) V_Sc(q + h e_i))/h."""
+        """J^G(q), 7×nq, body frame (Eq 30): column i = lim log(Ṽ_Sc(q) V_Sc(q + h e_i))/h.
+
+        The body frame of V_Sc includes its dilation: a body translation t (rows e1∞..e3∞)
+        moves the primitive by ``r · R t`` in the world (r its radius, R its rotation), so
+        translation rows are in radii per unit joint motion for point pairs, circles and
+        spheres (metres for points, lines and planes, which have no scale).
+        """
         return self._run(q)[2].copy()
 
     def points(self, q: Any) -> np.ndarray:

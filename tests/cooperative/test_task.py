@@ -152,3 +152,9 @@ def test_well_definedness_measure_values(cartesian4) -> None:
 def test_task_cache_returns_same_object() -> None:
     sys = systems.load("three_franka")
     assert cooperative_task(sys, "circle") is cooperative_task("three_franka", "circle")
+
+
+def test_overflowing_q_is_reported_as_too_large() -> None:
+    task = CooperativeTask(systems.load("three_franka"), "circle", codegen=False)
+    with pytest.raises(cg.InvalidInputError, match="too large"):
+        task.evaluate(np.full(21, 1e200))

@@ -1,0 +1,88 @@
+"""Differential IK (Eq 48, 61): sign convention, reaching, limits, input errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import coop_ga as cg
+from coop_ga.control import diff_ik_reach, diff_ik_step
+
+
+@pytest.fixture(scope="module")
+def franka():
+    s = cg.systems.load("three_franka")
+    return s, cg.cooperative_task(s, "circle")
+
+
+def test_step_realises_body_bivector(franka):
+    """V(q_next) ≈ V(q) exp(Δt B) for a command in the controllable directions."""
+    s, t = franka
+    q = s.q0.copy()
+    J = t.jacobian(q)
+    U, sv, Vt = np.linalg.svd(J)
+    rng = np.random.default_rng(3)
+    b = U[:, :6] @ rng.normal(size=6)  # circle: rank 6, stay in the range of J
+    b *= 0.2 / np.linalg.norm(b)
+    dt = 1e-3
+    q1 = diff_ik_step(t, q, b, dt=dt, damping=0.0, limits="none")
+    realised = cg.log(~t.similarity(q) * t.similarity(q1)) / dt
+    assert np.linalg.norm(realised - b) < 1e-3 * np.linalg.norm(b)
+
+
+def test_dilation_sign(franka):
+    s, t = franka
+    q1 = diff_ik_step(t, s.q0, [0, 0, 0, 0.5, 0, 0, 0], dt=0.01, damping=1e-6)
+    r0, r1 = cg.radius(t.primitive(s.q0)), cg.radius(t.primitive(q1))
+    assert r1 / r0 == pytest.approx(np.exp(0.005), rel=1e-4)
+
+
+def test_reach_converges(franka):
+    s, t = franka
+    rng = np.random.default_rng(0)
+    Vd = t.similarity(s.q0 + rng.uniform(-0.2, 0.2, s.nq))
+    q0 = s.q0 + rng.uniform(-0.2, 0.2, s.nq)
+    r = diff_ik_reach(t, q0, Vd, gain=10.0, dt=0.01, steps=500, tol=1e-6)
+    assert r.converged and r.final_error < 1e-6
+    assert r.steps < 200
+    assert r.q_traj.shape == (r.steps + 1, s.nq) and r.errors.shape == (r.steps + 1,)
+    assert np.linalg.norm(t.error(r.q, Vd)) == pytest.approx(r.final_error)
+    # geometric decay (1 − gain Δt)^k on the controllable part
+    assert r.errors[10] < 0.5 * r.errors[0]
+    assert np.all(np.diff(r.errors) <= 1e-12)
+
+
+def test_reach_reports_failure(franka):
+    s, t = franka
+    Vd = t.similarity(s.q0) * cg.exp([0, 0, 0, np.log(20.0), 0, 0, 0])  # 20× larger circle
+    r = diff_ik_reach(t, s.q0, Vd, gain=5.0, steps=50)
+    assert not r.converged and np.isfinite(r.final_error) and r.final_error > 0.1
+
+
+def test_clamp_limits(franka):
+    s, t = franka
+    q = np.clip(s.q0.copy(), s.q_lower, s.q_upper)
+    big = np.array([0, 0, 0, 50.0, 0, 0, 0])
+    for _ in range(30):
+        q = diff_ik_step(t, q, big, dt=0.05)
+    assert np.all(q >= s.q_lower) and np.all(q <= s.q_upper)
+    q2 = s.q0.copy()
+    for _ in range(30):
+        q2 = diff_ik_step(t, q2, big, dt=0.05, limits="none")
+    assert np.any((q2 < s.q_lower) | (q2 > s.q_upper))
+
+
+def test_bad_input(franka):
+    s, t = franka
+    with pytest.raises(cg.InvalidInputError):
+        diff_ik_step(t, s.q0, np.zeros(6))
+    with pytest.raises(cg.InvalidInputError):
+        diff_ik_step(t, s.q0[:5], np.zeros(7))
+    with pytest.raises(cg.NonFiniteError):
+        diff_ik_step(t, s.q0, [np.nan] + [0] * 6)
+    with pytest.raises(cg.InvalidInputError):
+        diff_ik_step(t, s.q0, np.zeros(7), limits="wrap")
+    with pytest.raises(cg.InvalidInputError):
+        diff_ik_step(t, s.q0, np.zeros(7), dt=-1)
+    with pytest.raises(cg.InvalidInputError):
+        diff_ik_reach(t, s.q0, t.similarity(s.q0), steps=-3)
