@@ -19,6 +19,7 @@ returns the internal buffers, which the next call overwrites (zero-copy hot loop
 from __future__ import annotations
 
 import hashlib
+import math
 import os
 import shutil
 import subprocess
@@ -123,6 +124,7 @@ class CompiledFunction:
                 raise InvalidInputError(f"output {i} of {f.name()} must be dense (wrap it in casadi.densify)")
         self._inputs = [np.zeros(s, order="F") for s in self._in_shapes]
         self._outputs = [np.zeros(s, order="F") for s in self._out_shapes]
+        self._flat_inputs = [a.reshape(-1, order="F") for a in self._inputs]  # views (F-order is contiguous)
         self._buf, self._eval = self.function.buffer()
         for i, a in enumerate(self._inputs):
             self._buf.set_arg(i, memoryview(a.T))
@@ -151,15 +153,24 @@ class CompiledFunction:
     def _load(self, args: tuple[Any, ...]) -> None:
         if len(args) != len(self._inputs):
             raise InvalidInputError(f"{self.name} takes {len(self._inputs)} arguments, got {len(args)}")
-        for i, (dst, a) in enumerate(zip(self._inputs, args)):
-            a = np.asarray(a, dtype=float)
-            if a.size != dst.size:
-                raise InvalidInputError(
-                    f"argument {i} of {self.name} must have {dst.size} entries (shape {dst.shape}), got shape {a.shape}"
-                )
-            if self.check_finite and not np.all(np.isfinite(a)):
-                raise NonFiniteError(f"argument {i} of {self.name} contains NaN or inf")
-            dst[...] = a if a.shape == dst.shape else a.reshape(dst.shape)
+        for i, a in enumerate(args):
+            flat = self._flat_inputs[i]
+            if type(a) is np.ndarray and a.shape == flat.shape:  # hot path: a plain vector
+                np.copyto(flat, a, casting="unsafe")
+            else:
+                a = np.asarray(a, dtype=float)
+                if a.size != flat.size:
+                    dst = self._inputs[i]
+                    raise InvalidInputError(
+                        f"argument {i} of {self.name} must have {dst.size} entries (shape {dst.shape}), got shape {a.shape}"
+                    )
+                self._inputs[i][...] = a if a.shape == self._inputs[i].shape else a.reshape(self._inputs[i].shape)
+            # one dot product detects NaN/inf (and overflow) cheaply; the full scan runs only then
+            if self.check_finite and not math.isfinite(flat.dot(flat)):
+                bad = np.flatnonzero(~np.isfinite(flat)).tolist()
+                if bad:
+                    raise NonFiniteError(f"argument {i} of {self.name} contains NaN or inf at indices {bad}")
+                raise InvalidInputError(f"argument {i} of {self.name} is too large (its squared norm overflows)")
 
     def call_views(self, *args: Any) -> list[np.ndarray]:
         """Evaluate and return the internal output buffers (overwritten by the next call)."""

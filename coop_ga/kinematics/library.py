@@ -6,7 +6,7 @@ name               DOF  robots                                                  
 three_franka        21  three Franka Panda arms on a 0.8 m ring (Fig. 8)            3 × panda_hand_tcp
 three_iiwa14        21  three KUKA LBR iiwa 14 on a 1.15 m ring (§4.1, Fig. 6)      3 × iiwa_flange
 g1_arms             17  Unitree G1, waist + both arms, legs locked                  left/right rubber hand
-g1_torso_arms       17  as g1_arms, plus a point in front of the chest (Fig. 9)     chest, left, right hand
+g1_torso_arms       17  as g1_arms, plus a point in front of the chest (Fig. 9)     chest, right, left hand
 franka_and_g1       24  a Franka facing a G1 1.0 m away (Fig. 10)                   Franka tcp, G1 hands
 two_g1              34  two G1s facing each other 1.0 m apart                       4 hands (sphere)
 three_finger_hand   12  Allegro right hand, middle finger locked                    index, thumb, ring tips
@@ -228,27 +228,27 @@ def _g1_arms() -> System:
 G1_CHEST_OFFSET = (0.15, 0.0, 0.20)
 
 
-@register("g1_torso_arms", "Unitree G1 waist + arms; end points a chest point and both hands (Fig. 9)")
+@register("g1_torso_arms", "Unitree G1 waist + arms; end points a chest point, right hand, left hand (Fig. 9)")
 def _g1_torso_arms() -> System:
     m = g1_model()
     _add_frame(m, "chest_point", "torso_link", G1_CHEST_OFFSET)
     return System(
         name="g1_torso_arms",
         model=m,
-        end_frames=("chest_point", "left_rubber_hand", "right_rubber_hand"),
+        end_frames=("chest_point", "right_rubber_hand", "left_rubber_hand"),
         q0=_g1_q0(),
         description=(
             "as g1_arms plus a third end point 'chest_point', an added frame on torso_link (moved by the 3 "
             f"waist joints) at {G1_CHEST_OFFSET} m in the torso frame, i.e. in front of the chest.  Order chest, "
             "left hand, right hand: the circle through them faces forward and up (normal ≈ (+0.6, 0, +0.8) at q0)"
         ),
-        labels=("chest", "left hand", "right hand"),
+        labels=("chest", "right hand", "left hand"),
     )
 
 
-#: Franka q0 in franka_and_g1: the erd posture with shoulder and elbow opened, so the tcp
-#: (pointing down) is 0.45 m in front of the base, 0.73 m high, below the G1's hands.
-_FRANKA_TO_G1_Q0 = np.array([0.0, -0.2, 0.0, -1.9, 0.0, 1.7, 0.7854])
+#: Franka q0 in franka_and_g1: arm in its xz plane, tcp 0.47 m in front of the base and
+#: 0.73 m high (just below the G1's hands), the tool axis horizontal toward the G1.
+_FRANKA_TO_G1_Q0 = np.array([0.0, -0.7, 0.0, -2.4, 0.0, 3.2, 0.7854])
 
 
 @register("franka_and_g1", "a Franka Panda facing a Unitree G1 1.0 m away (Fig. 10): Franka tcp + G1 hands")
@@ -267,7 +267,8 @@ def _franka_and_g1() -> System:
         description=(
             "a Franka Panda (fingers locked) at the origin facing +x and a standing Unitree G1 (waist + arms, "
             f"pelvis at (1.0, 0, {G1_PELVIS_HEIGHT}) m) facing −x.  End points: Franka tcp, G1 left hand (world "
-            "−y side), G1 right hand; the circle through them leans toward the Franka (normal ≈ (−0.5, 0, +0.9) at q0)"
+            "−y side), G1 right hand; the circle through them leans toward the Franka "
+            "(normal ≈ (−0.6, 0, +0.8) at q0)"
         ),
         labels=("franka tcp", "g1 left hand", "g1 right hand"),
     )
@@ -311,7 +312,8 @@ _ALLEGRO_Q0 = {
 }
 
 
-@register("three_finger_hand", "Allegro right hand with the middle finger locked straight (12 DOF): index, thumb, ring tips")
+@register("three_finger_hand",
+          "Allegro right hand with the middle finger locked straight (12 DOF): index, thumb, ring tips")
 def _three_finger_hand() -> System:
     import pinocchio as pin
 

@@ -98,6 +98,10 @@ class System:
             self._data = self.model.createData()
         return self._data
 
+    def _joint_ids_in_q(self) -> list[int]:
+        m = self.model
+        return sorted((j for j in range(1, m.njoints) if m.nqs[j] > 0), key=lambda j: m.idx_qs[j])
+
     def chain_joints(self) -> list[list[str]]:
         """Names of the joints on each chain, root to tip."""
         return [[self.tree.joints[j].name for j in ch] for ch in self.tree.chains]
@@ -131,8 +135,17 @@ class System:
         return a
 
     def random_q(self, rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:
-        """Uniform random q inside the limits (``scale < 1`` shrinks the box around its middle)."""
-        lo, hi = self.q_lower, self.q_upper
+        """Uniform random q inside the limits (``scale < 1`` shrinks the box around its middle).
+
+        Joints without finite limits (models built in code get ±1.8e308) are sampled in
+        [−π, π] (revolute) or [−1, 1] m (prismatic).
+        """
+        lo, hi = self.q_lower.copy(), self.q_upper.copy()
+        unbounded = (hi - lo > 1e6) | ~np.isfinite(hi - lo)
+        if np.any(unbounded):
+            span = np.array([1.0 if self.model.joints[j].shortname().startswith("JointModelP") else np.pi
+                             for j in self._joint_ids_in_q()])
+            lo[unbounded], hi[unbounded] = -span[unbounded], span[unbounded]
         mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo) * scale
         return rng.uniform(mid - half, mid + half)
 
