@@ -211,15 +211,16 @@ def _g1_arms() -> System:
     return System(
         name="g1_arms",
         model=g1_model(),
-        end_frames=("left_rubber_hand", "right_rubber_hand"),
+        end_frames=("right_rubber_hand", "left_rubber_hand"),
         q0=_g1_q0(),
         description=(
             "Unitree G1 (example-robot-data g1) with a fixed pelvis at the origin and the legs locked straight: "
-            "waist yaw/roll/pitch + 2 × 7 arm joints.  End points: the left and right hand mounts "
-            "(left/right_rubber_hand).  Both wrist chains contain the 3 waist joints.  q0: arms forward, "
+            "waist yaw/roll/pitch + 2 × 7 arm joints.  End points: the right and left hand mounts "
+            "(right/left_rubber_hand), in that order, so the point pair/line points along +y like the unit "
+            "primitive (left → right would be its antipode, where the minimal rotation jumps by a half-turn).  Both wrist chains contain the 3 waist joints.  q0: arms forward, "
             "hands 0.30 m in front of the pelvis and 0.36 m apart"
         ),
-        labels=("left hand", "right hand"),
+        labels=("right hand", "left hand"),
     )
 
 

@@ -158,3 +158,16 @@ def test_overflowing_q_is_reported_as_too_large() -> None:
     task = CooperativeTask(systems.load("three_franka"), "circle", codegen=False)
     with pytest.raises(cg.InvalidInputError, match="too large"):
         task.evaluate(np.full(21, 1e200))
+
+
+@pytest.mark.parametrize("name", systems.names())
+def test_nominal_axis_is_far_from_the_chart_discontinuity(name: str) -> None:
+    """At q0, the natural primitive's axis must not point near the antipode of the unit axis
+    (−e2 for point pairs/lines, −e3 for circles/planes), where the minimal rotation of V_Sc
+    jumps by a half-turn (g1_arms once had its hands ordered left → right: exactly −e2)."""
+    sys = systems.load(name)
+    kinds = {2: ("point_pair", "line"), 3: ("circle", "plane")}.get(min(sys.n_chains, 3) if sys.n_chains != 4 else 4, ())
+    for kind in kinds:
+        task = CooperativeTask(sys, kind, codegen=False)
+        theta = task.log(sys.q0)[:3]
+        assert np.linalg.norm(theta) < np.deg2rad(150), (kind, np.rad2deg(np.linalg.norm(theta)))

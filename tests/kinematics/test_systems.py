@@ -147,13 +147,13 @@ def test_three_finger_hand_follows_readme():
 # ---------------------------------------------------------------------- shared / appended joints
 def test_g1_wrist_chains_share_the_waist():
     s = systems.load("g1_arms")
-    left, right = s.chain_joints()
+    right, left = s.chain_joints()  # end points ordered right → left (line along +e2)
     waist = ["waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint"]
     assert left[:3] == waist and right[:3] == waist
     assert len(left) == len(right) == 10
     assert set(left[3:]).isdisjoint(right[3:])
     assert s.nq == 17 and s.joint_names.count("waist_yaw_joint") == 1
-    cols_l, cols_r = map(set, s.tree.joint_columns)
+    cols_r, cols_l = map(set, s.tree.joint_columns)
     assert cols_l & cols_r == {0, 1, 2} and cols_l | cols_r == set(range(17))
     # a waist motion moves both hands, an arm motion only its own hand
     q = s.q0.copy()
@@ -163,7 +163,7 @@ def test_g1_wrist_chains_share_the_waist():
     q = s.q0.copy()
     q[3] += 0.1  # left shoulder pitch
     d = np.linalg.norm(s.end_points(q) - s.end_points(s.q0), axis=1)
-    assert d[0] > 1e-3 and d[1] == 0.0
+    assert d[1] > 1e-3 and d[0] == 0.0  # end point 1 is the left hand
     # the torso point of g1_torso_arms hangs on the waist only
     t = systems.load("g1_torso_arms")
     assert t.chain_joints()[0] == waist
