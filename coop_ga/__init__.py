@@ -14,6 +14,7 @@ Manipulation Control based on Similarity Transformations*.
 
 from .algebra import Multivector
 from .errors import (
+    ChartWarning,
     CoopGAError,
     DegeneracyWarning,
     DegeneratePrimitiveError,
@@ -72,6 +73,7 @@ __all__ = [
     "systems",
     "CooperativeTask",
     "cooperative_task",
+    "ChartWarning",
     "CoopGAError",
     "DegeneracyWarning",
     "DegeneratePrimitiveError",

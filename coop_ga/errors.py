@@ -17,6 +17,7 @@ __all__ = [
     "UnknownNameError",
     "UnsupportedJointError",
     "DegeneracyWarning",
+    "ChartWarning",
     "JointLimitWarning",
 ]
 
@@ -54,6 +55,10 @@ class UnsupportedJointError(CoopGAError, ValueError):
 
 class DegeneracyWarning(UserWarning):
     """A cooperative primitive is close to degenerate (near a geometric singularity)."""
+
+
+class ChartWarning(UserWarning):
+    """V_Sc is near the half-turn discontinuity of its minimal-rotation chart (axis ≈ −unit axis)."""
 
 
 class JointLimitWarning(UserWarning):

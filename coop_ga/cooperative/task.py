@@ -43,7 +43,7 @@ import numpy as np
 
 from ..algebra.multivector import Multivector
 from ..codegen import CompiledFunction
-from ..errors import DegeneracyWarning, DegeneratePrimitiveError, InvalidInputError, NonFiniteError
+from ..errors import ChartWarning, DegeneracyWarning, DegeneratePrimitiveError, InvalidInputError, NonFiniteError
 from ..geometry.groups import (
     SIMILARITY_BLADES,
     bivector_to_tangent,
@@ -58,6 +58,9 @@ from .primitive import cooperative_primitive
 __all__ = ["CooperativeTask", "TaskState", "cooperative_task", "versor_from_coeffs", "versor_coeffs"]
 
 _NB = len(SIMILARITY_BLADES)
+
+#: rotation angle of V_Sc [rad] beyond which a :class:`ChartWarning` is emitted (170°)
+CHART_WARN_ANGLE = math.radians(170.0)
 
 
 def versor_from_coeffs(v: Any) -> Multivector:
@@ -206,9 +209,11 @@ class CooperativeTask:
         q = ca.SX.sym("q", self.nq)
         s = self.symbolic(q)
         qq = ca.dot(q, q)
-        # one scalar for the hot path: the measure if q is finite, else −1 (NaN/inf → slow path)
-        ok = ca.if_else(qq < 1e300, s["well_definedness"], -1.0)
-        checks = ca.vertcat(ok, s["well_definedness"], qq)
+        th2 = ca.sumsqr(s["log"][:3])
+        # one scalar for the hot path: the measure if q is finite and the rotation is away from the
+        # half-turn of the chart, else −1 (slow path sorts out which)
+        ok = ca.if_else(qq < 1e300, ca.if_else(th2 < CHART_WARN_ANGLE**2, s["well_definedness"], -1.0), -1.0)
+        checks = ca.vertcat(ok, s["well_definedness"], qq, th2)
         return ca.Function(
             f"coop_{self.name}", [q], [s["versor"], s["log"], ca.densify(s["jacobian"]), checks, s["points"]],
             ["q"], ["V", "B", "J", "checks", "points"],
@@ -226,13 +231,16 @@ class CooperativeTask:
     # ================================================================== evaluation
     def _run(self, q: Any) -> list[np.ndarray]:
         self.compiled  # noqa: B018  (built on first use; afterwards a dict lookup)
-        try:
+        if type(q) is np.ndarray and q.shape == self._qbuf.shape:  # hot path
             np.copyto(self._qbuf, q, casting="unsafe")
-        except (ValueError, TypeError):
-            a = np.asarray(q)
-            raise InvalidInputError(
-                f"task '{self.name}' expects q with {self.nq} entries (system '{self.system.name}'), got shape {a.shape}"
-            ) from None
+        else:
+            a = np.asarray(q, dtype=float) if not isinstance(q, str) else np.asarray([])
+            if a.shape != self._qbuf.shape:
+                raise InvalidInputError(
+                    f"task '{self.name}' expects q with {self.nq} entries (system '{self.system.name}'), "
+                    f"got shape {a.shape}"
+                )
+            np.copyto(self._qbuf, a)
         self._eval()
         out = self._outputs
         if not out[3].item(0) > self.warn_below:
@@ -249,6 +257,16 @@ class CooperativeTask:
             raise NonFiniteError(f"q contains NaN or inf at indices {bad}")
         if not w > self.warn_below:
             self._degeneracy(float(w), pts.reshape(-1, 3))
+        th = math.sqrt(checks.item(3))
+        if th >= CHART_WARN_ANGLE:
+            axis = "−e2" if self.kind in ("point_pair", "line") else "−e3"
+            warnings.warn(
+                f"cooperative {self.kind} of '{self.system.name}': its axis is {math.degrees(th):.1f}° from the unit "
+                f"primitive's, near {axis}, where the minimal rotation of V_Sc jumps by a half-turn; reorder the end "
+                "points (points=...) so the nominal axis is far from the antipode",
+                ChartWarning,
+                stacklevel=3,
+            )
 
     def _degeneracy(self, w: float, pts: np.ndarray) -> None:
         what = {

@@ -171,3 +171,21 @@ def test_nominal_axis_is_far_from_the_chart_discontinuity(name: str) -> None:
         task = CooperativeTask(sys, kind, codegen=False)
         theta = task.log(sys.q0)[:3]
         assert np.linalg.norm(theta) < np.deg2rad(150), (kind, np.rad2deg(np.linalg.norm(theta)))
+
+
+def test_scalar_q_is_rejected_not_broadcast() -> None:
+    task = CooperativeTask(systems.load("three_franka"), "circle", codegen=False)
+    with pytest.raises(cg.InvalidInputError, match="21 entries"):
+        task.jacobian(0.5)
+    np.testing.assert_allclose(task.log(list(task.system.q0)), task.log(task.system.q0))
+
+
+def test_chart_warning_near_the_antipodal_axis() -> None:
+    """g1_arms ordered left → right points along −e2: the chart's half-turn; a ChartWarning says so."""
+    sys = systems.load("g1_arms")
+    task = CooperativeTask(sys, "point_pair", points=(1, 0), codegen=False)
+    with pytest.warns(cg.ChartWarning, match="half-turn"):
+        task.log(sys.q0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        CooperativeTask(sys, "point_pair", codegen=False).log(sys.q0)
