@@ -30,7 +30,7 @@ IIWA_Q0 = np.array([0, -0.7854, 0, 1.3962, 0, 0.6109, 0])
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=Path("out/impedance_three_iiwa"), help="output directory")
+    ap.add_argument("--out", type=Path, default=Path("results/impedance_three_iiwa"), help="output directory")
     ap.add_argument("--seed", type=int, default=2024, help="random seed of the initial configurations")
     ap.add_argument("--runs", type=int, default=10, help="number of initial configurations (paper: 10)")
     ap.add_argument("--spread", type=float, default=0.1, help="half-width [rad] of the uniform perturbation of q0")

@@ -24,7 +24,7 @@ import numpy as np
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=Path("out/nullspace_secondary"), help="output directory")
+    ap.add_argument("--out", type=Path, default=Path("results/nullspace_secondary"), help="output directory")
     ap.add_argument("--seed", type=int, default=0, help="seed of the optional start perturbation")
     ap.add_argument("--perturb", type=float, default=0.0, help="uniform perturbation [rad] of q0 (0: nominal q0)")
     ap.add_argument("--angle", type=float, default=30.0, help="how far along the circle the arm moves [deg]")

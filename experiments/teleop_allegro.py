@@ -56,7 +56,7 @@ def _dilation_drift(commands: np.ndarray, centers: np.ndarray) -> float | None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=Path("out/teleop_allegro"), help="output directory")
+    ap.add_argument("--out", type=Path, default=Path("results/teleop_allegro"), help="output directory")
     ap.add_argument("--seed", type=int, default=0, help="seed of the optional start perturbation")
     ap.add_argument("--perturb", type=float, default=0.0, help="uniform perturbation [rad] of q0 (0: nominal q0)")
     ap.add_argument("--system", default="allegro", help="registered system (default allegro)")
