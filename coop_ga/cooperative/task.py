@@ -329,10 +329,7 @@ class CooperativeTask:
 
     def primitive(self, q: Any) -> Primitive:
         """X_c(q) = ∧ P_i(q) (∧ e∞) (Eq 14), from the compiled end points."""
-        pts = self.points(q)
-        from ..geometry.primitives import point
-
-        return cooperative_primitive(self.kind, [point(p) for p in pts])
+        return cooperative_primitive(self.kind, [conformal_point(p) for p in self.points(q)])
 
     # ------------------------------------------------------------------ other Jacobians
     def analytic_jacobian(self, q: Any) -> np.ndarray:
@@ -495,9 +492,7 @@ class CooperativeTask:
         w = well_definedness(self.kind, pts) if N_POINTS[self.kind] > 1 else 1.0
         if not w > self.warn_below:
             self._degeneracy(float(w), pts)
-        from ..geometry.primitives import point
-
-        return similarity_from_unit(cooperative_primitive(self.kind, [point(p) for p in pts]))
+        return similarity_from_unit(cooperative_primitive(self.kind, [conformal_point(p) for p in pts]))
 
 
 def _stack_columns(cols: Sequence[Multivector]) -> Multivector:

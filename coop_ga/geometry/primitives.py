@@ -29,7 +29,6 @@ Seed discrepancies (checked numerically in ``tests/geometry/test_primitives.py``
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np

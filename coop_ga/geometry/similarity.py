@@ -46,7 +46,7 @@ import numpy as np
 from ..algebra import backend as B
 from ..algebra.multivector import Multivector
 from ..errors import InvalidInputError
-from .groups import ROTOR_BLADES, _exp_parts
+from .groups import ROTOR_BLADES
 from .primitives import (
     KINDS,
     Primitive,
