@@ -4,9 +4,27 @@ Layers (each depends only on the ones above it):
 
 1. :mod:`coop_ga.algebra` — G(4,1) in the null basis, numpy or CasADi coefficients;
 2. :mod:`coop_ga.geometry` — primitives, versor groups (exp/log), similarities;
-3. :mod:`coop_ga.kinematics` — motor forward kinematics of Pinocchio models, systems;
-4. :mod:`coop_ga.cooperative` — cooperative primitives, V_Sc(q) and its Jacobians;
-5. :mod:`coop_ga.control` — differential/Gauss–Newton IK, impedance, iLQR, teleoperation.
+3. :mod:`coop_ga.kinematics` — motor forward kinematics of Pinocchio models;
+4. :mod:`coop_ga.systems` — multi-chain systems, their registry and the robots we ship;
+5. :mod:`coop_ga.viz` — drawing (robots, primitives, frames, plots);
+6. :mod:`coop_ga.cooperative` — cooperative primitives, V_Sc(q), its graph, guard and Jacobians;
+7. :mod:`coop_ga.control` — differential/Gauss–Newton IK, impedance, iLQR, teleoperation;
+8. :mod:`coop_ga.harness` — the command-line harness of experiments and figures.
+
+Cross-cutting, at the bottom: :mod:`coop_ga.errors` (one exception and one warning
+family), :mod:`coop_ga.diagnostics` (warnings once per call), :mod:`coop_ga.validation`
+(argument checks), :mod:`coop_ga.codegen` (compiled CasADi functions).
+
+The currency of the API is :class:`coop_ga.Similarity`: cooperative poses, targets and
+``displaced_target`` are Similarities.
+
+Five lines of control::
+
+    import coop_ga as cg
+    task = cg.cooperative_task("three_franka", "circle")
+    q0 = task.system.q0
+    target = cg.control.displaced_target(task, q0, translation=(0.1, 0, 0.05), angle=0.3, scale=1.2)
+    print(cg.control.gauss_newton_ik(task, q0, target).error, cg.control.ilqr_reach(task, q0, target).error)
 
 Reference: T. Löw, C. Bilaloglu, S. Calinon, *Cooperative Task Spaces for Multi-Arm
 Manipulation Control based on Similarity Transformations*.
@@ -14,14 +32,20 @@ Manipulation Control based on Similarity Transformations*.
 
 from .algebra import Multivector
 from .errors import (
+    CacheWarning,
+    ChartError,
     ChartWarning,
+    CompilationError,
     CoopGAError,
+    CoopGAWarning,
     DegeneracyWarning,
     DegeneratePrimitiveError,
     InvalidInputError,
     InvalidVersorError,
     JointLimitWarning,
     NonFiniteError,
+    PrecisionWarning,
+    ThreadingError,
     UnknownNameError,
     UnsupportedJointError,
 )
@@ -63,24 +87,34 @@ from .geometry import (
     well_definedness,
 )
 
-from . import systems
-from .cooperative import CooperativeTask, cooperative_task
+from . import control, diagnostics, systems, validation
+from .cooperative import CooperativeTask, cooperative_task, displaced_target
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Multivector",
+    "control",
+    "diagnostics",
     "systems",
+    "validation",
     "CooperativeTask",
     "cooperative_task",
+    "displaced_target",
+    "CacheWarning",
+    "ChartError",
     "ChartWarning",
+    "CompilationError",
     "CoopGAError",
+    "CoopGAWarning",
     "DegeneracyWarning",
     "DegeneratePrimitiveError",
     "InvalidInputError",
     "InvalidVersorError",
     "JointLimitWarning",
     "NonFiniteError",
+    "PrecisionWarning",
+    "ThreadingError",
     "UnknownNameError",
     "UnsupportedJointError",
     "KINDS",

@@ -1,24 +1,35 @@
-"""One exception hierarchy for everything coop_ga raises on bad input.
+"""One exception hierarchy and one warning hierarchy for everything coop_ga raises or warns.
 
 Every error derives from :class:`CoopGAError`, so ``except coop_ga.CoopGAError``
 catches all of them.  The concrete classes also derive from the matching
-built-in (``ValueError`` / ``KeyError``) so generic handlers keep working.
-Messages name the problem *and* the fix.
+built-in (``ValueError`` / ``KeyError`` / ``RuntimeError``) so generic handlers keep
+working.  Messages name the problem *and* the fix.
+
+Every warning derives from :class:`CoopGAWarning` (``warnings.simplefilter("error",
+coop_ga.CoopGAWarning)`` turns all of them into errors).  How warnings are emitted —
+once per condition and public call, pointing at the caller's line — is in
+:mod:`coop_ga.warn`.
 """
 
 from __future__ import annotations
 
 __all__ = [
+    "CacheWarning",
+    "ChartError",
+    "ChartWarning",
+    "CompilationError",
     "CoopGAError",
-    "InvalidInputError",
-    "NonFiniteError",
+    "CoopGAWarning",
+    "DegeneracyWarning",
     "DegeneratePrimitiveError",
+    "InvalidInputError",
     "InvalidVersorError",
+    "JointLimitWarning",
+    "NonFiniteError",
+    "PrecisionWarning",
+    "ThreadingError",
     "UnknownNameError",
     "UnsupportedJointError",
-    "DegeneracyWarning",
-    "ChartWarning",
-    "JointLimitWarning",
 ]
 
 
@@ -38,8 +49,12 @@ class DegeneratePrimitiveError(CoopGAError, ValueError):
     """Points do not span the requested primitive (coincident, collinear, coplanar)."""
 
 
-class InvalidVersorError(CoopGAError, ValueError):
+class InvalidVersorError(InvalidInputError):
     """A multivector is not an element of the requested versor group (or has zero norm)."""
+
+
+class ChartError(CoopGAError, ValueError):
+    """A similarity lies at the half-turn discontinuity of the minimal-rotation chart of V_Sc."""
 
 
 class UnknownNameError(CoopGAError, KeyError):
@@ -53,13 +68,33 @@ class UnsupportedJointError(CoopGAError, ValueError):
     """A kinematic model contains a joint type coop_ga cannot express as a motor."""
 
 
-class DegeneracyWarning(UserWarning):
+class CompilationError(CoopGAError, RuntimeError):
+    """Generating, compiling or loading a CasADi function failed and no fallback was allowed."""
+
+
+class ThreadingError(CoopGAError, RuntimeError):
+    """An object that is not thread-safe was used from a second thread."""
+
+
+class CoopGAWarning(UserWarning):
+    """Base class of every warning coop_ga emits."""
+
+
+class DegeneracyWarning(CoopGAWarning):
     """A cooperative primitive is close to degenerate (near a geometric singularity)."""
 
 
-class ChartWarning(UserWarning):
+class ChartWarning(CoopGAWarning):
     """V_Sc is near the half-turn discontinuity of its minimal-rotation chart (axis ≈ −unit axis)."""
 
 
-class JointLimitWarning(UserWarning):
+class JointLimitWarning(CoopGAWarning):
     """A configuration lies outside the joint limits (reported, never silently clipped)."""
+
+
+class PrecisionWarning(CoopGAWarning):
+    """A result lost precision (e.g. a primitive far from the origin); the message estimates the error."""
+
+
+class CacheWarning(CoopGAWarning):
+    """The compile cache was unusable and a fallback was taken (the message says which and the fix)."""

@@ -1,21 +1,63 @@
-"""Controllers in the cooperative similarity space: differential and Gauss–Newton IK,
-task-space dynamics and impedance control, nullspace secondary tasks, teleoperation,
-iLQR (§3.5–3.9, §4)."""
+"""Layer 6: controllers in the cooperative similarity space (§3.5–3.9, §4).
 
-from .diffik import DiffIKResult, diff_ik_reach, diff_ik_step, joint_velocity
+Differential and Gauss–Newton IK, task-space dynamics and impedance control, nullspace
+secondary tasks, teleoperation and iLQR.  Every solver is called as
+``solver(task, q_init, target, options=None, **overrides)`` with a
+:class:`~coop_ga.Similarity` target and returns a result derived from
+:class:`~coop_ga.control.base.SolverResult` (see :mod:`coop_ga.control.base` for the
+shared names).
+"""
+
+from ..cooperative.targets import displaced_target
+from .base import SolverResult
+from .diffik import DiffIKOptions, DiffIKResult, diff_ik_reach, diff_ik_step, joint_velocity
 from .dynamics import TaskDynamics, joint_dynamics, task_inertia, task_space_dynamics
-from .gauss_newton import IKResult, gauss_newton_ik
-from .ilqr import ILQRIteration, ILQRResult, ReachingOCP, displaced_target, ilqr_reach
-from .impedance import PAPER_GAINS, ImpedanceResult, impedance_torque, simulate_impedance
-from .nullspace import NullspaceResult, nullspace_point_reach, nullspace_step, point_on_circle, point_reaching_velocity
+from .gauss_newton import GaussNewtonOptions, IKResult, gauss_newton_ik
+from .ilqr import ILQRIteration, ILQROptions, ILQRResult, ReachingOCP, ilqr_reach
+from .impedance import PAPER_GAINS, ImpedanceOptions, ImpedanceResult, impedance_torque, simulate_impedance
+from .nullspace import (
+    NullspaceOptions,
+    NullspaceResult,
+    nullspace_point_reach,
+    nullspace_step,
+    point_on_circle,
+    point_reaching_velocity,
+)
 from .teleop import ScriptedInput, Teleoperator, command_to_bivector, run_interactive
 
 __all__ = [
-    "DiffIKResult", "diff_ik_reach", "diff_ik_step", "joint_velocity",
-    "IKResult", "gauss_newton_ik",
-    "TaskDynamics", "joint_dynamics", "task_inertia", "task_space_dynamics",
-    "PAPER_GAINS", "ImpedanceResult", "impedance_torque", "simulate_impedance",
-    "NullspaceResult", "nullspace_point_reach", "nullspace_step", "point_on_circle", "point_reaching_velocity",
-    "ScriptedInput", "Teleoperator", "command_to_bivector", "run_interactive",
-    "ILQRIteration", "ILQRResult", "ReachingOCP", "displaced_target", "ilqr_reach",
+    "PAPER_GAINS",
+    "DiffIKOptions",
+    "DiffIKResult",
+    "GaussNewtonOptions",
+    "IKResult",
+    "ILQRIteration",
+    "ILQROptions",
+    "ILQRResult",
+    "ImpedanceOptions",
+    "ImpedanceResult",
+    "NullspaceOptions",
+    "NullspaceResult",
+    "ReachingOCP",
+    "ScriptedInput",
+    "SolverResult",
+    "TaskDynamics",
+    "Teleoperator",
+    "command_to_bivector",
+    "diff_ik_reach",
+    "diff_ik_step",
+    "displaced_target",
+    "gauss_newton_ik",
+    "ilqr_reach",
+    "impedance_torque",
+    "joint_dynamics",
+    "joint_velocity",
+    "nullspace_point_reach",
+    "nullspace_step",
+    "point_on_circle",
+    "point_reaching_velocity",
+    "run_interactive",
+    "simulate_impedance",
+    "task_inertia",
+    "task_space_dynamics",
 ]

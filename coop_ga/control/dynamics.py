@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InvalidInputError, NonFiniteError
+from .. import validation
 
 __all__ = [
     "joint_dynamics",
@@ -54,12 +54,7 @@ def _pin():
 
 
 def _vec(task: Any, x: Any, what: str) -> np.ndarray:
-    a = np.asarray(x, dtype=float).reshape(-1)
-    if a.shape != (task.nq,):
-        raise InvalidInputError(f"task '{task.name}' expects {what} with {task.nq} entries, got shape {np.shape(x)}")
-    if not np.all(np.isfinite(a)):
-        raise NonFiniteError(f"{what} contains NaN or inf at indices {np.flatnonzero(~np.isfinite(a)).tolist()}")
-    return a
+    return validation.configuration(x, task.nq, what, owner=f"task '{task.name}'")
 
 
 def _data(task: Any) -> Any:
@@ -82,12 +77,8 @@ def joint_dynamics(task_or_system: Any, q: Any, qd: Any) -> tuple[np.ndarray, np
     task = task_or_system if hasattr(task_or_system, "system") else None
     data = _data(task) if task is not None else sysm.data
     nq = model.nq
-    q = np.asarray(q, float).reshape(-1)
-    qd = np.asarray(qd, float).reshape(-1)
-    if q.shape != (nq,) or qd.shape != (nq,):
-        raise InvalidInputError(f"q and qd must have {nq} entries, got {q.shape} and {qd.shape}")
-    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
-        raise NonFiniteError("q or qd contains NaN or inf")
+    q = validation.configuration(q, nq, "q")
+    qd = validation.configuration(qd, nq, "qd")
     M = pin.crba(model, data, q)
     M = np.triu(M) + np.triu(M, 1).T
     C = np.array(pin.computeCoriolisMatrix(model, data, q, qd))

@@ -51,58 +51,96 @@ Simulation: the plant is Pinocchio's forward dynamics ``q̈ = ABA(q, q̇, τ)`` 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ..cooperative.task import versor_coeffs
+from .. import validation
+from ..diagnostics import collect_warnings
 from ..errors import CoopGAError, InvalidInputError, NonFiniteError
-from .diffik import _check_q
+from .base import SolverResult, check_q, resolve_options
 from .dynamics import task_inertia
 
-__all__ = ["ImpedanceResult", "impedance_torque", "simulate_impedance", "PAPER_GAINS", "error_rate"]
+__all__ = ["PAPER_GAINS", "ImpedanceOptions", "ImpedanceResult", "error_rate", "impedance_torque",
+           "simulate_impedance"]
 
 #: §4.1: K = diag(1, 1, 1, 7.5, 7.5, 7.5, 7.5), D = 5 I (rows e12, e13, e23, e0∞, e1∞, e2∞, e3∞)
 PAPER_GAINS = (np.diag([1.0, 1.0, 1.0, 7.5, 7.5, 7.5, 7.5]), 5.0 * np.eye(7))
 
 
 def _gain(G: Any, what: str) -> np.ndarray:
-    a = np.asarray(G, dtype=float)
+    a = validation.array(G, what)
     if a.ndim == 0:
         a = float(a) * np.eye(7)
     elif a.shape == (7,):
         a = np.diag(a)
     if a.shape != (7, 7):
         raise InvalidInputError(f"{what} must be a scalar, a 7-vector (diagonal) or a 7×7 matrix, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise NonFiniteError(f"{what} contains NaN or inf")
     return a
 
 
-def error_rate(task: Any, q: Any, qd: Any, target_versor: Any, mode: str = "exact") -> tuple[np.ndarray, np.ndarray]:
+@dataclass(frozen=True, eq=False)  # eq=False: the gains are arrays
+class ImpedanceOptions:
+    """Settings of :func:`simulate_impedance` and :func:`impedance_torque`.
+
+    K, D: stiffness and damping on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]`` (scalar, 7-vector
+        diagonal or 7×7; default the paper's §4.1 gains :data:`PAPER_GAINS`).
+    duration: simulated time [s] (≥ 0); dt: control and integration step [s] (1 kHz default).
+    D_null: nullspace damping [1/s] (acceleration level, see the module docstring).
+    nullspace: ``'compensate'`` (default) or ``'damping'`` (the paper's Eq 52, an ablation).
+    error_rate: ``'exact'`` (Ḃ_e = J_e q̇) or ``'approx'`` (Ḃ_e = −J^G q̇).
+    rcond: relative eigenvalue cut-off of the pseudo-inverse in Λ (Eq 36).
+    tol: the result is ``converged`` when the final ‖B_e‖ < tol.
+    """
+
+    K: Any = field(default_factory=lambda: PAPER_GAINS[0].copy())
+    D: Any = field(default_factory=lambda: PAPER_GAINS[1].copy())
+    duration: float = 4.0
+    dt: float = 1e-3
+    D_null: float = 2.0
+    nullspace: str = "compensate"
+    error_rate: str = "exact"
+    rcond: float = 1e-8
+    tol: float = 1e-3
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "K", _gain(self.K, "K"))
+        object.__setattr__(self, "D", _gain(self.D, "D"))
+        validation.nonnegative(self.duration, "duration")
+        validation.positive(self.dt, "dt")
+        validation.nonnegative(self.D_null, "D_null")
+        validation.choice(self.nullspace, ("compensate", "damping"), "nullspace")
+        validation.choice(self.error_rate, ("exact", "approx"), "error_rate")
+        validation.scalar(self.rcond, "rcond", low=0.0, high=1.0)
+        validation.nonnegative(self.tol, "tol")
+
+
+def error_rate(task: Any, q: Any, qd: Any, target: Any, mode: str = "exact") -> tuple[np.ndarray, np.ndarray]:
     """``(B_e, Ḃ_e)`` (7,), (7,) at (q, q̇): exact ``Ḃ_e = J_e q̇`` or approximate ``−J^G q̇``."""
-    e, Je = task.error_and_jacobian(q, target_versor)
+    validation.choice(mode, ("exact", "approx"), "mode")
+    qdv = check_q(task, qd, "qd")
+    e, Je = task.error_and_jacobian(q, validation.target(target))
     if mode == "exact":
-        return e, Je @ np.asarray(qd, float)
-    if mode == "approx":
-        return e, -(task.jacobian(q) @ np.asarray(qd, float))
-    raise InvalidInputError(f"error_rate mode must be 'exact' or 'approx', got {mode!r}")
+        return e, Je @ qdv
+    return e, -(task.jacobian(q) @ qdv)
 
 
-@dataclass(frozen=True)
-class ImpedanceResult:
-    """Result of :func:`simulate_impedance` (T = number of control steps + 1).
+@dataclass(frozen=True, kw_only=True)
+class ImpedanceResult(SolverResult):
+    """Result of :func:`simulate_impedance` (fields of :class:`~coop_ga.control.base.SolverResult`
+    plus; T = number of control steps + 1, ``iterations`` = T − 1, ``converged`` iff the final
+    ‖B_e‖ < ``tol``, ``q`` = the final configuration):
 
-    t (T,) [s]; q (T, nq) [rad]; qd (T, nq) [rad/s]; error (T, 7) B_e; error_norm (T,)
-    ‖B_e‖; tau (T, nq) [N m], the torque applied from state t[k] (the last row is the
-    command at the final state, not applied).
+    t (T,) [s]; trajectory (T, nq) [rad]; qd (T, nq) [rad/s]; error_vectors (T, 7) B_e;
+    error_norm (T,) ‖B_e‖; tau (T, nq) [N m], the torque applied from state t[k] (the last
+    row is the command at the final state, not applied).
     """
 
     t: np.ndarray
-    q: np.ndarray
+    trajectory: np.ndarray
     qd: np.ndarray
-    error: np.ndarray
+    error_vectors: np.ndarray
     error_norm: np.ndarray
     tau: np.ndarray
 
@@ -123,27 +161,19 @@ class ImpedanceResult:
 class _Controller:
     """Per-step impedance law with preallocated state (used by :func:`simulate_impedance`)."""
 
-    def __init__(self, task: Any, target_versor: Any, K: Any, D: Any, *, D_null: float, nullspace: str,
-                 error_rate: str, rcond: float):
+    def __init__(self, task: Any, target: Any, o: ImpedanceOptions):
         import pinocchio as pin
 
-        if nullspace not in ("compensate", "damping"):
-            raise InvalidInputError(f"nullspace must be 'compensate' or 'damping', got {nullspace!r}")
-        if error_rate not in ("exact", "approx"):
-            raise InvalidInputError(f"error_rate must be 'exact' or 'approx', got {error_rate!r}")
         self.pin = pin
         self.task = task
         self.model = task.system.model
         self.data = self.model.createData()
-        self.Vd = versor_coeffs(target_versor)
-        if not np.all(np.isfinite(self.Vd)):
-            raise NonFiniteError("target_versor contains NaN or inf")
-        self.K = _gain(K, "K")
-        self.D = _gain(D, "D")
-        self.D_null = float(D_null)
-        self.nullspace = nullspace
-        self.error_rate = error_rate
-        self.rcond = float(rcond)
+        self.Vd = validation.target(target)
+        self.K, self.D = o.K, o.D
+        self.D_null = float(o.D_null)
+        self.nullspace = o.nullspace
+        self.error_rate = o.error_rate
+        self.rcond = float(o.rcond)
         self.I = np.eye(task.nq)
         self._iu = np.triu_indices(task.nq, 1)
 
@@ -173,48 +203,41 @@ class _Controller:
         return tau, e
 
 
-def impedance_torque(task: Any, q: Any, qd: Any, target_versor: Any, K: Any, D: Any, *, D_null: float = 2.0,
-                     nullspace: str = "compensate", error_rate: str = "exact", rcond: float = 1e-8) -> np.ndarray:
+def impedance_torque(task: Any, q: Any, qd: Any, target: Any, options: ImpedanceOptions | None = None,
+                     **overrides: Any) -> np.ndarray:
     """Joint torque τ (nq,) [N m] of the similarity impedance law (Eq 49–52) at (q, q̇).
 
-    See the module docstring for the law, the nullspace options and ``error_rate``.
-    ``K``, ``D``: scalars, 7-vectors (diagonal) or 7×7 on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``.
-    ``D_null``: nullspace damping [1/s] (acceleration level, see the module docstring).
+    See the module docstring for the law, the nullspace options and ``error_rate``;
+    ``options``: :class:`ImpedanceOptions` (keyword ``overrides`` replace its fields; only the
+    gains, ``D_null``, ``nullspace``, ``error_rate`` and ``rcond`` matter here).
     """
-    ctl = _Controller(task, target_versor, K, D, D_null=D_null, nullspace=nullspace, error_rate=error_rate,
-                      rcond=rcond)
-    return ctl(_check_q(task, q), _check_q(task, qd))[0]
+    o = resolve_options(ImpedanceOptions, options, overrides, "impedance_torque")
+    ctl = _Controller(task, target, o)
+    return ctl(check_q(task, q), check_q(task, qd, "qd"))[0]
 
 
-def simulate_impedance(task: Any, q_init: Any, target_versor: Any, K: Any, D: Any, *, duration: float = 4.0,
-                       dt: float = 1e-3, qd_init: Any = None, D_null: float = 2.0, nullspace: str = "compensate",
-                       error_rate: str = "exact", rcond: float = 1e-8) -> ImpedanceResult:
+def simulate_impedance(task: Any, q_init: Any, target: Any, options: ImpedanceOptions | None = None, *,
+                       qd_init: Any = None, **overrides: Any) -> ImpedanceResult:
     """Simulate the similarity impedance controller (Eq 49–52) on the system's rigid-body dynamics.
 
     Parameters
     ----------
     task: a :class:`coop_ga.CooperativeTask` (its system's Pinocchio model is the plant).
     q_init: (nq,) initial configuration [rad]; qd_init: (nq,) initial velocity (default 0).
-    target_versor: V_Sd (Multivector or 12 coefficients); constant (V̇_Sd = 0).
-    K, D: stiffness and damping (scalar, diagonal 7-vector or 7×7).
-    duration: simulated time [s]; dt: control and integration step [s] (1 kHz default).
-    D_null: nullspace damping [1/s] (acceleration level); nullspace: ``'compensate'`` or ``'damping'``.
-    error_rate: ``'exact'`` (Ḃ_e = J_e q̇) or ``'approx'`` (Ḃ_e = −J^G q̇).
-    rcond: eigenvalue cut-off of the pseudo-inverse in Λ (Eq 36).
+    target: V_Sd, a :class:`~coop_ga.Similarity`; constant (V̇_Sd = 0).
+    options: :class:`ImpedanceOptions` (gains, duration, Δt, nullspace handling, …);
+        keyword ``overrides`` replace its fields (``simulate_impedance(t, q, V, K=25, D=10)``).
 
     Returns
     -------
     :class:`ImpedanceResult`.  Raises :class:`NonFiniteError` if the state diverges.
     """
     pin = __import__("pinocchio")
-    dt = float(dt)
-    duration = float(duration)
-    if not (np.isfinite(dt) and dt > 0) or not (np.isfinite(duration) and duration >= 0):
-        raise InvalidInputError(f"dt must be > 0 and duration ≥ 0, got dt={dt}, duration={duration}")
-    q = _check_q(task, q_init)
-    qd = np.zeros(task.nq) if qd_init is None else _check_q(task, qd_init)
-    ctl = _Controller(task, target_versor, K, D, D_null=D_null, nullspace=nullspace, error_rate=error_rate,
-                      rcond=rcond)
+    o = resolve_options(ImpedanceOptions, options, overrides, "simulate_impedance")
+    dt, duration = o.dt, o.duration
+    q = check_q(task, q_init, "q_init")
+    qd = np.zeros(task.nq) if qd_init is None else check_q(task, qd_init, "qd_init")
+    ctl = _Controller(task, target, o)
     model = task.system.model
     plant = model.createData()
     n = int(round(duration / dt))
@@ -223,17 +246,24 @@ def simulate_impedance(task: Any, q_init: Any, target_versor: Any, K: Any, D: An
     QD = np.empty((T, task.nq))
     TAU = np.empty((T, task.nq))
     E = np.empty((T, 7))
-    for k in range(T):
-        try:
-            tau, e = ctl(q, qd)
-        except CoopGAError as ex:  # the state left the task's domain (degenerate primitive, overflow)
-            raise NonFiniteError(f"impedance simulation diverged at t = {k * dt:.4f} s: {ex}") from ex
-        Q[k], QD[k], TAU[k], E[k] = q, qd, tau, e
-        if k == n:
-            break
-        qdd = pin.aba(model, plant, q, qd, tau)
-        qd = qd + dt * qdd
-        q = q + dt * qd
-        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))) or float(np.max(np.abs(q))) > 1e3:
-            raise NonFiniteError(f"impedance simulation diverged at t = {(k + 1) * dt:.4f} s")
-    return ImpedanceResult(np.arange(T) * dt, Q, QD, E, np.linalg.norm(E, axis=1), TAU)
+    with collect_warnings() as caught:
+        for k in range(T):
+            try:
+                tau, e = ctl(q, qd)
+            except CoopGAError as ex:  # the state left the task's domain (degenerate primitive, overflow)
+                raise NonFiniteError(f"impedance simulation diverged at t = {k * dt:.4f} s: {ex}") from ex
+            Q[k], QD[k], TAU[k], E[k] = q, qd, tau, e
+            if k == n:
+                break
+            qdd = pin.aba(model, plant, q, qd, tau)
+            qd = qd + dt * qdd
+            q = q + dt * qd
+            if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))) or float(np.max(np.abs(q))) > 1e3:
+                raise NonFiniteError(f"impedance simulation diverged at t = {(k + 1) * dt:.4f} s")
+    En = np.linalg.norm(E, axis=1)
+    converged = bool(En[-1] < o.tol)
+    msg = (f"‖B_e‖ = {En[-1]:.3g} after {duration:g} s ({'<' if converged else '≥'} tol = {o.tol:g}; "
+           f"ratio to the start {En[-1] / En[0] if En[0] > 0 else 0.0:.3g})")
+    return ImpedanceResult(converged=converged, error=float(En[-1]), iterations=n, message=msg, q=Q[-1].copy(),
+                           warnings=dict(caught.counts), t=np.arange(T) * dt, trajectory=Q, qd=QD,
+                           error_vectors=E, error_norm=En, tau=TAU)

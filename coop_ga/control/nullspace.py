@@ -26,18 +26,30 @@ from typing import Any
 
 import numpy as np
 
+from .. import validation
 from ..cooperative.manipulability import damped_pinv
-from ..cooperative.task import versor_coeffs
-from ..errors import InvalidInputError, NonFiniteError
-from .diffik import _bounds, _check_limits, _check_positive, _check_q
+from ..diagnostics import collect_warnings
+from ..errors import InvalidInputError
+from ..geometry.primitives import center, normal
+from .base import SolverResult, bounds, check_q, resolve_options
 
 __all__ = [
-    "nullspace_step",
-    "point_reaching_velocity",
-    "point_on_circle",
+    "NullspaceOptions",
     "NullspaceResult",
     "nullspace_point_reach",
+    "nullspace_step",
+    "point_on_circle",
+    "point_reaching_velocity",
 ]
+
+
+def _index(task: Any, index: Any) -> int:
+    n = len(task.end_frames)
+    i = validation.integer(index, "index")
+    if not 0 <= i < n:
+        raise InvalidInputError(f"index must be an end point of the task, 0 ≤ index < {n} ({', '.join(task.end_frames)}); "
+                                f"got {index!r}")
+    return i
 
 
 def point_reaching_velocity(task: Any, q: Any, index: int, target_point: Any, *, gain: float = 1.0,
@@ -48,15 +60,13 @@ def point_reaching_velocity(task: Any, q: Any, index: int, target_point: Any, *,
     ``J_p`` the 3×nq world point Jacobian of end point ``index`` of ``task`` (only its own
     chain's columns are non-zero), damped pseudo-inverse with ``damping`` λ.
     """
-    q = _check_q(task, q)
-    n = len(task.end_frames)
-    if not (isinstance(index, (int, np.integer)) and 0 <= index < n):
-        raise InvalidInputError(f"index must be an end point of the task, 0 ≤ index < {n}; got {index!r}")
-    p_star = np.asarray(target_point, dtype=float).reshape(-1)
-    if p_star.shape != (3,):
-        raise InvalidInputError(f"target_point must be a 3-vector [m], got shape {np.shape(target_point)}")
-    if not np.all(np.isfinite(p_star)):
-        raise NonFiniteError("target_point contains NaN or inf")
+    q = check_q(task, q)
+    index = _index(task, index)
+    p_star = validation.vector(target_point, 3, "target_point [m]")
+    gain = validation.nonnegative(gain, "gain")
+    damping = validation.nonnegative(damping, "damping")
+    if max_speed is not None:
+        max_speed = validation.positive(max_speed, "max_speed", allow_inf=True)
     p = task.tree.end_points_array(q)[index]
     Jp = task.tree.euclidean_point_jacobians(q)[index]
     v = gain * (p_star - p)
@@ -82,20 +92,23 @@ def nullspace_step(task: Any, q: Any, V_hold: Any, qd_secondary: Any, *, dt: flo
     project: False applies q̇_2 directly, without projection and without primary term.
     limits: ``'none'`` or ``'clamp'`` (clip to joint limits; may break ``J N = 0``).
     """
-    _check_limits(limits)
-    dt = _check_positive(dt, "dt")
-    q = _check_q(task, q)
-    qd2 = _check_q(task, qd_secondary)
+    validation.choice(limits, ("none", "clamp"), "limits")
+    dt = validation.positive(dt, "dt")
+    primary_gain = validation.nonnegative(primary_gain, "primary_gain")
+    damping = validation.nonnegative(damping, "damping")
+    q = check_q(task, q)
+    qd2 = check_q(task, qd_secondary, "qd_secondary")
+    hold = validation.target(V_hold, "V_hold")
     if not project:
         q_next = q + dt * qd2
     else:
-        e = task.error(q, versor_coeffs(V_hold))
+        e = task.error(q, hold)
         J = task.evaluate_views(q)[2]
         Jp = damped_pinv(J, damping)
         qd = Jp @ (primary_gain * e) + (qd2 - Jp @ (J @ qd2))
         q_next = q + dt * qd
     if limits == "clamp":
-        lo, hi = _bounds(task)
+        lo, hi = bounds(task)
         np.clip(q_next, lo, hi, out=q_next)
     return q_next
 
@@ -104,28 +117,63 @@ def point_on_circle(task: Any, q: Any, index: int, angle: float) -> np.ndarray:
     """End point ``index`` (of a circle task) rotated by ``angle`` [rad] along the cooperative
     circle: about its axis ``normal(X_c)`` through ``center(X_c)``, right-handed about the
     normal.  Returns (3,) [m], world frame."""
-    from ..geometry import center, normal
-
     X = task.primitive(q)
     c = np.asarray(center(X), float).reshape(3)
     n = np.asarray(normal(X), float).reshape(3)
     n = n / np.linalg.norm(n)
+    index = _index(task, index)
+    angle = validation.scalar(angle, "angle")
     p = task.points(q)[index] - c
     p_rot = p * np.cos(angle) + np.cross(n, p) * np.sin(angle) + n * (n @ p) * (1 - np.cos(angle))
     return c + p_rot
 
 
 @dataclass(frozen=True)
-class NullspaceResult:
-    """Result of :func:`nullspace_point_reach` (T = steps + 1).
+class NullspaceOptions:
+    """Settings of :func:`nullspace_point_reach`.
 
-    t (T,) [s]; q_traj (T, nq); points (T, 3) the controlled end point [m];
+    duration: simulated time [s]; dt: step [s].
+    secondary_gain: k_s [1/s] of the point-reaching task; max_speed: its speed cap [m/s] (None: no cap).
+    primary_gain: k_p [1/s] of the primary error feedback (0 disables it).
+    damping: λ of the pseudo-inverse in J⁺ and N (0 = exact projector, ``J N = 0``).
+    project: False applies q̇_2 unprojected and without the primary term (Fig. 16).
+    tol: the result is ``converged`` when the final point error < tol [m].
+    """
+
+    duration: float = 4.0
+    dt: float = 0.01
+    secondary_gain: float = 2.0
+    primary_gain: float = 10.0
+    max_speed: float | None = 0.2
+    damping: float = 0.0
+    project: bool = True
+    tol: float = 1e-3
+
+    def __post_init__(self) -> None:
+        validation.nonnegative(self.duration, "duration")
+        validation.positive(self.dt, "dt")
+        validation.nonnegative(self.secondary_gain, "secondary_gain")
+        validation.nonnegative(self.primary_gain, "primary_gain")
+        if self.max_speed is not None:
+            validation.positive(self.max_speed, "max_speed", allow_inf=True)
+        validation.nonnegative(self.damping, "damping")
+        if not isinstance(self.project, bool):
+            raise InvalidInputError(f"project must be True or False, got {self.project!r}")
+        validation.nonnegative(self.tol, "tol")
+
+
+@dataclass(frozen=True, kw_only=True)
+class NullspaceResult(SolverResult):
+    """Result of :func:`nullspace_point_reach` (T = steps + 1; ``error`` = final point error [m],
+    ``converged`` iff it is < ``tol``, ``iterations`` = steps, ``q`` = final configuration):
+
+    t (T,) [s]; trajectory (T, nq); points (T, 3) the controlled end point [m];
     point_error (T,) ‖p_i − p*‖ [m]; similarity_distance (T,) ‖log(Ṽ_Sc(q_0) V_Sc(q_t))‖;
     target_point (3,); projected: whether Eq 60 was used.
     """
 
     t: np.ndarray
-    q_traj: np.ndarray
+    trajectory: np.ndarray
     points: np.ndarray
     point_error: np.ndarray
     similarity_distance: np.ndarray
@@ -133,32 +181,36 @@ class NullspaceResult:
     projected: bool
 
 
-def nullspace_point_reach(task: Any, q0: Any, index: int, target_point: Any, *, duration: float = 4.0,
-                          dt: float = 0.01, secondary_gain: float = 2.0, primary_gain: float = 10.0,
-                          max_speed: float | None = 0.2, damping: float = 0.0, project: bool = True,
-                          V_hold: Any = None) -> NullspaceResult:
-    """§4.3 experiment: end point ``index`` reaches ``target_point`` while V_Sc is held (Eq 60).
+def nullspace_point_reach(task: Any, q0: Any, index: int, target_point: Any, options: NullspaceOptions | None = None,
+                          *, V_hold: Any = None, **overrides: Any) -> NullspaceResult:
+    """§4.3 experiment: end point ``index`` reaches ``target_point`` [m] while V_Sc is held (Eq 60).
 
-    The primary task holds ``V_hold`` (default V_Sc(q0)); the secondary task is
-    :func:`point_reaching_velocity` with ``secondary_gain`` [1/s] and ``max_speed`` [m/s];
-    every step is :func:`nullspace_step`.  ``project=False`` reproduces Fig. 16.
+    The primary task holds ``V_hold`` (a :class:`~coop_ga.Similarity`; default V_Sc(q0)); the
+    secondary task is :func:`point_reaching_velocity`; every step is :func:`nullspace_step`.
+    ``options``: :class:`NullspaceOptions` (keyword ``overrides`` replace its fields);
+    ``project=False`` reproduces Fig. 16.
     """
-    q = _check_q(task, q0)
-    dt = _check_positive(dt, "dt")
-    n = int(round(_check_positive(duration, "duration", allow_zero=True) / dt))
-    V_hold = task.similarity(q) if V_hold is None else V_hold
-    Vh = versor_coeffs(V_hold)
+    o = resolve_options(NullspaceOptions, options, overrides, "nullspace_point_reach")
+    q = check_q(task, q0, "q0")
+    index = _index(task, index)
+    p_star = validation.vector(target_point, 3, "target_point [m]")
+    n = int(round(o.duration / o.dt))
+    hold = task.similarity(q) if V_hold is None else validation.target(V_hold, "V_hold")
     V0 = task.similarity(q)
-    from ..geometry import log as sim_log
-
-    p_star = np.asarray(target_point, float).reshape(3)
-    Q = [q.copy()]
-    for _ in range(n):
-        qd2 = point_reaching_velocity(task, q, index, p_star, gain=secondary_gain, max_speed=max_speed)
-        q = nullspace_step(task, q, Vh, qd2, dt=dt, primary_gain=primary_gain, damping=damping, project=project)
-        Q.append(q.copy())
-    Q = np.array(Q)
-    P = np.array([task.points(qk)[index] for qk in Q])
-    Vr = V0.reverse()
-    dist = np.array([np.linalg.norm(sim_log(Vr * task.similarity(qk))) for qk in Q])
-    return NullspaceResult(np.arange(n + 1) * dt, Q, P, np.linalg.norm(P - p_star, axis=1), dist, p_star, project)
+    with collect_warnings() as caught:
+        Q = [q.copy()]
+        for _ in range(n):
+            qd2 = point_reaching_velocity(task, q, index, p_star, gain=o.secondary_gain, max_speed=o.max_speed)
+            q = nullspace_step(task, q, hold, qd2, dt=o.dt, primary_gain=o.primary_gain, damping=o.damping,
+                               project=o.project)
+            Q.append(q.copy())
+        Qa = np.array(Q)
+        P = np.array([task.points(qk)[index] for qk in Qa])
+        V0i = V0.inverse()
+        dist = np.array([np.linalg.norm((V0i @ task.similarity(qk)).log()) for qk in Qa])
+    err = np.linalg.norm(P - p_star, axis=1)
+    converged = bool(err[-1] < o.tol)
+    msg = f"end point {index} is {err[-1]:.3g} m from the target after {o.duration:g} s"
+    return NullspaceResult(converged=converged, error=float(err[-1]), iterations=n, message=msg, q=Qa[-1].copy(),
+                           warnings=dict(caught.counts), t=np.arange(n + 1) * o.dt, trajectory=Qa, points=P,
+                           point_error=err, similarity_distance=dist, target_point=p_star, projected=o.project)

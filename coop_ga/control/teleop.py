@@ -51,8 +51,11 @@ from typing import Any, Iterable, Iterator, Sequence
 
 import numpy as np
 
-from ..errors import InvalidInputError, NonFiniteError
-from .diffik import _check_positive, _check_q, diff_ik_step
+from .. import validation
+from ..errors import InvalidInputError
+from ..geometry.groups import Similarity
+from .base import check_q
+from .diffik import LIMIT_MODES, diff_ik_step
 
 __all__ = [
     "command_to_bivector",
@@ -83,13 +86,11 @@ def command_to_bivector(command: Any, *, translation_gain: float = 0.05, rotatio
     See the module docstring for the exact mapping.  Gains: ``translation_gain`` k_t [m/s],
     ``rotation_gain`` k_r [rad/s], ``dilation_gain`` k_d [1/s] per unit of input.
     """
-    u = np.asarray(command, dtype=float)
-    if u.shape != (6,):
-        raise InvalidInputError(f"a teleoperation command has 6 axes (tx, ty, tz, rx, ry, rz), got shape {u.shape}")
-    if not np.all(np.isfinite(u)):
-        raise NonFiniteError("the teleoperation command contains NaN or inf")
-    if rz_mode not in ("dilation", "rotation"):
-        raise InvalidInputError(f"rz_mode must be 'dilation' or 'rotation', got {rz_mode!r}")
+    u = validation.vector(command, 6, "command (tx, ty, tz, rx, ry, rz)")
+    translation_gain = validation.scalar(translation_gain, "translation_gain")
+    rotation_gain = validation.scalar(rotation_gain, "rotation_gain")
+    dilation_gain = validation.scalar(dilation_gain, "dilation_gain")
+    validation.choice(rz_mode, ("dilation", "rotation"), "rz_mode")
     b = np.zeros(7)
     b[4:7] = translation_gain * u[0:3]
     b[2] = rotation_gain * u[3]          # e23: about +x
@@ -109,19 +110,15 @@ class ScriptedInput:
     """
 
     def __init__(self, segments: Iterable[tuple[float, Any]], dt: float = 0.01):
-        self.dt = _check_positive(dt, "dt")
+        self.dt = validation.positive(dt, "dt")
         self.segments: list[tuple[float, np.ndarray]] = []
         for seg in segments:
             try:
                 d, c = seg
             except (TypeError, ValueError):
                 raise InvalidInputError(f"each script segment is (duration, 6-vector), got {seg!r}") from None
-            c = np.asarray(c, dtype=float)
-            if c.shape != (6,):
-                raise InvalidInputError(f"script command must have 6 axes, got shape {c.shape}")
-            if not np.all(np.isfinite(c)):
-                raise NonFiniteError("script command contains NaN or inf")
-            self.segments.append((_check_positive(d, "segment duration", allow_zero=True), c))
+            c = validation.vector(c, 6, "script command (tx, ty, tz, rx, ry, rz)")
+            self.segments.append((validation.nonnegative(d, "segment duration"), c))
 
     def __iter__(self) -> Iterator[np.ndarray]:
         for d, c in self.segments:
@@ -162,14 +159,20 @@ class Teleoperator:
                  translation_gain: float = 0.05, rotation_gain: float = 0.5, dilation_gain: float = 1.0,
                  rz_mode: str = "dilation"):
         self.task = task
-        self.q = _check_q(task, q0)
-        self.dt = _check_positive(dt, "dt")
-        self.damping = float(damping)
-        self.limits = limits
+        self.q = check_q(task, q0, "q0")
+        self.dt = validation.positive(dt, "dt")
+        self.damping = validation.nonnegative(damping, "damping")
+        self.limits = validation.choice(limits, LIMIT_MODES, "limits")
         self.gains = dict(translation_gain=translation_gain, rotation_gain=rotation_gain,
                           dilation_gain=dilation_gain, rz_mode=rz_mode)
+        command_to_bivector(np.zeros(6), **self.gains)  # validate the gains now, not at the first step
         self.t = 0.0
         self.log = TeleopLog(t=[0.0], q=[self.q.copy()])
+
+    @property
+    def pose(self) -> Similarity:
+        """The current cooperative pose V_Sc(q) as a :class:`~coop_ga.Similarity`."""
+        return self.task.similarity(self.q)
 
     def bivector(self, command: Any) -> np.ndarray:
         return command_to_bivector(command, **self.gains)

@@ -9,7 +9,10 @@ from .manipulability import (
     nullspace_projector,
 )
 from .primitive import FLAT_KINDS, cooperative_primitive, primitive_jacobian
-from .task import CooperativeTask, TaskState, cooperative_task, versor_coeffs, versor_from_coeffs
+from .graph import TaskGraph
+from .guard import TaskGuard
+from .targets import displaced_target
+from .task import CooperativeTask, TaskState, cooperative_task
 
 __all__ = [
     "damped_pinv",
@@ -24,6 +27,7 @@ __all__ = [
     "CooperativeTask",
     "TaskState",
     "cooperative_task",
-    "versor_coeffs",
-    "versor_from_coeffs",
+    "TaskGraph",
+    "displaced_target",
+    "TaskGuard",
 ]

@@ -43,8 +43,9 @@ def damped_pinv(J: Any, damping: float = 1e-6) -> np.ndarray:
     rank-deficient J (every cooperative task: Table 1) is handled either way.
     """
     J = _check_J(J)
-    if damping < 0:
-        raise InvalidInputError(f"damping must be ≥ 0, got {damping}")
+    from .. import validation
+
+    damping = validation.nonnegative(damping, "damping")
     if damping == 0.0:
         return np.linalg.pinv(J, rcond=1e-10)
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
@@ -73,11 +74,15 @@ def manipulability(J: Any, weights: Any | None = None) -> np.ndarray:
     return J @ J.T
 
 
-def force_manipulability(J: Any, damping: float = 1e-9, weights: Any | None = None) -> np.ndarray:
-    """Force manipulability ``M_S⁻¹`` (pseudo-inverse, damped: every M_S is rank-deficient)."""
+def force_manipulability(J: Any, cutoff: float = 1e-9, weights: Any | None = None) -> np.ndarray:
+    """Force manipulability ``M_S⁻¹`` as a pseudo-inverse (every M_S is rank-deficient, Table 1):
+    eigenvalues of M_S at or below ``cutoff`` (absolute, in M_S's units) are treated as zero."""
+    from .. import validation
+
+    cutoff = validation.positive(cutoff, "cutoff")
     M = manipulability(J, weights)
     w, Q = np.linalg.eigh(M)
-    inv = np.where(w > damping, 1.0 / np.maximum(w, damping), 0.0)
+    inv = np.where(w > cutoff, 1.0 / np.maximum(w, cutoff), 0.0)
     return (Q * inv) @ Q.T
 
 

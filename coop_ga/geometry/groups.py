@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import abc
 from functools import lru_cache
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Self
 
 import numpy as np
 
@@ -370,21 +370,40 @@ class VersorGroup(abc.ABC):
     """Common interface of the versor groups (jaxlie style).
 
     Subclasses fix the versor's blade layout and which slots of the similarity
-    7-vector their tangent uses.  Elements are immutable; ``a @ b`` composes
-    (apply b first, then a), ``a.inverse()``, ``a.log()``, ``cls.exp(v)``,
-    ``a.apply(X)``.
+    7-vector their tangent uses.  Elements are immutable; ``a @ b`` (or ``a.compose(b)``)
+    composes (apply b first, then a), ``a.inverse()``, ``a.log()``, ``cls.exp(v)``,
+    ``a.apply(X)``, ``a.coeffs`` / ``cls.from_coeffs(v)``.
+
+    Every subgroup element is also a similarity: wherever coop_ga takes a
+    :class:`Similarity` (targets of the controllers), a :class:`Motor`, :class:`Rotor`,
+    :class:`Translator` or :class:`Dilator` is accepted and converted with
+    :meth:`as_similarity`.
+
+    Numeric elements are stored normalised (``V Ṽ = 1``): the constructor divides by
+    ``√⟨V Ṽ⟩₀`` after checking membership, so a positive multiple of a versor is the
+    same element.  Symbolic (CasADi) elements are stored as given.
     """
 
     tangent_slots: ClassVar[tuple[int, ...]]
     blades: ClassVar[tuple[int, ...]]
-    __slots__ = ("versor",)
+    __slots__ = ("_coeffs", "versor")
 
     def __init__(self, versor: Multivector, *, check: bool = True):
         if check:
+            if not isinstance(versor, Multivector):
+                raise InvalidInputError(
+                    f"{type(self).__name__}(versor) needs a coop_ga Multivector, got {type(versor).__name__}; "
+                    f"use {type(self).__name__}.exp(tangent) or {type(self).__name__}.from_coeffs(v)"
+                )
             _validate_similarity(versor, type(self).__name__)
             if not versor.is_symbolic:
+                versor = _normalised(versor, type(self).__name__)
                 self._check_membership(versor)
-        self.versor = versor.project(self.blades) if not check else _relayout(versor, self.blades)
+            versor = _relayout(versor, self.blades)
+        else:
+            versor = versor.project(self.blades)
+        self.versor = versor
+        self._coeffs: np.ndarray | None = None
 
     def _check_membership(self, V: Multivector) -> None:
         full = np.asarray(log(V))
@@ -393,8 +412,9 @@ class VersorGroup(abc.ABC):
             names = [TANGENT_BASIS[i] for i in others if np.max(np.abs(full[..., i])) > 1e-9]
             raise InvalidVersorError(f"this versor has {names} components; it is not a {type(self).__name__}")
 
+    # ------------------------------------------------------------------ construction
     @classmethod
-    def exp(cls, tangent: Any):
+    def exp(cls, tangent: Any) -> Self:
         """Group element from tangent coordinates (see :data:`TANGENT_BASIS` for the slots)."""
         v = _tangent(tangent, len(cls.tangent_slots), cls.__name__)
         zero = 0.0 * v[0]
@@ -405,10 +425,45 @@ class VersorGroup(abc.ABC):
         return cls(V.project(cls.blades), check=False)
 
     @classmethod
-    def identity(cls):
+    def identity(cls) -> Self:
         return cls(Multivector.scalar(1.0).with_blades(cls.blades), check=False)
 
+    @classmethod
+    def from_coeffs(cls, v: Any) -> Self:
+        """Element from its versor coefficients on :attr:`blades` (e.g. 12 on
+        :data:`SIMILARITY_BLADES` for a :class:`Similarity`), validated and normalised."""
+        n = len(cls.blades)
+        if isinstance(v, (str, bytes, dict)) or v is None:
+            raise InvalidInputError(f"{cls.__name__}.from_coeffs needs {n} numbers, got {type(v).__name__}")
+        try:
+            a = np.asarray(v)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(f"{cls.__name__}.from_coeffs needs {n} numbers: {exc}") from None
+        if a.dtype.kind not in "fiu" or a.dtype == np.bool_:
+            raise InvalidInputError(f"{cls.__name__}.from_coeffs needs {n} real numbers, got dtype {a.dtype}")
+        a = a.astype(float).reshape(-1) if a.size == n else a
+        if a.shape != (n,):
+            raise InvalidInputError(
+                f"{cls.__name__}.from_coeffs needs {n} coefficients (on {cls.__name__}.blades), got shape {np.shape(v)}"
+            )
+        if not np.all(np.isfinite(a)):
+            raise NonFiniteError(f"{cls.__name__} coefficients contain NaN or inf: {a.tolist()}")
+        return cls(Multivector(cls.blades, tuple(float(x) for x in a)))
+
+    # ------------------------------------------------------------------ read-outs
+    @property
+    def coeffs(self) -> np.ndarray:
+        """Versor coefficients on :attr:`blades` as a read-only float array (numeric elements)."""
+        if self._coeffs is None:
+            if self.versor.is_symbolic:
+                raise InvalidInputError(f"a symbolic {type(self).__name__} has no numeric coefficients")
+            c = np.array([float(np.asarray(x)) for x in self.versor.coeffs])
+            c.setflags(write=False)
+            self._coeffs = c
+        return self._coeffs
+
     def log(self) -> Any:
+        """Tangent coordinates (the slots of this group in :data:`TANGENT_BASIS`)."""
         full = log(self.versor)
         if B.is_symbolic(full):
             import casadi as ca
@@ -416,7 +471,12 @@ class VersorGroup(abc.ABC):
             return ca.vertcat(*[full[i] for i in self.tangent_slots])
         return full[..., list(self.tangent_slots)]
 
-    def inverse(self):
+    def log_jacobian(self) -> np.ndarray:
+        """∂ log / ∂ (similarity coefficients) at this element (7, 12), Eq 31 (see :func:`log_jacobian`)."""
+        return log_jacobian(self.versor.with_blades(SIMILARITY_BLADES))
+
+    # ------------------------------------------------------------------ group operations
+    def inverse(self) -> Self:
         return type(self)(self.versor.inverse(), check=False)
 
     def __matmul__(self, other: VersorGroup) -> VersorGroup:
@@ -425,9 +485,32 @@ class VersorGroup(abc.ABC):
         cls = _join(type(self), type(other))
         return cls((self.versor * other.versor).project(cls.blades), check=False)
 
-    compose = __matmul__
+    def compose(self, other: VersorGroup) -> VersorGroup:
+        """``self @ other``: apply ``other`` first, then ``self``."""
+        if not isinstance(other, VersorGroup):
+            raise InvalidInputError(f"compose needs a versor group element, got {type(other).__name__}")
+        return self @ other
+
+    # CGA notation: the geometric product of versors is their composition and the reverse of a
+    # unit versor its inverse, so ``~V1 * V2`` reads as in the paper.  A Multivector operand is
+    # converted at this boundary (it must be a similarity versor).
+    def __mul__(self, other: Any) -> VersorGroup:
+        if isinstance(other, VersorGroup):
+            return self @ other
+        if isinstance(other, Multivector):
+            return self @ Similarity.coerce(other, "right operand of *")
+        return NotImplemented
+
+    def __rmul__(self, other: Any) -> VersorGroup:
+        if isinstance(other, Multivector):
+            return Similarity.coerce(other, "left operand of *") @ self
+        return NotImplemented
+
+    def __invert__(self) -> Self:
+        return self.inverse()
 
     def apply(self, X: Multivector) -> Multivector:
+        """Sandwich ``V X Ṽ`` (Eq 6); a :class:`~coop_ga.Primitive` keeps its kind."""
         return apply(self.versor, X)
 
     def as_similarity(self) -> Similarity:
@@ -435,7 +518,21 @@ class VersorGroup(abc.ABC):
 
     def __repr__(self) -> str:
         lg = self.log()
-        return f"{type(self).__name__}({np.round(np.asarray(lg, dtype=float), 6).tolist() if not B.is_symbolic(lg) else lg})"
+        vals = np.round(np.asarray(lg, dtype=float), 6).tolist() if not B.is_symbolic(lg) else lg
+        return f"{type(self).__name__}({vals})"
+
+
+def _normalised(V: Multivector, what: str) -> Multivector:
+    """V / √⟨V Ṽ⟩₀ after rescaling by the largest coefficient (no overflow/underflow)."""
+    big = max(float(np.max(np.abs(np.asarray(c, dtype=float)))) for c in V.coeffs)
+    if not big > 0:
+        raise InvalidVersorError(f"{what}: the versor is zero; a zero versor is no transformation")
+    Vs = V.scale(1.0 / big)
+    n2 = (Vs * Vs.reverse()).get(0)
+    n2 = float(np.min(np.asarray(n2, dtype=float)))
+    if not n2 > 0:
+        raise InvalidVersorError(f"{what}: V Ṽ = {n2:.3g} is not positive; this is not a similarity versor")
+    return Vs.scale(1.0 / np.sqrt(n2))
 
 
 def _relayout(V: Multivector, blades: tuple[int, ...]) -> Multivector:
@@ -446,6 +543,7 @@ def _relayout(V: Multivector, blades: tuple[int, ...]) -> Multivector:
 class Rotor(VersorGroup):
     """Rotations (Eq 62/63); tangent ``[θ12, θ13, θ23]`` [rad]."""
 
+    __slots__ = ()
     tangent_slots = (0, 1, 2)
     blades = ROTOR_BLADES
 
@@ -453,6 +551,7 @@ class Rotor(VersorGroup):
 class Translator(VersorGroup):
     """Translations (Eq 64/65); tangent ``[t1, t2, t3]`` [m]."""
 
+    __slots__ = ()
     tangent_slots = (4, 5, 6)
     blades = TRANSLATOR_BLADES
 
@@ -460,6 +559,7 @@ class Translator(VersorGroup):
 class Dilator(VersorGroup):
     """Uniform scaling about the origin (Eq 67–69, sign per module docstring); tangent ``[β]``, scale e^β."""
 
+    __slots__ = ()
     tangent_slots = (3,)
     blades = DILATOR_BLADES
 
@@ -467,13 +567,25 @@ class Dilator(VersorGroup):
 class Motor(VersorGroup):
     """Rigid motions V_T V_R (Eq 70–73); tangent ``[θ12, θ13, θ23, t1, t2, t3]``."""
 
+    __slots__ = ()
     tangent_slots = (0, 1, 2, 4, 5, 6)
     blades = MOTOR_BLADES
 
 
 class Similarity(VersorGroup):
-    """Direct similarities V_T V_R V_D (Eq 74–77); tangent ``[θ12, θ13, θ23, β, t1, t2, t3]``."""
+    """Direct similarities V_T V_R V_D (Eq 74–77); tangent ``[θ12, θ13, θ23, β, t1, t2, t3]``.
 
+    The currency of coop_ga: a cooperative pose V_Sc(q), a controller target V_Sd and
+    :func:`coop_ga.control.displaced_target` are Similarities.  ``coeffs`` are the 12
+    coefficients on :data:`SIMILARITY_BLADES`; :meth:`coerce` is the one conversion every
+    public function applies to a similarity argument.
+
+    Constructors: :meth:`exp` (tangent 7-vector), :meth:`from_coeffs`, :meth:`from_parts`
+    (translation, axis–angle, scale), :meth:`between` (two primitives, §3.3), :meth:`from_unit`
+    (Eq 28), :meth:`coerce` (any accepted form).
+    """
+
+    __slots__ = ()
     tangent_slots = (0, 1, 2, 3, 4, 5, 6)
     blades = SIMILARITY_BLADES
 
@@ -481,6 +593,129 @@ class Similarity(VersorGroup):
         """``(V_T, V_R, V_D)`` with ``self = V_T V_R V_D`` up to a positive scale."""
         VT, VR, VD = decompose(self.versor)
         return Translator(VT, check=False), Rotor(VR, check=False), Dilator(VD, check=False)
+
+    @property
+    def translation(self) -> np.ndarray:
+        """t (3,) [m] of ``self = V_T(t) V_R V_D``."""
+        return _parts(self)[0]
+
+    @property
+    def rotation_matrix(self) -> np.ndarray:
+        """3×3 rotation matrix of V_R."""
+        return _parts(self)[1]
+
+    @property
+    def scale(self) -> float:
+        """Scale factor e^β of V_D (dimensionless)."""
+        return _parts(self)[2]
+
+    @classmethod
+    def from_parts(cls, translation: Any = (0.0, 0.0, 0.0), axis: Any = (0.0, 0.0, 1.0), angle: float = 0.0,
+                   scale: float = 1.0) -> Similarity:
+        """``T(translation) · R(axis, angle) · D(log scale)``: scale about the origin, rotate by
+        ``angle`` [rad] right-handed about ``axis`` (3,), then translate by ``translation`` (3,) [m]."""
+        t = _finite_vector(translation, 3, "translation")
+        ax = _finite_vector(axis, 3, "axis")
+        nrm = float(np.linalg.norm(ax))
+        if not nrm > 0:
+            raise InvalidInputError("axis must be a non-zero 3-vector")
+        ax = ax / nrm
+        angle = _finite_scalar(angle, "angle")
+        scale = _finite_scalar(scale, "scale")
+        if not scale > 0:
+            raise InvalidInputError(f"scale must be > 0, got {scale}")
+        # rotation by +angle about ax: θ12 = ax_z, θ13 = −ax_y, θ23 = ax_x (TANGENT_BASIS convention)
+        R = cls.exp([angle * ax[2], -angle * ax[1], angle * ax[0], 0.0, 0.0, 0.0, 0.0])
+        return cls.exp([0.0, 0.0, 0.0, 0.0, *t]) @ R @ cls.exp([0.0, 0.0, 0.0, float(np.log(scale)), 0.0, 0.0, 0.0])  # type: ignore[return-value]
+
+    @classmethod
+    def between(cls, X_from: Multivector, X_to: Multivector) -> Similarity:
+        """The similarity with ``X_to ∝ V X_from Ṽ`` (§3.3, Eq 20; :func:`coop_ga.similarity`)."""
+        from .similarity import similarity
+
+        return cls(similarity(X_from, X_to))
+
+    @classmethod
+    def from_unit(cls, X: Multivector) -> Similarity:
+        """V_S(X_u, X), mapping the unit primitive of X's kind onto X (Eq 28)."""
+        from .similarity import similarity_from_unit
+
+        return cls(similarity_from_unit(X))
+
+    @classmethod
+    def coerce(cls, value: Any, what: str = "target") -> Similarity:
+        """The one conversion of a similarity argument (targets, poses): returns a :class:`Similarity`.
+
+        Accepted: a :class:`Similarity` (returned as is), any other versor group element
+        (:meth:`~VersorGroup.as_similarity`), or a numeric similarity-versor
+        :class:`~coop_ga.Multivector` (validated and normalised).  Everything else raises
+        :class:`~coop_ga.InvalidInputError` naming ``what``, what was passed and what is
+        expected — a :class:`~coop_ga.Primitive`, a tuple (e.g. the ``(V, X)`` pair older
+        versions of ``displaced_target`` returned), a raw array, a zero or non-versor
+        multivector, a symbolic one.
+        """
+        if type(value) is cls:
+            return value
+        if isinstance(value, Similarity):
+            return cls(value.versor, check=False)
+        if isinstance(value, VersorGroup):
+            return value.as_similarity()
+        from .primitives import Primitive
+
+        if isinstance(value, Primitive):
+            raise InvalidInputError(
+                f"{what} must be a coop_ga.Similarity, got a Primitive ({value.kind}); the similarity that maps "
+                f"the unit {value.kind} onto it is coop_ga.Similarity.from_unit(X)"
+            )
+        if isinstance(value, Multivector):
+            if value.is_symbolic:
+                raise InvalidInputError(f"{what} must be a numeric similarity, got a symbolic (CasADi) Multivector")
+            try:
+                return cls(value)
+            except InvalidInputError as exc:
+                raise type(exc)(f"{what} is not a similarity versor: {exc}") from None
+        if isinstance(value, tuple):
+            raise InvalidInputError(
+                f"{what} must be a coop_ga.Similarity, got a tuple of length {len(value)}; displaced_target() "
+                "returns a Similarity (its primitive is target.apply(task.unit))"
+            )
+        if isinstance(value, (np.ndarray, list)):
+            raise InvalidInputError(
+                f"{what} must be a coop_ga.Similarity, got a {type(value).__name__} of shape {np.shape(value)}; "
+                "12 versor coefficients convert with coop_ga.Similarity.from_coeffs(v), a tangent 7-vector "
+                "with coop_ga.Similarity.exp(b)"
+            )
+        raise InvalidInputError(f"{what} must be a coop_ga.Similarity, got {type(value).__name__}")
+
+
+def _parts(S: Similarity) -> tuple[np.ndarray, np.ndarray, float]:
+    R, beta, t = _decompose_coeffs(S.versor)
+    return (np.array([float(x) for x in t]), np.array(rotor_matrix(tuple(float(x) for x in R)), dtype=float),
+            float(np.exp(float(beta))))
+
+
+def _finite_vector(x: Any, n: int, what: str) -> np.ndarray:
+    try:
+        a = np.asarray(x, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{what} must be {n} real numbers, got {x!r}") from None
+    if a.shape != (n,):
+        raise InvalidInputError(f"{what} must have {n} entries, got shape {np.shape(x)}")
+    if not np.all(np.isfinite(a)):
+        raise NonFiniteError(f"{what} contains NaN or inf: {a.tolist()}")
+    return a
+
+
+def _finite_scalar(x: Any, what: str) -> float:
+    if isinstance(x, (bool, np.bool_, str, bytes)) or not np.isscalar(x) and np.ndim(x) != 0:
+        raise InvalidInputError(f"{what} must be a real number, got {x!r}")
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{what} must be a real number, got {x!r}") from None
+    if not np.isfinite(v):
+        raise NonFiniteError(f"{what} must be finite, got {v}")
+    return v
 
 
 def _join(a: type, b: type) -> type:

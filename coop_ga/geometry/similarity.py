@@ -60,7 +60,15 @@ from .primitives import (
     radius,
 )
 
-__all__ = ["unit_primitive", "similarity", "similarity_from_unit", "primitive_parameters", "UNIT_AXIS", "rotor_between"]
+__all__ = [
+    "unit_primitive",
+    "similarity",
+    "similarity_from_unit",
+    "similarity_from_parameters",
+    "primitive_parameters",
+    "UNIT_AXIS",
+    "rotor_between",
+]
 
 #: The orientation axis of each unit primitive X_u (None: no orientation).
 UNIT_AXIS: dict[str, tuple[float, float, float] | None] = {
@@ -217,4 +225,18 @@ def similarity(X_from: Multivector, X_to: Multivector) -> Multivector:
     return _similarity_from_params(
         k1, _tuple3(c1), r1, None if o1 is None else _tuple3(o1), _tuple3(c2), r2, None if o2 is None else _tuple3(o2)
     )
+
+
+def similarity_from_parameters(kind: str, c: Any, r: Any, o: Any) -> Multivector:
+    """V_S(X_u, X) from the read-outs ``(c, r, o)`` of X (module table) instead of X itself.
+
+    The same versor as :func:`similarity_from_unit` for a primitive with center (or closest
+    point) ``c`` (3,) [m], radius ``r`` (None where undefined) and axis ``o`` (3,, unit; None
+    where undefined).  Lets callers read the parameters where they are accurate — e.g. the
+    cooperative layer reads them from the primitive built about the end points' centroid and
+    shifts c back (:mod:`coop_ga.cooperative.graph`).  Numeric or CasADi.
+    """
+    kind = _check_kind(kind)
+    c1, r1, o1 = _unit_params(kind)
+    return _similarity_from_params(kind, c1, r1, o1, _tuple3(c), r, None if o is None else _tuple3(o))
 

@@ -1,21 +1,18 @@
-"""Registered multi-chain systems: ``coop_ga.systems.load(name)``, ``from_urdf(...)``.
+"""Layer 4: multi-chain robot systems — ``coop_ga.systems.load(name)``, ``from_urdf(...)``.
 
-Run ``python -m coop_ga.systems`` to list them with their DOF and end points.
+* :mod:`~coop_ga.systems.system`: :class:`System` (a Pinocchio model, its end frames, q0 and
+  limits), :func:`from_urdf`, :func:`from_model`, :func:`append_robots`, :func:`prefixed`;
+* :mod:`~coop_ga.systems.registry`: :func:`register`, :func:`names`, :func:`load`;
+* :mod:`~coop_ga.systems.library`: the paper's systems (registered on import);
+* ``robots/``: the URDFs coop_ga ships (package data, :data:`ROBOTS_DIR`).
+
+Run ``python -m coop_ga.systems`` to list the registered systems with their DOF and end points.
 """
 
 from __future__ import annotations
 
-from ..kinematics import library as _library  # noqa: F401  (registers the systems)
-from ..kinematics.systems import (
-    ROBOTS_DIR,
-    System,
-    append_robots,
-    from_model,
-    from_urdf,
-    load,
-    names,
-    prefixed,
-    register,
-)
+from . import library as _library  # noqa: F401  (registers the paper's systems)
+from .registry import load, names, register
+from .system import ROBOTS_DIR, System, append_robots, from_model, from_urdf, prefixed
 
 __all__ = ["System", "load", "names", "register", "from_urdf", "from_model", "append_robots", "prefixed", "ROBOTS_DIR"]

@@ -43,10 +43,10 @@ def test_reach_converges(franka):
     Vd = t.similarity(s.q0 + rng.uniform(-0.2, 0.2, s.nq))
     q0 = s.q0 + rng.uniform(-0.2, 0.2, s.nq)
     r = diff_ik_reach(t, q0, Vd, gain=10.0, dt=0.01, steps=500, tol=1e-6)
-    assert r.converged and r.final_error < 1e-6
-    assert r.steps < 200
-    assert r.q_traj.shape == (r.steps + 1, s.nq) and r.errors.shape == (r.steps + 1,)
-    assert np.linalg.norm(t.error(r.q, Vd)) == pytest.approx(r.final_error)
+    assert r.converged and r.error < 1e-6
+    assert r.iterations < 200
+    assert r.trajectory.shape == (r.iterations + 1, s.nq) and r.errors.shape == (r.iterations + 1,)
+    assert np.linalg.norm(t.error(r.q, Vd)) == pytest.approx(r.error)
     # geometric decay (1 − gain Δt)^k on the controllable part
     assert r.errors[10] < 0.5 * r.errors[0]
     assert np.all(np.diff(r.errors) <= 1e-12)
@@ -56,7 +56,7 @@ def test_reach_reports_failure(franka):
     s, t = franka
     Vd = t.similarity(s.q0) * cg.exp([0, 0, 0, np.log(20.0), 0, 0, 0])  # 20× larger circle
     r = diff_ik_reach(t, s.q0, Vd, gain=5.0, steps=50)
-    assert not r.converged and np.isfinite(r.final_error) and r.final_error > 0.1
+    assert not r.converged and np.isfinite(r.error) and r.error > 0.1
 
 
 def test_clamp_limits(franka):

@@ -103,7 +103,9 @@ def test_bad_input():
         gauss_newton_ik(t, s.q0[:3], t.similarity(s.q0))
     with pytest.raises(cg.InvalidInputError):
         gauss_newton_ik(t, s.q0, np.zeros(5))
+    with pytest.raises(cg.InvalidInputError, match="Similarity.from_coeffs"):
+        gauss_newton_ik(t, s.q0, np.full(12, np.nan))  # raw coefficients are not a Similarity
     with pytest.raises(cg.NonFiniteError):
-        gauss_newton_ik(t, s.q0, np.full(12, np.nan))
+        cg.Similarity.from_coeffs(np.full(12, np.nan))
     with pytest.raises(cg.InvalidInputError):
         gauss_newton_ik(t, s.q0, t.similarity(s.q0), max_iter=-1)

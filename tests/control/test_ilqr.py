@@ -17,9 +17,7 @@ from coop_ga.control.ilqr import (
     _gramian,
     displaced_target,
     ilqr_reach,
-    second_order_function,
 )
-from coop_ga.cooperative import versor_coeffs
 from coop_ga.errors import InvalidInputError, JointLimitWarning, NonFiniteError
 
 # (system, kind, end-point order, displacement of the primitive at q0)
@@ -41,7 +39,7 @@ def _setup(name: str):
     s = cg.systems.load(sysname)
     task = cg.cooperative_task(s, kind, points=pts)
     q0 = np.array(s.q0)
-    Vd, Xd = displaced_target(task, q0, **disp)
+    Vd = displaced_target(task, q0, **disp)
     return task, q0, Vd
 
 
@@ -64,17 +62,17 @@ def test_reaching_converges(name):
     assert e0 > 0.2  # a real reaching problem
     res = ilqr_reach(task, q0, Vd)
     assert res.converged, res.message
-    assert res.terminal_error < 1e-4
-    assert res.terminal_error < 1e-5  # default tol
+    assert res.error < 1e-4
+    assert res.error < 1e-5  # default tol
     assert 1 <= res.iterations <= 10
     assert res.iterations == len(res.stats) == len(res.cost_history) - 1
     # reported error is the true error of the re-integrated terminal configuration
-    assert res.terminal_error == pytest.approx(np.linalg.norm(task.error(res.q[-1], Vd)), abs=1e-12)
-    np.testing.assert_allclose(res.terminal_error_vector, task.error(res.q[-1], Vd), atol=1e-12)
+    assert res.error == pytest.approx(np.linalg.norm(task.error(res.q, Vd)), abs=1e-12)
+    np.testing.assert_allclose(res.error_vector, task.error(res.q, Vd), atol=1e-12)
     assert res.terminal_speed < 1e-2  # arrives (nearly) at rest
     assert res.within_limits
     assert res.solve_time_s < 5.0  # generous; see benchmarks/ocp.py for the real numbers
-    assert res.q.shape == (251, task.nq) and res.u.shape == (250, task.nq)
+    assert res.trajectory.shape == (251, task.nq) and res.q.shape == (task.nq,) and res.u.shape == (250, task.nq)
     assert res.t[-1] == pytest.approx(2.5)
 
 
@@ -82,7 +80,7 @@ def test_cost_decreases_monotonically(franka_result):
     c = franka_result.cost_history
     assert np.all(np.diff(c) < 0), c
     assert all(st.actual_decrease > 0 for st in franka_result.stats)
-    assert franka_result.terminal_error_history[-1] < 1e-3 * franka_result.terminal_error_history[0]
+    assert franka_result.error_history[-1] < 1e-3 * franka_result.error_history[0]
 
 
 def test_gauss_newton_model_also_descends(franka):
@@ -90,14 +88,14 @@ def test_gauss_newton_model_also_descends(franka):
     res = ilqr_reach(task, q0, Vd, hessian="gauss_newton", max_iter=4, tol=0.0)
     assert res.hessian == "gauss_newton" and all(st.model == "gauss_newton" for st in res.stats)
     assert np.all(np.diff(res.cost_history) < 0)
-    assert res.terminal_error < 0.05 * res.terminal_error_history[0]
+    assert res.error < 0.05 * res.error_history[0]
 
 
 def test_condensed_backward_gives_the_same_solution(franka, franka_result):
     task, q0, Vd = franka
     res = ilqr_reach(task, q0, Vd, backward="condensed")
     assert res.converged and res.iterations <= 10
-    np.testing.assert_allclose(res.q[-1], franka_result.q[-1], atol=1e-4)
+    np.testing.assert_allclose(res.q, franka_result.q, atol=1e-4)
 
 
 # ----------------------------------------------------------------------------- dynamics, costs
@@ -105,15 +103,15 @@ def test_dynamics_consistency(franka, franka_result):
     task, q0, Vd = franka
     r = franka_result
     dt = r.dt
-    np.testing.assert_allclose(r.q[0], q0)
+    np.testing.assert_allclose(r.trajectory[0], q0)
     np.testing.assert_allclose(r.qd[0], 0.0)
-    np.testing.assert_allclose(r.q[1:], r.q[:-1] + dt * r.qd[:-1] + 0.5 * dt * dt * r.u, atol=1e-12)
+    np.testing.assert_allclose(r.trajectory[1:], r.trajectory[:-1] + dt * r.qd[:-1] + 0.5 * dt * dt * r.u, atol=1e-12)
     np.testing.assert_allclose(r.qd[1:], r.qd[:-1] + dt * r.u, atol=1e-12)
     ocp = ReachingOCP(task, q0, Vd)
-    x = np.hstack([r.q, r.qd])
+    x = np.hstack([r.trajectory, r.qd])
     np.testing.assert_allclose(x[1:], x[:-1] @ ocp.A.T + r.u @ ocp.B.T, atol=1e-12)
     # the reported cost is Eq 56 + Eq 57 + rest term, recomputed independently
-    e = task.error(r.q[-1], Vd)
+    e = task.error(r.q, Vd)
     J = 1e-3 * np.sum(r.u ** 2) + 1e5 * e @ e + 1e2 * r.qd[-1] @ r.qd[-1]
     assert r.cost == pytest.approx(J, rel=1e-10)
     assert ocp.cost(r.u) == pytest.approx(J, rel=1e-10)
@@ -167,11 +165,10 @@ def test_riccati_step_equals_condensed_gauss_newton_step(franka):
 
 def test_second_order_term_matches_finite_differences(franka):
     task, q0, Vd = franka
-    f = second_order_function(task)
-    vd = versor_coeffs(Vd)
+    vd = Vd
     q = q0 + 0.05 * np.random.default_rng(2).standard_normal(task.nq)
     w = np.arange(1.0, 8.0)
-    H = np.asarray(f(q, vd, w))
+    H = task.error_hessian(q, Vd, w)
     h = 1e-6
     fd = np.zeros_like(H)
     for i in range(task.nq):
@@ -184,10 +181,12 @@ def test_second_order_term_matches_finite_differences(franka):
 
 def test_displaced_target_identity_and_parameters(franka):
     task, q0, _ = franka
-    V0, _ = displaced_target(task, q0)
+    V0 = displaced_target(task, q0)
+    assert isinstance(V0, cg.Similarity)
     assert np.linalg.norm(task.error(q0, V0)) < 1e-12
-    Vd, Xd = displaced_target(task, q0, translation=(0.1, -0.05, 0.1), axis=(1, 0, 0), angle=np.deg2rad(25),
-                              scale=1.25)
+    Vd = displaced_target(task, q0, translation=(0.1, -0.05, 0.1), axis=(1, 0, 0), angle=np.deg2rad(25),
+                          scale=1.25)
+    Xd = Vd.apply(task.unit)
     X0 = task.primitive(q0)
     np.testing.assert_allclose(np.asarray(cg.center(Xd), float),
                                np.asarray(cg.center(X0), float) + [0.1, -0.05, 0.1], atol=1e-12)
@@ -195,7 +194,7 @@ def test_displaced_target_identity_and_parameters(franka):
     n = np.asarray(cg.normal(Xd), float)
     assert np.degrees(np.arccos(n @ np.asarray(cg.normal(X0), float))) == pytest.approx(25.0)
     # the canonical versor maps the unit circle onto the target circle
-    np.testing.assert_allclose(versor_coeffs(Vd), versor_coeffs(cg.similarity_from_unit(Xd)), atol=1e-12)
+    np.testing.assert_allclose(Vd.coeffs, cg.Similarity.from_unit(Xd).coeffs, atol=1e-12)
 
 
 # ----------------------------------------------------------------------------- honesty
@@ -203,13 +202,13 @@ def test_non_convergence_is_reported(franka):
     task, q0, Vd = franka
     res = ilqr_reach(task, q0, Vd, max_iter=1)
     assert res.iterations == 1 and not res.converged
-    assert res.terminal_error > 1e-5 and "max_iter" in res.message
+    assert res.error > 1e-5 and "max_iter" in res.message
     # an unreachable target (a circle of radius 5 m): never reported as converged
-    Vfar, _ = displaced_target(task, q0, scale=10.0)
+    Vfar = displaced_target(task, q0, scale=10.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         far = ilqr_reach(task, q0, Vfar, max_iter=10)
-    assert not far.converged and far.terminal_error > 0.1
+    assert not far.converged and far.error > 0.1
     assert np.all(np.diff(far.cost_history) < 0)
 
 
@@ -219,7 +218,7 @@ def test_zero_iterations_and_already_at_target(franka):
     assert r0.iterations == 0 and not r0.converged and np.all(r0.u == 0)
     V0 = task.similarity(q0)
     r1 = ilqr_reach(task, q0, V0)
-    assert r1.converged and r1.iterations == 0 and r1.terminal_error < 1e-12
+    assert r1.converged and r1.iterations == 0 and r1.error < 1e-12
 
 
 def test_joint_limits_are_reported_not_clipped(franka):
@@ -230,7 +229,7 @@ def test_joint_limits_are_reported_not_clipped(franka):
     with pytest.warns(JointLimitWarning):
         res = ilqr_reach(task, q, Vd)
     assert res.joint_limit_violation >= 0.05 - 1e-12 and not res.within_limits
-    assert res.q[0, 3] == q[3]  # nothing clipped
+    assert res.trajectory[0, 3] == q[3]  # nothing clipped
 
 
 # ----------------------------------------------------------------------------- errors
@@ -238,9 +237,11 @@ def test_bad_inputs_raise(franka):
     task, q0, Vd = franka
     with pytest.raises(InvalidInputError, match="21 entries"):
         ilqr_reach(task, q0[:-1], Vd)
-    bad = versor_coeffs(Vd).copy()
+    bad = Vd.coeffs.copy()
     bad[3] = np.nan
     with pytest.raises(NonFiniteError):
+        ilqr_reach(task, q0, cg.Similarity.from_coeffs(bad))
+    with pytest.raises(InvalidInputError, match="Similarity"):
         ilqr_reach(task, q0, bad)
     qn = q0.copy()
     qn[0] = np.inf

@@ -117,7 +117,7 @@ def iiwa_runs():
     starts = [q0 + rng.uniform(-0.1, 0.1, s.nq) for _ in range(10)]
     out = {}
     for label, (K, D) in {"paper": PAPER_GAINS, "stiff": (25.0 * np.eye(7), 10.0 * np.eye(7))}.items():
-        out[label] = [simulate_impedance(t, qi, Vd, K, D, duration=4.0, dt=1e-3) for qi in starts]
+        out[label] = [simulate_impedance(t, qi, Vd, K=K, D=D, duration=4.0, dt=1e-3) for qi in starts]
     return out
 
 
@@ -143,17 +143,17 @@ def test_impedance_bad_input():
     s = cg.systems.load("three_franka")
     t = cg.cooperative_task(s, "circle")
     with pytest.raises(cg.InvalidInputError):
-        simulate_impedance(t, s.q0, t.similarity(s.q0), np.eye(6), 1.0, duration=0.01)
+        simulate_impedance(t, s.q0, t.similarity(s.q0), K=np.eye(6), D=1.0, duration=0.01)
     with pytest.raises(cg.InvalidInputError):
-        simulate_impedance(t, s.q0, t.similarity(s.q0), 1.0, 1.0, dt=0.0)
+        simulate_impedance(t, s.q0, t.similarity(s.q0), K=1.0, D=1.0, dt=0.0)
     with pytest.raises(cg.InvalidInputError):
-        simulate_impedance(t, s.q0, t.similarity(s.q0), 1.0, 1.0, duration=0.01, nullspace="none")
+        simulate_impedance(t, s.q0, t.similarity(s.q0), K=1.0, D=1.0, duration=0.01, nullspace="none")
 
 
 def test_impedance_holds_still_at_target():
     """At the target with zero velocity the (gravity-compensated) robot does not move."""
     s = cg.systems.load("three_franka")
     t = cg.cooperative_task(s, "circle")
-    r = simulate_impedance(t, s.q0, t.similarity(s.q0), PAPER_GAINS[0], PAPER_GAINS[1], duration=0.2)
+    r = simulate_impedance(t, s.q0, t.similarity(s.q0), K=PAPER_GAINS[0], D=PAPER_GAINS[1], duration=0.2)
     assert r.error_norm.max() < 1e-9
-    assert np.abs(r.q[-1] - s.q0).max() < 1e-9
+    assert np.abs(r.q - s.q0).max() < 1e-9 and np.abs(r.trajectory[-1] - s.q0).max() < 1e-9

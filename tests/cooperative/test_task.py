@@ -120,7 +120,7 @@ def test_degeneracy_raises_on_every_route(kind, move, cartesian4) -> None:
         task.log,
         task.jacobian,
         task.evaluate,
-        task.jacobian_analytic,
+        task.jacobian_closed_form,
         task.jacobian_ad,
         task.similarity_numpy,
         lambda q: task.error(q, cg.exp(np.zeros(7))),

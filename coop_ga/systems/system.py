@@ -9,28 +9,25 @@ A :class:`System` bundles
 * ``q0``, ``q_lower``, ``q_upper``, ``joint_names`` — a nominal configuration and limits;
 * ``tree`` — the :class:`~coop_ga.kinematics.chains.KinematicTree` (motor FK, Jacobians).
 
-Systems are registered by name; ``load(name)`` builds (and caches) one.  Any URDF that
-Pinocchio loads becomes a system with :func:`from_urdf`.
+Systems are registered by name in :mod:`coop_ga.systems.registry`; ``load(name)`` builds
+(and caches) one.  Any URDF that Pinocchio loads becomes a system with :func:`from_urdf`.
 """
 
 from __future__ import annotations
 
 import warnings
+from importlib import resources
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
 from ..errors import InvalidInputError, JointLimitWarning, NonFiniteError, UnknownNameError
-from .chains import KinematicTree
+from ..kinematics.chains import KinematicTree
 
 __all__ = [
     "System",
-    "load",
-    "names",
-    "register",
     "from_urdf",
     "from_model",
     "append_robots",
@@ -38,8 +35,9 @@ __all__ = [
     "ROBOTS_DIR",
 ]
 
-#: Directory of the URDFs coop_ga ships (iiwa14, hexapod).
-ROBOTS_DIR = Path(__file__).resolve().parents[2] / "robots"
+#: Directory of the URDFs coop_ga ships (iiwa14, hexapod): package data of ``coop_ga.systems``,
+#: located with :mod:`importlib.resources`, so it exists in a wheel install as in a checkout.
+ROBOTS_DIR = Path(str(resources.files("coop_ga.systems") / "robots"))
 
 
 @dataclass
@@ -160,40 +158,6 @@ class System:
 
     def __repr__(self) -> str:
         return f"System({self.name!r}, nq={self.nq}, end_frames={list(self.end_frames)})"
-
-
-# ====================================================================== registry
-_REGISTRY: dict[str, tuple[Callable[[], System], str]] = {}
-
-
-def register(name: str, description: str = "") -> Callable[[Callable[[], System]], Callable[[], System]]:
-    """Decorator registering a zero-argument system builder under ``name``."""
-
-    def deco(fn: Callable[[], System]) -> Callable[[], System]:
-        _REGISTRY[name] = (fn, description)
-        return fn
-
-    return deco
-
-
-def names() -> list[str]:
-    """Registered system names."""
-    return list(_REGISTRY)
-
-
-@lru_cache(maxsize=None)
-def _build(name: str) -> System:
-    return _REGISTRY[name][0]()
-
-
-def load(name: str) -> System:
-    """Build a registered system (cached per process).
-
-    Raises :class:`UnknownNameError` listing the available names.
-    """
-    if name not in _REGISTRY:
-        raise UnknownNameError(f"unknown system '{name}'. Available systems: {', '.join(names())}")
-    return _build(name)
 
 
 # ====================================================================== model tools

@@ -20,7 +20,7 @@ from coop_ga.errors import (
     UnsupportedJointError,
 )
 from coop_ga.kinematics import KinematicTree
-from coop_ga.kinematics.library import IIWA_Q0
+from coop_ga.systems.library import IIWA_Q0
 from coop_ga.systems import ROBOTS_DIR
 
 IIWA_URDF = ROBOTS_DIR / "iiwa14" / "iiwa14.urdf"

@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .systems import ROBOTS_DIR, System, append_robots, prefixed, register
+from .registry import register
+from .system import ROBOTS_DIR, System, append_robots, prefixed
 
 __all__: list[str] = ["IIWA_Q0", "G1_PELVIS_HEIGHT", "g1_model"]
 

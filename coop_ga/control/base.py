@@ -1,0 +1,85 @@
+"""What every controller shares: the result base class, options handling and input checks.
+
+Every solver of :mod:`coop_ga.control` is called as
+``solver(task, q_init, target, options=None, **overrides)``: problem data are arguments,
+settings live in one frozen options dataclass per solver (``GaussNewtonOptions``,
+``DiffIKOptions``, ``ILQROptions``, ``ImpedanceOptions``, ``NullspaceOptions``) whose
+``__post_init__`` validates every field; keyword ``overrides`` replace fields of
+``options`` (``gauss_newton_ik(task, q, V, max_iter=20)``) and unknown names are refused.
+
+Names mean one thing everywhere:
+
+* ``damping`` is λ of a damped least-squares inverse, ``Jᵀ(J Jᵀ + λ² I)⁻¹`` or
+  ``(JᵀJ + λ² I)⁻¹Jᵀ`` — never λ², never an eigenvalue cut-off (that is ``rcond``);
+* ``tol`` is the threshold on the task error ‖e‖ (7-vector norm) below which a result
+  is ``converged``;
+* ``q`` of a result is the final configuration (nq,); ``trajectory`` is (T, nq) where
+  the solver produces one;
+* ``error`` is the final ‖e‖; ``iterations`` the number of steps/iterations taken;
+  ``message`` says why the solver stopped; ``warnings`` counts each warning condition
+  that occurred during the call (each is emitted once, see :mod:`coop_ga.diagnostics`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
+
+import numpy as np
+
+from .. import validation
+from ..errors import InvalidInputError
+
+__all__ = ["SolverResult", "resolve_options"]
+
+O = TypeVar("O")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SolverResult:
+    """Fields every controller result has (module docstring).
+
+    Attributes
+    ----------
+    converged: True iff the final error is below the solver's ``tol`` (and, for solvers
+        with limits, the limits hold).
+    error: final ‖e‖, e the 7-vector task error (mixed units: rad, log-scale, body length).
+    iterations: iterations or steps taken.
+    message: why the solver stopped.
+    q: (nq,) final configuration [rad or m].
+    warnings: ``{condition: count}`` of the warnings that occurred during the call.
+    """
+
+    converged: bool
+    error: float
+    iterations: int
+    message: str
+    q: np.ndarray
+    warnings: dict[str, int] = field(default_factory=dict)
+
+
+def resolve_options(cls: type[O], options: O | None, overrides: dict[str, Any], solver: str) -> O:
+    """``options`` (default ``cls()``) with ``overrides`` applied; unknown names raise."""
+    if options is None:
+        options = cls()
+    elif not isinstance(options, cls):
+        raise InvalidInputError(f"{solver}: options must be a {cls.__name__}, got {type(options).__name__}")
+    if overrides:
+        names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+        unknown = sorted(set(overrides) - names)
+        if unknown:
+            raise InvalidInputError(f"{solver}: unknown option(s) {unknown}; {cls.__name__} has {sorted(names)}")
+        options = dataclasses.replace(options, **overrides)  # type: ignore[type-var]
+    return options
+
+
+def check_q(task: Any, q: Any, what: str = "q") -> np.ndarray:
+    """A configuration of ``task`` (nq,) as a new float array (:func:`coop_ga.validation.configuration`)."""
+    return validation.configuration(q, task.nq, what, owner=f"task '{task.name}'")
+
+
+def bounds(task: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Joint position limits ``(lower, upper)`` (nq,) of the task's system [rad or m]."""
+    m = task.system.model
+    return np.asarray(m.lowerPositionLimit, float), np.asarray(m.upperPositionLimit, float)

@@ -1,0 +1,259 @@
+"""The one symbolic graph of a cooperative task: end points → X_c → V_Sc → B_Sc, e = log(Ṽ_Sc V_d), derivatives.
+
+Everything symbolic about a cooperative task is built here, once, and every consumer
+uses it: :class:`~coop_ga.cooperative.CooperativeTask` (evaluation, IK error, J̇q̇, batch),
+the iLQR's second-order terms (:meth:`TaskGraph.error_hessian_function`) and the OCP
+benchmark (:meth:`TaskGraph.error_expression`).  Controllers never build graphs.
+
+Structure (why it is fast)
+--------------------------
+The graph follows the structure of the problem instead of differentiating end to end:
+
+1. joint angles → end points ``p_i(q)`` and their world Jacobians ``∂p_i/∂q`` from the
+   motor kinematics (Eq 7, 16–17), sparse multivector code on CasADi SX;
+2. a *small* function of the 3n point coordinates only (:attr:`TaskGraph.pose_function`):
+   ``p → X_c = ∧P(p_i) (Eq 14) → V_Sc = V_S(X_u, X_c) (Eq 28) → B_Sc = log V_Sc`` and, by
+   CasADi AD of this small graph, ``G(p) = −2 Ṽ ∂V/∂p`` (7 × 3n, body frame);
+3. ``J^G = G(p) · ∂p/∂q`` (Eq 30 by the chain rule); each point depends on its own chain.
+
+The error ``e = log(W)``, ``W = Ṽ_Sc V_d`` (Eq 44), and ``J_e = J_log(W) · K(W) · J^G``
+(Eq 47, ``K(W) b = ½ b W``) reuse the same pieces; second derivatives
+``∇²_q (wᵀe)`` use ``J_pᵀ ∇²_p(wᵀE) J_p + ∇²_q(gᵀp)`` (see :meth:`error_hessian_function`).
+
+Local origin
+------------
+CGA stores a point x as ``e0 + x + ½|x|² e∞``, so a primitive of size r at distance ρ from
+the origin loses relative precision like ε(ρ/r)².  The cooperative primitive is therefore
+built from the end points *relative to their centroid* p̄, its centre/radius/axis are read
+there, and the centre is shifted back (``c = c' + p̄``; for lines and planes the closest
+point to the world origin is recomputed from a point on the flat), then V_Sc is assembled
+with :func:`~coop_ga.geometry.similarity.similarity_from_parameters`.  The result is the
+same versor as ``similarity_from_unit(X_c)`` (tests compare them), exact to ~1e-15 relative
+wherever the points are, instead of wrong far from the origin.
+
+Guards
+------
+Every entry point also returns ``checks = [ok, w, n2, c2]``: the well-definedness ``w`` of
+the end points (:func:`coop_ga.well_definedness`), ``n2`` = the squared norm of all inputs
+(NaN/inf/overflow detection), ``c2 = cos²(θ/2)`` of the rotation of V_Sc (θ → π is the
+chart's half-turn), and ``ok`` = w if everything is fine, else −1, so the hot path tests a
+single number and :class:`~coop_ga.cooperative.guard.TaskGuard` diagnoses the rest.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cached_property
+from typing import Any
+
+import casadi as ca
+
+from ..algebra.multivector import Multivector
+from ..geometry.groups import SIMILARITY_BLADES, bivector_to_tangent, tangent_to_bivector
+from ..geometry.groups import log as sim_log
+from ..geometry.primitives import N_POINTS, well_definedness
+from ..geometry.primitives import point as conformal_point
+from ..geometry.similarity import primitive_parameters, similarity_from_parameters, similarity_from_unit
+from ..kinematics.chains import KinematicTree
+from .primitive import cooperative_primitive
+
+__all__ = ["CHART_WARN_ANGLE", "NB", "TaskGraph", "versor_expr"]
+
+NB = len(SIMILARITY_BLADES)
+
+#: rotation angle of V_Sc [rad] beyond which the chart guard reports (170°)
+CHART_WARN_ANGLE = math.radians(170.0)
+_COS2_WARN = math.cos(0.5 * CHART_WARN_ANGLE) ** 2  # cos²(θ/2) at the threshold
+
+
+def versor_expr(v: Any) -> Multivector:
+    """Similarity versor (Multivector) from 12 coefficients (SX column or sequence) on SIMILARITY_BLADES."""
+    return Multivector(SIMILARITY_BLADES, tuple(v[i] for i in range(NB)))
+
+
+def _coeffs_expr(V: Multivector) -> ca.SX:
+    return ca.vertcat(*[V.get(k) for k in SIMILARITY_BLADES])
+
+
+def _body_columns(V: Multivector, dV: ca.SX) -> ca.SX:
+    """``−2 Ṽ ∂V`` per column of dV (12 × m) as tangent 7-vectors (7 × m)."""
+    Vr = V.reverse()
+    cols = [ca.vertcat(*bivector_to_tangent((Vr * versor_expr(dV[:, c])).grade(2).scale(-2.0)))
+            for c in range(dV.shape[1])]
+    return ca.horzcat(*cols)
+
+
+class TaskGraph:
+    """Symbolic graph of the cooperative task ``kind`` on the end frames of ``tree``.
+
+    Parameters
+    ----------
+    tree: the :class:`~coop_ga.kinematics.KinematicTree` of the task's end frames (in order).
+    kind: primitive kind (``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``).
+    name: used to name the CasADi functions (and the compiled libraries).
+    """
+
+    def __init__(self, tree: KinematicTree, kind: str, name: str):
+        self.tree = tree
+        self.kind = kind
+        self.name = name
+        self.n_points = N_POINTS[kind]
+        self.nq = int(tree.model.nq)
+
+    # ================================================================== the small pose function of p
+    def pose_from_points(self, p: Any) -> tuple[Multivector, Any]:
+        """``(V_Sc, w)`` for point coordinates p (3n SX or list), built about the centroid (module docstring)."""
+        n = self.n_points
+        pts = [tuple(p[3 * i + j] for j in range(3)) for i in range(n)]
+        w = well_definedness(self.kind, pts) if n > 1 else ca.SX(1.0)
+        bar = tuple(sum(pt[j] for pt in pts) / n for j in range(3))
+        rel = [conformal_point([pt[j] - bar[j] for j in range(3)]) for pt in pts]
+        X_rel = cooperative_primitive(self.kind, rel)
+        kind, c_rel, r, o = primitive_parameters(X_rel)
+        a = [c_rel[j] + bar[j] for j in range(3)]  # a point of the primitive (its centre for round kinds)
+        if kind == "line":  # closest point to the world origin: remove the component along the direction
+            s = a[0] * o[0] + a[1] * o[1] + a[2] * o[2]
+            c = [a[j] - s * o[j] for j in range(3)]
+        elif kind == "plane":  # closest point to the world origin: the component along the normal
+            s = a[0] * o[0] + a[1] * o[1] + a[2] * o[2]
+            c = [s * o[j] for j in range(3)]
+        else:
+            c = a
+        return similarity_from_parameters(kind, c, r, o), w
+
+    @cached_property
+    def pose_function(self) -> ca.Function:
+        """``p (3n) → (V (12), B (7), G = −2 Ṽ ∂V/∂p (7 × 3n), w)``."""
+        p = ca.SX.sym("p", 3 * self.n_points)
+        V, w = self.pose_from_points(p)
+        Vv = _coeffs_expr(V)
+        G = _body_columns(V, ca.jacobian(Vv, p))
+        return ca.Function(f"pose_{self.kind}", [p], [Vv, sim_log(V), G, w], ["p"], ["V", "B", "G", "w"])
+
+    @cached_property
+    def error_small_function(self) -> ca.Function:
+        """``W (12) → (log W, J_log(W) · K(W))`` with ``K(W) b`` = the coefficients of ½ b W (7 × 7)."""
+        wv = ca.SX.sym("W", NB)
+        b = ca.SX.sym("b", 7)
+        W = versor_expr(wv)
+        e = sim_log(W)
+        bW = (tangent_to_bivector([b[i] for i in range(7)]) * W).with_blades(SIMILARITY_BLADES).scale(0.5)
+        K = ca.jacobian(_coeffs_expr(bW), b)
+        return ca.Function("err_small", [wv], [e, ca.mtimes(ca.jacobian(e, wv), K)])
+
+    # ================================================================== symbolic building blocks of q
+    def points(self, q: ca.SX) -> tuple[ca.SX, ca.SX]:
+        """``(p (3n), J_p (3n × nq))``: end points [m] and their world Jacobians (motor kinematics)."""
+        pts = self.tree.end_points(q)
+        Jp = self.tree.euclidean_point_jacobians(q)
+        return ca.vertcat(*[c for pt in pts for c in pt]), ca.vertcat(*Jp)
+
+    def evaluate(self, q: ca.SX) -> dict[str, ca.SX]:
+        """``versor`` (12), ``log`` (7), ``jacobian`` J^G (7 × nq), ``points`` (3n), ``well_definedness``."""
+        p, Jp = self.points(q)
+        V, B, G, w = self.pose_function(p)
+        return {"versor": V, "log": B, "jacobian": ca.mtimes(G, Jp), "points": p, "well_definedness": w}
+
+    def error(self, q: ca.SX, vd: ca.SX) -> dict[str, ca.SX]:
+        """:meth:`evaluate` plus ``e = log(Ṽ_Sc V_d)`` (7) and ``J_e`` (7 × nq), Eq 44/47."""
+        s = self.evaluate(q)
+        W = (versor_expr(s["versor"]).reverse() * versor_expr(vd)).with_blades(SIMILARITY_BLADES)
+        e, K = self.error_small_function(_coeffs_expr(W))
+        return {**s, "e": e, "Je": ca.mtimes(K, s["jacobian"])}
+
+    def error_expression(self, q: Any, vd: Any) -> Any:
+        """e(q) = log(Ṽ_Sc(q) V_d) as an expression of q (SX or MX, e.g. CasADi Opti variables)."""
+        return self.error_function(q, vd)[0]
+
+    @staticmethod
+    def checks(s: dict[str, ca.SX], *inputs: ca.SX) -> ca.SX:
+        """``[ok, w, n2, c2]`` (module docstring); ``inputs`` are all arguments of the entry point."""
+        n2 = sum((ca.dot(x, x) for x in inputs), ca.SX(0.0))
+        A = s["versor"]  # the rotor part of a unit V = T R D is cosh(β/2)·R on (1, e12, e13, e23)
+        a2 = A[0] * A[0] + A[1] * A[1] + A[2] * A[2] + A[3] * A[3]
+        c2 = A[0] * A[0] / a2
+        w = s["well_definedness"]
+        ok = ca.if_else(n2 < 1e300, ca.if_else(c2 > _COS2_WARN, w, -1.0), -1.0)
+        return ca.vertcat(ok, w, n2, c2)
+
+    # ================================================================== entry points (casadi.Function)
+    @cached_property
+    def evaluate_function(self) -> ca.Function:
+        """``q → (V (12), B (7), J (7 × nq), checks (4), points (3n))``."""
+        q = ca.SX.sym("q", self.nq)
+        s = self.evaluate(q)
+        return ca.Function(
+            f"coop_{self.name}", [q], [s["versor"], s["log"], ca.densify(s["jacobian"]), self.checks(s, q), s["points"]],
+            ["q"], ["V", "B", "J", "checks", "points"],
+        )
+
+    @cached_property
+    def error_function(self) -> ca.Function:
+        """``(q, V_d) → (e (7), J_e (7 × nq), checks (4), points (3n))``."""
+        q = ca.SX.sym("q", self.nq)
+        vd = ca.SX.sym("Vd", NB)
+        s = self.error(q, vd)
+        return ca.Function(
+            f"coop_err_{self.name}", [q, vd], [s["e"], ca.densify(s["Je"]), self.checks(s, q, vd), s["points"]],
+            ["q", "Vd"], ["e", "Je", "checks", "points"],
+        )
+
+    @cached_property
+    def jdot_function(self) -> ca.Function:
+        """``(q, q̇) → (J̇^G q̇ (7), checks (4), points (3n))`` by forward AD of J^G q̇ along q̇."""
+        q = ca.SX.sym("q", self.nq)
+        qd = ca.SX.sym("qd", self.nq)
+        s = self.evaluate(q)
+        Jqd = ca.mtimes(s["jacobian"], qd)
+        return ca.Function(
+            f"coop_jdot_{self.name}", [q, qd], [ca.densify(ca.jtimes(Jqd, q, qd)), self.checks(s, q, qd), s["points"]],
+            ["q", "qd"], ["Jdot_qd", "checks", "points"],
+        )
+
+    @cached_property
+    def error_hessian_function(self) -> ca.Function:
+        """``(q (nq), V_d (12), w (7)) → H (nq × nq) = ∇²_q (wᵀ e(q))``, w held constant.
+
+        Built with the structure of the task (differentiating the whole graph twice
+        generates ~10⁵ instructions and takes minutes to compile): with the end points
+        ``p(q)`` (3n) and ``E(p) = e``,
+
+            ∇²_q (wᵀe) = J_pᵀ ∇²_p(wᵀE) J_p + ∇²_q (gᵀ p(q)),   g = ∇_p(wᵀE)  (held constant),
+
+        the first Hessian of a small function of the 3n point coordinates, the second
+        block-sparse (each point depends on its own chain).  Evaluated by CasADi's SX
+        virtual machine (~0.3 ms for three_franka, no compilation).
+        """
+        nq = self.nq
+        q = ca.SX.sym("q", nq)
+        p, Jp = self.points(q)
+        m = int(p.shape[0])
+        g = ca.SX.sym("g", m)
+        Hq, _ = ca.hessian(ca.dot(g, p), q)
+        f_pts = ca.Function("hess_points", [q, g], [p, Jp, Hq])
+
+        ps = ca.SX.sym("p", m)
+        vd = ca.SX.sym("Vd", NB)
+        w = ca.SX.sym("w", 7)
+        V, _ = self.pose_from_points(ps)
+        W = (V.reverse() * versor_expr(vd)).with_blades(SIMILARITY_BLADES)
+        Hp, gp = ca.hessian(ca.dot(w, sim_log(W)), ps)
+        f_small = ca.Function("hess_small", [ps, vd, w], [Hp, gp])
+
+        p1, Jp1, _ = f_pts(q, ca.DM.zeros(m))
+        Hp1, g1 = f_small(p1, vd, w)
+        _, _, Hq1 = f_pts(q, g1)
+        H = ca.mtimes([Jp1.T, Hp1, Jp1]) + Hq1
+        H = 0.5 * (H + H.T)
+        return ca.Function(f"coop_hess_{self.name}", [q, vd, w], [ca.densify(H)], ["q", "Vd", "w"], ["H"])
+
+    @cached_property
+    def ad_function(self) -> ca.Function:
+        """Reference route (b): plain AD of the unstructured graph q → V_Sc = similarity_from_unit(∧P(p_i(q)))
+        (world origin, no centroid shift, no chain rule), ``J^G = −2 Ṽ ∂V/∂q``."""
+        q = ca.SX.sym("q", self.nq)
+        pts = self.tree.end_points(q)
+        X = cooperative_primitive(self.kind, [conformal_point(list(pt)) for pt in pts])
+        V = similarity_from_unit(X)
+        Vv = _coeffs_expr(V)
+        return ca.Function("coop_ad", [q], [Vv, ca.densify(_body_columns(V, ca.jacobian(Vv, q)))])

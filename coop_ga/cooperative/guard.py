@@ -1,0 +1,102 @@
+"""The one guard of every compiled entry point of a cooperative task (evaluate, error, J̇q̇, batch).
+
+Each entry point of :class:`~coop_ga.cooperative.graph.TaskGraph` returns
+``checks = [ok, w, n2, c2]``.  The hot path tests ``ok > warn_below`` only (one float
+comparison); otherwise :meth:`TaskGuard.diagnose` says what is wrong, the same way for
+every entry point:
+
+1. non-finite or overflowing input → :class:`~coop_ga.errors.NonFiniteError` /
+   :class:`~coop_ga.errors.InvalidInputError` naming the argument and the indices;
+2. degenerate end points (``w ≤ raise_below``) → :class:`~coop_ga.errors.DegeneratePrimitiveError`;
+   nearly degenerate (``w < warn_below``) → :class:`~coop_ga.errors.DegeneracyWarning`;
+3. the rotation of V_Sc beyond :data:`~coop_ga.cooperative.graph.CHART_WARN_ANGLE` (the
+   half-turn of the minimal-rotation chart) → :class:`~coop_ga.errors.ChartWarning`.
+
+Warnings go through :func:`coop_ga.diagnostics.warn` (once per condition and public call,
+at the caller's line).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..diagnostics import warn
+from ..errors import ChartWarning, DegeneracyWarning, DegeneratePrimitiveError, InvalidInputError, NonFiniteError
+from .graph import CHART_WARN_ANGLE
+
+__all__ = ["TaskGuard"]
+
+_WHAT = {
+    "point_pair": "the two end points coincide",
+    "line": "the two end points coincide",
+    "circle": "the three end points are (nearly) collinear",
+    "plane": "the three end points are (nearly) collinear",
+    "sphere": "the four end points are (nearly) coplanar",
+}
+
+
+@dataclass(frozen=True)
+class TaskGuard:
+    """Diagnosis of the ``checks`` output of a task's entry points (module docstring)."""
+
+    kind: str
+    system_name: str
+    end_frames: tuple[str, ...]
+    warn_below: float
+    raise_below: float
+
+    def ok(self, checks: np.ndarray) -> bool:
+        """The hot-path test: True when nothing needs a diagnosis."""
+        return bool(checks.item(0) > self.warn_below)
+
+    def diagnose(self, checks: np.ndarray, points: np.ndarray, inputs: Sequence[tuple[str, np.ndarray]],
+                 where: str = "") -> None:
+        """Raise or warn for one evaluation (``checks`` (4,), ``points`` (3n,), the inputs by name)."""
+        n2 = checks.item(2)
+        if not math.isfinite(n2) or n2 >= 1e300:
+            for name, a in inputs:
+                a = np.asarray(a, dtype=float).reshape(-1)
+                bad = np.flatnonzero(~np.isfinite(a)).tolist()
+                if bad:
+                    raise NonFiniteError(f"{name}{where} contains NaN or inf at indices {bad}")
+            big = max(((name, float(np.max(np.abs(np.asarray(a, dtype=float))))) for name, a in inputs),
+                      key=lambda t: t[1])
+            raise InvalidInputError(
+                f"{big[0]}{where} is too large (max |entry| = {big[1]:.3g}, its squared norm overflows); "
+                "joint values must be angles [rad] or lengths [m] of a sensible size"
+            )
+        w = checks.item(1)
+        if not w > self.warn_below:
+            self.degeneracy(w, points.reshape(-1, 3), where)
+        c2 = checks.item(3)
+        theta = 2.0 * math.acos(min(1.0, math.sqrt(max(c2, 0.0))))
+        if theta >= CHART_WARN_ANGLE:
+            axis = "−e2" if self.kind in ("point_pair", "line") else "−e3"
+            warn(
+                f"cooperative {self.kind} of '{self.system_name}'{where}: V_Sc rotates by {math.degrees(theta):.1f}°, "
+                f"its axis is near {axis}, where the minimal rotation of V_Sc jumps by a half-turn; reorder the end "
+                "points (points=...) so the nominal axis is far from the antipode",
+                ChartWarning,
+                key=self.system_name,
+            )
+
+    def degeneracy(self, w: float, pts: np.ndarray, where: str = "") -> None:
+        """Raise (``w ≤ raise_below``) or warn (``w < warn_below``) about degenerate end points (n, 3)."""
+        what = _WHAT.get(self.kind, "degenerate")
+        desc = ", ".join(f"{f}={np.round(p, 4).tolist()}" for f, p in zip(self.end_frames, pts))
+        if not w > self.raise_below:
+            raise DegeneratePrimitiveError(
+                f"cooperative {self.kind} of '{self.system_name}'{where} is degenerate: {what} "
+                f"(well-definedness {w:.3g} ≤ {self.raise_below:g}); points: {desc}. Move the chains apart "
+                "or choose a primitive with fewer points."
+            )
+        warn(
+            f"cooperative {self.kind} of '{self.system_name}'{where} is close to a geometric singularity: {what} "
+            f"(well-definedness {w:.3g} < {self.warn_below:g}); the Jacobian is ill-conditioned",
+            DegeneracyWarning,
+            key=self.system_name,
+        )
