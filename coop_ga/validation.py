@@ -77,10 +77,8 @@ def array(x: Any, what: str, *, shape: tuple[int, ...] | None = None, finite: bo
 
 
 def vector(x: Any, n: int, what: str) -> np.ndarray:
-    """A finite real vector of exactly ``n`` entries, shape (n,) (a (n, 1) column is accepted)."""
+    """A finite real vector of exactly ``n`` entries, shape (n,) (no column, no scalar: never reshaped)."""
     a = array(x, what, finite=False)
-    if a.shape == (n, 1):
-        a = a.reshape(n)
     if a.shape != (n,):
         raise InvalidInputError(f"{what} must have {n} entries (shape ({n},)), got {_describe(x)}")
     if not np.all(np.isfinite(a)):

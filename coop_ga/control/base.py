@@ -80,6 +80,6 @@ def check_q(task: Any, q: Any, what: str = "q") -> np.ndarray:
 
 
 def bounds(task: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Joint position limits ``(lower, upper)`` (nq,) of the task's system [rad or m]."""
-    m = task.system.model
-    return np.asarray(m.lowerPositionLimit, float), np.asarray(m.upperPositionLimit, float)
+    """Joint position limits ``(lower, upper)`` (nq,) of the task's system [rad or m] (``system.limits``)."""
+    lim = task.system.limits
+    return lim.lower, lim.upper

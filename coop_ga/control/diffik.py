@@ -46,6 +46,9 @@ LIMIT_MODES = ("clamp", "none")
 
 
 def _check_bivector(b: Any, what: str = "command_bivector") -> np.ndarray:
+    """A 7-vector (7,) — or a (7, 1) column, as the task's ``evaluate_views`` returns B."""
+    if isinstance(b, np.ndarray) and b.shape == (7, 1):
+        b = b.reshape(7)
     return validation.vector(b, 7, f"{what} [e12, e13, e23, e0∞, e1∞, e2∞, e3∞]")
 
 

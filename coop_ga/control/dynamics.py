@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from .. import validation
+from .base import check_q
 
 __all__ = [
     "joint_dynamics",
@@ -53,8 +54,6 @@ def _pin():
     return pin
 
 
-def _vec(task: Any, x: Any, what: str) -> np.ndarray:
-    return validation.configuration(x, task.nq, what, owner=f"task '{task.name}'")
 
 
 def _data(task: Any) -> Any:
@@ -145,8 +144,8 @@ def task_space_dynamics(task: Any, q: Any, qd: Any, *, rcond: float = 1e-8, damp
     ``mu`` and ``g`` are task-space wrenches (dual to the 7 bivector rows) such that
     ``τ = Jᵀ (Λ 𝒱̇_d + μ + g_S)`` realises the task acceleration 𝒱̇_d on range(J) (Eq 51–52).
     """
-    q = _vec(task, q, "q")
-    qd = _vec(task, qd, "qd")
+    q = check_q(task, q, "q")
+    qd = check_q(task, qd, "qd")
     J = task.jacobian(q)
     M, C, g = joint_dynamics(task, q, qd)
     Minv = np.linalg.inv(M)

@@ -40,6 +40,7 @@ import numpy as np
 from ..algebra import backend as Bk
 from ..algebra.basis import blade_index
 from ..algebra.multivector import Multivector
+from .. import validation
 from ..errors import InvalidInputError, NonFiniteError, UnknownNameError, UnsupportedJointError
 from ..geometry.groups import MOTOR_BLADES, bivector_to_tangent, motor_rotor_translation, rotor_from_matrix, rotor_matrix
 
@@ -170,12 +171,7 @@ def _as_q(q: Any, nq: int, what: str = "q") -> Any:
         if q.numel() != nq:
             raise InvalidInputError(f"{what} must have {nq} entries, got a CasADi expression of shape {q.shape}")
         return q
-    a = np.asarray(q, dtype=float)
-    if a.shape != (nq,):
-        raise InvalidInputError(f"{what} must be a vector of {nq} joint values, got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise NonFiniteError(f"{what} contains NaN or inf at indices {np.flatnonzero(~np.isfinite(a)).tolist()}")
-    return a
+    return validation.configuration(q, nq, what)
 
 
 class KinematicTree:

@@ -2,6 +2,7 @@
 
 * :mod:`~coop_ga.systems.system`: :class:`System` (a Pinocchio model, its end frames, q0 and
   limits), :func:`from_urdf`, :func:`from_model`, :func:`append_robots`, :func:`prefixed`;
+* :mod:`~coop_ga.systems.limits`: :class:`JointLimits` (position, velocity, acceleration, effort);
 * :mod:`~coop_ga.systems.registry`: :func:`register`, :func:`names`, :func:`load`;
 * :mod:`~coop_ga.systems.library`: the paper's systems (registered on import);
 * ``robots/``: the URDFs coop_ga ships (package data, :data:`ROBOTS_DIR`).
@@ -12,7 +13,20 @@ Run ``python -m coop_ga.systems`` to list the registered systems with their DOF 
 from __future__ import annotations
 
 from . import library as _library  # noqa: F401  (registers the paper's systems)
+from .limits import DEFAULT_VELOCITY_LIMIT, JointLimits
 from .registry import load, names, register
 from .system import ROBOTS_DIR, System, append_robots, from_model, from_urdf, prefixed
 
-__all__ = ["System", "load", "names", "register", "from_urdf", "from_model", "append_robots", "prefixed", "ROBOTS_DIR"]
+__all__ = [
+    "DEFAULT_VELOCITY_LIMIT",
+    "ROBOTS_DIR",
+    "JointLimits",
+    "System",
+    "append_robots",
+    "from_model",
+    "from_urdf",
+    "load",
+    "names",
+    "prefixed",
+    "register",
+]

@@ -164,13 +164,23 @@ def _named(prefix: str, values) -> dict[str, float]:
     return {f"joint_{i}.0": v for i, v in zip(prefix, values)}
 
 
+#: Franka Panda joint acceleration limits [rad/s²] (Franka Control Interface documentation,
+#: "Limits for Panda": q̈_max = 15, 7.5, 10, 12.5, 15, 20, 20); URDFs carry no acceleration limits.
+PANDA_ACCELERATION_LIMITS = (15.0, 7.5, 10.0, 12.5, 15.0, 20.0, 20.0)
+
+
+def _with_panda_accelerations(system: System, prefixes: tuple[str, ...]) -> System:
+    acc = {f"{p}panda_joint{j + 1}": a for p in prefixes for j, a in enumerate(PANDA_ACCELERATION_LIMITS)}
+    return system.with_limits(acceleration=acc)
+
+
 # ====================================================================== systems
 @register("three_franka", "three Franka Panda arms 120° apart on a 0.8 m circle, facing the centre (Fig. 8)")
 def _three_franka() -> System:
     arm, q0 = _panda_arm()
     parts = [(prefixed(arm, f"arm{i}_"), pl) for i, pl in enumerate(_ring_placements(3, 0.8))]
     model = append_robots(parts)
-    return System(
+    system = System(
         name="three_franka",
         model=model,
         end_frames=tuple(f"arm{i}_panda_hand_tcp" for i in range(3)),
@@ -178,6 +188,7 @@ def _three_franka() -> System:
         description="three Franka Panda arms (fingers locked) 120° apart on a 0.8 m circle, facing the centre",
         labels=("arm0 tcp", "arm1 tcp", "arm2 tcp"),
     )
+    return _with_panda_accelerations(system, ("arm0_", "arm1_", "arm2_"))
 
 
 #: Base ring radius of three_iiwa14: the flange at q0 is 0.7507 m in front of the base,
@@ -261,7 +272,7 @@ def _franka_and_g1() -> System:
         (prefixed(arm, "franka_"), _placement(0.0, 0.0, 0.0)),
         (prefixed(g1, "g1_"), _placement(1.0, 0.0, G1_PELVIS_HEIGHT, yaw=np.pi)),
     ])
-    return System(
+    system = System(
         name="franka_and_g1",
         model=model,
         end_frames=("franka_panda_hand_tcp", "g1_left_rubber_hand", "g1_right_rubber_hand"),
@@ -274,6 +285,7 @@ def _franka_and_g1() -> System:
         ),
         labels=("franka tcp", "g1 left hand", "g1 right hand"),
     )
+    return _with_panda_accelerations(system, ("franka_",))
 
 
 #: two_g1 arm postures: each G1 lowers its left hand and raises its right hand, so the four

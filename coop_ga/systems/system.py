@@ -15,7 +15,7 @@ Systems are registered by name in :mod:`coop_ga.systems.registry`; ``load(name)`
 
 from __future__ import annotations
 
-import warnings
+import dataclasses
 from importlib import resources
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,8 +23,11 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from .. import validation
+from ..diagnostics import warn
 from ..errors import InvalidInputError, JointLimitWarning, NonFiniteError, UnknownNameError
 from ..kinematics.chains import KinematicTree
+from .limits import JointLimits
 
 __all__ = [
     "System",
@@ -51,11 +54,17 @@ class System:
     description: str = ""
     #: optional per-end-frame chain labels (e.g. "left wrist")
     labels: tuple[str, ...] = ()
+    #: joint limits (default: read from the model, see :mod:`coop_ga.systems.limits`)
+    limits: JointLimits | None = field(default=None, repr=False)
     tree: KinematicTree = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        self.end_frames = tuple(self.end_frames)
+        self.end_frames = validation.frames(self.end_frames, [f.name for f in self.model.frames], "end_frames")
         self.tree = KinematicTree(self.model, self.end_frames)
+        if self.limits is None:
+            self.limits = JointLimits.from_model(self.model, self.joint_names)
+        elif not isinstance(self.limits, JointLimits) or self.limits.joint_names != tuple(self.joint_names):
+            raise InvalidInputError(f"limits of system '{self.name}' must be JointLimits for joints {self.joint_names}")
         self.q0 = np.array(self.q0, dtype=float)
         self.q0.setflags(write=False)
         if self.q0.shape != (self.model.nq,):
@@ -83,11 +92,27 @@ class System:
 
     @property
     def q_lower(self) -> np.ndarray:
-        return np.array(self.model.lowerPositionLimit, dtype=float)
+        """Lower position limits (nq,) [rad or m] (``limits.lower``; a copy)."""
+        assert self.limits is not None
+        return self.limits.lower.copy()
 
     @property
     def q_upper(self) -> np.ndarray:
-        return np.array(self.model.upperPositionLimit, dtype=float)
+        """Upper position limits (nq,) [rad or m] (``limits.upper``; a copy)."""
+        assert self.limits is not None
+        return self.limits.upper.copy()
+
+    def with_limits(self, *, position: Any = None, velocity: Any = None, acceleration: Any = None,
+                    effort: Any = None, name: str | None = None) -> System:
+        """A copy of this system with limits overridden by joint name (:meth:`JointLimits.replace`).
+
+        ``position``: ``{joint: (lower, upper)}``; ``velocity``, ``acceleration``, ``effort``:
+        ``{joint: value}`` or one value for every joint.  The model is shared (it is not
+        modified); every controller reads the limits from :attr:`limits`.
+        """
+        assert self.limits is not None
+        new = self.limits.replace(position=position, velocity=velocity, acceleration=acceleration, effort=effort)
+        return dataclasses.replace(self, name=name or self.name, limits=new)
 
     @property
     def data(self) -> Any:
@@ -112,24 +137,11 @@ class System:
         for NaN/inf.  Joint-limit violations emit a :class:`JointLimitWarning` naming the
         joints; q is never clipped.
         """
-        a = np.array(q, dtype=float)
-        if a.shape != (self.nq,):
-            raise InvalidInputError(
-                f"system '{self.name}' expects q with {self.nq} entries (joints: {', '.join(self.joint_names)}); "
-                f"got shape {a.shape}"
-            )
-        if not np.all(np.isfinite(a)):
-            raise NonFiniteError(
-                f"q for system '{self.name}' contains NaN or inf at indices {np.flatnonzero(~np.isfinite(a)).tolist()}"
-            )
-        if warn_limits:
-            bad = np.flatnonzero((a < self.q_lower - 1e-12) | (a > self.q_upper + 1e-12))
-            if bad.size:
-                names = self.joint_names
-                desc = ", ".join(
-                    f"{names[i]}={a[i]:.4f} not in [{self.q_lower[i]:.4f}, {self.q_upper[i]:.4f}]" for i in bad
-                )
-                warnings.warn(f"system '{self.name}': joint limits exceeded: {desc}", JointLimitWarning, stacklevel=2)
+        a = validation.configuration(q, self.nq, owner=f"system '{self.name}'", joint_names=self.joint_names)
+        if warn_limits and self.limits is not None:
+            desc = self.limits.describe(a, tol=1e-12)
+            if desc:
+                warn(f"system '{self.name}': joint limits exceeded: {desc}", JointLimitWarning, key=self.name)
         return a
 
     def random_q(self, rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:

@@ -1,0 +1,193 @@
+"""The controller API of the architecture issue: Similarity targets, options dataclasses, one result base,
+``damping`` = λ everywhere, warnings once per call at the caller's line."""
+
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+import pytest
+
+import coop_ga as cg
+from coop_ga.control import (
+    DiffIKOptions,
+    GaussNewtonOptions,
+    ILQROptions,
+    ImpedanceOptions,
+    NullspaceOptions,
+    SolverResult,
+    diff_ik_reach,
+    displaced_target,
+    gauss_newton_ik,
+    ilqr_reach,
+    impedance_torque,
+    nullspace_point_reach,
+    nullspace_step,
+    simulate_impedance,
+)
+from coop_ga.control.gauss_newton import gauss_newton_step
+
+
+@pytest.fixture(scope="module")
+def franka(load_system):
+    s = load_system("three_franka")
+    task = cg.cooperative_task(s, "circle")
+    q0 = np.array(s.q0)
+    target = displaced_target(task, q0, translation=(0.05, 0.0, 0.03), axis=(1, 0, 0), angle=0.2, scale=1.1)
+    return task, q0, target
+
+
+def _controllers(task, q0):
+    """Every public function that takes a similarity, as f(target)."""
+    z = np.zeros(task.nq)
+    return {
+        "error_and_jacobian": lambda V: task.error_and_jacobian(q0, V),
+        "error_hessian": lambda V: task.error_hessian(q0, V, np.ones(7)),
+        "gauss_newton_ik": lambda V: gauss_newton_ik(task, q0, V, max_iter=2),
+        "diff_ik_reach": lambda V: diff_ik_reach(task, q0, V, steps=2),
+        "ilqr_reach": lambda V: ilqr_reach(task, q0, V, max_iter=1, horizon=5),
+        "impedance_torque": lambda V: impedance_torque(task, q0, z, V),
+        "simulate_impedance": lambda V: simulate_impedance(task, q0, V, duration=0.002),
+        "nullspace_step": lambda V: nullspace_step(task, q0, V, z),
+        "nullspace_point_reach": lambda V: nullspace_point_reach(task, q0, 0, [0.3, 0, 0.5], V_hold=V, duration=0.02),
+    }
+
+
+def _bad_targets(task, q0, target):
+    X = target.apply(task.unit)
+    vec = cg.Multivector.from_names({"e1": 1.0, "e2": 0.5})  # a vector, not a versor
+    return {
+        "primitive": (X, "Primitive"),
+        "tuple": ((target, X), "tuple"),
+        "zero": (cg.Multivector.zero(), "zero|not a similarity"),
+        "zero_scalar": (cg.Multivector.scalar(0.0), "zero"),
+        "vector": (vec, "not a similarity"),
+        "coeffs": (target.coeffs, "from_coeffs"),
+        "wrong_length": (np.ones(5), "from_coeffs"),
+        "string": ("circle", "Similarity"),
+        "none": (None, "Similarity"),
+    }
+
+
+@pytest.mark.parametrize("controller", ["error_and_jacobian", "error_hessian", "gauss_newton_ik", "diff_ik_reach",
+                                        "ilqr_reach", "impedance_torque", "simulate_impedance", "nullspace_step",
+                                        "nullspace_point_reach"])
+def test_bad_targets_raise_invalid_input_naming_the_problem(franka, controller):
+    task, q0, target = franka
+    f = _controllers(task, q0)[controller]
+    for label, (bad, match) in _bad_targets(task, q0, target).items():
+        if label == "none" and controller == "nullspace_point_reach":
+            continue  # V_hold=None means "hold V_Sc(q0)"
+        with pytest.raises(cg.InvalidInputError, match=match):
+            f(bad)
+        assert label  # every case raised
+
+
+@pytest.mark.parametrize("controller", ["gauss_newton_ik", "diff_ik_reach", "ilqr_reach", "nullspace_step"])
+def test_targets_accept_similarity_multivector_and_subgroups(franka, controller):
+    task, q0, target = franka
+    f = _controllers(task, q0)[controller]
+    a = f(target)
+    b = f(target.versor.scale(3.7))  # a Multivector, positive multiple: converted and normalised
+    qa = a if isinstance(a, np.ndarray) else a.q
+    qb = b if isinstance(b, np.ndarray) else b.q
+    np.testing.assert_allclose(qa, qb, atol=1e-10)
+    V0 = task.similarity(q0)
+    f(V0 @ cg.Motor.exp([0.0, 0.0, 0.05, 0.01, 0.0, 0.0]))  # Similarity @ Motor is a Similarity
+    f(cg.Motor.exp([0.0, 0.0, 0.05, 0.01, 0.0, 0.0]))  # a Motor is accepted as a similarity
+
+
+def test_displaced_target_returns_a_realisable_similarity(franka):
+    task, q0, target = franka
+    assert isinstance(target, cg.Similarity)
+    r = gauss_newton_ik(task, q0, target)
+    assert r.converged and r.error < 1e-9
+
+
+def test_task_similarity_is_a_similarity(franka):
+    task, q0, _ = franka
+    V = task.similarity(q0)
+    assert isinstance(V, cg.Similarity) and isinstance(task.evaluate(q0).similarity, cg.Similarity)
+    np.testing.assert_allclose(V.log(), task.log(q0), atol=1e-14)
+    np.testing.assert_allclose(cg.Similarity.from_coeffs(V.coeffs).coeffs, V.coeffs, atol=1e-15)
+
+
+# ----------------------------------------------------------------------------- results and options
+def test_results_share_the_base_fields(franka):
+    task, q0, target = franka
+    results = {
+        "gn": gauss_newton_ik(task, q0, target),
+        "diffik": diff_ik_reach(task, q0, target, steps=5),
+        "ilqr": ilqr_reach(task, q0, target, horizon=20, max_iter=2),
+        "impedance": simulate_impedance(task, q0, target, duration=0.005),
+        "nullspace": nullspace_point_reach(task, q0, 0, [0.3, 0.0, 0.5], duration=0.03),
+    }
+    for name, r in results.items():
+        assert isinstance(r, SolverResult), name
+        assert r.q.shape == (task.nq,), name
+        assert isinstance(r.converged, bool) and isinstance(r.iterations, int) and isinstance(r.message, str), name
+        assert np.isfinite(r.error), name
+        if hasattr(r, "trajectory"):
+            np.testing.assert_array_equal(r.trajectory[-1], r.q)
+            assert r.trajectory.shape[1] == task.nq
+    assert results["gn"].error == pytest.approx(np.linalg.norm(task.error(results["gn"].q, target)), rel=1e-12)
+    assert results["ilqr"].error == pytest.approx(np.linalg.norm(task.error(results["ilqr"].q, target)), rel=1e-12)
+
+
+@pytest.mark.parametrize("cls", [DiffIKOptions, GaussNewtonOptions, ILQROptions, ImpedanceOptions, NullspaceOptions])
+def test_options_validate_every_numeric_field(cls):
+    cls()  # the defaults are valid
+    for f in dataclasses.fields(cls):
+        default = getattr(cls(), f.name)
+        if isinstance(default, bool) or not isinstance(default, (int, float)) or f.name in ("R", "Q", "Qv"):
+            continue
+        for bad in (np.nan, "1.0", None):
+            if bad is None and f.name == "max_speed":
+                continue  # max_speed=None means no speed cap
+            with pytest.raises(cg.InvalidInputError):
+                cls(**{f.name: bad})
+
+
+def test_unknown_option_is_refused(franka):
+    task, q0, target = franka
+    with pytest.raises(cg.InvalidInputError, match="unknown option.*max_iters"):
+        gauss_newton_ik(task, q0, target, max_iters=3)
+    with pytest.raises(cg.InvalidInputError, match="GaussNewtonOptions"):
+        gauss_newton_ik(task, q0, target, ILQROptions())
+
+
+def test_options_and_overrides_are_equivalent(franka):
+    task, q0, target = franka
+    a = ilqr_reach(task, q0, target, ILQROptions(horizon=30, max_iter=3))
+    b = ilqr_reach(task, q0, target, horizon=30, max_iter=3)
+    np.testing.assert_array_equal(a.u, b.u)
+
+
+def test_damping_is_lambda_everywhere():
+    rng = np.random.default_rng(5)
+    J = rng.standard_normal((7, 12))
+    e = rng.standard_normal(7)
+    lam = 0.3
+    ref_gn = -np.linalg.solve(J.T @ J + lam**2 * np.eye(12), J.T @ e)
+    np.testing.assert_allclose(gauss_newton_step(e, J, lam), ref_gn, atol=1e-12)
+    ref_pinv = J.T @ np.linalg.inv(J @ J.T + lam**2 * np.eye(7))
+    np.testing.assert_allclose(cg.cooperative.damped_pinv(J, lam), ref_pinv, atol=1e-12)
+
+
+# ----------------------------------------------------------------------------- warnings once per call
+def test_one_warning_per_condition_and_call_at_the_callers_line(load_system):
+    """Diff IK near the chart antipode: one ChartWarning per call (was 49), pointing here, counted."""
+    s = load_system("g1_arms")
+    task = cg.cooperative_task(s, "line", points=(1, 0))  # left → right: axis near −e2, the chart's antipode
+    q0 = np.array(s.q0)
+    V0 = task.similarity(q0)
+    with warnings.catch_warnings(record=True) as rec:
+        warnings.simplefilter("always")
+        r = diff_ik_reach(task, q0, V0, steps=30, tol=0.0)
+    chart = [w for w in rec if issubclass(w.category, cg.ChartWarning)]
+    assert len(chart) == 1, [str(w.message) for w in rec]
+    assert chart[0].filename == __file__
+    # every evaluation saw it: the initial error, then J and e at each of the 30 steps
+    assert r.warnings.get("ChartWarning:g1_arms", 0) == 61
+    assert "occurred 61 times" in str(chart[0].message)
