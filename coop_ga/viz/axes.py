@@ -25,18 +25,21 @@ def axes_box(ax: Any) -> tuple[np.ndarray, np.ndarray]:
     return lims.min(axis=1), lims.max(axis=1)
 
 
-def set_equal_3d(ax: Any, points: Any, pad: float = 0.05, *, floor: bool = False) -> tuple[np.ndarray, float]:
-    """Give a 3-D axes equal scales on x, y, z: a cube that contains ``points``.
+def set_equal_3d(ax: Any, points: Any, pad: float = 0.05, *, floor: bool = False,
+                 tight: bool = False) -> tuple[np.ndarray, float]:
+    """Give a 3-D axes equal scales on x, y, z around ``points``.
 
     Parameters
     ----------
     ax: a matplotlib ``Axes3D``.
     points: (N, 3) world points [m] (or several arrays, stacked) that must be visible.
-    pad: margin [m] added on every side of the bounding box before it is made a cube.
-    floor: put the lowest point (minus ``pad``) at the bottom of the cube instead of
+    pad: margin [m] added on every side of the bounding box.
+    floor: put the lowest point (minus ``pad``) at the bottom of the box instead of
         centring the box vertically (for robots standing on z = 0).
+    tight: the box is the padded bounding box itself (each axis its own range, the box
+        aspect proportional to them, so the scale is still equal); default: a cube.
 
-    Returns the cube's centre (3,) [m] and half side [m].  The box aspect is set to 1:1:1.
+    Returns the box centre (3,) [m] and its largest half side [m].
     """
     P = np.asarray(points, dtype=float).reshape(-1, 3)
     P = P[np.all(np.isfinite(P), axis=1)]
@@ -44,13 +47,16 @@ def set_equal_3d(ax: Any, points: Any, pad: float = 0.05, *, floor: bool = False
         raise ValueError("set_equal_3d needs at least one finite point")
     lo, hi = P.min(axis=0) - pad, P.max(axis=0) + pad
     c = 0.5 * (lo + hi)
-    h = max(0.5 * float(np.max(hi - lo)), 1e-3)
+    half = np.maximum(0.5 * (hi - lo), 1e-3)
+    h = float(half.max())
+    if not tight:
+        half = np.full(3, h)
     if floor:
-        c[2] = lo[2] + h
-    ax.set_xlim(c[0] - h, c[0] + h)
-    ax.set_ylim(c[1] - h, c[1] + h)
-    ax.set_zlim(c[2] - h, c[2] + h)
-    ax.set_box_aspect((1, 1, 1))
+        c[2] = lo[2] + half[2]
+    ax.set_xlim(c[0] - half[0], c[0] + half[0])
+    ax.set_ylim(c[1] - half[1], c[1] + half[1])
+    ax.set_zlim(c[2] - half[2], c[2] + half[2])
+    ax.set_box_aspect(tuple(half / h))
     return c, h
 
 

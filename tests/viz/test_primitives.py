@@ -104,3 +104,7 @@ def test_set_equal_3d_limits():
     assert np.all(P >= lo) and np.all(P <= hi)
     viz.set_equal_3d(ax, P, pad=0.1, floor=True)
     assert ax.get_zlim3d()[0] == pytest.approx(-0.1)
+    viz.set_equal_3d(ax, P, pad=0.1, tight=True)  # the padded bounding box, same scale on every axis
+    spans = np.array([np.diff(lim)[0] for lim in (ax.get_xlim3d(), ax.get_ylim3d(), ax.get_zlim3d())])
+    np.testing.assert_allclose(spans, [2.2, 2.2, 0.7], atol=1e-12)
+    np.testing.assert_allclose(ax.get_box_aspect() / ax.get_box_aspect()[0], spans / spans[0], atol=1e-12)
