@@ -54,5 +54,5 @@ def plot_error(ax: Any, t: Any, err: Any, *, log: bool = True, floor: float | No
         e = np.maximum(e, lo)
         ax.set_yscale("log")
     (line,) = ax.plot(t, e, label=label, **kwargs)
-    ax.grid(True, alpha=0.3, which="both" if log else "major")
+    ax.grid(True, alpha=0.3)
     return line
