@@ -174,9 +174,10 @@ def draw_primitive(ax: Any, X: Any, *, color: Any = None, lw: float | None = Non
         if length is not None:
             P = np.array([p - 0.5 * float(length) * d, p + 0.5 * float(length) * d])
         else:
-            P = clip_line(p, d, *axes_box(ax))
-            if P is None:  # the line misses the box: nothing to draw
+            seg = clip_line(p, d, *axes_box(ax))
+            if seg is None:  # the line misses the box: nothing to draw
                 return out
+            P = seg
         line(P, label)
     elif kind == "plane":
         n = np.asarray(normal(X), float)

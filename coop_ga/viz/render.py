@@ -59,6 +59,7 @@ def render(system: Any, q: Any, primitives: Sequence[Any] = (), path: str | Path
         flats = [(X, kw) for X, kw in items if _is_flat(X)]
         pts = [drawn.points] + [draw_primitive(ax, X, **kw).points for X, kw in items if not _is_flat(X)]
         set_equal_3d(ax, np.vstack(pts), pad)
+        assert drawn.skeleton is not None
         for X, kw in flats:
             draw_primitive(ax, X, **{"anchor": drawn.skeleton.end_points.mean(axis=0), **kw})
         ax.view_init(*view)

@@ -72,7 +72,7 @@ PALETTE = Palette()
 LINEWIDTH = {"robot": 2.2, "primitive": 2.0, "intermediate": 0.8, "trajectory": 1.4, "wire": 0.4}
 
 #: matplotlib rcParams of the paper style (fonts, grid, legend, saving).
-RC: dict[str, Any] = {
+RC: dict[Any, Any] = {
     "font.family": "DejaVu Sans",
     "mathtext.fontset": "dejavusans",
     "font.size": 9.0,
