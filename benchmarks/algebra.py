@@ -1,17 +1,17 @@
 """Per-call times of the core CGA operations: plain numpy path vs compiled CasADi functions.
 
-    python benchmarks/algebra.py [--no-codegen]
+    python benchmarks/algebra.py [--no-codegen] [--out results/benchmarks/algebra] [--seed 0] [--quiet]
 
 Columns: the numpy path (Multivector objects, generated straight-line products), the
 same source traced once into a CasADi SX function and evaluated through a
 FunctionBuffer (CasADi's VM), and the same function compiled to C with gcc.  The
 anchor is numpy's own ``a @ b`` for two 4×4 matrices (a homogeneous-transform
-product), measured in the same run.
+product), measured in the same run.  The table is also written to ``<out>/results.json``
+(times in µs; a column that was not measured is ``null``).
 """
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -25,18 +25,19 @@ import coop_ga as cg  # noqa: E402
 from coop_ga.algebra import Multivector  # noqa: E402
 from coop_ga.codegen import CompiledFunction  # noqa: E402
 from coop_ga.geometry.groups import SIMILARITY_BLADES  # noqa: E402
+from coop_ga.harness import Experiment  # noqa: E402
 
 
 def sim_from(x) -> Multivector:
     return Multivector(SIMILARITY_BLADES, tuple(x[i] for i in range(12)))
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--no-codegen", action="store_true", help="skip the gcc-compiled column")
-    args = ap.parse_args()
+def main(argv: list[str] | None = None) -> int:
+    exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/algebra"))
+    exp.add("--no-codegen", action="store_true", help="skip the gcc-compiled column")
+    args = exp.parse(argv)
 
-    rng = np.random.default_rng(0)
+    rng = exp.rng
     b1, b2 = rng.normal(size=7), rng.normal(size=7)
     V1, V2 = cg.exp(b1), cg.exp(b2)
     pts1, pts2 = rng.normal(size=(3, 3)), rng.normal(size=(3, 3))
@@ -66,8 +67,8 @@ def main() -> None:
     }
     A, Bm = rng.normal(size=(4, 4)), rng.normal(size=(4, 4))
     anchor = per_call_us(lambda: A @ Bm)
-    rows = []
-    for name, (f, fargs, numpy_fn) in sym.items():
+    rows, records = [], []
+    for name, (f, fargs, numpy_fn) in exp.progress(sym.items(), "timing", total=len(sym)):
         t_np = per_call_us(numpy_fn)
         vm = CompiledFunction(f, codegen=False)
         t_vm = per_call_us(lambda vm=vm, fargs=fargs: vm.call_views(*fargs))
@@ -79,13 +80,17 @@ def main() -> None:
         else:
             t_c = float("nan")
         rows.append([name, f"{t_np:8.1f}", f"{t_vm:6.2f}", f"{t_c:6.2f}", f"{f.n_instructions():5d}", f"{t_c / anchor:6.1f}"])
+        records.append({"operation": name, "numpy_us": t_np, "casadi_vm_us": t_vm, "compiled_c_us": t_c,
+                        "sx_instructions": f.n_instructions(), "compiled_over_anchor": t_c / anchor})
     print_table(
         f"coop_ga algebra, per call [µs]   (anchor: numpy 4×4 @ 4×4 = {anchor:.2f} µs, same run)",
         ["operation", "numpy path", "CasADi VM", "compiled C", "SX instr.", "C / anchor"],
         rows,
     )
     _ = C2
+    exp.write_json("results.json", {"anchor_numpy_4x4_matmul_us": anchor, "rows": records})
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -10,15 +10,16 @@ For each system/primitive it prints
 
 and the ratio coop_ga / pinocchio (target ≤ 1 for three_franka).
 
-Run: ``python benchmarks/cooperative.py`` (first run compiles the tasks, ~1–10 s each).
+Run: ``python benchmarks/cooperative.py`` (first run compiles the tasks, ~1–10 s each).  The
+table is also written to ``<out>/results.json`` (times in µs).
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -26,18 +27,19 @@ sys.path.insert(0, os.path.dirname(__file__))
 from _timing import per_call_us, print_table  # noqa: E402
 
 import coop_ga as cg  # noqa: E402
+from coop_ga.harness import Experiment, positive_int  # noqa: E402
 
 CASES = [("three_franka", "circle"), ("allegro", "sphere"), ("two_g1", "sphere")]
 
 
-def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--batch", type=int, default=1000, help="configurations per batch call (default 1000)")
-    args = ap.parse_args(argv)
+def main(argv: list[str] | None = None) -> int:
+    exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/cooperative"))
+    exp.add("--batch", type=positive_int, default=1000, help="configurations per batch call")
+    args = exp.parse(argv)
     import pinocchio as pin
 
-    rows = []
-    for name, kind in CASES:
+    rows, records = [], []
+    for name, kind in exp.progress(CASES, "timing"):
         if name not in cg.systems.names():
             rows.append([name, kind, "not registered", "", "", "", "", "", ""])
             continue
@@ -67,13 +69,17 @@ def main(argv: list[str] | None = None) -> None:
             name, kind, str(sys_.nq), str(task.casadi_function.n_instructions()),
             f"{t_coop:.2f}", f"{t_c:.2f}", f"{t_batch:.2f}", f"{t_pin:.2f}", f"{t_coop / t_pin:.2f}",
         ])
-        print(f"  {name}/{kind}: graph+compile/load {t_build:.1f} s", flush=True)
+        records.append({"system": name, "kind": kind, "nq": sys_.nq, "sx_instructions": task.casadi_function.n_instructions(),
+                        "coop_ga_us": t_coop, "c_only_us": t_c, "batch_per_config_us": t_batch, "pinocchio_us": t_pin,
+                        "ratio": t_coop / t_pin, "build_or_load_s": t_build})
     print_table(
         "cooperative evaluation (V_Sc, B_Sc, J^G) per call [µs]",
         ["system", "kind", "nq", "SX instr", "coop_ga", "C only", "batch/config", "pinocchio FK+J", "ratio"],
         rows,
     )
+    exp.write_json("results.json", {"batch": args.batch, "rows": records})
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

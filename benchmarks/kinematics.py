@@ -1,6 +1,6 @@
 """Per-call time of motor forward kinematics + end-frame Jacobians against Pinocchio, in one run.
 
-    python benchmarks/kinematics.py [--only NAME ...]
+    python benchmarks/kinematics.py [--only NAME ...] [--out results/benchmarks/kinematics] [--quiet]
 
 For every registered system, at its q0, the same outputs (the world motor/placement of
 every end frame and its body-frame geometric Jacobian) by:
@@ -19,15 +19,16 @@ every end frame and its body-frame geometric Jacobian) by:
   ``computeFrameJacobian(LOCAL)`` per end frame (each call re-walks its chain);
 
 and the ratio compiled / min(pin (a), pin (b)).  Every route is checked against
-Pinocchio before timing.  First run compiles each system (~1–5 s each, then cached).
+Pinocchio before timing.  First run compiles each system (~1–5 s each, then cached).  The
+table is also written to ``<out>/results.json`` (times in µs).
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import time
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -38,6 +39,7 @@ from _timing import per_call_us, print_table  # noqa: E402
 import coop_ga as cg  # noqa: E402
 from coop_ga.codegen import CompiledFunction  # noqa: E402
 from coop_ga.geometry.groups import MOTOR_BLADES  # noqa: E402
+from coop_ga.harness import Experiment  # noqa: E402
 from coop_ga.kinematics import LOCAL_TO_TANGENT  # noqa: E402
 
 
@@ -50,14 +52,14 @@ def kinematics_function(system) -> ca.Function:
     return ca.Function(f"kin_{system.name}", [q], [ca.densify(M), ca.densify(J)], ["q"], ["motors", "jacobians"])
 
 
-def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--only", nargs="*", metavar="NAME", help="benchmark only these systems")
-    args = ap.parse_args(argv)
+def main(argv: list[str] | None = None) -> int:
+    exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/kinematics"))
+    exp.add("--only", nargs="*", metavar="NAME", choices=cg.systems.names(), help="benchmark only these systems")
+    args = exp.parse(argv)
     import pinocchio as pin
 
-    rows = []
-    for name in args.only or cg.systems.names():
+    rows, records = [], []
+    for name in exp.progress(args.only or cg.systems.names(), "timing"):
         s = cg.systems.load(name)
         m, d = s.model, s.model.createData()
         fids = [m.getFrameId(f) for f in s.end_frames]
@@ -99,7 +101,9 @@ def main(argv: list[str] | None = None) -> None:
             name, str(s.nq), str(len(fids)), str(f.n_instructions()), f"{t_comp:.2f}", f"{t_c:.2f}",
             f"{t_np:.0f}", f"{t_a:.2f}", f"{t_b:.2f}", f"{t_comp / min(t_a, t_b):.2f}",
         ])
-        print(f"  {name}: graph + compile/load {t_build:.1f} s", flush=True)
+        records.append({"system": name, "nq": s.nq, "frames": len(fids), "sx_instructions": f.n_instructions(),
+                        "compiled_us": t_comp, "c_only_us": t_c, "numpy_us": t_np, "pin_a_us": t_a, "pin_b_us": t_b,
+                        "ratio": t_comp / min(t_a, t_b), "build_or_load_s": t_build})
     print_table(
         "motor FK + end-frame geometric Jacobians per call [µs] (q0 of each system; same run)",
         ["system", "nq", "frames", "SX instr", "compiled", "C only", "numpy", "pin (a)", "pin (b)", "compiled/pin"],
@@ -107,7 +111,9 @@ def main(argv: list[str] | None = None) -> None:
     )
     print("pin (a): computeJointJacobians + updateFramePlacements + getFrameJacobian per frame;"
           " pin (b): forwardKinematics + updateFramePlacements + computeFrameJacobian per frame")
+    exp.write_json("results.json", {"rows": records})
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

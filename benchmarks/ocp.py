@@ -22,15 +22,16 @@ Times: iLQR is timed best-of-``--repeat`` after a warm-up (the compiled task is 
 IPOPT's time is its own ``t_wall_total`` of the solve (graph construction reported
 separately).  The ratio column is solve time / iLQR (riccati) solve time.
 
-Run: ``python benchmarks/ocp.py`` (add ``--repeat N``).
+Run: ``python benchmarks/ocp.py`` (add ``--repeat N``).  The table is also written to
+``<out>/results.json`` (times in s).
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -47,6 +48,7 @@ from coop_ga.control.ilqr import (  # noqa: E402
     ilqr_reach,
 )
 from coop_ga.cooperative import versor_coeffs, versor_from_coeffs  # noqa: E402
+from coop_ga.harness import Experiment, positive_float, positive_int  # noqa: E402
 
 TARGET = dict(translation=(0.10, -0.05, 0.10), axis=(1.0, 0.0, 0.0), angle=np.deg2rad(25.0), scale=1.25)
 
@@ -107,14 +109,13 @@ def _best(fn, repeat: int):
     return best
 
 
-def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--repeat", type=int, default=5, help="iLQR repetitions (best time reported; default 5)")
-    ap.add_argument("--horizon", type=int, default=250, help="knots (default 250)")
-    ap.add_argument("--dt", type=float, default=0.01, help="time step [s] (default 0.01)")
-    ap.add_argument("--no-ipopt", action="store_true", help="skip the IPOPT solve")
-    args = ap.parse_args(argv)
+def main(argv: list[str] | None = None) -> int:
+    exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/ocp"))
+    exp.add("--repeat", type=positive_int, default=5, help="iLQR repetitions (best time reported)")
+    exp.add("--horizon", type=positive_int, default=250, help="knots")
+    exp.add("--dt", type=positive_float, default=0.01, help="time step [s]")
+    exp.add("--no-ipopt", action="store_true", help="skip the IPOPT solve")
+    args = exp.parse(argv)
 
     s = cg.systems.load("three_franka")
     task = cg.cooperative_task(s, "circle")
@@ -124,17 +125,19 @@ def main(argv: list[str] | None = None) -> None:
     print(f"three_franka circle reaching: nq = {task.nq}, {args.horizon} knots × {args.dt:g} s, "
           f"initial ‖e‖ = {np.linalg.norm(task.error(q0, Vd)):.3f}", flush=True)
 
-    rows = []
+    rows, records = [], []
     ref = None
-    for label, kw in (("iLQR (riccati)", {}), ("iLQR (condensed)", {"backward": "condensed"}),
-                      ("iLQR (Gauss–Newton, riccati)", {"hessian": "gauss_newton"})):
+    variants = (("iLQR (riccati)", {}), ("iLQR (condensed)", {"backward": "condensed"}),
+                ("iLQR (Gauss–Newton, riccati)", {"hessian": "gauss_newton"}))
+    for label, kw in exp.progress(variants, "iLQR variants"):
         ilqr_reach(task, q0, Vd, horizon=args.horizon, dt=args.dt, **kw)  # warm-up (compile, build)
         r = _best(lambda: ilqr_reach(task, q0, Vd, horizon=args.horizon, dt=args.dt, **kw), args.repeat)
         if ref is None:
             ref = r.solve_time_s
         rows.append([label, str(r.iterations), f"{r.solve_time_s * 1e3:.1f}", f"{r.terminal_error:.2e}",
                      f"{ocp.cost(r.u):.6f}", "yes" if r.converged else "no", f"{r.solve_time_s / ref:.2f}"])
-        print(f"  {label}: done", flush=True)
+        records.append({"solver": label, "iterations": r.iterations, "solve_time_s": r.solve_time_s,
+                        "terminal_error": r.terminal_error, "cost": ocp.cost(r.u), "converged": r.converged})
 
     if not args.no_ipopt:
         import casadi as ca
@@ -142,16 +145,23 @@ def main(argv: list[str] | None = None) -> None:
         if not ca.has_nlpsol("ipopt"):
             rows.append(["IPOPT (multiple shooting)", "-", "-", "-", "-", "IPOPT not available in this casadi", "-"])
         else:
-            ip = ipopt_solve(task, q0, Vd, args.horizon, args.dt, DEFAULT_R, DEFAULT_Q, DEFAULT_QV)
+            with exp.stage("IPOPT (multiple shooting)"):
+                ip = ipopt_solve(task, q0, Vd, args.horizon, args.dt, DEFAULT_R, DEFAULT_Q, DEFAULT_QV)
             err = float(np.linalg.norm(task.error(ip["q_n"], Vd)))
             rows.append(["IPOPT (multiple shooting)", str(ip["iterations"]), f"{ip['solve_time_s'] * 1e3:.1f}",
                          f"{err:.2e}", f"{ocp.cost(ip['u']):.6f}",
                          f"{'yes' if ip['success'] else 'no'} ({ip['status']})", f"{ip['solve_time_s'] / ref:.2f}"])
+            records.append({"solver": "IPOPT (multiple shooting)", "iterations": ip["iterations"],
+                            "solve_time_s": ip["solve_time_s"], "terminal_error": err, "cost": ocp.cost(ip["u"]),
+                            "converged": ip["success"], "status": ip["status"], "build_s": ip["build_s"],
+                            "wall_s": ip["wall_s"]})
             print(f"  IPOPT: graph/Opti construction {ip['build_s']:.2f} s (not in the solve time), "
                   f"wall time of opti.solve() {ip['wall_s']:.2f} s", flush=True)
     print_table("reaching OCP (Eq 53–57), three_franka circle: iLQR vs IPOPT",
                 ["solver", "iterations", "solve [ms]", "terminal ‖e‖", "cost J", "converged", "time / iLQR"], rows)
+    exp.write_json("results.json", {"horizon": args.horizon, "dt_s": args.dt, "repeat": args.repeat, "rows": records})
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -33,25 +33,12 @@ norm of iLQR and differential IK).
 
 from __future__ import annotations
 
-import argparse
-import os
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _common import (  # noqa: E402
-    BIVECTOR_LABELS,
-    Stage,
-    chain_skeletons,
-    circle_points,
-    out_dir,
-    progress,
-    set_equal_3d,
-    write_json,
-)
+from coop_ga.harness import Experiment, finite_float, nonneg_float, positive_float, positive_int
 
 
 def _circle_params(X) -> dict:
@@ -62,50 +49,40 @@ def _circle_params(X) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                 epilog="See the module docstring for the setup and the outputs.",
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=Path("results/circle_reaching"),
-                    help="output directory (default: results/circle_reaching)")
-    ap.add_argument("--seed", type=int, default=0,
-                    help="random seed; with --perturb > 0 it draws the initial configuration q0 + U(±perturb)")
-    ap.add_argument("--perturb", type=float, default=0.0,
-                    help="half-width [rad] of a uniform perturbation of the initial configuration (default 0)")
-    ap.add_argument("--translation", type=float, nargs=3, default=(0.10, -0.05, 0.10), metavar=("X", "Y", "Z"),
-                    help="target displacement of the circle centre [m] (default 0.10 -0.05 0.10)")
-    ap.add_argument("--tilt-deg", type=float, default=25.0, help="tilt of the target circle [deg] (default 25)")
-    ap.add_argument("--tilt-axis", type=float, nargs=3, default=(1.0, 0.0, 0.0), metavar=("X", "Y", "Z"),
-                    help="world axis of the tilt through the circle centre (default 1 0 0)")
-    ap.add_argument("--scale", type=float, default=1.25, help="radius scale factor of the target (default 1.25)")
-    ap.add_argument("--horizon", type=int, default=250, help="iLQR knots (default 250)")
-    ap.add_argument("--dt", type=float, default=0.01, help="time step [s] of iLQR and differential IK (default 0.01)")
-    ap.add_argument("--max-iter", type=int, default=10, help="iLQR iteration limit (default 10)")
-    ap.add_argument("--backward", choices=("riccati", "condensed"), default="riccati",
-                    help="iLQR backward pass (default riccati; condensed = same step in closed form)")
-    ap.add_argument("--diffik-gain", type=float, default=4.0, help="differential-IK gain [1/s] (default 4)")
-    ap.add_argument("--quiet", action="store_true", help="no progress output")
-    args = ap.parse_args(argv)
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    exp = Experiment(__file__, __doc__, seed=0)
+    exp.add("--perturb", type=nonneg_float, default=0.0,
+            help="half-width [rad] of a uniform perturbation U(±perturb) of the initial configuration, drawn with --seed")
+    exp.add("--translation", type=finite_float, nargs=3, default=(0.10, -0.05, 0.10), metavar=("X", "Y", "Z"),
+            help="target displacement of the circle centre [m]")
+    exp.add("--tilt-deg", type=finite_float, default=25.0, help="tilt of the target circle [deg]")
+    exp.add("--tilt-axis", type=finite_float, nargs=3, default=(1.0, 0.0, 0.0), metavar=("X", "Y", "Z"),
+            help="world axis of the tilt through the circle centre")
+    exp.add("--scale", type=positive_float, default=1.25, help="radius scale factor of the target")
+    exp.add("--horizon", type=positive_int, default=250, help="iLQR knots")
+    exp.add("--dt", type=positive_float, default=0.01, help="time step [s] of iLQR and differential IK")
+    exp.add("--max-iter", type=positive_int, default=10, help="iLQR iteration limit")
+    exp.add("--backward", choices=("riccati", "condensed"), default="riccati",
+            help="iLQR backward pass (condensed = the same step in closed form)")
+    exp.add("--diffik-gain", type=positive_float, default=4.0, help="differential-IK gain [1/s]")
+    args = exp.parse(argv)
+    plt = exp.pyplot()
 
     import coop_ga as cg
+    from coop_ga import viz
     from coop_ga.control import diff_ik_reach, displaced_target, gauss_newton_ik, ilqr_reach
     from coop_ga.control.ilqr import DEFAULT_Q, DEFAULT_QV, DEFAULT_R
     from coop_ga.cooperative import versor_coeffs
 
-    out = out_dir(args.out)
+    out = exp.out
     t_total = time.perf_counter()
-    with Stage("loading three_franka", args.quiet):
+    with exp.stage("loading three_franka"):
         s = cg.systems.load("three_franka")
         task = cg.cooperative_task(s, "circle")
-    rng = np.random.default_rng(args.seed)
+    rng = exp.rng
     q0 = np.array(s.q0, dtype=float)
     if args.perturb > 0:
         q0 = np.clip(q0 + rng.uniform(-args.perturb, args.perturb, s.nq), s.q_lower, s.q_upper)
-    with Stage("compiling/loading the cooperative task (V_Sc, J^G, e, J_e)", args.quiet) as st_c:
+    with exp.stage("compiling/loading the cooperative task (V_Sc, J^G, e, J_e)") as st_c:
         task.evaluate(q0)
         task.error_and_jacobian(q0, task.similarity(q0))
     X0 = task.primitive(q0)
@@ -113,12 +90,12 @@ def main(argv: list[str] | None = None) -> int:
                               angle=np.deg2rad(args.tilt_deg), scale=args.scale)
     e0 = task.error(q0, Vd)
 
-    with Stage("reachability check (Gauss–Newton IK)", args.quiet):
+    with exp.stage("reachability check (Gauss–Newton IK)"):
         ik = gauss_newton_ik(task, q0, Vd)
-    with Stage("iLQR", args.quiet) as st_i:
+    with exp.stage("iLQR") as st_i:
         res = ilqr_reach(task, q0, Vd, horizon=args.horizon, dt=args.dt, max_iter=args.max_iter,
                          backward=args.backward)
-    with Stage("differential IK", args.quiet):
+    with exp.stage("differential IK"):
         t0 = time.perf_counter()
         dik = diff_ik_reach(task, q0, Vd, gain=args.diffik_gain, dt=args.dt, steps=args.horizon, tol=1e-5)
         dik_time = time.perf_counter() - t0
@@ -128,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     E = np.empty((T, 7))
     Bcmd = np.empty((T, 7))
     P = np.empty((T, 3, 3))
-    for k in progress(range(T), "evaluating the iLQR trajectory", quiet=args.quiet):
+    for k in exp.progress(range(T), "evaluating the iLQR trajectory"):
         E[k] = task.error(res.q[k], Vd)
         st = task.evaluate(res.q[k])
         Bcmd[k] = st.jacobian @ res.qd[k]
@@ -137,65 +114,54 @@ def main(argv: list[str] | None = None) -> int:
     Xf = task.primitive(res.q[-1])
 
     # ---- figure (Fig. 8)
-    with Stage("plotting", args.quiet):
+    pal = viz.PALETTE
+    with exp.stage("plotting"):
         fig = plt.figure(figsize=(15, 7.5))
-        gs = fig.add_gridspec(3, 2, width_ratios=[1.25, 1.0], hspace=0.35, wspace=0.12)
-        ax = fig.add_subplot(gs[:, 0], projection="3d")
-        for qq, col, lw, lab in ((q0, "0.75", 3.0, "initial configuration"),
-                                 (res.q[-1], "0.3", 3.0, "final configuration")):
-            for i, sk in enumerate(chain_skeletons(s, qq)):
-                ax.plot(*sk.T, "-o", color=col, lw=lw, ms=3, label=lab if i == 0 else None)
-        for k in np.linspace(0, T - 1, 7).astype(int)[1:-1]:
-            c = _circle_params(task.primitive(res.q[k]))
-            ax.plot(*circle_points(c["center_m"], c["radius_m"], c["normal"]).T, color="tab:red", lw=0.8,
-                    alpha=0.8, label="intermediate" if k == np.linspace(0, T - 1, 7).astype(int)[1] else None)
-        for X, col, ls, lab in ((X0, "tab:green", "-", "initial circle"), (Xf, "turquoise", "-", "final circle"),
-                                (Xd, "k", "--", "target circle")):
-            c = _circle_params(X)
-            ax.plot(*circle_points(c["center_m"], c["radius_m"], c["normal"]).T, color=col, ls=ls, lw=2.2, label=lab)
+        gs = fig.add_gridspec(3, 2, width_ratios=[1.25, 1.0], hspace=0.35, wspace=0.2)
+        ax = fig.add_subplot(gs[:, 0], projection="3d", computed_zorder=False)  # layers by zorder
+        drawn = [viz.draw_robot(ax, s, q0, color=pal.initial_robot, ends=False, label="initial configuration",
+                                zorder=1),
+                 viz.draw_robot(ax, s, res.q[-1], color=pal.final_robot, ends=False, label="final configuration",
+                                zorder=2)]
+        knots = np.linspace(0, T - 1, 7).astype(int)[1:-1]
+        for i, k in enumerate(knots):
+            viz.draw_primitive(ax, task.primitive(res.q[k]), color=pal.intermediate((i + 1) / (len(knots) + 1)),
+                               lw=viz.LINEWIDTH["intermediate"], label="intermediate circles" if i == 0 else None,
+                               zorder=3)
+        for X, col, ls, lab in ((X0, pal.initial_primitive, "-", "initial circle"),
+                                (Xf, pal.final_primitive, "-", "final circle"),
+                                (Xd, pal.target_primitive, "--", "target circle")):
+            drawn.append(viz.draw_primitive(ax, X, color=col, ls=ls, lw=2.2, label=lab, zorder=4))
         for i in range(3):
-            ax.plot(*P[:, i].T, color="tab:blue", lw=1.0, alpha=0.7, label="TCP paths (iLQR)" if i == 0 else None)
-        allpts = np.vstack([np.vstack(chain_skeletons(s, q0)), np.vstack(chain_skeletons(s, res.q[-1])),
-                            circle_points(**{"center": _circle_params(Xd)["center_m"],
-                                             "radius": _circle_params(Xd)["radius_m"],
-                                             "normal": _circle_params(Xd)["normal"]})])
-        set_equal_3d(ax, allpts)
+            ax.plot(*P[:, i].T, color=pal.trajectory, lw=viz.LINEWIDTH["trajectory"],
+                    label="TCP paths (iLQR)" if i == 0 else None, zorder=5)
+        ax.scatter(*P[-1].T, color=pal.trajectory, s=25, depthshade=False, zorder=6)
+        viz.set_equal_3d(ax, np.vstack([d.points for d in drawn]), tight=True)
         ax.view_init(elev=18, azim=-60)
-        ax.set_xlabel("x [m]")
-        ax.set_ylabel("y [m]")
-        ax.set_zlabel("z [m]")
+        viz.label_axes_3d(ax)
         ax.set_title(f"three_franka reaching a cooperative circle (iLQR, {res.iterations} iterations)")
         ax.legend(loc="upper left", fontsize=8)
 
         t = res.t
-        colors = plt.cm.tab10(np.arange(7))
         ax1 = fig.add_subplot(gs[0, 1])
-        for j in range(7):
-            ax1.plot(t, Bcmd[:, j], color=colors[j], label=BIVECTOR_LABELS[j])
-        ax1.set_title(r"bivector command $\mathcal{J}^G(q_t)\,\dot q_t$ (body velocity of the circle)", fontsize=10)
+        viz.plot_bivector(ax1, t, Bcmd)
+        ax1.set_title(r"bivector command $\mathcal{J}^G(q_t)\,\dot q_t$ (body velocity of the circle)")
         ax1.set_ylabel("rad/s | 1/s | body length/s", fontsize=8)
-        ax1.legend(ncol=7, fontsize=8, loc="upper right")
-        ax1.grid(alpha=0.3)
         ax2 = fig.add_subplot(gs[1, 1], sharex=ax1)
-        for j in range(7):
-            ax2.plot(t, E[:, j], color=colors[j], label=BIVECTOR_LABELS[j])
-        ax2.set_title(r"error bivector $\log(\tilde V_{Sc}(q_t)\, V_{Sd})$ (Eq 44)", fontsize=10)
-        ax2.grid(alpha=0.3)
+        viz.plot_bivector(ax2, t, E, legend=False)
+        ax2.set_title(r"error bivector $\log(\tilde V_{Sc}(q_t)\, V_{Sd})$ (Eq 44)")
         ax3 = fig.add_subplot(gs[2, 1], sharex=ax1)
-        ax3.semilogy(t, np.linalg.norm(E, axis=1), label=f"iLQR (final {res.terminal_error:.1e})")
+        viz.plot_error(ax3, t, E, label=f"iLQR (final {res.terminal_error:.1e})")
         td = args.dt * np.arange(len(dik.errors))
-        ax3.semilogy(td, dik.errors, "--", label=f"differential IK, gain {args.diffik_gain:g}/s "
-                                                 f"(final {dik.final_error:.1e})")
+        viz.plot_error(ax3, td, dik.errors, ls="--", label=f"differential IK, gain {args.diffik_gain:g}/s "
+                                                           f"(final {dik.final_error:.1e})")
         ax3.set_xlabel("t [s]")
         ax3.set_ylabel(r"$\|e\|$")
-        ax3.grid(alpha=0.3, which="both")
         ax3.legend(fontsize=8)
-        png = out / "circle_reaching.png"
-        fig.savefig(png, dpi=110, bbox_inches="tight")
-        plt.close(fig)
+        png = exp.save(fig, "circle_reaching.png")
 
     # ---- outputs
-    np.savez_compressed(out / "trajectory.npz", t=res.t, q=res.q, qd=res.qd, u=res.u, error_bivector=E,
+    exp.write_npz("trajectory.npz", t=res.t, q=res.q, qd=res.qd, u=res.u, error_bivector=E,
                         command_bivector=Bcmd, end_points=P, target_versor=versor_coeffs(Vd),
                         cost_history=res.cost_history, terminal_error_history=res.terminal_error_history,
                         diffik_q=dik.q_traj, diffik_errors=dik.errors, diffik_end_points=Pd)
@@ -228,7 +194,7 @@ def main(argv: list[str] | None = None) -> int:
         "diffik_error_at_horizon": float(dik.errors[min(len(dik.errors) - 1, args.horizon)]),
         "total_runtime_s": time.perf_counter() - t_total,
     }
-    write_json(out / "metrics.json", metrics)
+    exp.write_json("metrics.json", metrics)
 
     print(f"three_franka circle reaching (21 joints, {args.horizon} knots × {args.dt:g} s)")
     def fmt(c: dict) -> str:

@@ -22,12 +22,11 @@ plus radius and centre over the scripted session).
 
 from __future__ import annotations
 
-import argparse
-import json
 import warnings
-from pathlib import Path
 
 import numpy as np
+
+from coop_ga.harness import Experiment, nonneg_float, positive_float
 
 SESSION = [  # (duration [s], (tx, ty, tz, rx, ry, rz))
     (0.5, (0, 0, 0, 0, 0, 0)),
@@ -37,12 +36,6 @@ SESSION = [  # (duration [s], (tx, ty, tz, rx, ry, rz))
     (1.0, (0, 0, 0, 0, 0, 1)),
     (0.5, (-1, 0, -1, 0, 0, 0)),
 ]
-
-
-def _sphere_wire(ax, c, r, color="tab:green", alpha=0.35):
-    u, v = np.mgrid[0:2 * np.pi:24j, 0:np.pi:12j]
-    ax.plot_wireframe(c[0] + r * np.cos(u) * np.sin(v), c[1] + r * np.sin(u) * np.sin(v), c[2] + r * np.cos(v),
-                      color=color, lw=0.5, alpha=alpha)
 
 
 def _dilation_drift(commands: np.ndarray, centers: np.ndarray) -> float | None:
@@ -55,33 +48,26 @@ def _dilation_drift(commands: np.ndarray, centers: np.ndarray) -> float | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=Path("results/teleop_allegro"), help="output directory")
-    ap.add_argument("--seed", type=int, default=0, help="seed of the optional start perturbation")
-    ap.add_argument("--perturb", type=float, default=0.0, help="uniform perturbation [rad] of q0 (0: nominal q0)")
-    ap.add_argument("--system", default="allegro", help="registered system (default allegro)")
-    ap.add_argument("--kind", default="sphere", help="cooperative primitive (default sphere)")
-    ap.add_argument("--fig21-dt", type=float, default=0.25, help="Δt of the Fig. 21 dilation step [s]")
-    ap.add_argument("--dt", type=float, default=0.01, help="Δt of the teleoperation session [s] (Eq 61)")
-    ap.add_argument("--translation-gain", type=float, default=0.5, help="k_t [radii/s per unit input]")
-    ap.add_argument("--dilation-gain", type=float, default=1.0, help="k_d [1/s per unit input]")
-    ap.add_argument("--interactive", action="store_true", help="keyboard teleoperation in a matplotlib window")
-    args = ap.parse_args(argv)
-
-    import matplotlib
-
-    if not args.interactive:
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     import coop_ga as cg
-    from coop_ga.control.teleop import ScriptedInput, Teleoperator, run_interactive, skeleton
 
-    if args.system not in cg.systems.names():
-        raise SystemExit(f"system {args.system!r} is not registered; available: {cg.systems.names()}")
+    exp = Experiment(__file__, __doc__, seed=0)
+    exp.add("--perturb", type=nonneg_float, default=0.0, help="uniform perturbation [rad] of q0 (0: nominal q0)")
+    exp.add("--system", choices=cg.systems.names(), default="allegro", help="registered system")
+    exp.add("--kind", choices=cg.KINDS, default="sphere", help="cooperative primitive")
+    exp.add("--fig21-dt", type=positive_float, default=0.25, help="Δt of the Fig. 21 dilation step [s]")
+    exp.add("--dt", type=positive_float, default=0.01, help="Δt of the teleoperation session [s] (Eq 61)")
+    exp.add("--translation-gain", type=nonneg_float, default=0.5, help="k_t [radii/s per unit input]")
+    exp.add("--dilation-gain", type=nonneg_float, default=1.0, help="k_d [1/s per unit input]")
+    exp.add("--interactive", action="store_true", help="keyboard teleoperation in a matplotlib window")
+    args = exp.parse(argv)
+    plt = exp.pyplot(interactive=args.interactive)
+
+    from coop_ga import viz
+    from coop_ga.control.teleop import ScriptedInput, Teleoperator, run_interactive
+
     s = cg.systems.load(args.system)
     t = cg.cooperative_task(s, args.kind)
-    rng = np.random.default_rng(args.seed)
+    rng = exp.rng
     q0 = np.clip(s.q0 + rng.uniform(-args.perturb, args.perturb, s.nq), s.q_lower, s.q_upper)
     gains = dict(translation_gain=args.translation_gain, dilation_gain=args.dilation_gain)
 
@@ -149,28 +135,24 @@ def main(argv: list[str] | None = None) -> int:
                               np.any((log["q"] <= s.q_lower + 1e-9) | (log["q"] >= s.q_upper - 1e-9), axis=0))}),
                           "center_path_during_pure_dilation_m": _dilation_drift(log["commands"], centers)}
 
-    args.out.mkdir(parents=True, exist_ok=True)
-    np.savez(args.out / "session.npz", t=log["t"], q=log["q"], commands=log["commands"], bivectors=log["bivectors"],
-             centers=centers, radii=radii, q_close=configs["close"], q_open=configs["open"], q0=q0)
-    (args.out / "metrics.json").write_text(json.dumps(metrics, indent=2))
+    exp.write_npz("session.npz", t=log["t"], q=log["q"], commands=log["commands"], bivectors=log["bivectors"],
+                  centers=centers, radii=radii, q_close=configs["close"], q_open=configs["open"], q0=q0)
+    exp.write_json("metrics.json", metrics)
 
     # ------------------------------------------------------------------ figure (Fig. 21 + session)
     fig = plt.figure(figsize=(15, 4.4))
-    all_pts = np.vstack([np.vstack(skeleton(t, q)) for q in (q0, configs["close"], configs["open"])])
-    mid, half = 0.5 * (all_pts.max(0) + all_pts.min(0)), 0.55 * float(np.max(all_pts.max(0) - all_pts.min(0)))
-    for i, (name, q, title) in enumerate([("close", configs["close"], "B = −e0∞ (d = 0.3679): close"),
-                                          ("orig", q0, "original"),
-                                          ("open", configs["open"], "B = +e0∞ (d = 2.718): open")]):
-        ax = fig.add_subplot(1, 4, i + 1, projection="3d")
-        for line in skeleton(t, q):
-            ax.plot(*line.T, "-o", color="0.25", lw=2, ms=2.5)
-        c, r = geom(q)
-        _sphere_wire(ax, c, r)
-        ax.scatter(*t.points(q).T, color="tab:red", s=18)
-        ax.set_xlim(mid[0] - half, mid[0] + half); ax.set_ylim(mid[1] - half, mid[1] + half)
-        ax.set_zlim(mid[2] - half, mid[2] + half)
-        ax.set_title(f"{title}\nradius {r * 1000:.1f} mm", fontsize=9)
+    panels = [("close", configs["close"], r"$B = -e_{0\infty}$ ($d$ = 0.3679): close"),
+              ("orig", q0, "original"),
+              ("open", configs["open"], r"$B = +e_{0\infty}$ ($d$ = 2.718): open")]
+    axes = [fig.add_subplot(1, 4, i + 1, projection="3d") for i in range(3)]
+    pts = []
+    for ax, (name, q, title) in zip(axes, panels):
+        pts.append(viz.draw_robot(ax, s, q, color=viz.PALETTE.robot, lw=2.0, end_size=18).points)
+        pts.append(viz.draw_primitive(ax, t.primitive(q), color=viz.PALETTE.initial_primitive, alpha=0.7).points)
+        ax.set_title(f"{title}\nradius {geom(q)[1] * 1000:.1f} mm", fontsize=9)
         ax.tick_params(labelsize=6)
+    for ax in axes:  # one scale for the three panels
+        viz.set_equal_3d(ax, np.vstack(pts), pad=0.005)
     ax = fig.add_subplot(1, 4, 4)
     ax.plot(log["t"], radii * 1000, "k-", lw=2, label="radius")
     ax2 = ax.twinx()
@@ -184,8 +166,8 @@ def main(argv: list[str] | None = None) -> int:
     ax.set_title(f"{mode} session (translate x, z, close, open, back)", fontsize=9)
     fig.suptitle(f"Teleoperation of the {args.system} cooperative {args.kind} (cf. Fig. 20–21)")
     fig.tight_layout()
-    fig.savefig(args.out / "teleop_allegro.png", dpi=130)
-    print(f"wrote {args.out}/metrics.json, session.npz, teleop_allegro.png")
+    png = exp.save(fig, "teleop_allegro.png")
+    print(f"wrote {exp.out}/metrics.json, session.npz, {png.name}")
     return 0
 
 

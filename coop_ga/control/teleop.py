@@ -62,7 +62,6 @@ __all__ = [
     "ScriptedInput",
     "Teleoperator",
     "TeleopLog",
-    "skeleton",
     "KEY_BINDINGS",
     "run_interactive",
     "interactive_available",
@@ -195,27 +194,6 @@ class Teleoperator:
         return self.q
 
 
-def skeleton(task_or_system: Any, q: Any) -> list[np.ndarray]:
-    """Polylines (one (m_i, 3) array per end frame) through the joint origins of each chain,
-    root to tip, ending at the end point [m], world frame — for drawing a hand or arms."""
-    import pinocchio as pin
-
-    task = task_or_system if hasattr(task_or_system, "tree") and hasattr(task_or_system, "system") else None
-    sysm = task.system if task is not None else task_or_system
-    tree = task.tree if task is not None else sysm.tree
-    model = sysm.model
-    data = model.createData()
-    q = np.asarray(q, float)
-    pin.forwardKinematics(model, data, q)
-    pin.updateFramePlacements(model, data)
-    out = []
-    for fname, chain in zip(tree.end_frames, tree.chains):
-        pts = [np.array(data.oMi[j].translation) for j in chain]
-        pts.append(np.array(data.oMf[model.getFrameId(fname)].translation))
-        out.append(np.array(pts))
-    return out
-
-
 def interactive_available() -> bool:
     """True when matplotlib can open a window (interactive backend and a display)."""
     import os
@@ -237,8 +215,8 @@ def run_interactive(teleop: Teleoperator, *, fallback_script: Sequence[tuple[flo
     Returns ``'interactive'`` after the window is closed or ``escape`` pressed, or
     ``'scripted'`` when no interactive display is available, in which case
     ``fallback_script`` (default: close then open the hand) is run instead and a
-    :class:`UserWarning` says so.  ``draw(ax, teleop)`` redraws the scene (default: skeleton
-    and end points).
+    :class:`UserWarning` says so.  ``draw(ax, teleop)`` redraws the scene (default: the
+    system's skeleton and end points, :func:`coop_ga.viz.draw_robot`).
     """
     if not interactive_available():
         script = fallback_script if fallback_script is not None else [(1.0, [0, 0, 0, 0, 0, -1]), (1.0, [0, 0, 0, 0, 0, 1])]
@@ -249,18 +227,22 @@ def run_interactive(teleop: Teleoperator, *, fallback_script: Sequence[tuple[flo
 
     import matplotlib.pyplot as plt
 
+    from ..viz import draw_robot, set_equal_3d
+
     fig = plt.figure("coop_ga teleoperation")
     ax = fig.add_subplot(projection="3d")
     held: set[str] = set()
-    state = {"quit": False}
+    state: dict[str, Any] = {"quit": False, "box": None}
 
     def _draw():
         ax.cla()
         if draw is not None:
             draw(ax, teleop)
         else:
-            for line in skeleton(teleop.task, teleop.q):
-                ax.plot(*line.T, "-o", ms=2)
+            pts = draw_robot(ax, teleop.task.system, teleop.q).points
+            if state["box"] is None:  # fixed limits from the first frame (the view must not jump)
+                state["box"] = pts
+            set_equal_3d(ax, state["box"], pad=0.1)
         ax.set_title("arrows/f/r: translate  i/k j/l: rotate  -/+: close/open  space: stop  esc: quit", fontsize=8)
         fig.canvas.draw_idle()
 

@@ -14,8 +14,8 @@ from coop_ga.control.teleop import (
     Teleoperator,
     command_to_bivector,
     run_interactive,
-    skeleton,
 )
+from coop_ga.viz import skeleton
 
 
 def _load(name):
@@ -122,7 +122,7 @@ def test_key_bindings_and_skeleton():
     assert {i for i, _ in KEY_BINDINGS.values()} == set(range(6))
     s = cg.systems.load("three_franka")
     t = cg.cooperative_task(s, "circle")
-    lines = skeleton(t, s.q0)
+    lines = skeleton(s, s.q0).chains
     assert len(lines) == 3
     for line, p in zip(lines, t.points(s.q0)):
         np.testing.assert_allclose(line[-1], p, atol=1e-9)

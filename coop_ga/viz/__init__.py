@@ -1,0 +1,56 @@
+"""Drawing for coop_ga: robots, the six primitive kinds, frames, bivector and error plots.
+
+Layer: above :mod:`coop_ga.systems`, below :mod:`coop_ga.cooperative` — it takes systems,
+configurations and primitives (never tasks).  Nothing here imports ``matplotlib.pyplot``:
+the functions draw on axes they are given, and :func:`render` writes a PNG with the Agg
+canvas directly, so they work headless whatever the backend.
+
+* :mod:`~coop_ga.viz.style` — one palette (:data:`PALETTE`), fonts (:func:`style`,
+  :func:`use_style`), :data:`DPI`, :data:`BIVECTOR_LABELS`;
+* :mod:`~coop_ga.viz.robots` — :func:`skeleton`, :func:`draw_robot`;
+* :mod:`~coop_ga.viz.primitives` — :func:`draw_primitive`, :func:`circle_points`,
+  :func:`sphere_mesh`, :func:`square_points`;
+* :mod:`~coop_ga.viz.frames` — :func:`draw_frame`;
+* :mod:`~coop_ga.viz.plots` — :func:`plot_bivector`, :func:`plot_error`;
+* :mod:`~coop_ga.viz.axes` — :func:`set_equal_3d`, :func:`label_axes_3d`;
+* :mod:`~coop_ga.viz.render` — :func:`render`, :func:`save`.
+"""
+
+from .axes import Drawn, axes_box, label_axes_3d, set_equal_3d
+from .frames import draw_frame, frame_axes
+from .plots import plot_bivector, plot_error
+from .primitives import circle_points, clip_line, draw_primitive, plane_basis, sphere_mesh, square_points
+from .render import render, save
+from .robots import RobotDrawn, Skeleton, draw_robot, skeleton
+from .style import BIVECTOR_COLORS, BIVECTOR_LABELS, DPI, LINEWIDTH, PALETTE, Palette, style, use_style
+
+__all__ = [
+    "BIVECTOR_COLORS",
+    "BIVECTOR_LABELS",
+    "DPI",
+    "LINEWIDTH",
+    "PALETTE",
+    "Drawn",
+    "Palette",
+    "RobotDrawn",
+    "Skeleton",
+    "axes_box",
+    "circle_points",
+    "clip_line",
+    "draw_frame",
+    "draw_primitive",
+    "draw_robot",
+    "frame_axes",
+    "label_axes_3d",
+    "plane_basis",
+    "plot_bivector",
+    "plot_error",
+    "render",
+    "save",
+    "set_equal_3d",
+    "skeleton",
+    "sphere_mesh",
+    "square_points",
+    "style",
+    "use_style",
+]
