@@ -60,9 +60,9 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--scale", type=positive_float, default=1.25, help="radius scale factor of the target")
     exp.add("--horizon", type=positive_int, default=250, help="iLQR knots")
     exp.add("--dt", type=positive_float, default=0.01, help="time step [s] of iLQR and differential IK")
-    exp.add("--max-iter", type=positive_int, default=10, help="iLQR iteration limit")
-    exp.add("--backward", choices=("riccati", "condensed"), default="riccati",
-            help="iLQR backward pass (condensed = the same step in closed form)")
+    exp.add("--max-iter", type=positive_int, default=40, help="iLQR iteration limit (all outer iterations together)")
+    exp.add("--backward", choices=("auto", "riccati"), default="auto",
+            help="iLQR LQ step: auto = closed form while no constraint is active, riccati = always the box-DDP pass")
     exp.add("--diffik-gain", type=positive_float, default=4.0, help="differential-IK gain [1/s]")
     args = exp.parse(argv)
     plt = exp.pyplot()
@@ -71,7 +71,6 @@ def main(argv: list[str] | None = None) -> int:
     from coop_ga import viz
     from coop_ga.control import diff_ik_reach, displaced_target, gauss_newton_ik, ilqr_reach
     from coop_ga.control.ilqr import DEFAULT_Q, DEFAULT_QV, DEFAULT_R
-    from coop_ga.cooperative import versor_coeffs
 
     out = exp.out
     t_total = time.perf_counter()
@@ -86,8 +85,9 @@ def main(argv: list[str] | None = None) -> int:
         task.evaluate(q0)
         task.error_and_jacobian(q0, task.similarity(q0))
     X0 = task.primitive(q0)
-    Vd, Xd = displaced_target(task, q0, translation=args.translation, axis=args.tilt_axis,
-                              angle=np.deg2rad(args.tilt_deg), scale=args.scale)
+    Vd = displaced_target(task, q0, translation=args.translation, axis=args.tilt_axis,
+                          angle=np.deg2rad(args.tilt_deg), scale=args.scale)
+    Xd = Vd.apply(task.unit)
     e0 = task.error(q0, Vd)
 
     with exp.stage("reachability check (Gauss–Newton IK)"):
@@ -101,17 +101,17 @@ def main(argv: list[str] | None = None) -> int:
         dik_time = time.perf_counter() - t0
 
     # ---- trajectories in the task space
-    T = res.q.shape[0]
+    T = res.trajectory.shape[0]
     E = np.empty((T, 7))
     Bcmd = np.empty((T, 7))
     P = np.empty((T, 3, 3))
     for k in exp.progress(range(T), "evaluating the iLQR trajectory"):
-        E[k] = task.error(res.q[k], Vd)
-        st = task.evaluate(res.q[k])
+        E[k] = task.error(res.trajectory[k], Vd)
+        st = task.evaluate(res.trajectory[k])
         Bcmd[k] = st.jacobian @ res.qd[k]
         P[k] = st.points
-    Pd = np.array([task.points(q) for q in dik.q_traj])
-    Xf = task.primitive(res.q[-1])
+    Pd = np.array([task.points(q) for q in dik.trajectory])
+    Xf = task.primitive(res.q)
 
     # ---- figure (Fig. 8)
     pal = viz.PALETTE
@@ -121,11 +121,11 @@ def main(argv: list[str] | None = None) -> int:
         ax = fig.add_subplot(gs[:, 0], projection="3d", computed_zorder=False)  # layers by zorder
         drawn = [viz.draw_robot(ax, s, q0, color=pal.initial_robot, ends=False, label="initial configuration",
                                 zorder=1),
-                 viz.draw_robot(ax, s, res.q[-1], color=pal.final_robot, ends=False, label="final configuration",
+                 viz.draw_robot(ax, s, res.q, color=pal.final_robot, ends=False, label="final configuration",
                                 zorder=2)]
         knots = np.linspace(0, T - 1, 7).astype(int)[1:-1]
         for i, k in enumerate(knots):
-            viz.draw_primitive(ax, task.primitive(res.q[k]), color=pal.intermediate((i + 1) / (len(knots) + 1)),
+            viz.draw_primitive(ax, task.primitive(res.trajectory[k]), color=pal.intermediate((i + 1) / (len(knots) + 1)),
                                lw=viz.LINEWIDTH["intermediate"], label="intermediate circles" if i == 0 else None,
                                zorder=3)
         for X, col, ls, lab in ((X0, pal.initial_primitive, "-", "initial circle"),
@@ -151,20 +151,20 @@ def main(argv: list[str] | None = None) -> int:
         viz.plot_bivector(ax2, t, E, legend=False)
         ax2.set_title(r"error bivector $\log(\tilde V_{Sc}(q_t)\, V_{Sd})$ (Eq 44)")
         ax3 = fig.add_subplot(gs[2, 1], sharex=ax1)
-        viz.plot_error(ax3, t, E, label=f"iLQR (final {res.terminal_error:.1e})")
+        viz.plot_error(ax3, t, E, label=f"iLQR (final {res.error:.1e})")
         td = args.dt * np.arange(len(dik.errors))
         viz.plot_error(ax3, td, dik.errors, ls="--", label=f"differential IK, gain {args.diffik_gain:g}/s "
-                                                           f"(final {dik.final_error:.1e})")
+                                                           f"(final {dik.error:.1e})")
         ax3.set_xlabel("t [s]")
         ax3.set_ylabel(r"$\|e\|$")
         ax3.legend(fontsize=8)
         png = exp.save(fig, "circle_reaching.png")
 
     # ---- outputs
-    exp.write_npz("trajectory.npz", t=res.t, q=res.q, qd=res.qd, u=res.u, error_bivector=E,
-                        command_bivector=Bcmd, end_points=P, target_versor=versor_coeffs(Vd),
-                        cost_history=res.cost_history, terminal_error_history=res.terminal_error_history,
-                        diffik_q=dik.q_traj, diffik_errors=dik.errors, diffik_end_points=Pd)
+    exp.write_npz("trajectory.npz", t=res.t, q=res.trajectory, qd=res.qd, u=res.u, error_bivector=E,
+                        command_bivector=Bcmd, end_points=P, target_versor=Vd.coeffs,
+                        cost_history=res.cost_history, terminal_error_history=res.error_history,
+                        diffik_q=dik.trajectory, diffik_errors=dik.errors, diffik_end_points=Pd)
     c0, cd, cf = _circle_params(X0), _circle_params(Xd), _circle_params(Xf)
     metrics = {
         "system": "three_franka", "kind": "circle", "nq": s.nq, "seed": args.seed, "perturb_rad": args.perturb,
@@ -174,13 +174,13 @@ def main(argv: list[str] | None = None) -> int:
         "initial_circle": c0, "final_circle": cf,
         "initial_error": float(np.linalg.norm(e0)),
         "reachable_by_gauss_newton_ik": bool(ik.converged), "gauss_newton_ik_error": ik.error,
-        "ilqr_iterations": res.iterations, "ilqr_converged": res.converged, "terminal_error": res.terminal_error,
-        "terminal_error_vector": res.terminal_error_vector, "terminal_speed_rad_s": res.terminal_speed,
+        "ilqr_iterations": res.iterations, "ilqr_converged": res.converged, "terminal_error": res.error,
+        "terminal_error_vector": res.error_vector, "terminal_speed_rad_s": res.terminal_speed,
         "solve_time_s": res.solve_time_s, "ilqr_wall_time_s": st_i.seconds, "task_compile_or_load_s": st_c.seconds,
         "ilqr_backward": args.backward, "ilqr_message": res.message, "cost_history": res.cost_history,
-        "terminal_error_history": res.terminal_error_history,
-        "ilqr_iteration_stats": [{"cost": x.cost, "terminal_error": x.terminal_error, "alpha": x.alpha,
-                                  "model": x.model, "second_order_correction": x.second_order_correction,
+        "terminal_error_history": res.error_history,
+        "ilqr_iteration_stats": [{"cost": x.cost, "terminal_error": x.error, "alpha": x.alpha,
+                                  "model": x.model, "outer": x.outer, "violation": x.violation, "travel": x.travel,
                                   "backward_passes": x.backward_passes, "time_s": x.time_s}
                                  for x in res.stats],
         "horizon": args.horizon, "dt_s": args.dt, "horizon_s": args.horizon * args.dt,
@@ -189,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
         "max_joint_speed_rad_s": float(np.abs(res.qd).max()), "max_joint_accel_rad_s2": float(np.abs(res.u).max()),
         "final_centre_error_m": float(np.linalg.norm(cf["center_m"] - cd["center_m"])),
         "radius_error_m": abs(cf["radius_m"] - cd["radius_m"]),
-        "diffik_final_error": dik.final_error, "diffik_converged": dik.converged, "diffik_steps": dik.steps,
+        "diffik_final_error": dik.error, "diffik_converged": dik.converged, "diffik_steps": dik.iterations,
         "diffik_gain_per_s": args.diffik_gain, "diffik_time_s": dik_time,
         "diffik_error_at_horizon": float(dik.errors[min(len(dik.errors) - 1, args.horizon)]),
         "total_runtime_s": time.perf_counter() - t_total,
@@ -203,11 +203,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  initial circle: {fmt(c0)}")
     print(f"  target  circle: {fmt(cd)}  (reachable by GN-IK: {ik.converged})")
     print(f"  initial error ‖e‖ = {np.linalg.norm(e0):.3f}")
-    print(f"  iLQR: {res.iterations} iterations, converged = {res.converged}, terminal error {res.terminal_error:.2e}, "
+    print(f"  iLQR: {res.iterations} iterations, converged = {res.converged}, terminal error {res.error:.2e}, "
           f"solve {res.solve_time_s * 1e3:.1f} ms ({args.backward}), terminal speed {res.terminal_speed:.1e} rad/s, "
           f"joint-limit violation {res.joint_limit_violation:.2g} rad")
-    print(f"        ‖e‖ per iteration: {' '.join(f'{x:.1e}' for x in res.terminal_error_history)}")
-    print(f"  diff-IK (gain {args.diffik_gain:g}/s, {dik.steps} steps): final error {dik.final_error:.2e}, "
+    print(f"        ‖e‖ per iteration: {' '.join(f'{x:.1e}' for x in res.error_history)}")
+    print(f"  diff-IK (gain {args.diffik_gain:g}/s, {dik.iterations} steps): final error {dik.error:.2e}, "
           f"converged (tol 1e-5) = {dik.converged}")
     print(f"  wrote {out / 'metrics.json'}, {out / 'trajectory.npz'}, {png}  ({metrics['total_runtime_s']:.1f} s)")
     return 0

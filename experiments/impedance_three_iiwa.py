@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
         E = []
         t0 = time.perf_counter()
         for i, qi in enumerate(exp.progress(starts, f"simulating ({name} gains)")):
-            r = simulate_impedance(t, qi, Vd, K, D, duration=args.duration, dt=args.dt, nullspace=args.nullspace)
+            r = simulate_impedance(t, qi, Vd, K=K, D=D, duration=args.duration, dt=args.dt, nullspace=args.nullspace)
             rows.append({"run": i, "initial_error": float(r.error_norm[0]), "final_error": float(r.error_norm[-1]),
                          "ratio": r.ratio, "max_rise_above_running_min": r.max_rise,
                          "peak_torque_Nm": float(np.abs(r.tau).max()),

@@ -56,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
                       "final_similarity_distance": float(v.similarity_distance[-1])}
     exp.write_npz("trajectories.npz", t=res["nullspace"].t, target=target,
                   **{f"{k}_{f}": getattr(v, f) for k, v in res.items()
-                     for f in ("q_traj", "points", "point_error", "similarity_distance")})
+                     for f in ("trajectory", "points", "point_error", "similarity_distance")})
     exp.write_json("metrics.json", metrics)
 
     # ------------------------------------------------------------------ figure
@@ -67,11 +67,11 @@ def main(argv: list[str] | None = None) -> int:
         v = res[k]
         ax = fig.add_subplot(1, 3, col + 1, projection="3d", computed_zorder=False)  # layers: zorder below
         drawn = [viz.draw_robot(ax, s, q0, color=P.initial_robot, lw=1.6, ends=False, label="initial", zorder=1),
-                 viz.draw_robot(ax, s, v.q_traj[-1], color=P.final_robot, lw=1.6, ends=False, label="final",
+                 viz.draw_robot(ax, s, v.trajectory[-1], color=P.final_robot, lw=1.6, ends=False, label="final",
                                 zorder=2)]
         drawn.append(viz.draw_primitive(ax, X, color=P.initial_primitive, lw=1.8, label=r"circle $V_{Sc}(q_0)$",
                                         zorder=3))
-        drawn.append(viz.draw_primitive(ax, t.primitive(v.q_traj[-1]), color=P.final_primitive, ls="--", lw=1.4,
+        drawn.append(viz.draw_primitive(ax, t.primitive(v.trajectory[-1]), color=P.final_primitive, ls="--", lw=1.4,
                                         label="final circle", zorder=4))
         ax.plot(*v.points.T, color=P.trajectory, lw=2, label="arm path", zorder=5)
         ax.scatter(*target, color=P.initial_primitive, s=40, depthshade=False, label="target", zorder=6)
