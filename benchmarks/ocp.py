@@ -1,165 +1,221 @@
-"""The reaching OCP of Eq 53–57 solved by coop_ga's iLQR and by CasADi Opti + IPOPT, in one run.
+"""The constrained reaching OCP (Eq 53–57 with joint limits): coop_ga's iLQR vs CasADi Opti + IPOPT and FATROP, in one run.
 
 Problem (the flagship of ``experiments/circle_reaching.py``): ``three_franka``, cooperative
 circle, from rest at q0 to the initial circle moved by 25° about +x, scaled by 1.25 and
 displaced by (0.10, −0.05, 0.10) m; 250 knots × Δt = 0.01 s; double integrator x = [q; q̇],
 u = q̈ (exact ZOH); cost ``Σ uᵀRu + ‖log(Ṽ_Sc(q_n) V_Sd)‖²_Q + q̇_nᵀQ_v q̇_n`` with
-R = 1e-3 I, Q = 1e5 I, Q_v = 1e2 I.
+R = 1e-3 I, Q = 1e5 I, Q_v = 1e2 I (``ReachingOCP``), subject at every knot to
+``lower ≤ q_k ≤ upper``, ``|q̇_k| ≤ velocity`` (k = 1…n) and ``|u_k| ≤ acceleration``
+(k = 0…n−1) from ``system.limits``.  Problems (``--problems``):
 
-Solvers:
+* ``flagship``: the system's own limits (Franka datasheet: velocity 2.175–2.61 rad/s,
+  acceleration 7.5–20 rad/s², the URDF joint ranges) — none of them binds at the optimum;
+* ``velocity``: the same with |q̇| ≤ 0.2 rad/s on every joint — binds (the unconstrained
+  optimum reaches 0.24 rad/s; ~126 (knot, joint) entries active);
+* ``position`` (not run by default: ``--problems flagship velocity position``): arm0 joint 4
+  ≥ q0 − 0.1 rad — binds (the unconstrained optimum moves it by −0.32 rad); this problem
+  has several local optima, and the solvers may end in different ones from the same
+  initial guess (``tests/control/test_reference_ocp.py``).
 
-* ``iLQR (riccati)`` / ``iLQR (condensed)``: :func:`coop_ga.control.ilqr_reach` with the
-  Riccati backward pass (default) or its closed-form equivalent; Newton-type terminal
-  model (Lagrangian Hessian), tol ‖e‖ < 1e-5;
-* ``iLQR (Gauss–Newton)``: the same with the Gauss–Newton terminal Hessian only;
-* ``IPOPT (multiple shooting)``: CasADi ``Opti`` with decision variables q, q̇ at every knot
-  and u, the dynamics as equality constraints, the same cost; the terminal error is
-  built symbolically from ``task.symbolic(q)['versor']`` and coop_ga's ``log`` on CasADi
-  SX (exact Hessian of the Lagrangian by CasADi AD, ``print_level 0``).  Same initial
-  guess as iLQR (u = 0, the system at rest at q0).
+Solvers (same problem data, same initial guess u = 0 with the system at rest at q0):
 
-Times: iLQR is timed best-of-``--repeat`` after a warm-up (the compiled task is cached);
-IPOPT's time is its own ``t_wall_total`` of the solve (graph construction reported
-separately).  The ratio column is solve time / iLQR (riccati) solve time.
+* ``iLQR``: :func:`coop_ga.control.ilqr_reach` through its public API, as it is when this
+  runs, with the problem's parameters and — where its options have them — ``limits="enforce"``
+  and ``terminal="soft"`` (these select the problem above; everything else is its default,
+  including its ``tol``).  ``iLQR (tol = 0)`` is the same run to stationarity.  Timed best of
+  ``--repeat`` after a warm-up (its own ``solve_time_s``; CPU time by ``time.process_time``).
+* ``IPOPT`` / ``FATROP``: :mod:`coop_ga.control.reference_ocp` — multiple shooting in
+  CasADi ``Opti``, exact Hessian by AD, the terminal error from
+  ``task.graph.error_expression``, tol 1e-10; FATROP with ``structure_detection="auto"``.
+  Time = the solver's own ``t_wall_total`` / ``t_proc_total`` (best of ``--ref-repeat``);
+  building the Opti problem and creating the nlpsol (expansion, FATROP's structure
+  detection) are reported separately, not in the solve time.
 
-Run: ``python benchmarks/ocp.py`` (add ``--repeat N``).  The table is also written to
-``<out>/results.json`` (times in s).
+Columns: iterations; solve time [ms] (wall) and CPU [ms]; the cost J of Eq 53 of the
+returned controls (re-integrated); ΔJ relative to the best feasible row; terminal ‖e‖;
+the largest bound violation [rad, rad/s or rad/s²] and the number of active bound entries
+(within 1e-6), both recomputed here from the returned trajectories; status; solve time
+relative to iLQR's (wall).  On a loaded machine wall times exceed CPU times; compare both.
+
+Run: ``python benchmarks/ocp.py`` (``--help`` for the options).  Every number goes to
+``<--out>/results.json`` (default ``results/benchmarks/ocp``; strict JSON) and, with
+``--json OUT``, to ``OUT`` as well.
 """
 
 from __future__ import annotations
 
+import argparse
+import dataclasses
 import os
+import platform
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _timing import print_table  # noqa: E402
+from _timing import print_table
 
-import coop_ga as cg  # noqa: E402
-from coop_ga.control.ilqr import (  # noqa: E402
-    DEFAULT_Q,
-    DEFAULT_QV,
-    DEFAULT_R,
-    ReachingOCP,
-    displaced_target,
-    ilqr_reach,
-)
-from coop_ga.cooperative import versor_coeffs, versor_from_coeffs  # noqa: E402
-from coop_ga.harness import Experiment, positive_float, positive_int  # noqa: E402
+import coop_ga as cg
+from coop_ga.control.ilqr import ILQROptions, ReachingOCP, displaced_target, ilqr_reach
+from coop_ga.control.reference_ocp import ReferenceProblem, check_trajectory
+from coop_ga.harness import Experiment, int_at_least, positive_float, positive_int, write_json
 
-TARGET = dict(translation=(0.10, -0.05, 0.10), axis=(1.0, 0.0, 0.0), angle=np.deg2rad(25.0), scale=1.25)
+TARGET = {"translation": (0.10, -0.05, 0.10), "axis": (1.0, 0.0, 0.0), "angle": np.deg2rad(25.0), "scale": 1.25}
+PROBLEMS = ("flagship", "velocity", "position")
+FEASIBLE = 1e-6  # bound violation below which a row counts as feasible
 
 
-def ipopt_solve(task, q0: np.ndarray, Vd, horizon: int, dt: float, R: float, Q: float, Qv: float,
-                max_iter: int = 1000) -> dict:
-    """Multiple-shooting transcription in CasADi Opti, solved by IPOPT (exact Hessian)."""
-    import casadi as ca
-
-    from coop_ga.geometry.groups import SIMILARITY_BLADES, log as sim_log
-
-    t_build = time.perf_counter()
-    n = task.nq
-    qs = ca.SX.sym("q", n)
-    vd = ca.SX.sym("Vd", 12)
-    Vc = versor_from_coeffs(task.symbolic(qs)["versor"])
-    W = (Vc.reverse() * versor_from_coeffs(vd)).with_blades(SIMILARITY_BLADES)
-    f_err = ca.Function("terminal_error", [qs, vd], [sim_log(W)])
-
-    opti = ca.Opti()
-    X = opti.variable(2 * n, horizon + 1)
-    U = opti.variable(n, horizon)
-    h = 0.5 * dt * dt
-    opti.subject_to(X[:, 0] == np.concatenate([q0, np.zeros(n)]))
-    # x_{k+1} = A x_k + B u_k (exact ZOH of q̈ = u), all knots at once
-    opti.subject_to(X[:n, 1:] == X[:n, :-1] + dt * X[n:, :-1] + h * U)
-    opti.subject_to(X[n:, 1:] == X[n:, :-1] + dt * U)
-    e = f_err(X[:n, horizon], versor_coeffs(Vd))
-    J = R * ca.sumsqr(U) + Q * ca.sumsqr(e) + Qv * ca.sumsqr(X[n:, horizon])
-    opti.minimize(J)
-    opti.set_initial(X, np.tile(np.concatenate([q0, np.zeros(n)])[:, None], (1, horizon + 1)))
-    opti.set_initial(U, 0.0)
-    opti.solver("ipopt", {"print_time": False, "ipopt.sb": "yes"},
-                {"print_level": 0, "max_iter": max_iter, "tol": 1e-10})
-    t_build = time.perf_counter() - t_build
-    t0 = time.perf_counter()
-    try:
-        sol = opti.solve()
-        ok = True
-    except RuntimeError:  # IPOPT did not converge: report what it has
-        sol = opti.debug
-        ok = False
-    wall = time.perf_counter() - t0
-    stats = opti.stats()
-    Uv = np.array(sol.value(U)).reshape(n, horizon).T
-    Xv = np.array(sol.value(X)).reshape(2 * n, horizon + 1)
-    return {"u": Uv, "q_n": Xv[:n, -1], "qd_n": Xv[n:, -1], "iterations": int(stats.get("iter_count", -1)),
-            "solve_time_s": float(stats.get("t_wall_total", wall)), "wall_s": wall, "build_s": t_build,
-            "success": ok and bool(stats.get("success", False)), "status": stats.get("return_status", "?")}
+def make_system(name: str) -> tuple[Any, str]:
+    """The three_franka system with the limits of problem ``name`` and a one-line description."""
+    s = cg.systems.load("three_franka")
+    if name == "flagship":
+        return s, "system limits (Franka datasheet)"
+    if name == "velocity":
+        return s.with_limits(velocity=0.2), "|q̇| ≤ 0.2 rad/s on every joint"
+    q0 = np.array(s.q0)
+    j = s.limits.joint_names[3]
+    return s.with_limits(position={j: (float(q0[3]) - 0.1, float(s.limits.upper[3]))}), f"{j} ≥ q0 − 0.1 rad"
 
 
-def _best(fn, repeat: int):
-    best = None
-    for _ in range(repeat):
-        r = fn()
+def ilqr_kwargs(terminal: str) -> tuple[dict[str, Any], str]:
+    """Options that make ``ilqr_reach`` solve the benchmark's problem, as far as its options allow."""
+    names = {f.name for f in dataclasses.fields(ILQROptions)}
+    kw: dict[str, Any] = {}
+    notes = []
+    if "limits" in names:
+        kw["limits"] = "enforce"
+    else:
+        notes.append("this iLQR has no 'limits' option: it solves the problem WITHOUT the bounds")
+    if "terminal" in names:
+        kw["terminal"] = terminal
+    elif terminal != "soft":
+        notes.append("this iLQR has no 'terminal' option: it solves the soft-terminal problem")
+    return kw, "; ".join(notes)
+
+
+def _row(label: str, *, iterations: int, solve_s: float, cpu_s: float, u: np.ndarray, q: np.ndarray,
+         qd: np.ndarray, ocp: ReachingOCP, lim: Any, status: str, success: bool,
+         extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    chk = check_trajectory(ocp, lim, q, qd, u)
+    err = float(np.linalg.norm(ocp.task.error(q[-1], ocp.target)))
+    return {"solver": label, "iterations": int(iterations), "solve_time_s": float(solve_s), "cpu_time_s": float(cpu_s),
+            "cost": float(ocp.cost(u)), "terminal_error": err, "max_violation": chk["max_violation"],
+            "violations": chk["violations"], "active": chk["active"], "defect": chk["defect"], "status": status,
+            "success": bool(success), **(extra or {})}
+
+
+def run_ilqr(task: Any, q0: np.ndarray, Vd: Any, ocp: ReachingOCP, lim: Any, args: argparse.Namespace,
+             kw: dict[str, Any], label: str) -> dict[str, Any]:
+    call = dict(horizon=args.horizon, dt=args.dt, **kw)
+    ilqr_reach(task, q0, Vd, **call)  # warm-up: compile/build the task's functions once
+    best, cpu = None, np.inf
+    for _ in range(max(1, args.repeat)):
+        c0 = time.process_time()
+        r = ilqr_reach(task, q0, Vd, **call)
+        c = time.process_time() - c0
         if best is None or r.solve_time_s < best.solve_time_s:
+            best, cpu = r, c
+    return _row(label, iterations=best.iterations, solve_s=best.solve_time_s, cpu_s=cpu, u=best.u,
+                q=best.trajectory, qd=best.qd, ocp=ocp, lim=lim, status=best.message, success=best.converged,
+                extra={"options": dict(call)})
+
+
+def run_reference(P: ReferenceProblem, solver: str, repeat: int) -> dict[str, Any]:
+    first = best = P.solve(solver)  # the first solve also creates the solver's nlpsol
+    for _ in range(max(1, repeat) - 1):
+        r = P.solve(solver)
+        if r.solve_time_s < best.solve_time_s:
             best = r
-    return best
+    creation = first.wall_time_s - first.solve_time_s
+    ocp = P.ocp
+    row = _row({"ipopt": "IPOPT", "fatrop": "FATROP"}[solver], iterations=best.iterations, solve_s=best.solve_time_s,
+               cpu_s=best.solve_cpu_s, u=best.u, q=best.q, qd=best.qd, ocp=ocp, lim=P.limits,
+               status=f"{'ok' if best.success else 'FAILED'} ({best.status})", success=best.success,
+               extra={"nlp_cost": best.cost, "build_time_s": P.build_time_s,
+                      "nlpsol_creation_s": max(0.0, creation),
+                      "stats": {k: v for k, v in best.stats.items() if k.startswith(("t_", "fatrop.", "iter"))}})
+    return row
 
 
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/ocp"))
-    exp.add("--repeat", type=positive_int, default=5, help="iLQR repetitions (best time reported)")
-    exp.add("--horizon", type=positive_int, default=250, help="knots")
+    exp.add("--repeat", type=positive_int, default=3, metavar="N", help="timed iLQR solves per problem (best reported)")
+    exp.add("--ref-repeat", type=positive_int, default=1, metavar="N",
+            help="timed IPOPT/FATROP solves per problem (best reported; each takes seconds)")
+    exp.add("--problems", nargs="+", choices=PROBLEMS, default=["flagship", "velocity"], help="problems to run")
+    exp.add("--terminal", choices=("soft", "constraint"), default="soft",
+            help="terminal error in the cost (Eq 57) or as the constraint e(q_n) = 0")
+    exp.add("--horizon", type=int_at_least(2), default=250, help="knots")
     exp.add("--dt", type=positive_float, default=0.01, help="time step [s]")
-    exp.add("--no-ipopt", action="store_true", help="skip the IPOPT solve")
+    exp.add("--no-ipopt", action="store_true", help="skip IPOPT")
+    exp.add("--no-fatrop", action="store_true", help="skip FATROP")
+    exp.add("--json", type=Path, default=None, metavar="OUT",
+            help="also write every number to this JSON file (results.json in --out is always written)")
     args = exp.parse(argv)
+    problems = list(dict.fromkeys(args.problems))
 
-    s = cg.systems.load("three_franka")
-    task = cg.cooperative_task(s, "circle")
-    q0 = np.array(s.q0)
-    Vd, _ = displaced_target(task, q0, **TARGET)
-    ocp = ReachingOCP(task, q0, Vd, horizon=args.horizon, dt=args.dt)
-    print(f"three_franka circle reaching: nq = {task.nq}, {args.horizon} knots × {args.dt:g} s, "
-          f"initial ‖e‖ = {np.linalg.norm(task.error(q0, Vd)):.3f}", flush=True)
+    import casadi as ca
 
-    rows, records = [], []
-    ref = None
-    variants = (("iLQR (riccati)", {}), ("iLQR (condensed)", {"backward": "condensed"}),
-                ("iLQR (Gauss–Newton, riccati)", {"hessian": "gauss_newton"}))
-    for label, kw in exp.progress(variants, "iLQR variants"):
-        ilqr_reach(task, q0, Vd, horizon=args.horizon, dt=args.dt, **kw)  # warm-up (compile, build)
-        r = _best(lambda: ilqr_reach(task, q0, Vd, horizon=args.horizon, dt=args.dt, **kw), args.repeat)
-        if ref is None:
-            ref = r.solve_time_s
-        rows.append([label, str(r.iterations), f"{r.solve_time_s * 1e3:.1f}", f"{r.terminal_error:.2e}",
-                     f"{ocp.cost(r.u):.6f}", "yes" if r.converged else "no", f"{r.solve_time_s / ref:.2f}"])
-        records.append({"solver": label, "iterations": r.iterations, "solve_time_s": r.solve_time_s,
-                        "terminal_error": r.terminal_error, "cost": ocp.cost(r.u), "converged": r.converged})
+    solvers = [s for s, skip in (("ipopt", args.no_ipopt), ("fatrop", args.no_fatrop)) if not skip]
+    missing = [s for s in solvers if not ca.has_nlpsol(s)]
+    solvers = [s for s in solvers if s not in missing]
+    kw, note = ilqr_kwargs(args.terminal)
+    out: dict[str, Any] = {
+        "meta": {"casadi": ca.__version__, "python": platform.python_version(), "machine": platform.machine(),
+                 "cpus": os.cpu_count(), "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
+                 "horizon": args.horizon, "dt": args.dt, "terminal": args.terminal, "ilqr_options": kw,
+                 "ilqr_note": note, "missing_solvers": missing},
+        "problems": {}}
+    if note:
+        print(f"note: {note}", flush=True)
+    for m in missing:
+        print(f"note: this CasADi ({ca.__version__}) has no {m} plugin: skipped", flush=True)
 
-    if not args.no_ipopt:
-        import casadi as ca
+    for name in problems:
+        s, desc = make_system(name)
+        task = cg.cooperative_task(s, "circle")
+        q0 = np.array(s.q0)
+        Vd = displaced_target(task, q0, **TARGET)
+        ocp = ReachingOCP(task, q0, Vd, horizon=args.horizon, dt=args.dt)
+        lim = s.limits
+        print(f"\n[{name}] three_franka circle, {desc}: nq = {task.nq}, {args.horizon} knots × {args.dt:g} s, "
+              f"terminal {args.terminal}, initial ‖e‖ = {np.linalg.norm(task.error(q0, Vd)):.3f}", flush=True)
+        with exp.stage(f"[{name}] iLQR"):
+            rows = [run_ilqr(task, q0, Vd, ocp, lim, args, kw, "iLQR")]
+        with exp.stage(f"[{name}] iLQR (tol = 0)"):
+            rows.append(run_ilqr(task, q0, Vd, ocp, lim, args, {**kw, "tol": 0.0}, "iLQR (tol = 0)"))
+        if solvers:
+            P = ReferenceProblem(ocp, lim, terminal=args.terminal)
+            for solver in solvers:
+                with exp.stage(f"[{name}] {solver}"):
+                    rows.append(run_reference(P, solver, args.ref_repeat))
+                r = rows[-1]
+                print(f"  {r['solver']}: Opti build {r['build_time_s']:.2f} s, nlpsol creation "
+                      f"{r['nlpsol_creation_s']:.2f} s (not in the solve time)", flush=True)
+        ref_t = rows[0]["solve_time_s"]
+        feasible = [r["cost"] for r in rows if r["max_violation"] <= FEASIBLE and r["success"]] or \
+                   [r["cost"] for r in rows if r["max_violation"] <= FEASIBLE]
+        jmin = min(feasible) if feasible else np.nan
+        table = []
+        for r in rows:
+            r["rel_cost"] = (r["cost"] - jmin) / abs(jmin) if np.isfinite(jmin) else np.nan
+            r["time_ratio"] = r["solve_time_s"] / ref_t if ref_t > 0 else np.nan
+            act = r["active"]
+            table.append([r["solver"], str(r["iterations"]), f"{r['solve_time_s'] * 1e3:.1f}",
+                          f"{r['cpu_time_s'] * 1e3:.1f}", f"{r['cost']:.10f}", f"{r['rel_cost']:+.1e}",
+                          f"{r['terminal_error']:.2e}", f"{r['max_violation']:.1e}",
+                          f"{act['position']}/{act['velocity']}/{act['acceleration']}",
+                          f"{r['time_ratio']:.1f}", r["status"][:60]])
+        print_table(f"[{name}] reaching OCP (Eq 53–57) with {desc}, three_franka circle",
+                    ["solver", "iter", "solve [ms]", "CPU [ms]", "cost J", "ΔJ/J_best", "‖e(q_n)‖",
+                     "max viol", "active q/q̇/u", "t / iLQR", "status"], table)
+        out["problems"][name] = {"description": desc, "rows": rows}
 
-        if not ca.has_nlpsol("ipopt"):
-            rows.append(["IPOPT (multiple shooting)", "-", "-", "-", "-", "IPOPT not available in this casadi", "-"])
-        else:
-            with exp.stage("IPOPT (multiple shooting)"):
-                ip = ipopt_solve(task, q0, Vd, args.horizon, args.dt, DEFAULT_R, DEFAULT_Q, DEFAULT_QV)
-            err = float(np.linalg.norm(task.error(ip["q_n"], Vd)))
-            rows.append(["IPOPT (multiple shooting)", str(ip["iterations"]), f"{ip['solve_time_s'] * 1e3:.1f}",
-                         f"{err:.2e}", f"{ocp.cost(ip['u']):.6f}",
-                         f"{'yes' if ip['success'] else 'no'} ({ip['status']})", f"{ip['solve_time_s'] / ref:.2f}"])
-            records.append({"solver": "IPOPT (multiple shooting)", "iterations": ip["iterations"],
-                            "solve_time_s": ip["solve_time_s"], "terminal_error": err, "cost": ocp.cost(ip["u"]),
-                            "converged": ip["success"], "status": ip["status"], "build_s": ip["build_s"],
-                            "wall_s": ip["wall_s"]})
-            print(f"  IPOPT: graph/Opti construction {ip['build_s']:.2f} s (not in the solve time), "
-                  f"wall time of opti.solve() {ip['wall_s']:.2f} s", flush=True)
-    print_table("reaching OCP (Eq 53–57), three_franka circle: iLQR vs IPOPT",
-                ["solver", "iterations", "solve [ms]", "terminal ‖e‖", "cost J", "converged", "time / iLQR"], rows)
-    exp.write_json("results.json", {"horizon": args.horizon, "dt_s": args.dt, "repeat": args.repeat, "rows": records})
+    path = exp.write_json("results.json", out)
+    print(f"\nwrote {path}" + (f" and {write_json(args.json, out)}" if args.json else ""))
     return 0
 
 

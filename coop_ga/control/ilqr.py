@@ -317,8 +317,8 @@ class ILQROptions:
     Qv: Any = DEFAULT_QV
     limits: str = "enforce"
     terminal: str = "constraint"
-    max_iter: int = 40
-    max_outer: int = 10
+    max_iter: int = 60
+    max_outer: int = 30
     tol: float = 1e-5
     ftol: float = 1e-7
     hessian: str = "newton"
@@ -780,12 +780,18 @@ def _multiplier_estimate(ocp: ReachingOCP, ev: dict[str, Any], ck: np.ndarray) -
     left out: they are zero unless a bound is active.
     """
     u, Je, qdn = ev["u"], ev["Je"], ev["qd"][-1]
-    abar = (ck @ (u @ ocp.R2.T) + (2.0 * ocp.dt * float(ck.sum())) * (ocp.Qv @ qdn)) / float(ck @ ck)
+    b = u @ ocp.R2.T + (2.0 * ocp.dt) * (ocp.Qv @ qdn)[None, :]  # (T, n): 2R u_k + 2Δt Q_v q̇_n
+    # controls at their acceleration bound are not stationary: leave them out, joint by joint
+    free = ~(np.abs(u) >= ocp.a_max * (1.0 - 1e-9)) if ocp.u_bounded else np.ones(u.shape, dtype=bool)
+    c = ck[:, None] * free
+    W = np.sum(c * c, axis=0)  # (n,): information about joint j's multiplier
+    abar = np.where(W > 0, np.sum(c * b, axis=0) / np.where(W > 0, W, 1.0), 0.0)
+    sw = np.sqrt(W / max(float(W.max()), 1e-300))
     # joints at a terminal position bound carry their own multiplier ν_j (unknowns beside w)
     qn = ev["q"][-1]
     at = np.flatnonzero((qn <= ocp.q_lower + 1e-9) | (qn >= ocp.q_upper - 1e-9))
     A = Je.T if not at.size else np.hstack([Je.T, np.eye(ocp.nq)[:, at]])
-    return -np.linalg.lstsq(A, abar, rcond=1e-10)[0][:7]
+    return -np.linalg.lstsq(sw[:, None] * A, sw * abar, rcond=1e-10)[0][:7]
 
 
 def _terminal_model(ocp: ReachingOCP, ev: dict[str, Any], w: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
@@ -1116,6 +1122,79 @@ def _condensed_box_step(ocp: ReachingOCP, u: np.ndarray, q: np.ndarray, qd: np.n
     return du, d1, d2, dx
 
 
+def _control_box_step(ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, ck: np.ndarray,
+                      max_iter: int = 50) -> tuple[np.ndarray, float, float] | None:
+    """The LQ step with the acceleration bounds, exactly, by projected Newton over the whole control sequence.
+
+    With linear dynamics the LQ subproblem is the QP ``min ½ δuᵀ H δu + gᵀ δu`` over the box
+    ``−a − u_k ≤ δu_k ≤ a − u_k`` with ``H = 2R ⊗ I_n + Gᵀ V_xx G`` (G: δu → δx_n, rank 2nq) and
+    ``g_k = 2R u_k + G_kᵀ v_x`` — Tassa et al.'s box QP, solved for all knots at once instead of
+    knot by knot (their per-knot QP clamps the feedforward at δx = 0, which with the stiff terminal
+    cost saturates the last knots for nothing).  Newton steps on the free set use the Woodbury
+    identity (``2R`` diagonal plus a rank-2nq term): O(n·nq·nq) per iteration.  Requires a
+    diagonal R; returns ``(δu, d1, d2)`` or None (not convex, or R not diagonal).
+    """
+    n, dt, T = ocp.nq, ocp.dt, ocp.horizon
+    r2 = np.diag(ocp.R2)
+    if not np.allclose(ocp.R2, np.diag(r2)) or not np.all(r2 > 0):
+        return None
+    lo, hi = -ocp.a_max - u, ocp.a_max - u
+
+    def G(v: np.ndarray) -> np.ndarray:  # (T, n) → δx_n (2n)
+        return np.concatenate([ck @ v, dt * v.sum(axis=0)])
+
+    def GT(y: np.ndarray) -> np.ndarray:  # 2n → (T, n)
+        return np.outer(ck, y[:n]) + dt * y[n:][None, :]
+
+    g = u * r2 + GT(vx)
+
+    def f_grad(x: np.ndarray) -> tuple[float, np.ndarray]:
+        y = G(x)
+        Vy = Vxx @ y
+        return float(0.5 * np.sum(x * x * r2) + 0.5 * y @ Vy + np.sum(g * x)), x * r2 + GT(Vy) + g
+
+    x = np.zeros_like(u)
+    f, grad = f_grad(x)
+    eye = np.eye(2 * n)
+    for _ in range(max_iter):
+        clamped = ((x <= lo) & (grad > 0)) | ((x >= hi) & (grad < 0))
+        free = ~clamped
+        # Newton direction on the free set: (D + Gfᵀ V Gf) d = −grad_f, D = 2R (diagonal)
+        dinv = np.where(free, 1.0 / r2, 0.0)
+        rhs = -np.where(free, grad, 0.0)
+        a = dinv * rhs
+        # Gf D⁻¹ Gfᵀ (2n × 2n): blocks over the free entries
+        ckf = ck[:, None] * dinv  # (T, n)
+        S11 = np.diag((ck[:, None] * ckf).sum(axis=0))
+        S12 = np.diag(dt * ckf.sum(axis=0))
+        S22 = np.diag(dt * dt * dinv.sum(axis=0))
+        M = np.block([[S11, S12], [S12, S22]])
+        try:
+            z = np.linalg.solve(eye + Vxx @ M, Vxx @ G(a))
+        except np.linalg.LinAlgError:
+            return None
+        d = a - dinv * GT(z)
+        if float(np.max(np.abs(d))) < 1e-14 * (1.0 + float(np.max(np.abs(x)))):
+            break
+        step = 1.0
+        while True:  # projected Armijo line search
+            xn = np.clip(x + step * d, lo, hi)
+            fn, gn = f_grad(xn)
+            if fn - f <= 0.1 * float(np.sum(grad * (xn - x))) or step < 1e-10:
+                break
+            step *= 0.5
+        converged = f - fn <= 1e-14 * (1.0 + abs(f))
+        x, f, grad = xn, fn, gn
+        if converged:
+            break
+    if not f < 0:
+        return None
+    y = G(x)
+    d1 = float(np.sum(g * x))
+    d2 = float(0.5 * np.sum(x * x * r2) + 0.5 * y @ Vxx @ y)
+    return x, d1, d2
+
+
 def _lq_step(ocp: ReachingOCP, o: ILQROptions, u: np.ndarray, ev: dict[str, Any], Vxx: np.ndarray, vx: np.ndarray,
              lx: np.ndarray, lxx: np.ndarray, state_terms: bool, ck: np.ndarray, R2inv: np.ndarray,
              Winv: np.ndarray):
@@ -1133,6 +1212,13 @@ def _lq_step(ocp: ReachingOCP, o: ILQROptions, u: np.ndarray, ev: dict[str, Any]
         q1, qd1 = ocp.rollout(u + du)
         if ocp.violation(q1, qd1, u + du) <= 1e-12:  # round-off at a bound the box QP put x_n on
             return "condensed", (lambda a, du=du: u + a * du), d1, d2
+        if ocp.u_bounded and ocp.violation(q1, qd1) <= 1e-12:  # only the acceleration bounds are in the way
+            cstep = _control_box_step(ocp, u, Vxx, vx, ck)
+            if cstep is not None:
+                du, d1, d2 = cstep
+                q1, qd1 = ocp.rollout(u + du)
+                if ocp.violation(q1, qd1) <= 1e-12:
+                    return "condensed", (lambda a, du=du: u + a * du), d1, d2
     box = ocp.u_bounded
     try:
         kff, Kfb, d1, d2 = _backward_box(ocp, u, Vxx, vx, lx, lxx, box=box)

@@ -45,8 +45,29 @@ M: a plain torque damping ``−d q̇`` [N m s/rad] is unstable under explicit 1 
 integration on light joints (iiwa link 7: about 1e-3 kg m², stable only for d < 2).
 
 Simulation: the plant is Pinocchio's forward dynamics ``q̈ = ABA(q, q̇, τ)`` (gravity
-``model.gravity``, no friction, no torque limits) integrated with semi-implicit Euler
+``model.gravity``, no friction) integrated with semi-implicit Euler
 (``q̇ += Δt q̈; q += Δt q̇``), Δt = 1 ms by default.
+
+Limits (``task.system.limits``, :class:`~coop_ga.systems.limits.JointLimits`)
+-----------------------------------------------------------------------------
+* Torque: with ``torque_limits='saturate'`` (default) the command of Eq 52 is clipped
+  joint by joint to ``±effort`` (URDF ``<limit effort>``; an unbounded joint is never
+  clipped) before it reaches the plant — what a drive does; ``'none'`` applies the raw
+  command (the plant then receives torques beyond the rating, and a
+  :class:`~coop_ga.errors.JointLimitWarning` says so).  Saturation breaks the task/nullspace
+  decoupling of the law for that step, so the closed loop is no longer exactly the
+  second-order error dynamics above; it is reported, not hidden:
+  :attr:`ImpedanceResult.saturated_steps` (control steps in which at least one joint was
+  clipped) and :attr:`ImpedanceResult.effort_ratio` (max ``|τ_cmd| / effort`` of the
+  unsaturated command; > 1 iff something was, or with ``'none'`` should have been, clipped).
+* Position and velocity: not enforced (the controller has no notion of them and the
+  plant has no joint stops); every state of the run is checked —
+  :attr:`~ImpedanceResult.position_violation` (largest excursion outside
+  ``[lower, upper]``), :attr:`~ImpedanceResult.velocity_ratio` (max ``|q̇| / velocity``),
+  and the number of states outside each limit — and one
+  :class:`~coop_ga.errors.JointLimitWarning` per call reports a violation.  A run that
+  violated them is not ``converged``, whatever its final error (the states it went
+  through are not reachable by the real robot).
 """
 
 from __future__ import annotations
@@ -57,8 +78,8 @@ from typing import Any
 import numpy as np
 
 from .. import validation
-from ..diagnostics import collect_warnings
-from ..errors import CoopGAError, InvalidInputError, NonFiniteError
+from ..diagnostics import collect_warnings, warn
+from ..errors import CoopGAError, InvalidInputError, JointLimitWarning, NonFiniteError
 from .base import SolverResult, check_q, resolve_options
 from .dynamics import task_inertia
 
@@ -91,7 +112,14 @@ class ImpedanceOptions:
     nullspace: ``'compensate'`` (default) or ``'damping'`` (the paper's Eq 52, an ablation).
     error_rate: ``'exact'`` (Ḃ_e = J_e q̇) or ``'approx'`` (Ḃ_e = −J^G q̇).
     rcond: relative eigenvalue cut-off of the pseudo-inverse in Λ (Eq 36).
-    tol: the result is ``converged`` when the final ‖B_e‖ < tol.
+    tol: the result is ``converged`` when the final ‖B_e‖ < tol (and the position and
+        velocity limits held over the run).
+    torque_limits: ``'saturate'`` (default): clip the commanded τ to ±``effort`` of
+        ``task.system.limits`` before applying it; ``'none'``: apply the raw command (the
+        excess is still measured and warned about).  See "Limits" in the module docstring.
+    warn_limits: emit one :class:`~coop_ga.errors.JointLimitWarning` per call when the run
+        left the position or velocity limits (or exceeded the effort limits with
+        ``torque_limits='none'``); the counts in the result are filled either way.
     """
 
     K: Any = field(default_factory=lambda: PAPER_GAINS[0].copy())
@@ -103,6 +131,8 @@ class ImpedanceOptions:
     error_rate: str = "exact"
     rcond: float = 1e-8
     tol: float = 1e-3
+    torque_limits: str = "saturate"
+    warn_limits: bool = True
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "K", _gain(self.K, "K"))
@@ -114,6 +144,9 @@ class ImpedanceOptions:
         validation.choice(self.error_rate, ("exact", "approx"), "error_rate")
         validation.scalar(self.rcond, "rcond", low=0.0, high=1.0)
         validation.nonnegative(self.tol, "tol")
+        validation.choice(self.torque_limits, ("saturate", "none"), "torque_limits")
+        if not isinstance(self.warn_limits, bool):
+            raise InvalidInputError(f"warn_limits must be True or False, got {self.warn_limits!r}")
 
 
 def error_rate(task: Any, q: Any, qd: Any, target: Any, mode: str = "exact") -> tuple[np.ndarray, np.ndarray]:
@@ -130,11 +163,29 @@ def error_rate(task: Any, q: Any, qd: Any, target: Any, mode: str = "exact") -> 
 class ImpedanceResult(SolverResult):
     """Result of :func:`simulate_impedance` (fields of :class:`~coop_ga.control.base.SolverResult`
     plus; T = number of control steps + 1, ``iterations`` = T − 1, ``converged`` iff the final
-    ‖B_e‖ < ``tol``, ``q`` = the final configuration):
+    ‖B_e‖ < ``tol`` and no state left the position or velocity limits, ``q`` = the final
+    configuration):
 
     t (T,) [s]; trajectory (T, nq) [rad]; qd (T, nq) [rad/s]; error_vectors (T, 7) B_e;
-    error_norm (T,) ‖B_e‖; tau (T, nq) [N m], the torque applied from state t[k] (the last
-    row is the command at the final state, not applied).
+    error_norm (T,) ‖B_e‖;
+    tau (T, nq) [N m]: the torque applied from state t[k] — the command clipped to ±effort
+    with ``torque_limits='saturate'`` (the last row is the command at the final state, not
+    applied); tau_command (T, nq) [N m]: the command of Eq 52 before saturation.
+
+    Limits (those of ``task.system.limits``; every number below can be recomputed from the
+    arrays above and the limits — ``tests/control/test_impedance.py`` does):
+
+    torque_limits: the option used (``'saturate'`` or ``'none'``).
+    saturated_steps: number of *applied* control steps k < T − 1 with ``|tau_command[k, j]| >
+        effort[j]`` for some joint j (with ``'none'``: the steps that exceeded the rating).
+    effort_ratio: ``max_{k < T−1, j} |tau_command[k, j]| / effort[j]`` (joints with a finite
+        effort; 0 if none) — > 1 iff ``saturated_steps > 0``.
+    position_violation: largest excursion of ``trajectory`` outside ``[lower, upper]`` over the
+        T states [rad] (0 = inside).
+    velocity_ratio: ``max_{k, j} |qd[k, j]| / velocity[j]`` over the T states (> 1 = violated).
+    position_violation_steps, velocity_violation_steps: number of states t_k (of T, the
+        initial one included) outside the position / velocity limits (strictly);
+        limit_violation_steps: states outside either.
     """
 
     t: np.ndarray
@@ -143,6 +194,20 @@ class ImpedanceResult(SolverResult):
     error_vectors: np.ndarray
     error_norm: np.ndarray
     tau: np.ndarray
+    tau_command: np.ndarray
+    torque_limits: str = "saturate"
+    saturated_steps: int = 0
+    effort_ratio: float = 0.0
+    position_violation: float = 0.0
+    velocity_ratio: float = 0.0
+    position_violation_steps: int = 0
+    velocity_violation_steps: int = 0
+    limit_violation_steps: int = 0
+
+    @property
+    def within_limits(self) -> bool:
+        """True iff no state left the position or velocity limits (torque saturation is allowed)."""
+        return self.limit_violation_steps == 0
 
     @property
     def ratio(self) -> float:
@@ -209,11 +274,18 @@ def impedance_torque(task: Any, q: Any, qd: Any, target: Any, options: Impedance
 
     See the module docstring for the law, the nullspace options and ``error_rate``;
     ``options``: :class:`ImpedanceOptions` (keyword ``overrides`` replace its fields; only the
-    gains, ``D_null``, ``nullspace``, ``error_rate`` and ``rcond`` matter here).
+    gains, ``D_null``, ``nullspace``, ``error_rate``, ``rcond`` and ``torque_limits`` matter
+    here).  The torque is the one :func:`simulate_impedance` applies: clipped to ±effort of
+    ``task.system.limits`` with ``torque_limits='saturate'`` (default), the raw command of
+    Eq 52 with ``'none'``.
     """
     o = resolve_options(ImpedanceOptions, options, overrides, "impedance_torque")
     ctl = _Controller(task, target, o)
-    return ctl(check_q(task, q), check_q(task, qd, "qd"))[0]
+    tau = ctl(check_q(task, q), check_q(task, qd, "qd"))[0]
+    if o.torque_limits == "saturate":
+        eff = task.system.limits.effort
+        tau = np.clip(tau, -eff, eff)
+    return tau
 
 
 def simulate_impedance(task: Any, q_init: Any, target: Any, options: ImpedanceOptions | None = None, *,
@@ -228,6 +300,11 @@ def simulate_impedance(task: Any, q_init: Any, target: Any, options: ImpedanceOp
     options: :class:`ImpedanceOptions` (gains, duration, Δt, nullspace handling, …);
         keyword ``overrides`` replace its fields (``simulate_impedance(t, q, V, K=25, D=10)``).
 
+    The commanded torque is saturated to ±effort of ``task.system.limits`` unless
+    ``torque_limits='none'``; position and velocity limits are monitored, not enforced (module
+    docstring, "Limits"): the result counts the violations and one
+    :class:`~coop_ga.errors.JointLimitWarning` per call reports them.
+
     Returns
     -------
     :class:`ImpedanceResult`.  Raises :class:`NonFiniteError` if the state diverges.
@@ -240,19 +317,24 @@ def simulate_impedance(task: Any, q_init: Any, target: Any, options: ImpedanceOp
     ctl = _Controller(task, target, o)
     model = task.system.model
     plant = model.createData()
-    n = int(round(duration / dt))
+    n = round(duration / dt)
     T = n + 1
     Q = np.empty((T, task.nq))
     QD = np.empty((T, task.nq))
     TAU = np.empty((T, task.nq))
+    TAU_CMD = np.empty((T, task.nq))
     E = np.empty((T, 7))
+    lim = task.system.limits
+    effort = lim.effort
+    saturate = o.torque_limits == "saturate" and bool(np.any(np.isfinite(effort)))
     with collect_warnings() as caught:
         for k in range(T):
             try:
-                tau, e = ctl(q, qd)
+                tau_cmd, e = ctl(q, qd)
             except CoopGAError as ex:  # the state left the task's domain (degenerate primitive, overflow)
                 raise NonFiniteError(f"impedance simulation diverged at t = {k * dt:.4f} s: {ex}") from ex
-            Q[k], QD[k], TAU[k], E[k] = q, qd, tau, e
+            tau = np.clip(tau_cmd, -effort, effort) if saturate else tau_cmd
+            Q[k], QD[k], TAU[k], TAU_CMD[k], E[k] = q, qd, tau, tau_cmd, e
             if k == n:
                 break
             qdd = pin.aba(model, plant, q, qd, tau)
@@ -260,10 +342,65 @@ def simulate_impedance(task: Any, q_init: Any, target: Any, options: ImpedanceOp
             q = q + dt * qd
             if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))) or float(np.max(np.abs(q))) > 1e3:
                 raise NonFiniteError(f"impedance simulation diverged at t = {(k + 1) * dt:.4f} s")
+        stats = _limit_statistics(lim, Q, QD, TAU_CMD[:n])
+        if o.warn_limits:
+            _warn_limits(task.name, stats, o.torque_limits, T)
     En = np.linalg.norm(E, axis=1)
-    converged = bool(En[-1] < o.tol)
-    msg = (f"‖B_e‖ = {En[-1]:.3g} after {duration:g} s ({'<' if converged else '≥'} tol = {o.tol:g}; "
+    small = bool(En[-1] < o.tol)
+    converged = small and stats["limit_violation_steps"] == 0
+    msg = (f"‖B_e‖ = {En[-1]:.3g} after {duration:g} s ({'<' if small else '≥'} tol = {o.tol:g}; "
            f"ratio to the start {En[-1] / En[0] if En[0] > 0 else 0.0:.3g})")
+    if stats["saturated_steps"]:
+        msg += (f"; torque {'saturated' if o.torque_limits == 'saturate' else 'above the effort limit'} in "
+                f"{stats['saturated_steps']} of {n} steps (max |τ|/effort = {stats['effort_ratio']:.3g})")
+    if stats["limit_violation_steps"]:
+        msg += (f"; joint limits violated in {stats['limit_violation_steps']} of {T} states (position by up to "
+                f"{stats['position_violation']:.3g} rad, max |q̇|/limit = {stats['velocity_ratio']:.3g})"
+                + " — not converged")
     return ImpedanceResult(converged=converged, error=float(En[-1]), iterations=n, message=msg, q=Q[-1].copy(),
                            warnings=dict(caught.counts), t=np.arange(T) * dt, trajectory=Q, qd=QD,
-                           error_vectors=E, error_norm=En, tau=TAU)
+                           error_vectors=E, error_norm=En, tau=TAU, tau_command=TAU_CMD,
+                           torque_limits=o.torque_limits, **stats)
+
+
+def _limit_statistics(lim: Any, Q: np.ndarray, QD: np.ndarray, tau_applied_cmd: np.ndarray) -> dict[str, Any]:
+    """Limit counts of a run (see :class:`ImpedanceResult`): states Q, QD (T, nq), the commands of the
+    applied steps (T − 1, nq) before saturation."""
+    finite = np.isfinite(lim.effort)
+    if tau_applied_cmd.size and np.any(finite):
+        ratio = np.abs(tau_applied_cmd[:, finite]) / lim.effort[finite]
+        over = ratio > 1.0
+        saturated_steps = int(np.count_nonzero(np.any(over, axis=1)))
+        effort_ratio = float(np.max(ratio))
+    else:
+        saturated_steps, effort_ratio = 0, 0.0
+    pos_out = np.any((Q < lim.lower) | (Q > lim.upper), axis=1)
+    vel_out = np.any(np.abs(QD) > lim.velocity, axis=1)
+    return {
+        "saturated_steps": saturated_steps,
+        "effort_ratio": effort_ratio,
+        "position_violation": lim.position_violation(Q),
+        "velocity_ratio": float(np.max(np.abs(QD) / lim.velocity)),
+        "position_violation_steps": int(np.count_nonzero(pos_out)),
+        "velocity_violation_steps": int(np.count_nonzero(vel_out)),
+        "limit_violation_steps": int(np.count_nonzero(pos_out | vel_out)),
+    }
+
+
+def _warn_limits(name: str, stats: dict[str, Any], torque_limits: str, T: int) -> None:
+    """One JointLimitWarning for the position/velocity violations of a run, one for unsaturated excess torque."""
+    if stats["limit_violation_steps"]:
+        parts = []
+        if stats["position_violation_steps"]:
+            parts.append(f"position by up to {stats['position_violation']:.3g} rad in "
+                         f"{stats['position_violation_steps']} states")
+        if stats["velocity_violation_steps"]:
+            parts.append(f"velocity up to {stats['velocity_ratio']:.3g}× its limit in "
+                         f"{stats['velocity_violation_steps']} states")
+        warn(f"impedance simulation of '{name}' left the joint limits ({'; '.join(parts)}, of {T}); position and "
+             "velocity limits are monitored, not enforced — lower the gains or start closer to the target",
+             JointLimitWarning, key=name)
+    if torque_limits == "none" and stats["saturated_steps"]:
+        warn(f"impedance simulation of '{name}' applied torques above the effort limits in "
+             f"{stats['saturated_steps']} steps (up to {stats['effort_ratio']:.3g}× the limit; torque_limits='none')",
+             JointLimitWarning, key=f"{name}:effort")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -9,7 +11,7 @@ import pytest
 import coop_ga as cg
 from coop_ga.control import PAPER_GAINS, joint_dynamics, simulate_impedance, task_space_dynamics
 from coop_ga.control.dynamics import dynamically_consistent_projector
-from coop_ga.control.impedance import error_rate
+from coop_ga.control.impedance import error_rate, impedance_torque
 
 IIWA_Q0 = np.array([0, -0.7854, 0, 1.3962, 0, 0.6109, 0])
 
@@ -78,7 +80,7 @@ def test_operational_space_law_realises_task_acceleration(circle):
     tau = td.J.T @ (td.Lambda @ a + td.mu + td.g) + Nt @ h
     np.testing.assert_allclose(tau, h + td.J.T @ td.Lambda @ (a - td.Jdot_qd), atol=1e-8)
     qdd = pin.aba(s.model, s.model.createData(), q, qd, tau)
-    U, sv, _ = np.linalg.svd(td.J)
+    U, _, _ = np.linalg.svd(td.J)
     P = U[:, :6] @ U[:, :6].T
     acc = td.J @ qdd + td.Jdot_qd
     np.testing.assert_allclose(P @ acc, P @ a, atol=1e-6 * np.linalg.norm(a))
@@ -157,3 +159,131 @@ def test_impedance_holds_still_at_target():
     r = simulate_impedance(t, s.q0, t.similarity(s.q0), K=PAPER_GAINS[0], D=PAPER_GAINS[1], duration=0.2)
     assert r.error_norm.max() < 1e-9
     assert np.abs(r.q - s.q0).max() < 1e-9 and np.abs(r.trajectory[-1] - s.q0).max() < 1e-9
+
+
+# ---------------------------------------------------------------- limits (torque saturation, position/velocity counts)
+def _recount(r, lim):
+    """The limit statistics of an ImpedanceResult recomputed from its arrays (independently of the module)."""
+    n = len(r.t) - 1
+    fin = np.isfinite(lim.effort)
+    ratio = np.abs(r.tau_command[:n][:, fin]) / lim.effort[fin]
+    below = r.trajectory < lim.lower
+    above = r.trajectory > lim.upper
+    exc = np.concatenate([(lim.lower - r.trajectory)[below], (r.trajectory - lim.upper)[above], [0.0]])
+    pos = np.array([np.any(below[k] | above[k]) for k in range(n + 1)])
+    vel = np.array([any(abs(r.qd[k, j]) > lim.velocity[j] for j in range(lim.nq)) for k in range(n + 1)])
+    return {"saturated_steps": int(sum(np.any(row > 1.0) for row in ratio)), "effort_ratio": float(ratio.max()),
+            "position_violation": float(exc.max()), "velocity_ratio": float(np.max(np.abs(r.qd) / lim.velocity)),
+            "position_violation_steps": int(pos.sum()), "velocity_violation_steps": int(vel.sum()),
+            "limit_violation_steps": int((pos | vel).sum())}
+
+
+def _assert_counts_match(r, lim):
+    ref = _recount(r, lim)
+    for name, value in ref.items():
+        assert getattr(r, name) == pytest.approx(value, rel=1e-12, abs=0.0), name
+    assert r.within_limits == (ref["limit_violation_steps"] == 0)
+
+
+def test_nominal_runs_respect_every_limit(iiwa_runs):
+    """§4.1 (three_iiwa14 from IIWA_Q0 + U(±0.1), 4 s): no saturation, no limit violated, no warning."""
+    lim = _load("three_iiwa14").limits
+    ratios = []
+    for runs in iiwa_runs.values():
+        for r in runs:
+            assert r.torque_limits == "saturate"
+            assert r.saturated_steps == 0 and 0.0 < r.effort_ratio < 0.3  # measured 0.19–0.20
+            np.testing.assert_array_equal(r.tau, r.tau_command)
+            assert r.within_limits and r.position_violation == 0.0 and r.velocity_ratio < 1.0  # measured ≤ 0.65
+            assert not any(k.startswith("JointLimitWarning") for k in r.warnings)
+            _assert_counts_match(r, lim)
+            ratios.append((r.velocity_ratio, r.effort_ratio))
+    print("nominal runs: (max |q̇|/limit, max |τ|/effort)", np.round(ratios, 3).tolist())
+
+
+@pytest.fixture(scope="module")
+def stiff_runs():
+    """three_iiwa14 from IIWA_Q0 + U(±0.1) with K = 1e4 I, D = 200 I for 0.3 s: the command exceeds the
+    wrist efforts (40 N m) by ~2.7× in the first steps."""
+    s = _load("three_iiwa14")
+    t = cg.cooperative_task(s, "circle")
+    q0 = np.tile(IIWA_Q0, 3)
+    qi = q0 + np.random.default_rng(2024).uniform(-0.1, 0.1, s.nq)
+    out = {}
+    for mode in ("saturate", "none"):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            r = simulate_impedance(t, qi, t.similarity(q0), K=1e4, D=200.0, duration=0.3, torque_limits=mode)
+        out[mode] = (r, [w for w in caught if issubclass(w.category, cg.JointLimitWarning)])
+    return s, t, out
+
+
+def test_large_gains_saturate_and_report(stiff_runs):
+    s, _, out = stiff_runs
+    lim = s.limits
+    r, caught = out["saturate"]
+    n = len(r.t) - 1
+    print(f"K=1e4: saturated {r.saturated_steps} of {n} steps, max |τ|/effort {r.effort_ratio:.3f}, "
+          f"max |q̇|/limit {r.velocity_ratio:.3f}")
+    assert 5 <= r.saturated_steps <= 40 and 2.0 < r.effort_ratio < 4.0  # measured 11 steps, 2.70×
+    assert np.all(np.abs(r.tau) <= lim.effort)  # what was applied respects the ratings …
+    clipped = np.abs(r.tau_command) > lim.effort
+    np.testing.assert_array_equal(np.abs(r.tau)[clipped], np.broadcast_to(lim.effort, r.tau.shape)[clipped])
+    np.testing.assert_array_equal(r.tau[~clipped], r.tau_command[~clipped])  # … and nothing else was touched
+    assert "saturated in" in r.message
+    _assert_counts_match(r, lim)
+    # the velocity limit is exceeded (up to ~8×): reported, counted, warned about once, and not "converged"
+    assert r.velocity_ratio > 2.0 and r.velocity_violation_steps > 10 and not r.within_limits
+    assert r.error < r.error_norm[0] * 1e-3 and not r.converged
+    assert len(caught) == 1 and "left the joint limits" in str(caught[0].message)
+    assert sum(v for k, v in r.warnings.items() if k.startswith("JointLimitWarning")) == 1
+
+
+def test_torque_limits_none_applies_the_raw_command(stiff_runs):
+    s, t, out = stiff_runs
+    lim = s.limits
+    r, caught = out["none"]
+    n = len(r.t) - 1
+    np.testing.assert_array_equal(r.tau, r.tau_command)
+    assert r.saturated_steps > 0 and r.effort_ratio > 2.0
+    assert np.any(np.abs(r.tau[:n]) > lim.effort)
+    _assert_counts_match(r, lim)
+    msgs = [str(w.message) for w in caught]
+    assert len(caught) == 2 and any("above the effort limits" in m for m in msgs)
+    # impedance_torque returns what simulate_impedance applies
+    k = int(np.flatnonzero(np.any(np.abs(r.tau_command) > lim.effort, axis=1))[0])
+    Vd = t.similarity(np.tile(IIWA_Q0, 3))
+    opts = {"K": 1e4, "D": 200.0}
+    raw = impedance_torque(t, r.trajectory[k], r.qd[k], Vd, torque_limits="none", **opts)
+    np.testing.assert_allclose(raw, r.tau_command[k], rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(impedance_torque(t, r.trajectory[k], r.qd[k], Vd, **opts),
+                               np.clip(raw, -lim.effort, lim.effort), rtol=1e-12, atol=1e-9)
+
+
+def test_violation_counts_match_a_recount():
+    """±0.3 rad start, a tightened joint range and a tightened velocity limit: every count is what the
+    returned arrays say."""
+    s0 = _load("three_iiwa14")
+    q0 = np.tile(IIWA_Q0, 3)
+    names = s0.limits.joint_names
+    s = s0.with_limits(position={names[3]: (q0[3] - 0.05, q0[3] + 0.05)}, velocity={names[1]: 0.1})
+    t = cg.cooperative_task(s, "circle")
+    qi = q0 + np.random.default_rng(1).uniform(-0.3, 0.3, s.nq)
+    qi[3] = q0[3]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = simulate_impedance(t, qi, t.similarity(q0), duration=1.0)
+    print(f"tightened limits: position excursion {r.position_violation:.3g} rad in {r.position_violation_steps} "
+          f"states, |q̇|/limit {r.velocity_ratio:.3g} in {r.velocity_violation_steps} states")
+    assert r.position_violation_steps > 0 and r.velocity_violation_steps > 0
+    assert r.position_violation > 0 and r.velocity_ratio > 1
+    _assert_counts_match(r, s.limits)
+    assert len([w for w in caught if issubclass(w.category, cg.JointLimitWarning)]) == 1
+    assert not r.converged
+
+
+def test_torque_limits_option_is_validated():
+    with pytest.raises(cg.InvalidInputError):
+        cg.control.ImpedanceOptions(torque_limits="clip")
+    with pytest.raises(cg.InvalidInputError):
+        cg.control.ImpedanceOptions(warn_limits=1)

@@ -1,0 +1,389 @@
+"""Reference solvers for the constrained reaching OCP: CasADi Opti + IPOPT and FATROP (Eq 53–57 with 𝒳, 𝒰).
+
+The problem
+-----------
+The :class:`~coop_ga.control.ilqr.ReachingOCP` of Eq 53–57 — double integrator
+``x_k = [q_k; q̇_k]`` (2·nq), ``u_k = q̈_k`` (nq), exact zero-order hold (Eq 54)::
+
+    q_{k+1} = q_k + Δt q̇_k + ½Δt² u_k,      q̇_{k+1} = q̇_k + Δt u_k,      x_0 = [q_init; q̇_init],
+
+    min  Σ_{k<n} u_kᵀ R u_k + e(q_n)ᵀ Q e(q_n) + q̇_nᵀ Q_v q̇_n,     e(q) = log(Ṽ_Sc(q) V_Sd)  (Eq 44, 56, 57)
+
+plus the bounds (𝒳, 𝒰 of Eq 53) of a :class:`~coop_ga.systems.limits.JointLimits`, at every knot:
+
+    lower ≤ q_k ≤ upper,   |q̇_k| ≤ velocity      (k = 1 … n),
+    |u_k| ≤ acceleration                           (k = 0 … n−1),
+
+joint by joint, infinite bounds left out (the initial state is data, not constrained).
+``terminal="constraint"`` replaces the soft terminal term by the equality ``e(q_n) = 0``
+(the objective is then ``Σ u_kᵀ R u_k + q̇_nᵀ Q_v q̇_n``) — the problem the iLQR solves with
+``terminal="constraint"``.
+
+Transcription (multiple shooting, :class:`casadi.Opti`)
+-------------------------------------------------------
+Decision variables ``X_k`` (2·nq, k = 0 … n) and ``U_k`` (nq, k = 0 … n−1), declared in
+stage order ``X_0, U_0, X_1, U_1, …, X_n``; the dynamics are gap-closing equalities
+``X_{k+1} = A X_k + B U_k`` and every other constraint is a path constraint of one stage
+(``X_0 = x_0`` and the bounds of ``U_0`` on stage 0; the bounds of ``X_k`` and ``U_k`` on
+stage k; those of ``X_n`` — and ``e(q_n) = 0`` — on stage n), written stage by stage after
+the stage's gap-closing constraint.  That is the layout FATROP's automatic structure
+detection needs (``structure_detection="auto"``: it reads ``nx = 42, nu = 21`` and
+``ng = 63`` per stage for three arms); IPOPT does not care.  The terminal error is
+``task.graph.error_expression(q_n, V_Sd)`` — the task graph's own expression of e (no
+algebra is rebuilt here) — and the NLP is expanded to SX (``expand=True``), so both solvers
+get exact first and second derivatives (Hessian of the Lagrangian) by CasADi AD.
+
+Solvers
+-------
+* ``"ipopt"``: interior point, MUMPS sparse linear algebra, exact Hessian.
+* ``"fatrop"``: the structure-exploiting interior point of FATROP (a Riccati-based linear
+  solver on the stage structure above; shipped with CasADi since 3.6.5 — FATROP 1.1 in the
+  CasADi 3.8 used here).
+
+Both get ``tol`` (default 1e-10; it is also their ``compl_inf_tol``) and ``constr_viol_tol``
+(1e-9).  The default tolerances of the two solvers (1e-8 and a complementarity tolerance of
+1e-4) leave costs that differ in the 7th digit where bounds are active (the optimum moves
+by Σ z_i δ_i when the bounds move by δ; Σ z ≈ 30 for the velocity-bound test case).  For the
+same reason the two must solve the *same* feasible set: FATROP relaxes every inequality
+``g ≤ b`` by ``1e-8 · max(1, |b|)`` (its ``bound_relax_factor``, which CasADi's interface
+does not let one set), so it is given bounds tightened by exactly that amount
+(:data:`FATROP_BOUND_RELAX`; the bound values are Opti parameters), and IPOPT's own
+relaxation is switched off (``bound_relax_factor = 0``).  Then both return solutions
+within the original bounds, and costs that agree to 1e-8–1e-7 relative when they end in
+the same local optimum (1.5e-8 on the 20-knot test, 1.5e-7 on the 250-knot benchmark).
+
+Local optima.  The terminal error makes the problem non-convex, and with a tight joint
+range (a redundant chain blocked) the two interior-point methods can end in *different*
+local optima from the same start (both converged; ``tests/control/test_reference_ocp.py``
+shows one, and that IPOPT started from FATROP's solution stays there).  Compare costs only
+together with the trajectories.
+
+Both start from the same guess: ``u_init`` (default 0) and the states of its roll-out
+(dynamically feasible, not necessarily within the bounds — neither solver needs a feasible
+start).  :attr:`ReferenceSolution.max_violation` is recomputed from the returned
+trajectories (the tests require < 1e-6; it is 0 in practice).
+
+Times.  :attr:`ReferenceSolution.solve_time_s` is the solver's own ``t_wall_total``
+(excluding the one-off creation of the ``nlpsol`` — symbolic expansion, sparsity patterns,
+FATROP's structure detection — which :attr:`~ReferenceSolution.wall_time_s` includes);
+:attr:`~ReferenceSolution.build_time_s` is the Python construction of the Opti problem.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .. import validation
+from ..errors import InvalidInputError
+from ..systems.limits import JointLimits
+
+__all__ = ["ACTIVE_TOL", "FATROP_BOUND_RELAX", "SOLVERS", "ReferenceProblem", "ReferenceSolution",
+           "check_trajectory", "solve_reference"]
+
+#: Names accepted by :func:`solve_reference`.
+SOLVERS = ("ipopt", "fatrop")
+
+#: Tolerance [rad, rad/s, rad/s²] below which a bound counts as active in :attr:`ReferenceSolution.active`.
+ACTIVE_TOL = 1e-6
+
+#: FATROP's ``bound_relax_factor`` (its default; CasADi's FATROP interface does not accept the option):
+#: every inequality ``g ≤ b`` is relaxed to ``g ≤ b + 1e-8 · max(1, |b|)``.
+FATROP_BOUND_RELAX = 1e-8
+
+
+@dataclass(frozen=True, eq=False)
+class ReferenceSolution:
+    """Solution of the constrained reaching OCP by a reference NLP solver (module docstring).
+
+    Attributes
+    ----------
+    solver: ``"ipopt"`` or ``"fatrop"``.  terminal: ``"soft"`` or ``"constraint"``.
+    success: the solver reported success.  status: its return status (string).
+    u: (n, nq) controls [rad/s²]; q: (n+1, nq) [rad] and qd: (n+1, nq) [rad/s] the states
+        X_k of the NLP (not re-integrated); t: (n+1,) knot times [s].
+    cost: the NLP objective at the solution (soft: ``Σ uᵀRu + eᵀQe + q̇_nᵀQ_v q̇_n``;
+        constraint: ``Σ uᵀRu + q̇_nᵀQ_v q̇_n``).
+    cost_rollout: ``ocp.cost(u)`` — the soft cost of Eq 53 of the controls, re-integrated
+        by :meth:`ReachingOCP.rollout` (comparable across solvers and with iLQR).
+    error_vector: (7,) e(q_n) from ``task.graph.error_expression``; terminal_error: its norm.
+    violations: largest violation of each bound family over the knots —
+        ``{"position" [rad], "velocity" [rad/s], "acceleration" [rad/s²]}`` (0 = satisfied);
+        max_violation: their maximum.  defect: largest residual of the dynamics equalities.
+    active: number of (knot, joint) bound entries within :data:`ACTIVE_TOL` of their bound,
+        per family.
+    iterations: solver iterations.  solve_time_s / solve_cpu_s: the solver's wall / CPU time
+        of the solve [s] (``t_wall_total`` / ``t_proc_total``); wall_time_s: wall time of
+        ``opti.solve()`` (includes creating the nlpsol); build_time_s: building the Opti problem.
+    limits: the bounds imposed (None: none).  stats: CasADi's solver statistics (scalars).
+    """
+
+    solver: str
+    terminal: str
+    success: bool
+    status: str
+    u: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    t: np.ndarray
+    cost: float
+    cost_rollout: float
+    error_vector: np.ndarray
+    terminal_error: float
+    violations: dict[str, float]
+    max_violation: float
+    defect: float
+    active: dict[str, int]
+    iterations: int
+    solve_time_s: float
+    solve_cpu_s: float
+    wall_time_s: float
+    build_time_s: float
+    limits: JointLimits | None
+    stats: dict[str, Any] = field(default_factory=dict)
+
+
+def _bound_rows(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Indices with both bounds finite, only the lower one, only the upper one."""
+    flo, fhi = np.isfinite(lo), np.isfinite(hi)
+    return np.flatnonzero(flo & fhi), np.flatnonzero(flo & ~fhi), np.flatnonzero(~flo & fhi)
+
+
+class ReferenceProblem:
+    """The constrained reaching OCP transcribed in :class:`casadi.Opti` (module docstring).
+
+    Parameters
+    ----------
+    ocp: the :class:`~coop_ga.control.ilqr.ReachingOCP` (task, q_init, q̇_init, target,
+        horizon n, Δt, R, Q, Q_v).
+    limits: the bounds — a :class:`~coop_ga.systems.limits.JointLimits`, ``"none"`` (no
+        bounds: the unconstrained OCP), or None (default): ``ocp.task.system.limits`` unless
+        the OCP says ``limits="none"``.
+    terminal: ``"soft"`` (default, Eq 57: ``eᵀQe`` in the cost) or ``"constraint"`` (``e(q_n) = 0``).
+
+    The Opti problem is built once; :meth:`solve` may be called several times (each solver
+    creates its nlpsol on its first solve).
+    """
+
+    def __init__(self, ocp: Any, limits: JointLimits | str | None = None, *, terminal: str = "soft"):
+        import casadi as ca
+
+        t0 = time.perf_counter()
+        self.ocp = ocp
+        self.terminal = validation.choice(terminal, ("soft", "constraint"), "terminal")
+        if limits is None:
+            limits = "none" if getattr(ocp, "limits", "enforce") == "none" else ocp.task.system.limits
+        if isinstance(limits, str):
+            validation.choice(limits, ("none",), "limits")
+            self.limits: JointLimits | None = None
+        elif isinstance(limits, JointLimits):
+            own = tuple(ocp.task.system.limits.joint_names)
+            if limits.nq != ocp.nq or tuple(limits.joint_names) != own:
+                raise InvalidInputError(f"limits are for the joints {list(limits.joint_names)[:3]}… ({limits.nq}), "
+                                        f"the OCP's task has {list(own)[:3]}… ({ocp.nq}): they must match in order")
+            self.limits = limits
+        else:
+            raise InvalidInputError(f"limits must be a JointLimits, 'none' or None, got {type(limits).__name__}")
+
+        n, N, dt = ocp.nq, ocp.horizon, ocp.dt
+        h = 0.5 * dt * dt
+        opti = ca.Opti()
+        X: list[Any] = []
+        U: list[Any] = []
+        for _ in range(N):  # stage order x_0, u_0, x_1, u_1, …, x_N (FATROP)
+            X.append(opti.variable(2 * n))
+            U.append(opti.variable(n))
+        X.append(opti.variable(2 * n))
+        x0 = np.concatenate([ocp.q_init, ocp.qd_init])
+        lim = self.limits
+        # The bound values are Opti parameters (set per solve: FATROP gets them pre-tightened, see solve()).
+        self._bounds: list[tuple[Any, np.ndarray, float]] = []  # (parameter, nominal value, sign: +1 upper / −1 lower)
+
+        def param(values: np.ndarray, sign: float) -> Any:
+            par = opti.parameter(len(values))
+            self._bounds.append((par, np.asarray(values, dtype=float), sign))
+            return par
+
+        if lim is not None:
+            both, lo_only, hi_only = _bound_rows(lim.lower, lim.upper)
+            v_rows = np.flatnonzero(np.isfinite(lim.velocity))
+            a_rows = np.flatnonzero(np.isfinite(lim.acceleration))
+            p_lo, p_hi = param(lim.lower[both], -1.0), param(lim.upper[both], 1.0)
+            p_lo1, p_hi1 = param(lim.lower[lo_only], -1.0), param(lim.upper[hi_only], 1.0)
+            p_v, p_a = param(lim.velocity[v_rows], 1.0), param(lim.acceleration[a_rows], 1.0)
+
+        def state_bounds(x: Any) -> None:
+            if lim is None:
+                return
+            q, qd = x[:n], x[n:]
+            if both.size:
+                opti.subject_to(opti.bounded(p_lo, q[both.tolist()], p_hi))
+            if lo_only.size:
+                opti.subject_to(q[lo_only.tolist()] >= p_lo1)
+            if hi_only.size:
+                opti.subject_to(q[hi_only.tolist()] <= p_hi1)
+            if v_rows.size:
+                opti.subject_to(opti.bounded(-p_v, qd[v_rows.tolist()], p_v))
+
+        def control_bounds(u: Any) -> None:
+            if lim is not None and a_rows.size:
+                opti.subject_to(opti.bounded(-p_a, u[a_rows.tolist()], p_a))
+
+        for k in range(N):
+            xk, uk = X[k], U[k]
+            # gap-closing dynamics (Eq 54, exact ZOH), then the path constraints of stage k
+            opti.subject_to(X[k + 1] == ca.vertcat(xk[:n] + dt * xk[n:] + h * uk, xk[n:] + dt * uk))
+            if k == 0:
+                opti.subject_to(X[0] == x0)
+            else:
+                state_bounds(xk)
+            control_bounds(uk)
+        state_bounds(X[N])
+        qn, qdn = X[N][:n], X[N][n:]
+        e = ocp.task.graph.error_expression(qn, ca.DM(ocp.target.coeffs))
+        if self.terminal == "constraint":
+            opti.subject_to(e == 0)
+        R, Q, Qv = ca.DM(ocp.R), ca.DM(ocp.Q), ca.DM(ocp.Qv)
+        J = sum(ca.bilin(R, uk, uk) for uk in U) + ca.bilin(Qv, qdn, qdn)
+        if self.terminal == "soft":
+            J = J + ca.bilin(Q, e, e)
+        opti.minimize(J)
+        self.opti, self.X, self.U, self.e, self.J = opti, X, U, e, J
+        self._Xall, self._Uall = ca.horzcat(*X), ca.horzcat(*U)
+        self.build_time_s = time.perf_counter() - t0
+
+    # ------------------------------------------------------------------ solve
+    def solve(self, solver: str = "ipopt", *, u_init: Any = None, tol: float = 1e-10, constr_viol_tol: float = 1e-9,
+              max_iter: int = 1000, solver_options: dict[str, Any] | None = None,
+              verbose: bool = False) -> ReferenceSolution:
+        """Solve with ``solver`` (``"ipopt"`` or ``"fatrop"``) from ``u_init`` (n, nq) [rad/s²] (default 0).
+
+        ``tol``: the solver's convergence tolerance (scaled KKT error, both solvers);
+        ``constr_viol_tol``: IPOPT's and FATROP's tolerance on the unscaled constraint
+        violation; ``max_iter``: iteration cap; ``solver_options``: extra options passed to the
+        solver (IPOPT names, or FATROP's inside its ``"fatrop"`` dict); ``verbose``: print the
+        solver's log.  A solver that stops without success returns its last iterate with
+        ``success=False`` (no exception).
+        """
+        import casadi as ca
+
+        validation.choice(solver, SOLVERS, "solver")
+        validation.positive(tol, "tol")
+        validation.positive(constr_viol_tol, "constr_viol_tol")
+        validation.integer(max_iter, "max_iter", minimum=0)
+        if not ca.has_nlpsol(solver):
+            raise InvalidInputError(f"this CasADi ({getattr(ca, '__version__', '?')}) has no '{solver}' plugin")
+        ocp, opti = self.ocp, self.opti
+        n, N = ocp.nq, ocp.horizon
+        u0 = np.zeros((N, n)) if u_init is None else ocp.check_controls(u_init)
+        q0, qd0 = ocp.rollout(u0)
+        opti.set_initial(self._Xall, np.vstack([q0.T, qd0.T]))
+        opti.set_initial(self._Uall, u0.T)
+
+        # FATROP relaxes every inequality by FATROP_BOUND_RELAX · max(1, |b|) and CasADi's interface does
+        # not expose the factor: give it bounds tightened by that amount, so that both solvers solve the
+        # same problem (IPOPT's own relaxation is switched off) and FATROP's solution satisfies the bounds.
+        for par, value, sign in self._bounds:
+            if solver == "fatrop":
+                value = value - sign * FATROP_BOUND_RELAX * np.maximum(1.0, np.abs(value))
+            opti.set_value(par, value)
+        extra = dict(solver_options or {})
+        base = {"expand": True, "print_time": False, "record_time": True}
+        common = {"print_level": 5 if verbose else 0, "tol": tol, "compl_inf_tol": tol,
+                  "constr_viol_tol": constr_viol_tol, "max_iter": max_iter}
+        if solver == "ipopt":
+            opti.solver("ipopt", {**base, "ipopt.sb": "yes"}, {**common, "bound_relax_factor": 0.0, **extra})
+        else:
+            opti.solver("fatrop", {**base, "structure_detection": "auto", "debug": False,
+                                   "fatrop": {**common, **extra}})
+
+        t0 = time.perf_counter()
+        sol: Any
+        try:
+            sol = opti.solve()
+            ok = True
+        except RuntimeError as ex:  # no convergence (max_iter, restoration failure, …): report the last iterate
+            sol = opti.debug
+            ok = False
+            try:
+                opti.stats()
+            except RuntimeError:  # the solver never ran (unknown option, plugin error): that is not a result
+                raise InvalidInputError(f"{solver} could not be started: {ex}") from ex
+        wall = time.perf_counter() - t0
+        raw = opti.stats()
+        stats = {k: v for k, v in raw.items() if isinstance(v, (bool, int, float, str))}
+        for k, v in raw.get("fatrop", {}).items() if isinstance(raw.get("fatrop"), dict) else ():
+            if isinstance(v, (bool, int, float, str)):
+                stats[f"fatrop.{k}"] = v  # FATROP's own breakdown (compute_sd_time, eval_hess_time, …)
+        Xv = np.array(sol.value(self._Xall), dtype=float).reshape(2 * n, N + 1)
+        Uv = np.array(sol.value(self._Uall), dtype=float).reshape(n, N)
+        q, qd, u = Xv[:n].T.copy(), Xv[n:].T.copy(), Uv.T.copy()
+        e = np.array(sol.value(self.e), dtype=float).reshape(-1)
+        cost = float(sol.value(self.J))
+        return ReferenceSolution(
+            solver=solver, terminal=self.terminal, success=ok and bool(raw.get("success", False)),
+            status=str(raw.get("return_status", "?")), u=u, q=q, qd=qd, t=ocp.dt * np.arange(N + 1), cost=cost,
+            cost_rollout=float(ocp.cost(u)), error_vector=e, terminal_error=float(np.linalg.norm(e)),
+            **check_trajectory(ocp, self.limits, q, qd, u), iterations=int(raw.get("iter_count", -1)),
+            solve_time_s=float(raw.get("t_wall_total", wall)), solve_cpu_s=float(raw.get("t_proc_total", np.nan)),
+            wall_time_s=wall, build_time_s=self.build_time_s, limits=self.limits, stats=stats)
+
+
+def check_trajectory(ocp: Any, lim: JointLimits | None, q: np.ndarray, qd: np.ndarray,
+                     u: np.ndarray) -> dict[str, Any]:
+    """Bound violations, active-bound counts and the dynamics defect of any trajectory of ``ocp``.
+
+    q, qd: (n+1, nq) knot states [rad, rad/s]; u: (n, nq) controls [rad/s²]; lim: the bounds
+    (None: none).  Bounds are checked where the problem imposes them (q, q̇ at k = 1 … n, u at
+    k = 0 … n−1).  Returns ``{"violations": {"position", "velocity", "acceleration"},
+    "max_violation", "defect", "active": {…}}`` as in :class:`ReferenceSolution` (``defect``:
+    largest residual of Eq 54 and of the initial state).  Used for the iLQR rows of
+    ``benchmarks/ocp.py`` as well.
+    """
+    dt, h = ocp.dt, 0.5 * ocp.dt * ocp.dt
+    dq = q[1:] - (q[:-1] + dt * qd[:-1] + h * u)
+    dv = qd[1:] - (qd[:-1] + dt * u)
+    x0 = np.concatenate([q[0] - ocp.q_init, qd[0] - ocp.qd_init])
+    defect = float(max(np.max(np.abs(dq)), np.max(np.abs(dv)), np.max(np.abs(x0))))
+    if lim is None:
+        viol = {"position": 0.0, "velocity": 0.0, "acceleration": 0.0}
+        active = {"position": 0, "velocity": 0, "acceleration": 0}
+    else:
+        qk, vk = q[1:], qd[1:]
+        viol = {"position": lim.position_violation(qk), "velocity": lim.velocity_violation(vk),
+                "acceleration": lim.acceleration_violation(u)}
+        with np.errstate(invalid="ignore"):
+            active = {"position": int(np.count_nonzero((np.abs(qk - lim.lower) <= ACTIVE_TOL)
+                                                       | (np.abs(qk - lim.upper) <= ACTIVE_TOL))),
+                      "velocity": int(np.count_nonzero(np.abs(np.abs(vk) - lim.velocity) <= ACTIVE_TOL)),
+                      "acceleration": int(np.count_nonzero(np.abs(np.abs(u) - lim.acceleration) <= ACTIVE_TOL))}
+    return {"violations": viol, "max_violation": float(max(viol.values())), "defect": defect, "active": active}
+
+
+def solve_reference(ocp: Any, limits: JointLimits | str | None = None, solver: str = "ipopt", *,
+                    terminal: str = "soft", u_init: Any = None, tol: float = 1e-10, constr_viol_tol: float = 1e-9,
+                    max_iter: int = 1000, solver_options: dict[str, Any] | None = None,
+                    verbose: bool = False) -> ReferenceSolution:
+    """Solve the constrained reaching OCP (module docstring) with IPOPT or FATROP through CasADi Opti.
+
+    Parameters
+    ----------
+    ocp: a :class:`~coop_ga.control.ilqr.ReachingOCP` (the problem data, Eq 53–57).
+    limits: a :class:`~coop_ga.systems.limits.JointLimits`, ``"none"``, or None (default:
+        ``ocp.task.system.limits``, unless the OCP was built with ``limits="none"``).
+    solver: ``"ipopt"`` or ``"fatrop"``.
+    terminal: ``"soft"`` (Eq 57, the OCP's cost) or ``"constraint"`` (``e(q_n) = 0``).
+    u_init: (n, nq) initial control guess [rad/s²] (default 0); the initial states are its roll-out.
+    tol, constr_viol_tol, max_iter, solver_options, verbose: see :meth:`ReferenceProblem.solve`.
+
+    Returns
+    -------
+    :class:`ReferenceSolution` (trajectories, cost, terminal error, bound violations,
+    iterations, times, status).
+    """
+    problem = ReferenceProblem(ocp, limits, terminal=terminal)
+    return problem.solve(solver, u_init=u_init, tol=tol, constr_viol_tol=constr_viol_tol, max_iter=max_iter,
+                         solver_options=solver_options, verbose=verbose)
