@@ -22,6 +22,7 @@ __all__ = [
     "CoopGAWarning",
     "DegeneracyWarning",
     "DegeneratePrimitiveError",
+    "InfeasibleConstraintsError",
     "InvalidInputError",
     "InvalidVersorError",
     "JointLimitWarning",
@@ -66,6 +67,10 @@ class UnknownNameError(CoopGAError, KeyError):
 
 class UnsupportedJointError(CoopGAError, ValueError):
     """A kinematic model contains a joint type coop_ga cannot express as a motor."""
+
+
+class InfeasibleConstraintsError(CoopGAError, RuntimeError):
+    """The limits and user constraints of a controller's QP step have no common point (or the QP solver failed)."""
 
 
 class CompilationError(CoopGAError, RuntimeError):

@@ -10,7 +10,7 @@ shared names).
 
 from ..cooperative.targets import displaced_target
 from .base import SolverResult
-from .diffik import DiffIKOptions, DiffIKResult, diff_ik_reach, diff_ik_step, joint_velocity
+from .diffik import DiffIKOptions, DiffIKResult, diff_ik_reach, diff_ik_step, diff_ik_velocity, joint_velocity
 from .dynamics import TaskDynamics, joint_dynamics, task_inertia, task_space_dynamics
 from .gauss_newton import GaussNewtonOptions, IKResult, gauss_newton_ik
 from .ilqr import ILQRIteration, ILQROptions, ILQRResult, ReachingOCP, ilqr_reach
@@ -23,6 +23,8 @@ from .nullspace import (
     point_on_circle,
     point_reaching_velocity,
 )
+from .qp import LinearConstraint, solve_qp
+from .reference_ocp import ReferenceProblem, solve_reference
 from .teleop import ScriptedInput, Teleoperator, command_to_bivector, run_interactive
 
 __all__ = [
@@ -36,9 +38,11 @@ __all__ = [
     "ILQRResult",
     "ImpedanceOptions",
     "ImpedanceResult",
+    "LinearConstraint",
     "NullspaceOptions",
     "NullspaceResult",
     "ReachingOCP",
+    "ReferenceProblem",
     "ScriptedInput",
     "SolverResult",
     "TaskDynamics",
@@ -46,6 +50,7 @@ __all__ = [
     "command_to_bivector",
     "diff_ik_reach",
     "diff_ik_step",
+    "diff_ik_velocity",
     "displaced_target",
     "gauss_newton_ik",
     "ilqr_reach",
@@ -58,6 +63,8 @@ __all__ = [
     "point_reaching_velocity",
     "run_interactive",
     "simulate_impedance",
+    "solve_qp",
+    "solve_reference",
     "task_inertia",
     "task_space_dynamics",
 ]

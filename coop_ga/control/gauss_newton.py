@@ -16,6 +16,34 @@ is evaluated through the SVD ``J_e = U S Vᵀ`` as ``Δq = −V diag(s/(s²+λ²
 e.g. rank 6 for a circle, 4 for a sphere or line).  With ``line_search=True`` a
 backtracking Armijo search on ``f = ½‖e‖²`` picks the step length α ∈ {1, ½, ¼, …}.
 
+Joint limits (``limits='enforce'``, the default)
+-----------------------------------------------
+Eq 43 with the state constraint of Eq 53 (q ∈ 𝒳 = [lower, upper] of ``task.system.limits``):
+each iteration solves the bounded, damped least-squares problem
+
+    min_Δq  ½‖e + J_e Δq‖² + ½λ²‖Δq‖²
+    s.t.    max(lower − q, −max_step) ≤ Δq ≤ min(upper − q, max_step)
+
+(:func:`coop_ga.control.qp.solve_qp`, DAQP) whenever the unconstrained step above — scaled
+to the trust bound ``max_step`` as before — would leave the limits; otherwise the
+unconstrained step is taken, so iterations that touch no limit are exactly those of
+``limits='none'``.  The Armijo search then backtracks along Δq: every trial point
+``q + αΔq``, α ∈ (0, 1], is a convex combination of the feasible points q and q + Δq, so
+the iterate never leaves the limits.  A start outside the limits is projected onto them
+(:class:`~coop_ga.errors.JointLimitWarning`).  Stationarity is tested on the *projected*
+gradient (components pushing a joint out through the limit it sits on are dropped), and
+when the solver stops without converging the message names the joint limits active at
+the final configuration.  ``converged`` means ‖e‖ < tol *and* q inside the limits.
+
+Measured on 2160 realisable targets (9 systems × every primitive kind × three sizes):
+unconstrained Gauss–Newton reported ``converged`` outside the limits on 153; the bounded one
+never leaves them and converges on 99.7 % of the 1637 targets that some solver reached inside
+the limits (100 % of those the unconstrained solver reached inside them), median 4 iterations.
+
+``limits='clamp'`` (ablation, a projected Gauss–Newton that clips each trial point) and
+``limits='none'`` (Eq 43 unconstrained; a final q outside the limits is reported by a
+:class:`~coop_ga.errors.JointLimitWarning` and ``limit_violation``) remain available.
+
 Non-convergence (unreachable target, a local minimum with e ≠ 0, joint limits) is
 reported as ``converged=False`` with the honest final error; nothing is disguised.
 """
@@ -29,13 +57,15 @@ from typing import Any
 import numpy as np
 
 from .. import validation
-from ..diagnostics import collect_warnings
-from ..errors import DegeneratePrimitiveError, InvalidInputError
+from ..diagnostics import collect_warnings, warn
+from ..errors import DegeneratePrimitiveError, InvalidInputError, JointLimitWarning
 from .base import SolverResult, bounds, check_q, resolve_options
+from .qp import describe_active, project_into_limits, solve_qp
 
 __all__ = ["GaussNewtonOptions", "IKResult", "gauss_newton_ik", "gauss_newton_step"]
 
-LIMIT_MODES = ("none", "clamp")
+#: ``'enforce'`` (bounded least squares per iteration, default), ``'clamp'`` (ablation), ``'none'``
+LIMIT_MODES = ("enforce", "clamp", "none")
 
 
 @dataclass(frozen=True)
@@ -51,15 +81,18 @@ class GaussNewtonOptions:
         Without line search the full step is always taken.
     max_step: trust bound [rad]: a step whose largest joint change exceeds it is scaled
         down to it before the line search (keeps the linearisation meaningful far from the
-        solution; no effect near convergence, so the local rate stays quadratic).
+        solution; no effect near convergence, so the local rate stays quadratic); in the
+        bounded QP of ``limits='enforce'`` it is the box ``|Δq|∞ ≤ max_step``.
         ``inf`` disables it.
     gtol, xtol: stop (``converged=False``) when ``‖J_eᵀ e‖ ≤ gtol · ‖J_e‖_F · ‖e‖`` (a
         stationary point with e ≠ 0: local minimum / unreachable target) or when the
         step's max-norm is ≤ ``xtol · (1 + max|q|)``.
     ftol, stall_window: stop (stalled) when ‖e‖ decreased by less than ``ftol·‖e‖`` over
         the last ``stall_window`` iterations.
-    limits: ``'none'`` (the problem is unconstrained as in Eq 43) or ``'clamp'`` (every
-        trial point is clipped to the joint limits, a projected Gauss–Newton).
+    limits: ``'enforce'`` (default: bounded least-squares steps, the iterate never leaves
+        the joint limits; module docstring), ``'none'`` (the problem is unconstrained as in
+        Eq 43) or ``'clamp'`` (ablation: every trial point is clipped to the joint limits, a
+        projected Gauss–Newton).
     """
 
     max_iter: int = 100
@@ -73,7 +106,7 @@ class GaussNewtonOptions:
     xtol: float = 1e-14
     ftol: float = 1e-6
     stall_window: int = 10
-    limits: str = "none"
+    limits: str = "enforce"
 
     def __post_init__(self) -> None:
         validation.integer(self.max_iter, "max_iter", minimum=0)
@@ -95,12 +128,25 @@ class GaussNewtonOptions:
 class IKResult(SolverResult):
     """Result of :func:`gauss_newton_ik` (fields of :class:`~coop_ga.control.base.SolverResult` plus):
 
-    history: (iterations + 1,) error norms, ``history[0]`` at ``q_init``.
+    history: (iterations + 1,) error norms, ``history[0]`` at ``q_init`` (projected onto the
+        limits unless ``limits='none'``).
     step_sizes: (iterations,) accepted line-search step lengths α.
+    limits: the limit mode used.
+    limit_violation: excursion of ``q`` outside the position limits [rad or m] (0 unless
+        ``limits='none'``).
+    active_iterations: iterations whose step was a bounded QP (the unconstrained step would
+        have left the limits).
+    active_limits: the joint limits active at the final configuration (a joint on its limit
+        with the gradient of ½‖e‖² pushing it outwards), e.g.
+        ``('arm0_panda_joint4 (upper position limit -0.0698)',)``.
     """
 
     history: np.ndarray = field(default_factory=lambda: np.zeros(0))
     step_sizes: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    limits: str = "enforce"
+    limit_violation: float = 0.0
+    active_iterations: int = 0
+    active_limits: tuple[str, ...] = ()
 
 
 def gauss_newton_step(e: np.ndarray, Je: np.ndarray, damping: float) -> np.ndarray:
@@ -109,16 +155,27 @@ def gauss_newton_step(e: np.ndarray, Je: np.ndarray, damping: float) -> np.ndarr
     return -(Vt.T @ ((s / (s * s + damping * damping)) * (U.T @ e)))
 
 
+def _at_bounds(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, grad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Joints on their lower / upper limit whose descent direction −grad points outwards."""
+    tol = 1e-9 * (1.0 + np.abs(q))
+    return (q - lo <= tol) & (grad > 0), (hi - q <= tol) & (grad < 0)
+
+
 def gauss_newton_ik(task: Any, q_init: Any, target: Any, options: GaussNewtonOptions | None = None,
                     **overrides: Any) -> IKResult:
-    """Solve ``V_Sc(q) = V_Sd`` by damped Gauss–Newton with Armijo backtracking (Eq 43–47).
+    """Solve ``V_Sc(q) = V_Sd`` by damped Gauss–Newton with Armijo backtracking (Eq 43–47),
+    within the joint limits by default (bounded least-squares steps, module docstring).
 
     Parameters
     ----------
     task: a :class:`coop_ga.CooperativeTask`.
-    q_init: (nq,) initial configuration [rad].
+    q_init: (nq,) initial configuration [rad or m] (projected onto the limits, with a
+        :class:`~coop_ga.errors.JointLimitWarning`, if it lies outside and ``limits != 'none'``).
     target: V_Sd, a :class:`~coop_ga.Similarity` (e.g. from :func:`coop_ga.control.displaced_target`).
     options: :class:`GaussNewtonOptions`; keyword ``overrides`` replace its fields.
+
+    Returns an :class:`IKResult`; ``converged`` iff ‖e‖ < ``tol`` and q is inside the limits
+    (for ``limits='none'``: ‖e‖ < tol; ``limit_violation`` says how far outside q is).
 
     Trial points at which the cooperative primitive degenerates
     (:class:`~coop_ga.errors.DegeneratePrimitiveError`, e.g. collinear points for a circle)
@@ -130,10 +187,12 @@ def gauss_newton_ik(task: Any, q_init: Any, target: Any, options: GaussNewtonOpt
     Vd = validation.target(target)
     q = check_q(task, q_init, "q_init")
     lo, hi = bounds(task)
-    if o.limits == "clamp":
-        q = np.clip(q, lo, hi)
+    enforce = o.limits == "enforce"
+    active_iters = 0
 
     with collect_warnings() as caught:
+        if o.limits != "none":
+            q = project_into_limits(task, q, "q_init")
         e, Je = task.error_and_jacobian(q, Vd)
         f = 0.5 * float(e @ e)
         hist = [float(np.sqrt(2 * f))]
@@ -144,23 +203,41 @@ def gauss_newton_ik(task: Any, q_init: Any, target: Any, options: GaussNewtonOpt
             if it >= o.max_iter:
                 break
             grad = Je.T @ e
-            if float(np.linalg.norm(grad)) <= o.gtol * float(np.linalg.norm(Je)) * hist[-1]:
+            if enforce:
+                at_lo, at_hi = _at_bounds(q, lo, hi, grad)
+                gproj = np.where(at_lo | at_hi, 0.0, grad)
+            else:
+                gproj = grad
+            if float(np.linalg.norm(gproj)) <= o.gtol * float(np.linalg.norm(Je)) * hist[-1]:
                 message = ("stationary point of ‖e‖² with e ≠ 0 (‖J_eᵀ e‖ ≤ gtol): a local minimum, "
                            "the target is not reachable from here")
+                if enforce and np.any(at_lo | at_hi):
+                    message = ("stationary point of ‖e‖² within the joint limits with e ≠ 0 (projected gradient "
+                               "≤ gtol): the target is not reachable inside the limits from here")
                 break
             dq = gauss_newton_step(e, Je, o.damping)
-            if float(np.max(np.abs(dq))) <= o.xtol * (1.0 + float(np.max(np.abs(q)))):
+            big = float(np.max(np.abs(dq)))
+            if enforce:
+                dqs = dq * (o.max_step / big) if big > o.max_step else dq
+                qs = q + dqs
+                if np.all(qs >= lo) and np.all(qs <= hi):
+                    dq = dqs
+                else:
+                    sol = solve_qp(Je, -e, o.damping, np.maximum(lo - q, -o.max_step), np.minimum(hi - q, o.max_step),
+                                   x_free=dq, what="gauss_newton_ik step")
+                    dq = sol.x
+                    active_iters += 1
+            if float(np.max(np.abs(dq), initial=0.0)) <= o.xtol * (1.0 + float(np.max(np.abs(q)))):
                 message = "step below xtol: no further progress (local minimum or unreachable target)"
                 break
-            big = float(np.max(np.abs(dq)))
-            if big > o.max_step:
+            if not enforce and big > o.max_step:
                 dq *= o.max_step / big
             slope = float(e @ (Je @ dq))  # d/dα ½‖e(q + α Δq)‖² at α = 0
             alpha = 1.0
             qt: np.ndarray | None
             while True:
                 qt = q + alpha * dq
-                if o.limits == "clamp":
+                if o.limits != "none":  # 'clamp': the ablation; 'enforce': rounding only (q + Δq is feasible)
                     np.clip(qt, lo, hi, out=qt)
                 try:
                     with collect_warnings(silent=True):  # trial points: degeneracy is a rejection, not news
@@ -187,8 +264,20 @@ def gauss_newton_ik(task: Any, q_init: Any, target: Any, options: GaussNewtonOpt
                 break
         if it:
             task.error_and_jacobian(q, Vd)  # re-check the final configuration (reported once)
-    converged = hist[-1] < o.tol
+        lim = task.system.limits
+        violation = lim.position_violation(q)
+        if o.limits == "none" and violation > 0.0:
+            warn(f"gauss_newton_ik(limits='none'): the solution is outside the joint limits by up to {violation:.3g} "
+                 f"({lim.describe(q)})", JointLimitWarning, key=str(task.system.name))
+    active: tuple[str, ...] = ()
+    if o.limits != "none":
+        at_lo, at_hi = _at_bounds(q, lo, hi, Je.T @ e)
+        active = describe_active(task, q, np.flatnonzero(at_lo), np.flatnonzero(at_hi))
+    converged = hist[-1] < o.tol and (o.limits == "none" or violation <= 1e-9)
     if converged:
         message = "converged"
+    elif active:
+        message += f"; joint limits active at the final configuration: {', '.join(active)}"
     return IKResult(converged=bool(converged), error=hist[-1], iterations=it, message=message, q=q,
-                    warnings=dict(caught.counts), history=np.array(hist), step_sizes=np.array(alphas))
+                    warnings=dict(caught.counts), history=np.array(hist), step_sizes=np.array(alphas),
+                    limits=o.limits, limit_violation=violation, active_iterations=active_iters, active_limits=active)

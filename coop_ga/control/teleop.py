@@ -149,12 +149,14 @@ class Teleoperator:
     ----------
     task: a :class:`coop_ga.CooperativeTask` (e.g. the allegro sphere).
     q0: (nq,) initial configuration.
-    dt: Δt [s] (Eq 61; 0.01 s in §4.5).  damping: λ of the damped pseudo-inverse.
-    limits: ``'clamp'`` (default, joint limits) or ``'none'``.
+    dt: Δt [s] (Eq 61; 0.01 s in §4.5).  damping: λ of the damped least squares.
+    limits: ``'enforce'`` (default: each step is the QP of :func:`coop_ga.control.diff_ik_step`,
+        within the position and velocity limits of ``task.system.limits``), ``'clamp'``
+        (ablation: clip q after an unconstrained step) or ``'none'``.
     gains / rz_mode: see :func:`command_to_bivector`.
     """
 
-    def __init__(self, task: Any, q0: Any, *, dt: float = 0.01, damping: float = 1e-3, limits: str = "clamp",
+    def __init__(self, task: Any, q0: Any, *, dt: float = 0.01, damping: float = 1e-3, limits: str = "enforce",
                  translation_gain: float = 0.05, rotation_gain: float = 0.5, dilation_gain: float = 1.0,
                  rz_mode: str = "dilation"):
         self.task = task
@@ -177,7 +179,8 @@ class Teleoperator:
         return command_to_bivector(command, **self.gains)
 
     def step(self, command: Any) -> np.ndarray:
-        """Apply one 6-axis command for Δt: ``q ← q + Δt J^G⁺ b(command)``; returns the new q."""
+        """Apply one 6-axis command for Δt: ``q ← q + Δt q̇`` with q̇ the (limit-aware) differential-IK
+        velocity for ``b(command)`` (Eq 48, 61); returns the new q."""
         b = self.bivector(command)
         self.q = diff_ik_step(self.task, self.q, b, dt=self.dt, damping=self.damping, limits=self.limits)
         self.t += self.dt

@@ -64,12 +64,36 @@ def test_clamp_limits(franka):
     q = np.clip(s.q0.copy(), s.q_lower, s.q_upper)
     big = np.array([0, 0, 0, 50.0, 0, 0, 0])
     for _ in range(30):
-        q = diff_ik_step(t, q, big, dt=0.05)
+        q = diff_ik_step(t, q, big, dt=0.05)  # default: limits='enforce' (QP)
     assert np.all(q >= s.q_lower) and np.all(q <= s.q_upper)
+    q3 = np.clip(s.q0.copy(), s.q_lower, s.q_upper)
+    for _ in range(30):
+        q3 = diff_ik_step(t, q3, big, dt=0.05, limits="clamp")  # the ablation: clip after the step
+    assert np.all(q3 >= s.q_lower) and np.all(q3 <= s.q_upper)
     q2 = s.q0.copy()
     for _ in range(30):
         q2 = diff_ik_step(t, q2, big, dt=0.05, limits="none")
     assert np.any((q2 < s.q_lower) | (q2 > s.q_upper))
+
+
+def test_defaults_and_the_tol_gain_time_relation(franka):
+    """Defaults: gain 10 /s, Δt 0.01 s, 250 steps (2.5 s), tol 1e-4, limits 'enforce'.  Away from the
+    limits the error decays like (1 − gain Δt)^k, so tol is reached after
+    k ≈ ln(‖e_0‖/tol) / −ln(1 − gain Δt) steps (≈ ln(‖e_0‖/tol)/gain seconds)."""
+    from coop_ga.control import DiffIKOptions, displaced_target
+
+    o = DiffIKOptions()
+    assert (o.gain, o.dt, o.steps, o.tol, o.limits) == (10.0, 0.01, 250, 1e-4, "enforce")
+    s, t = franka
+    V = displaced_target(t, s.q0, translation=(0.01, 0.0, 0.005), axis=(0, 1, 0), angle=0.03, scale=1.02)
+    r = diff_ik_reach(t, s.q0, V)
+    assert r.converged and r.active_steps == 0 and r.limits == "enforce"
+    k_pred = np.log(r.errors[0] / o.tol) / -np.log(1 - o.gain * o.dt)
+    print("steps", r.iterations, "predicted", k_pred)
+    assert abs(r.iterations - k_pred) <= 3
+    # identical to the unconstrained controller when no bound is active
+    r0 = diff_ik_reach(t, s.q0, V, limits="none")
+    np.testing.assert_array_equal(r.trajectory, r0.trajectory)
 
 
 def test_bad_input(franka):

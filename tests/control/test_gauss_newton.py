@@ -41,6 +41,7 @@ def test_converges_to_reachable_targets(name, kind, scale):
             r = gauss_newton_ik(t, q_init, Vd)
         assert r.converged, (r.message, r.history)
         assert r.error < 1e-9
+        assert s.limits.position_violation(r.q) == 0.0 and r.limit_violation == 0.0  # limits='enforce' (default)
         assert np.linalg.norm(t.error(r.q, Vd)) < 1e-9  # the reported error is the true one
         assert r.iterations <= 15
         assert r.history.shape == (r.iterations + 1,)

@@ -46,6 +46,8 @@ def test_projected_secondary_task_keeps_the_circle(runs):
     assert r.point_error[0] > 0.2
     assert r.point_error[-1] < 0.01  # the arm reaches the new point on the circle (< 1 cm)
     assert r.similarity_distance.max() < 1e-3  # … while the cooperative similarity is held
+    # the default limits='enforce' never had to act here: the numbers are those of Eq 60 itself
+    assert r.limits == "enforce" and r.active_steps == 0 and r.limit_violation == 0.0 and r.velocity_violation == 0.0
 
 
 def test_unprojected_secondary_task_breaks_the_circle(runs):
@@ -65,6 +67,7 @@ def test_projector_removes_task_motion(franka):
     assert np.abs(qd2[7:14]).max() > 1e-3
     V = t.similarity(q)
     q1 = nullspace_step(t, q, V, qd2, dt=0.01, primary_gain=0.0)
+    np.testing.assert_array_equal(q1, nullspace_step(t, q, V, qd2, dt=0.01, primary_gain=0.0, limits="none"))
     q2 = nullspace_step(t, q, V, qd2, dt=0.01, project=False)
     d = np.linalg.norm(cg.log(~V * t.similarity(q1)))
     d_unprojected = np.linalg.norm(cg.log(~V * t.similarity(q2)))
@@ -82,3 +85,7 @@ def test_bad_input(franka):
         point_reaching_velocity(t, s.q0, 0, [0, 0])
     with pytest.raises(cg.InvalidInputError):
         nullspace_step(t, s.q0, t.similarity(s.q0), np.zeros(5))
+    with pytest.raises(cg.InvalidInputError):
+        nullspace_step(t, s.q0, t.similarity(s.q0), np.zeros(s.nq), limits="wrap")
+    with pytest.raises(cg.InvalidInputError):
+        nullspace_step(t, s.q0, t.similarity(s.q0), np.zeros(s.nq), limit_gain=0.0)

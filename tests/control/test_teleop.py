@@ -86,6 +86,31 @@ def test_fig21_close_and_open():
     assert radii[1.0] > 1.1 * r0
 
 
+def test_teleoperation_respects_the_joint_limits():
+    """Closing the Allegro hand for 2 s (β = −1 /s): with the default limits='enforce' every
+    configuration stays inside the position limits and every step inside the velocity limits;
+    without limits the fingers pass through them."""
+    s = _load("allegro")
+    t = cg.cooperative_task(s, "sphere")
+    lim = s.limits
+    runs = {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cg.DegeneracyWarning)
+        for mode in ("enforce", "none"):
+            tel = Teleoperator(t, s.q0, dt=0.01, limits=mode)
+            try:
+                tel.run(ScriptedInput([(2.0, [0, 0, 0, 0, 0, -1])], dt=0.01))
+            except cg.DegeneratePrimitiveError:
+                pass
+            runs[mode] = np.array(tel.log.q)
+    Q = runs["enforce"]
+    assert tel.limits == "none" and Teleoperator(t, s.q0).limits == "enforce"
+    assert Q.shape[0] == 201 and lim.position_violation(Q) == 0.0
+    assert lim.velocity_violation(np.diff(Q, axis=0) / 0.01) <= 1e-9
+    assert lim.position_violation(runs["none"]) > 0.01
+    assert cg.radius(t.primitive(Q[-1])) < 0.9 * cg.radius(t.primitive(s.q0))  # the hand did close
+
+
 def test_scripted_input_and_log():
     s = cg.systems.load("three_franka")
     t = cg.cooperative_task(s, "circle")
