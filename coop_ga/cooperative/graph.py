@@ -33,11 +33,12 @@ wherever the points are, instead of wrong far from the origin.
 
 Guards
 ------
-Every entry point also returns ``checks = [ok, w, n2, c2]``: the well-definedness ``w`` of
+Every entry point also returns ``checks = [ok, w, n2, c2, f]``: the well-definedness ``w`` of
 the end points (:func:`coop_ga.well_definedness`), ``n2`` = the squared norm of all inputs
 (NaN/inf/overflow detection), ``c2 = cos²(θ/2)`` of the rotation of V_Sc (θ → π is the
-chart's half-turn), and ``ok`` = w if everything is fine, else −1, so the hot path tests a
-single number and :class:`~coop_ga.cooperative.guard.TaskGuard` diagnoses the rest.
+chart's half-turn), ``f`` = |sum of all outputs| (finite iff every output is: no NaN is ever
+returned), and ``ok`` = w if everything is fine, else −1, so the hot path tests a single number
+and :class:`~coop_ga.cooperative.guard.TaskGuard` diagnoses the rest.
 """
 
 from __future__ import annotations
@@ -166,15 +167,18 @@ class TaskGraph:
         return self.error_function(q, vd)[0]
 
     @staticmethod
-    def checks(s: dict[str, ca.SX], *inputs: ca.SX) -> ca.SX:
-        """``[ok, w, n2, c2]`` (module docstring); ``inputs`` are all arguments of the entry point."""
+    def checks(s: dict[str, ca.SX], inputs: tuple[ca.SX, ...], outputs: tuple[ca.SX, ...]) -> ca.SX:
+        """``[ok, w, n2, c2, f]`` (module docstring); ``inputs`` are all arguments of the entry point,
+        ``f = |Σ outputs|`` is finite iff every output is (NaN and inf propagate through the sum)."""
         n2 = sum((ca.dot(x, x) for x in inputs), ca.SX(0.0))
         A = s["versor"]  # the rotor part of a unit V = T R D is cosh(β/2)·R on (1, e12, e13, e23)
         a2 = A[0] * A[0] + A[1] * A[1] + A[2] * A[2] + A[3] * A[3]
         c2 = A[0] * A[0] / a2
         w = s["well_definedness"]
-        ok = ca.if_else(n2 < 1e300, ca.if_else(c2 > _COS2_WARN, w, -1.0), -1.0)
-        return ca.vertcat(ok, w, n2, c2)
+        f = ca.fabs(sum((ca.sum1(ca.vec(o)) for o in outputs), ca.SX(0.0)))
+        # comparisons with NaN are false, so NaN anywhere (inputs or outputs) lands in the slow path
+        ok = ca.if_else(n2 < 1e300, ca.if_else(f < 1e300, ca.if_else(c2 > _COS2_WARN, w, -1.0), -1.0), -1.0)
+        return ca.vertcat(ok, w, n2, c2, f)
 
     # ================================================================== entry points (casadi.Function)
     @cached_property
@@ -183,7 +187,9 @@ class TaskGraph:
         q = ca.SX.sym("q", self.nq)
         s = self.evaluate(q)
         return ca.Function(
-            f"coop_{self.name}", [q], [s["versor"], s["log"], ca.densify(s["jacobian"]), self.checks(s, q), s["points"]],
+            f"coop_{self.name}", [q],
+            [s["versor"], s["log"], ca.densify(s["jacobian"]),
+             self.checks(s, (q,), (s["versor"], s["log"], s["jacobian"])), s["points"]],
             ["q"], ["V", "B", "J", "checks", "points"],
         )
 
@@ -194,7 +200,8 @@ class TaskGraph:
         vd = ca.SX.sym("Vd", NB)
         s = self.error(q, vd)
         return ca.Function(
-            f"coop_err_{self.name}", [q, vd], [s["e"], ca.densify(s["Je"]), self.checks(s, q, vd), s["points"]],
+            f"coop_err_{self.name}", [q, vd],
+            [s["e"], ca.densify(s["Je"]), self.checks(s, (q, vd), (s["e"], s["Je"])), s["points"]],
             ["q", "Vd"], ["e", "Je", "checks", "points"],
         )
 
@@ -206,7 +213,8 @@ class TaskGraph:
         s = self.evaluate(q)
         Jqd = ca.mtimes(s["jacobian"], qd)
         return ca.Function(
-            f"coop_jdot_{self.name}", [q, qd], [ca.densify(ca.jtimes(Jqd, q, qd)), self.checks(s, q, qd), s["points"]],
+            f"coop_jdot_{self.name}", [q, qd], [ca.densify(jd := ca.jtimes(Jqd, q, qd)), self.checks(s, (q, qd), (jd,)),
+                                                 s["points"]],
             ["q", "qd"], ["Jdot_qd", "checks", "points"],
         )
 

@@ -1,7 +1,7 @@
 """The one guard of every compiled entry point of a cooperative task (evaluate, error, J̇q̇, batch).
 
 Each entry point of :class:`~coop_ga.cooperative.graph.TaskGraph` returns
-``checks = [ok, w, n2, c2]``.  The hot path tests ``ok > warn_below`` only (one float
+``checks = [ok, w, n2, c2, f]``.  The hot path tests ``ok > warn_below`` only (one float
 comparison); otherwise :meth:`TaskGuard.diagnose` says what is wrong, the same way for
 every entry point:
 
@@ -9,7 +9,9 @@ every entry point:
    :class:`~coop_ga.errors.InvalidInputError` naming the argument and the indices;
 2. degenerate end points (``w ≤ raise_below``) → :class:`~coop_ga.errors.DegeneratePrimitiveError`;
    nearly degenerate (``w < warn_below``) → :class:`~coop_ga.errors.DegeneracyWarning`;
-3. the rotation of V_Sc beyond :data:`~coop_ga.cooperative.graph.CHART_WARN_ANGLE` (the
+3. a non-finite result (``f``: overflow or lost precision far from the origin) →
+   :class:`~coop_ga.errors.InvalidInputError`, never a NaN;
+4. the rotation of V_Sc beyond :data:`~coop_ga.cooperative.graph.CHART_WARN_ANGLE` (the
    half-turn of the minimal-rotation chart) → :class:`~coop_ga.errors.ChartWarning`.
 
 Warnings go through :func:`coop_ga.diagnostics.warn` (once per condition and public call,
@@ -72,6 +74,14 @@ class TaskGuard:
         w = checks.item(1)
         if not w > self.warn_below:
             self.degeneracy(w, points.reshape(-1, 3), where)
+        if not checks.item(4) < 1e300:
+            pts = points.reshape(-1, 3)
+            raise InvalidInputError(
+                f"cooperative {self.kind} of '{self.system_name}'{where}: the result is not finite at this "
+                f"configuration (end points up to {float(np.max(np.abs(pts))) if np.all(np.isfinite(pts)) else np.inf:.3g} m "
+                "from the origin are beyond what the representation resolves); joint values must be angles [rad] or "
+                "lengths [m] of a sensible size"
+            )
         c2 = checks.item(3)
         theta = 2.0 * math.acos(min(1.0, math.sqrt(max(c2, 0.0))))
         if theta >= CHART_WARN_ANGLE:
