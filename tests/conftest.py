@@ -4,10 +4,27 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import settings
+from hypothesis import HealthCheck, settings
 
-settings.register_profile("default", max_examples=60, deadline=None)
+# Hypothesis profiles.  ``default`` is the CI one (modest example counts, fixed seeds: the
+# whole suite stays fast and reproducible); ``long`` runs 10 000 examples per property, e.g.
+# ``python -m pytest tests/fuzz --hypothesis-profile=long``.  The profile is loaded in
+# pytest_configure, after the command line is parsed, so ``--hypothesis-profile`` always wins
+# (a module-level ``load_profile("default")`` here would override it whenever this conftest
+# is imported after the hypothesis plugin has configured itself).
+settings.register_profile("default", max_examples=60, deadline=None, derandomize=True)
+settings.register_profile(
+    "long",
+    max_examples=10_000,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
 settings.load_profile("default")
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    settings.load_profile(config.getoption("--hypothesis-profile", default=None) or "default")
 
 
 @pytest.fixture

@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import InvalidInputError
+
 try:  # casadi is a hard dependency, but keep import errors readable
     import casadi as ca
 except ImportError:  # pragma: no cover
@@ -31,6 +33,8 @@ __all__ = [
     "atan2",
     "log",
     "exp",
+    "atanh",
+    "log1p",
     "fabs",
     "where",
     "is_structural_zero",
@@ -54,7 +58,12 @@ def _pick(name: str):
     ca_f = getattr(ca, name)
 
     def f(x):
-        return ca_f(x) if isinstance(x, _SYM_TYPES) else np_f(x)
+        if isinstance(x, _SYM_TYPES):
+            return ca_f(x)
+        try:
+            return np_f(x)
+        except TypeError as exc:
+            raise InvalidInputError(f"{name}() needs real numbers or CasADi expressions, got {type(x).__name__}: {exc}") from None
 
     f.__name__ = name
     f.__doc__ = f"``{name}`` on numpy or CasADi coefficients."
@@ -69,13 +78,27 @@ cosh = _pick("cosh")
 log = _pick("log")
 exp = _pick("exp")
 fabs = _pick("fabs")
+log1p = _pick("log1p")
+
+
+def atanh(x):
+    """``atanh`` on numpy or CasADi coefficients."""
+    if isinstance(x, _SYM_TYPES):
+        return ca.atanh(x)
+    try:
+        return np.arctanh(x)
+    except TypeError as exc:
+        raise InvalidInputError(f"atanh() needs real numbers or CasADi expressions, got {type(x).__name__}: {exc}") from None
 
 
 def atan2(y, x):
     """Quadrant-correct ``atan2(y, x)``."""
     if any_symbolic(y, x):
         return ca.atan2(y, x)
-    return np.arctan2(y, x)
+    try:
+        return np.arctan2(y, x)
+    except TypeError as exc:
+        raise InvalidInputError(f"atan2() needs real numbers or CasADi expressions: {exc}") from None
 
 
 def where(cond, a, b):
@@ -101,5 +124,16 @@ def asarray_coeff(x: Any) -> Any:
     """Leave symbols alone; turn python/numpy numbers into float or float arrays."""
     if isinstance(x, _SYM_TYPES):
         return x
-    a = np.asarray(x, dtype=float)
+    from .multivector import coeff_problem
+
+    why = coeff_problem(x) if not isinstance(x, (list, tuple)) else None
+    if why is not None:
+        raise InvalidInputError(f"asarray_coeff(x): {why}")
+    try:
+        a = np.asarray(x)
+        if a.dtype.kind not in "fiu":
+            raise TypeError(f"dtype {a.dtype}")
+        a = a.astype(float)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise InvalidInputError(f"asarray_coeff(x) needs real numbers, got {type(x).__name__}: {exc}") from None
     return float(a) if a.ndim == 0 else a

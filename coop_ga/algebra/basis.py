@@ -18,6 +18,9 @@ from __future__ import annotations
 
 from fractions import Fraction
 from functools import lru_cache
+from numbers import Integral
+
+from ..errors import InvalidInputError
 
 __all__ = [
     "N_GEN",
@@ -43,37 +46,62 @@ for _k in (1, 2, 3):
 _G_NULL[0][4] = _G_NULL[4][0] = Fraction(-1)
 
 
+def _blade_int(blade: object, what: str = "blade") -> int:
+    """``blade`` as a python int in 0..31 (a bitmask); raises :class:`InvalidInputError` otherwise."""
+    if isinstance(blade, Integral) and not isinstance(blade, bool) and 0 <= int(blade) < N_BLADES:
+        return int(blade)
+    raise InvalidInputError(
+        f"{what} must be a blade bitmask, an int in 0..{N_BLADES - 1} (bit 0 = e0, 1..3 = e1..e3, 4 = e∞), "
+        f"got {blade!r} ({type(blade).__name__})"
+    )
+
+
+_GRADES = tuple(b.bit_count() for b in range(N_BLADES))
+
+
 def grade_of(blade: int) -> int:
     """Grade (number of generators) of a blade bitmask."""
-    return bin(blade).count("1")
+    if type(blade) is int and 0 <= blade < N_BLADES:
+        return _GRADES[blade]
+    return _GRADES[_blade_int(blade)]
 
 
 def blade_name(blade: int) -> str:
     """Human-readable name, e.g. ``0b10110 -> 'e12∞'``; the scalar is ``'1'``."""
+    blade = _blade_int(blade)
     if blade == 0:
         return "1"
     return "e" + "".join(GEN_NAMES[i] for i in range(N_GEN) if blade >> i & 1)
 
 
-@lru_cache(maxsize=None)
 def blade_index(name: str) -> tuple[int, int]:
     """Parse a blade name into ``(bitmask, sign)``.
 
     Accepts ``'1'``, ``'e12'``, ``'e1∞'``, ``'e1inf'``, ``'e0inf'``, ``'e21'`` (→ sign −1).
+    Raises :class:`~coop_ga.InvalidInputError` (a ``ValueError``) for anything else.
     """
+    if not isinstance(name, str):
+        raise InvalidInputError(f"blade name must be a string such as 'e12' or 'e1inf', got {name!r} ({type(name).__name__})")
+    return _blade_index(name)
+
+
+@lru_cache(maxsize=None)
+def _blade_index(name: str) -> tuple[int, int]:
     if name in ("1", "", "scalar"):
         return 0, 1
     s = name.strip()
     if not s.startswith("e"):
-        raise ValueError(f"blade name must start with 'e', got {name!r}")
+        raise InvalidInputError(f"blade name must start with 'e' (e.g. 'e12', 'e1inf'), got {name!r}")
     s = s[1:].replace("inf", "∞")
     gens = []
     for ch in s:
         if ch not in _ASCII_GEN:
-            raise ValueError(f"unknown generator {ch!r} in blade name {name!r}; use 0,1,2,3,∞ (or 'inf')")
+            raise InvalidInputError(f"unknown generator {ch!r} in blade name {name!r}; use 0,1,2,3,∞ (or 'inf')")
         gens.append(_ASCII_GEN[ch])
+    if not gens:
+        raise InvalidInputError(f"blade name {name!r} has no generators; use '1' for the scalar")
     if len(set(gens)) != len(gens):
-        raise ValueError(f"repeated generator in blade name {name!r}")
+        raise InvalidInputError(f"repeated generator in blade name {name!r}")
     # sign of the permutation that sorts gens
     sign = 1
     g = list(gens)

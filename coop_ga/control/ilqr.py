@@ -861,7 +861,9 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
             e_norm = float(np.linalg.norm(ev["e"]))
             newton = o.hessian == "newton" and e_norm < o.newton_switch
             w = _multiplier_estimate(ocp, ev, ck) if newton else None
+            shift_estimated = False
             if w is not None and o.terminal == "constraint" and e_norm < 100.0 * o.tol and ev["violation"] == 0.0:
+                shift_estimated = True
                 # the penalty's optimum keeps e = (2Q)⁻¹λ_e − s; with the multiplier estimate w ≈ λ_e, the shift
                 # s = (2Q)⁻¹w puts that optimum at e = 0 now instead of after a stalled inner solve
                 s_new = np.linalg.lstsq(2.0 * ocp.Q, w, rcond=1e-12)[0]
@@ -972,7 +974,7 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
             # near the target the penalty's own optimum keeps e ≈ λ_e/(2Q): once a Newton step no longer halves
             # ‖e‖, shift the terminal target (the multiplier update) instead of creeping toward that optimum
             if o.terminal == "constraint" and newton and errs[-1] < 100.0 * o.tol and errs[-1] > 0.5 * errs[-2] \
-                    and ev["violation"] <= o.al_violation:
+                    and ev["violation"] <= o.al_violation and not shift_estimated:
                 break
             # the AL subproblem is solved well enough: update the multipliers now (the penalty optimum keeps a
             # violation ~ λ*/μ that only the outer update removes)

@@ -31,19 +31,31 @@ log is exact near zero rotation (series expansions, no 0/0) and returns the
 first (the same rotation, the other sheet of the double cover), so ``exp(log V)``
 equals V up to that sign.  At exactly π the axis is whatever the versor encodes.
 Every formula also runs on CasADi SX, with branches as ``if_else``.
+
+Numerics: the series are used below 1e-3 and carried to the 4th order, so log and exp
+are accurate to ≤ 1e-15 relative on both sides of the switch; β is computed as
+``log1p(2 s/(c − s))`` (or its mirror), accurate to ~ε relative also for |β| → 0.
+Numeric versors are rescaled exactly (an overall power of two and a dilation by a power
+of two, undone on t) before log/decompose/log_jacobian/apply, so every threshold is
+relative, a versor times 1e±300 gives the same log, and translations up to the float
+range are accepted.  A similarity that scales by s stores its dilation as cosh/sinh of
+½ log s: its coefficients, and everything computed from them, carry a relative rounding
+error of about ε·max(s, 1/s) (inherent in the representation, not in the formulas).
 """
 
 from __future__ import annotations
 
 import abc
+import math
 from functools import lru_cache
 from typing import Any, ClassVar, Self
 
 import numpy as np
 
+from .. import validation
 from ..algebra import backend as B
 from ..algebra.basis import blade_index, blade_name
-from ..algebra.multivector import Multivector
+from ..algebra.multivector import OMEGA, Multivector, _absmax, balance_exponents, safe_range
 from ..errors import InvalidInputError, InvalidVersorError, NonFiniteError
 
 __all__ = [
@@ -87,19 +99,35 @@ DILATOR_BLADES = (_S, _E0I)
 MOTOR_BLADES = tuple(sorted(ROTOR_BLADES + (_E1I, _E2I, _E3I, _E123I)))
 SIMILARITY_BLADES = tuple(sorted(MOTOR_BLADES + (_E0I, _E012I, _E013I, _E023I)))
 
-_SMALL_ANGLE = 1e-3  # below this, series expansions (errors < 1e-16)
+_SMALL_ANGLE = 1e-3  # below this (φ resp. tan(φ/2) < 1e-3), series expansions: truncation error < 1e-18 relative
 
 
 # ---------------------------------------------------------------------- helpers
 def _tangent(b: Any, n: int, name: str) -> tuple[Any, ...]:
+    if type(b) is np.ndarray and b.shape == (n,) and b.dtype == np.float64:  # fast path
+        v = tuple(b.tolist())
+        if all(math.isfinite(x) for x in v):
+            return v
     if B.is_symbolic(b):
         if b.numel() != n:
             raise InvalidInputError(f"{name} tangent must have {n} entries, got a CasADi expression of shape {b.shape}")
         return tuple(b[i] for i in range(n))
     if isinstance(b, (list, tuple)) and len(b) == n and any(B.is_symbolic(v) for v in b):
-        return tuple(b)
-    a = np.asarray(b, dtype=float)
-    if a.shape[-1:] != (n,) or a.ndim > 2:
+        out = []
+        for i, v in enumerate(b):
+            if B.is_symbolic(v):
+                if v.numel() != 1:
+                    raise InvalidInputError(f"{name} tangent entry {i} must be a scalar CasADi expression, got {v.shape}")
+                out.append(v)
+            else:
+                if type(v) is int and not -1e308 <= v <= 1e308:
+                    raise InvalidInputError(f"{name} tangent entry {i} is an integer beyond the float range")
+                out.append(validation.scalar(v, f"{name} tangent entry {i}"))
+        return tuple(out)
+    if isinstance(b, Multivector):
+        raise InvalidInputError(f"{name} tangent must be {n} numbers, got a Multivector (use log(V) for its tangent)")
+    a = validation.array(b, f"{name} tangent", finite=False)
+    if a.shape[-1:] != (n,) or a.ndim > 2 or (a.ndim == 2 and a.shape[0] == 0):
         raise InvalidInputError(f"{name} tangent must have shape ({n},) (or (N, {n})), got {a.shape}")
     if not np.all(np.isfinite(a)):
         raise NonFiniteError(f"{name} tangent contains NaN or inf: {a.tolist()}")
@@ -117,34 +145,60 @@ def _stack(vals: tuple[Any, ...]) -> Any:
 
 
 def _sin_half_over(phi2: Any) -> Any:
-    """sin(φ/2)/φ as a function of φ², exact through φ = 0."""
+    """sin(φ/2)/φ as a function of φ², exact through φ = 0 (series to φ⁴ below φ = 1e-3)."""
     small = phi2 < _SMALL_ANGLE**2
     phi_safe = B.sqrt(B.where(small, 1.0, phi2))
-    return B.where(small, 0.5 - phi2 / 48.0, B.sin(0.5 * phi_safe) / phi_safe)
+    return B.where(small, 0.5 - phi2 * (1.0 / 48.0 - phi2 / 3840.0), B.sin(0.5 * phi_safe) / phi_safe)
 
 
 def _cos_half(phi2: Any) -> Any:
-    """cos(φ/2) as a function of φ², with a finite derivative at φ = 0."""
+    """cos(φ/2) as a function of φ², with a finite derivative at φ = 0 (series to φ⁴ below 1e-3)."""
     small = phi2 < _SMALL_ANGLE**2
     phi_safe = B.sqrt(B.where(small, 1.0, phi2))
-    return B.where(small, 1.0 - phi2 / 8.0, B.cos(0.5 * phi_safe))
+    return B.where(small, 1.0 - phi2 * (0.125 - phi2 / 384.0), B.cos(0.5 * phi_safe))
 
 
 def _atan_over(n2: Any, w: Any) -> Any:
-    """atan2(n, w)/n for w ≥ 0, exact through n = 0 (w > 0 there)."""
+    """atan2(n, w)/n for w ≥ 0, exact through n = 0 (w > 0 there).
+
+    Below x = n/w = 1e-3 the series ``(1 − x²/3 + x⁴/5)/w`` (truncation < x⁶/7 ≈ 1.4e-19);
+    above, ``atan2(n, w)/n``: relative error ≤ 1e-15 on both sides of the switch, measured
+    against long-double references (``tests/geometry/test_reliability.py``).
+    """
     small = n2 < (_SMALL_ANGLE**2) * w * w
     n_safe = B.sqrt(B.where(small, 1.0, n2))
     w_safe = B.where(small, w, 1.0)
-    return B.where(small, 1.0 / w_safe - n2 / (3.0 * w_safe * w_safe * w_safe), B.atan2(n_safe, w) / n_safe)
+    inv = 1.0 / w_safe
+    x2 = n2 * inv * inv
+    return B.where(small, inv * (1.0 - x2 * (1.0 / 3.0 - 0.2 * x2)), B.atan2(n_safe, w) / n_safe)
+
+
+def _rescaled(V: Multivector) -> tuple[Multivector, int]:
+    """Numeric V rescaled exactly to unit size (powers of two): log is scale-invariant, and the
+    translation of the result is ``2**k`` times that of the rescaled versor."""
+    k, (lam,) = balance_exponents(V)
+    return V._rescaled(k, lam), k
+
+
+def _finite_out(x: Any, what: str) -> Any:
+    if not B.is_symbolic(x) and not np.all(np.isfinite(np.asarray(x, dtype=float))):
+        raise InvalidInputError(f"{what} is beyond the float64 range; the argument is too extreme to be represented")
+    return x
 
 
 # ---------------------------------------------------------------------- exp
-def _exp_parts(theta, beta, t) -> Multivector:
+def _exp_parts(theta, beta, t, rotor=None) -> Multivector:
+    """``V_T(t) V_R(θ) V_D(β)`` on the similarity blades (numeric: range-checked, see :func:`exp`)."""
+    if rotor is None and not B.any_symbolic(*theta, beta, *t):
+        return _exp_numeric(theta, beta, t)
     th12, th13, th23 = theta
-    phi2 = th12 * th12 + th13 * th13 + th23 * th23
-    k = _sin_half_over(phi2)
-    r0 = _cos_half(phi2)
-    r = (r0, -k * th12, -k * th13, -k * th23)
+    if rotor is None or rotor is _NO_ROTOR:
+        phi2 = th12 * th12 + th13 * th13 + th23 * th23
+        k = _sin_half_over(phi2)
+        r0 = _cos_half(phi2)
+        r = (r0, -k * th12, -k * th13, -k * th23)
+    else:
+        r = rotor
     c = B.cosh(0.5 * beta)
     s = B.sinh(0.5 * beta)
     # V = c R + s R e0∞ − ½ (c − s) (t R) e∞   (derivation in the module docstring of decompose)
@@ -157,7 +211,44 @@ def _exp_parts(theta, beta, t) -> Multivector:
         d[blade | 0b10001] = s * rv  # e_ij -> e0ij∞, 1 -> e0∞
     for blade, v in zip(tR.blades, tR.coeffs):
         d[blade | 0b10000] = h * v  # e_k -> e_k∞, e123 -> e123∞
-    return Multivector.from_dict(d).with_blades(SIMILARITY_BLADES)
+    return Multivector(SIMILARITY_BLADES, tuple(d.get(b, 0.0) for b in SIMILARITY_BLADES))
+
+
+#: |β| above which cosh(β/2) overflows float64
+_BETA_MAX = 2.0 * float(np.arccosh(np.finfo(float).max)) * (1.0 - 1e-12)
+
+
+def _rotor_numeric(theta: tuple[Any, Any, Any]) -> tuple[Any, Any, Any, Any] | None:
+    """Rotor coefficients for rotation vectors too large to square (|θ| > 1e150), else None."""
+    m = max(float(np.max(np.abs(x))) for x in theta)
+    if m <= 1e150:
+        return None
+    u = [np.asarray(x, dtype=float) / m for x in theta]
+    phi = m * np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    sh = np.sin(0.5 * phi)
+    out = (np.cos(0.5 * phi), *(-sh * (np.asarray(x, dtype=float) / phi) for x in theta))
+    return tuple(float(v) if np.ndim(v) == 0 else v for v in out)  # type: ignore[return-value]
+
+
+def _exp_numeric(theta, beta, t) -> Multivector:
+    bmax = float(np.max(np.abs(beta)))
+    if bmax > _BETA_MAX:
+        raise InvalidInputError(
+            f"b: the dilation β = {bmax:.6g} is outside the representable range |β| ≤ {_BETA_MAX:.6g} "
+            "(the versor coefficients cosh(β/2), sinh(β/2) overflow float64)"
+        )
+    with np.errstate(over="ignore", invalid="ignore"):
+        V = _exp_parts(theta, beta, t, rotor=_rotor_numeric(theta) or _NO_ROTOR)
+    for c in V.coeffs:
+        if not (math.isfinite(c) if type(c) is float or type(c) is np.float64 else np.all(np.isfinite(c))):
+            raise InvalidInputError(
+                "b: exp(b) is not representable in float64: the translation part |t|·e^(−β/2) overflows "
+                "(|t| and β are too large together)"
+            )
+    return V
+
+
+_NO_ROTOR = ()  # sentinel: compute the rotor by the generic formula (numeric inputs already checked)
 
 
 def exp(b: Any) -> Multivector:
@@ -165,6 +256,9 @@ def exp(b: Any) -> Multivector:
 
     Units: θ [rad], β [dimensionless, scale factor e^β], t [m].  Returns a
     :class:`Multivector` on the 12 similarity blades.  Accepts (7,), (N, 7) or CasADi.
+    Numeric b must give a representable versor: |β| ≤ 1420 (cosh(β/2) < 1.8e308) and
+    ``|t|·e^(−β/2) < 1.8e308``; otherwise :class:`InvalidInputError`.  Any finite θ is fine
+    (the rotation angle is reduced exactly).
     """
     v = _tangent(b, 7, "similarity")
     return _exp_parts(v[0:3], v[3], v[4:7])
@@ -178,29 +272,64 @@ def _coeffs(V: Multivector, blades) -> tuple[Any, ...]:
 def _validate_similarity(V: Multivector, what: str = "versor") -> None:
     if not isinstance(V, Multivector):
         raise InvalidInputError(f"{what} must be a coop_ga Multivector, got {type(V).__name__}")
+    V.check_finite(what)
     if V.is_symbolic:
         return
-    V.check_finite(what)
-    allowed = set(SIMILARITY_BLADES)
-    scale = max([float(np.max(np.abs(c))) for c in V.coeffs] + [0.0])
+    scale = max([_absmax(c) for c in V.coeffs] + [0.0])
     if scale == 0.0:
         raise InvalidVersorError(f"{what} is zero; a zero-norm versor has no logarithm (did a normalisation underflow?)")
-    for k, c in zip(V.blades, V.coeffs):
+    allowed = set(SIMILARITY_BLADES)
+    if all(k in allowed for k in V.blades):
+        return
+    Vb, _ = _rescaled(V)  # compare blades of different dimension at a common length scale
+    scale = max(float(np.max(np.abs(c))) for c in Vb.coeffs)
+    for k, c in zip(Vb.blades, Vb.coeffs):
         if k not in allowed and float(np.max(np.abs(c))) > 1e-9 * scale:
             raise InvalidVersorError(
-                f"{what} has a {blade_name(k)} component ({float(np.max(np.abs(c))):.3g}); it is not a similarity "
-                "versor (translator·rotor·dilator), e.g. it contains a transversion or a reflection"
+                f"{what} has a {blade_name(k)} component ({float(np.max(np.abs(c))):.3g} relative to its largest "
+                "coefficient after rescaling); it is not a similarity versor (translator·rotor·dilator), e.g. it "
+                "contains a transversion or a reflection"
             )
 
 
 def _decompose_coeffs(V: Multivector):
-    """Return (R (4 coeffs, unit), beta, t (3)) with V ∝ T(t) R D(β)."""
+    """Return (R (4 coeffs, unit), beta, t (3)) with V ∝ T(t) R D(β).
+
+    Numeric V is rescaled exactly first (a positive power of two overall, and a dilation by
+    a power of two whose effect on t is undone at the end), so every test below is relative
+    and nothing overflows; t beyond the float range raises :class:`InvalidInputError`.
+    """
+    if V.is_symbolic:
+        return _decompose_core(V, symbolic=True)
+    if safe_range(V):  # every test below is relative (or has a 1 m floor): the frame does not matter
+        return _decompose_core(V, symbolic=False)
+    Vb, k = _rescaled(V)
+    with np.errstate(over="ignore"):
+        unit = float(np.ldexp(1.0, -k))  # 1 m in the rescaled frame (inf if beyond the range: no floor needed)
+    R, beta, t = _decompose_core(Vb, symbolic=False, unit=unit)
+    with np.errstate(over="ignore"):
+        t = tuple(np.ldexp(np.asarray(x, dtype=float), k) for x in t)
+    t = tuple(float(x) if x.ndim == 0 else x for x in t)
+    _finite_out(np.stack(np.broadcast_arrays(*t)), "the translation of the versor")
+    return R, beta, t
+
+
+def _decompose_core(V: Multivector, symbolic: bool, unit: float = 1.0):
     A = _coeffs(V, ROTOR_BLADES)  # λ c R
     Bq = _coeffs(V, (_E0I, _E012I, _E013I, _E023I))  # λ s R
     C = _coeffs(V, (_E1I, _E2I, _E3I, _E123I))  # −½ λ (c − s) (t R)
     a2 = A[0] * A[0] + A[1] * A[1] + A[2] * A[2] + A[3] * A[3]
-    if not B.any_symbolic(*A):
-        if np.any(np.asarray(a2) <= 1e-24 * max(1.0, float(np.max([np.max(np.abs(x)) for x in Bq + C])) ** 2)):
+    scalar = not symbolic and all(type(c) is float or type(c) is np.float64 for c in V.coeffs)
+    if scalar:
+        b2 = Bq[0] * Bq[0] + Bq[1] * Bq[1] + Bq[2] * Bq[2] + Bq[3] * Bq[3]
+        if a2 <= 1e-24 * (a2 + b2) or a2 == 0:
+            raise InvalidVersorError(
+                "the versor has no rotor part (scalar and e12, e13, e23 are all zero): zero norm or not a "
+                "similarity versor"
+            )
+    elif not symbolic:
+        b2 = sum(np.asarray(x, dtype=float) ** 2 for x in Bq)
+        if np.any(np.asarray(a2) <= 1e-24 * (np.asarray(a2) + b2)) or np.any(np.asarray(a2) == 0):
             raise InvalidVersorError(
                 "the versor has no rotor part (scalar and e12, e13, e23 are all zero): zero norm or not a "
                 "similarity versor"
@@ -209,23 +338,42 @@ def _decompose_coeffs(V: Multivector):
     R = tuple(x / an for x in A)
     ls = Bq[0] * R[0] + Bq[1] * R[1] + Bq[2] * R[2] + Bq[3] * R[3]  # λ s
     cm = an - ls  # λ (c − s) > 0
-    if not B.any_symbolic(cm, an):
-        if np.any(np.asarray(cm) <= 0) or np.any(np.asarray(an + ls) <= 0):
-            raise InvalidVersorError("the versor's dilation part is not a valid dilator (|sinh| ≥ cosh)")
+    cp = an + ls  # λ (c + s) > 0
+    if not symbolic:
+        if (cm <= 0 or cp <= 0) if scalar else (np.any(np.asarray(cm) <= 0) or np.any(np.asarray(cp) <= 0)):
+            raise InvalidVersorError(
+                "the versor's dilation part is not a valid dilator (|sinh| ≥ cosh); if it came from exp(b) with "
+                "a large |β|, the dilation is beyond the precision of the coefficients (|β| ≲ 36)"
+            )
         resid = [b - ls * r for b, r in zip(Bq, R)]
-        scale = float(np.max(np.abs(an)))
-        if max(float(np.max(np.abs(x))) for x in resid) > 1e-6 * scale:
+        if max(_absmax(x) for x in resid) > 1e-6 * _absmax(an):
             raise InvalidVersorError(
                 "the versor's e0∞-parts are not aligned with its rotor part; it is not a similarity versor"
             )
-    beta = B.log((an + ls) / cm)
+    # β = log(cp/cm) = 2 atanh(s/c), in the form that does not cancel: log1p(2 ls/cm) for ls ≥ 0
+    # (cm = an − ls is exact there when ls > an/2), −log1p(−2 ls/cp) for ls < 0; relative error ~ε for
+    # every β, also |β| → 0 (log(cp/cm) had ~ε/|β| and returned 0 below 1e-16)
+    if scalar:
+        beta = math.log1p(2.0 * ls / cm) if ls >= 0 else -math.log1p(-2.0 * ls / cp)
+    else:
+        pos = ls >= 0
+        with np.errstate(invalid="ignore", divide="ignore"):  # numpy evaluates both branches
+            beta = B.where(pos, B.log1p(2.0 * ls / B.where(pos, cm, 1.0)), -B.log1p(-2.0 * ls / B.where(pos, 1.0, cp)))
     tRv = tuple(-2.0 * x / cm for x in C)  # t R as (e1, e2, e3, e123)
     tR = Multivector((_E1, _E2, _E3, _E123), tRv)
     tt = tR * Multivector(ROTOR_BLADES, (R[0], -R[1], -R[2], -R[3]))
     t = (tt.get(_E1), tt.get(_E2), tt.get(_E3))
-    if not B.any_symbolic(*t):
+    if not symbolic:
+        # e123 part of t R R̃: zero for a similarity; tolerance relative to |t|, with a floor of
+        # 1e-6 m (``unit`` is 1 m in the rescaled frame) so that rounding noise of a zero translation passes
         tri = tt.get(_E123)
-        if np.any(np.abs(np.asarray(tri)) > 1e-6 * (1.0 + np.sqrt(sum(np.asarray(x) ** 2 for x in t)))):
+        if scalar:
+            bad = abs(tri) > 1e-6 * (unit + math.sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]))
+        else:
+            with np.errstate(over="ignore"):
+                tn = np.sqrt(sum(np.asarray(x, dtype=float) ** 2 for x in t))
+            bad = bool(np.any(np.abs(np.asarray(tri)) > 1e-6 * (unit + tn)))
+        if bad:
             raise InvalidVersorError("the versor's e∞-parts are inconsistent with its rotor; not a similarity versor")
     return R, beta, t
 
@@ -240,16 +388,24 @@ def _rotor_log(R: tuple[Any, Any, Any, Any]) -> tuple[Any, Any, Any]:
     return k * b12, k * b13, k * b23
 
 
+def _versor_arg(V: Any, what: str) -> Multivector:
+    if isinstance(V, VersorGroup):
+        return V.versor
+    if not isinstance(V, Multivector):
+        raise InvalidInputError(f"{what} must be a similarity versor (a coop_ga Multivector or group element), got {type(V).__name__}")
+    return V
+
+
 def log(V: Any) -> Any:
     """Similarity bivector ``[θ12, θ13, θ23, β, t1, t2, t3]`` of a similarity versor (Eq 77).
 
-    ``V`` may be any positive multiple of a versor (it is normalised).  Raises
+    ``V`` may be any positive multiple of a versor (it is normalised; numeric V is rescaled
+    exactly first, so a versor times 1e300 or 1e-300 gives the same answer).  Raises
     :class:`InvalidVersorError` for zero-norm input or multivectors outside the group.
     ``log(~V1 * V2)`` is the relative similarity expressed in V1's frame.
     """
-    if isinstance(V, VersorGroup):
-        V = V.versor
-    _validate_similarity(V)
+    V = _versor_arg(V, "V")
+    _validate_similarity(V, "V")
     R, beta, t = _decompose_coeffs(V)
     th = _rotor_log(R)
     return _stack((th[0], th[1], th[2], beta, t[0], t[1], t[2]))
@@ -262,12 +418,16 @@ def decompose(V: Multivector) -> tuple[Multivector, Multivector, Multivector]:
     finds ``V_T V_R V_D = c R + s R e0∞ − ½ (c − s) t R e∞`` because ``e∞ e0∞ = −e∞``.
     The e0/e∞-free part gives ``cR``, the e0∞ part ``sR``, the e∞ part ``t``.
     """
-    _validate_similarity(V)
+    V = _versor_arg(V, "V")
+    _validate_similarity(V, "V")
     R, beta, t = _decompose_coeffs(V)
     zero = 0.0 * beta
     VT = _exp_parts((zero, zero, zero), zero, t).project(TRANSLATOR_BLADES)
     VR = Multivector(ROTOR_BLADES, R)
     VD = Multivector(DILATOR_BLADES, (B.cosh(0.5 * beta), B.sinh(0.5 * beta)))
+    if not V.is_symbolic:
+        for c in VD.coeffs:
+            _finite_out(c, "decompose(V): the unit dilator cosh(β/2) + sinh(β/2) e0∞")
     return VT, VR, VD
 
 
@@ -285,29 +445,108 @@ def log_jacobian(V: Multivector) -> np.ndarray:
     """J_{S→B} (Eq 31): derivative of ``log`` w.r.t. the 12 versor coefficients, shape (7, 12).
 
     Columns follow :data:`SIMILARITY_BLADES` (scalar, then blades by bitmask); rows
-    follow :data:`TANGENT_BASIS`.  Computed by CasADi AD of the same ``log`` source.
+    follow :data:`TANGENT_BASIS`.  Computed by CasADi AD of the same ``log`` source, at the
+    exactly rescaled versor (the chain rule of the rescaling is applied afterwards), so a
+    versor times 1e±300 gives the correspondingly scaled Jacobian, never NaN/inf.
+    One numeric versor (not a batch, not symbolic).
     """
-    _validate_similarity(V)
-    x = np.array([float(V.get(k)) for k in SIMILARITY_BLADES])
-    return np.array(_log_jac_fn()(x))
+    V = _versor_arg(V, "V")
+    _validate_similarity(V, "V")
+    if V.is_symbolic:
+        raise InvalidInputError("log_jacobian(V) needs a numeric versor; differentiate log(V) with CasADi instead")
+    if any(np.ndim(c) for c in V.coeffs):
+        raise InvalidInputError("log_jacobian(V) takes one versor, not a batch (coefficients must be scalars)")
+    _decompose_coeffs(V)  # group membership and dilator validity (raises like log)
+    k, (lam,) = balance_exponents(V)
+    Vb = V._rescaled(k, lam)
+    x = np.array([float(Vb.get(b)) for b in SIMILARITY_BLADES])
+    J = np.array(_log_jac_fn()(x))
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        rows = np.ldexp(1.0, np.array([0, 0, 0, 0, k, k, k]))
+        cols = np.ldexp(1.0, np.array([lam - k * OMEGA[b] for b in SIMILARITY_BLADES]))
+        J = J * rows[:, None] * cols[None, :]
+    return _finite_out(J, "log_jacobian(V)")
+
+
+def _versor_like(V: Multivector) -> bool:
+    """V Ṽ is a scalar, non-zero and with other grades ≤ 1e-9 |V|² (V scaled to unit size first)."""
+    if not safe_range(V, lim=500):
+        return False
+    VV = V * V.reverse()
+    if all(type(c) is float or type(c) is np.float64 for c in V.coeffs):
+        n2 = sum(c * c for c in V.coeffs)
+        s = abs(VV.get(0))
+        worst = max([abs(c) for b, c in zip(VV.blades, VV.coeffs) if b != 0] + [0.0])
+        return s > 1e-9 * n2 and worst <= 1e-9 * n2
+    n2 = sum(np.asarray(c, dtype=float) ** 2 for c in V.coeffs)
+    s = np.abs(np.asarray(VV.get(0), dtype=float))
+    rest = [np.abs(np.asarray(c, dtype=float)) for b, c in zip(VV.blades, VV.coeffs) if b != 0]
+    worst = np.max(np.stack(np.broadcast_arrays(*rest)), axis=0) if rest else np.zeros(())
+    return bool(np.all(s > 1e-9 * n2) and np.all(worst <= 1e-9 * n2))
+
+
+def _check_versor(V: Multivector) -> None:
+    """Numeric V must be a versor: V Ṽ a non-zero scalar to relative 1e-9 (after an exact
+    rescaling), or an element of the similarity group (e.g. a dilator with large β, whose
+    V Ṽ = 1 is small compared with its coefficients)."""
+    if _versor_like(V) or _versor_like(_rescaled(V)[0]):  # as given (fast), then in the balanced frame
+        return
+    if all(b in set(SIMILARITY_BLADES) for b in V.blades):
+        try:
+            _decompose_coeffs(V)
+            return
+        except InvalidVersorError as exc:
+            raise InvalidVersorError(f"apply(V, X): V is not a versor: {exc}") from None
+    Vb = _rescaled(V)[0]
+    VV = Vb * Vb.reverse()
+    n2 = float(np.max(sum(np.asarray(c, dtype=float) ** 2 for c in Vb.coeffs)))
+    sc = float(np.min(np.abs(np.asarray(VV.get(0), dtype=float))))
+    worst = max([float(np.max(np.abs(c))) for b, c in zip(VV.blades, VV.coeffs) if b != 0] + [0.0])
+    raise InvalidVersorError(
+        f"apply(V, X): V is not a versor: V Ṽ must be a non-zero scalar, got scalar {sc / n2:.3g} and other "
+        f"grades up to {worst / n2:.3g} relative to |V|² (after rescaling)"
+    )
 
 
 def apply(V: Any, X: Multivector) -> Multivector:
     """Sandwich ``V X Ṽ`` (Eq 6), projected to the grades of X; keeps a primitive's kind tag.
 
-    V may be a versor Multivector or a :class:`VersorGroup` element.
+    V may be a versor Multivector or a :class:`VersorGroup` element.  A numeric V must be a
+    versor (V Ṽ a non-zero scalar, or a similarity versor), else :class:`InvalidVersorError`.
+    Numeric arguments are rescaled exactly before multiplying (nothing overflows
+    needlessly); a result beyond the float range raises :class:`InvalidInputError`.
     """
     from .primitives import Primitive
 
     if isinstance(V, VersorGroup):
         V = V.versor
     if not isinstance(V, Multivector) or not isinstance(X, Multivector):
-        raise InvalidInputError("apply(V, X) needs two Multivectors (or a group element and a Multivector)")
-    if not V.is_symbolic:
-        V.check_finite("versor")
-    if not X.is_symbolic:
-        X.check_finite("primitive")
-    Y = (V * X * V.reverse()).grade(*X.grades)
+        raise InvalidInputError(
+            "apply(V, X) needs two Multivectors (or a group element and a Multivector), got "
+            f"V: {type(V).__name__}, X: {type(X).__name__}"
+        )
+    V.check_finite("V")
+    X.check_finite("X")
+    if not V.blades or (not V.is_symbolic and max(_absmax(c) for c in V.coeffs) == 0.0):
+        raise InvalidVersorError("apply(V, X): V is zero")
+    if V.is_symbolic or X.is_symbolic:
+        Y = (V * X * V.reverse()).grade(*X.grades)
+    elif safe_range(V, X, lim=300):  # no product of three coefficients can overflow: no rescaling
+        _check_versor(V)
+        Y = (V * X * V.reverse()).grade(*X.grades)
+        for c in Y.coeffs:
+            if not (math.isfinite(c) if type(c) is float or type(c) is np.float64 else np.all(np.isfinite(c))):
+                raise InvalidInputError("apply(V, X): the result's coefficients are beyond the float64 range")
+    else:
+        _check_versor(V)
+        k, (lv, lx) = balance_exponents(V, X)
+        Vb, Xb = V._rescaled(k, lv), X._rescaled(k, lx)
+        Yb = (Vb * Xb * Vb.reverse()).grade(*X.grades)
+        with np.errstate(over="ignore"):
+            Y = Yb._rescaled(-k, -(2 * lv + lx))
+        for c in Y.coeffs:
+            if not np.all(np.isfinite(c)):
+                raise InvalidInputError("apply(V, X): the result's coefficients are beyond the float64 range")
     if isinstance(X, Primitive):
         return Primitive.tag(Y, X.kind)
     return Y
@@ -319,9 +558,21 @@ _TANGENT_SIGNS = (1.0, 1.0, 1.0, -1.0, 1.0, 1.0, 1.0)
 
 
 def tangent_to_bivector(b: Any) -> Multivector:
-    """The bivector B with ``exp(ε b) = 1 − ½ ε B + O(ε²)`` (note the dilation slot: B ∋ −β e0∞)."""
-    v = b if isinstance(b, (list, tuple)) else _tangent(b, 7, "similarity")
+    """The bivector B with ``exp(ε b) = 1 − ½ ε B + O(ε²)`` (note the dilation slot: B ∋ −β e0∞).
+
+    ``b``: a 7-vector (numeric or CasADi), or a list/tuple of 7 entries that may be CasADi
+    scalars or equally shaped numeric arrays (a batch of tangents, one array per slot).
+    """
+    if isinstance(b, (list, tuple)) and len(b) == 7:
+        v = tuple(x if B.is_symbolic(x) else _tangent_entry(x, i) for i, x in enumerate(b))
+    else:
+        v = _tangent(b, 7, "similarity")
     return Multivector(tuple(sorted(_TANGENT_BLADES)), tuple(v[_TANGENT_BLADES.index(k)] * _TANGENT_SIGNS[_TANGENT_BLADES.index(k)] for k in sorted(_TANGENT_BLADES)))
+
+
+def _tangent_entry(x: Any, i: int) -> Any:
+    a = validation.array(x, f"tangent entry {i}")
+    return float(a) if a.ndim == 0 else a
 
 
 def bivector_to_tangent(Bv: Multivector) -> tuple[Any, ...]:
@@ -329,6 +580,8 @@ def bivector_to_tangent(Bv: Multivector) -> tuple[Any, ...]:
 
     A body-frame velocity is ``bivector_to_tangent(−2 Ṽ V̇)`` (paper Eq 8/30).
     """
+    if not isinstance(Bv, Multivector):
+        raise InvalidInputError(f"bivector_to_tangent(B) needs a Multivector, got {type(Bv).__name__}")
     return tuple(Bv.get(k) * s for k, s in zip(_TANGENT_BLADES, _TANGENT_SIGNS))
 
 
@@ -338,6 +591,8 @@ def motor_rotor_translation(M: Multivector) -> tuple[tuple[Any, Any, Any, Any], 
     No validation or normalisation (cheap, symbolic-friendly); see :func:`decompose`
     for general similarity versors.
     """
+    if not isinstance(M, Multivector):
+        raise InvalidInputError(f"motor_rotor_translation(M) needs a Multivector, got {type(M).__name__}")
     R = tuple(M.get(k) for k in ROTOR_BLADES)
     C = tuple(-2.0 * M.get(k) for k in (_E1I, _E2I, _E3I, _E123I))  # t R as (e1, e2, e3, e123)
     tt = Multivector((_E1, _E2, _E3, _E123), C) * Multivector(ROTOR_BLADES, (R[0], -R[1], -R[2], -R[3]))
@@ -349,6 +604,10 @@ def rotor_matrix(R: tuple[Any, Any, Any, Any]) -> list[list[Any]]:
 
     A rotor is a quaternion with ``qw = R0, qx = −R23, qy = R13, qz = −R12``.
     """
+    if isinstance(R, Multivector):
+        R = tuple(R.get(k) for k in ROTOR_BLADES)
+    if isinstance(R, (str, bytes)) or not hasattr(R, "__getitem__") or (not B.is_symbolic(R) and len(R) != 4):
+        raise InvalidInputError(f"rotor_matrix(R) needs the 4 rotor coefficients (1, e12, e13, e23), got {type(R).__name__}")
     w, x, y, z = R[0], -R[3], R[2], -R[1]
     return [
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
@@ -361,7 +620,10 @@ def rotor_from_matrix(Rm: np.ndarray) -> tuple[float, float, float, float]:
     """Unit rotor (1, e12, e13, e23) of a numeric rotation matrix (via a robust quaternion)."""
     from scipy.spatial.transform import Rotation
 
-    qx, qy, qz, qw = Rotation.from_matrix(np.asarray(Rm, dtype=float)).as_quat()
+    M = validation.array(Rm, "Rm", shape=(3, 3))
+    if not np.allclose(M @ M.T, np.eye(3), atol=1e-6) or not np.linalg.det(M) > 0:
+        raise InvalidInputError("Rm must be a rotation matrix (orthogonal, det +1)")
+    qx, qy, qz, qw = Rotation.from_matrix(M).as_quat()
     return float(qw), float(-qz), float(qy), float(-qx)
 
 

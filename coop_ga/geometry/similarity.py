@@ -19,8 +19,10 @@ then (the paper's recipe, with its typos fixed)
 * ``V_D = D(log(r2/r1))`` — Eq 23 as printed, ``exp(r2 r1⁻¹ e∞)``, is a translator-like
   element, not a dilator; the scale factor r2/r1 enters through its logarithm;
 * ``V_R`` = the minimal rotation taking o1 to o2, ``∝ 1 + o2 o1`` (Eq 26; the printed
-  ``N2 ∧ N2`` is zero — it must be ``o2 ∧ o1``).  When o2 = −o1 that expression
-  vanishes; we then rotate by π about a fixed axis perpendicular to o1 (about +z for
+  ``N2 ∧ N2`` is zero — it must be ``o2 ∧ o1``), normalised explicitly and computed
+  without cancellation also next to the antipode (:func:`rotor_between`).  When o2 = −o1
+  (to within |o1 + o2| < 1e-15) that expression vanishes; we then rotate by π about a
+  fixed axis perpendicular to o1 (about +z for
   point pairs/lines along ±e2, about +x for circles/planes with normal ±e3);
 * ``V_T = T(c2 − (r2/r1) R c1)`` — the translation that puts the rotated and scaled
   center onto c2 (the paper's "apply V_R V_D first, then translate").
@@ -43,14 +45,19 @@ from typing import Any
 
 import numpy as np
 
+from .. import validation
 from ..algebra import backend as B
 from ..algebra.multivector import Multivector
-from ..errors import InvalidInputError
+from ..diagnostics import warn
+from ..errors import DegeneratePrimitiveError, InvalidInputError, PrecisionWarning
 from .groups import ROTOR_BLADES
 from .primitives import (
+    EPS,
     KINDS,
+    PRECISION_WARN,
     Primitive,
     _check_kind,
+    _vec3,
     center,
     closest_point_to_origin,
     direction,
@@ -114,6 +121,8 @@ def primitive_parameters(X: Multivector) -> tuple[str, Any, Any, Any]:
 
 
 def _tuple3(v: Any) -> tuple[Any, Any, Any]:
+    if isinstance(v, np.ndarray) and v.ndim > 1:
+        return v[..., 0], v[..., 1], v[..., 2]  # a batch (N, 3): components, not rows
     return v[0], v[1], v[2]
 
 
@@ -134,25 +143,87 @@ def _perp_axis(u: tuple[Any, Any, Any], kind_axis: tuple[float, float, float] | 
 
 
 def _is_unit_axis(o: tuple[Any, Any, Any], kind: str) -> bool:
-    if B.any_symbolic(*o) or UNIT_AXIS[kind] is None:
+    if B.any_symbolic(*o) or UNIT_AXIS[kind] is None or any(np.ndim(x) for x in o):
         return False
     return tuple(float(x) for x in o) == UNIT_AXIS[kind]
 
 
-def rotor_between(u: Any, v: Any, half_turn_axis: tuple[float, float, float] | None = None) -> Multivector:
-    """Minimal rotor R with R u R̃ = v for unit 3-vectors u, v (Eq 26, corrected).
+def _axis_arg(x: Any, name: str) -> tuple[Any, Any, Any]:
+    """A direction: CasADi entries as given; numeric ones validated and normalised (rescaled first)."""
+    c = _vec3(x, name)
+    if B.any_symbolic(*c):
+        return c
+    a = np.stack(np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in c]), axis=-1)
+    m = np.max(np.abs(a), axis=-1, keepdims=True)
+    if np.any(m == 0):
+        raise InvalidInputError(f"{name} must be a non-zero 3-vector (a direction), got {a.tolist()}")
+    with np.errstate(over="ignore", under="ignore"):
+        n2 = np.sum(a * a, axis=-1)
+    if not np.all(np.abs(n2 - 1.0) <= 4 * np.finfo(float).eps):  # unit vectors are used as given
+        a = a / m
+        a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    if a.ndim == 1:
+        return float(a[0]), float(a[1]), float(a[2])
+    return a[:, 0].copy(), a[:, 1].copy(), a[:, 2].copy()
 
-    ``R = (1 + v u)/√(2(1 + u·v))``.  For v = −u it is a half-turn about
-    ``half_turn_axis`` (default: a fixed axis ⟂ u).  Runs on numpy and CasADi.
+
+#: ``|u + v|²`` below which u, v count as antiparallel and the fixed half-turn is used: |u + v| < 1e-15,
+#: about 4 ulps of a unit vector — the fixed rotor then maps u to within 1e-15 of v
+_ANTI_N2 = 1e-30
+
+
+def rotor_between(u: Any, v: Any, half_turn_axis: tuple[float, float, float] | None = None) -> Multivector:
+    """Minimal rotor R with R u R̃ = v for directions u, v (Eq 26, corrected).
+
+    ``R = (1 + v u)/√(2(1 + u·v))`` with both parts computed without cancellation:
+    ``v ∧ u = (v − u) ∧ u`` when u·v ≥ 0 and ``(v + u) ∧ u`` when u·v < 0 (the differences
+    are exact for nearby vectors), and ``1 + u·v = |u ∧ v|²/(1 − u·v)`` on the antiparallel
+    side.
+    So ``R R̃ = 1`` to ~1e-16 and R maps u onto v to ~1e-16 for every angle, also 1e-6 rad
+    (or 1e-12 rad) from antiparallel (the plain formula lost up to 3e-4 there).  Only when
+    ``|u + v| < 1e-15`` (numerically antiparallel) is R the half-turn about
+    ``half_turn_axis`` (default: a fixed axis ⟂ u); it then maps u to within 1e-15 of v.
+    Numeric u, v are normalised (they must be non-zero); on CasADi they must be unit
+    vectors and the result is one smooth ``if_else`` expression.
     """
-    u, v = _tuple3(u), _tuple3(v)
+    u, v = _axis_arg(u, "u"), _axis_arg(v, "v")
+    if half_turn_axis is not None:
+        half_turn_axis = _axis_arg(half_turn_axis, "half_turn_axis")
+    _same_batch({"u": u, "v": v, "half_turn_axis": half_turn_axis})
+    if half_turn_axis is not None:
+        if not B.any_symbolic(*half_turn_axis, *u):
+            d = np.abs(sum(np.asarray(a) * np.asarray(b) for a, b in zip(half_turn_axis, u)))
+            if np.any(d > 1e-9):
+                raise InvalidInputError(f"half_turn_axis must be perpendicular to u (|axis·u| = {float(np.max(d)):.3g})")
+    return _rotor_between(u, v, half_turn_axis)
+
+
+def _same_batch(args: dict[str, Any]) -> None:
+    """Numeric batch shapes of the arguments must broadcast together."""
+    shapes = {k: np.shape(v[0]) for k, v in args.items() if v is not None and not B.any_symbolic(*v)}
+    try:
+        np.broadcast_shapes(*shapes.values())
+    except ValueError:
+        raise InvalidInputError(f"the batch shapes of {', '.join(f'{k} {s}' for k, s in shapes.items())} do not match") from None
+
+
+def _is_zero_const(x: Any) -> bool:
+    return not B.is_symbolic(x) and np.ndim(x) == 0 and float(x) == 0.0
+
+
+def _rotor_between(u: tuple[Any, Any, Any], v: tuple[Any, Any, Any], half_turn_axis=None) -> Multivector:
     dot = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-    # v ∧ u as coefficients on e12, e13, e23
-    w12 = v[0] * u[1] - v[1] * u[0]
-    w13 = v[0] * u[2] - v[2] * u[0]
-    w23 = v[1] * u[2] - v[2] * u[1]
-    one_plus = 1.0 + dot
-    anti = one_plus < 1e-12
+    par = dot >= 0
+    # s = v ∓ u, the difference that does not cancel (exact for nearby vectors); v ∧ u = s ∧ u
+    s = tuple(v[i] if _is_zero_const(u[i]) else B.where(par, v[i] - u[i], v[i] + u[i]) for i in range(3))
+    w12 = s[0] * u[1] - s[1] * u[0]
+    w13 = s[0] * u[2] - s[2] * u[0]
+    w23 = s[1] * u[2] - s[2] * u[1]
+    # 1 + u·v: directly where it does not cancel, else |u ∧ v|²/(1 − u·v) (equal for unit u, v); then
+    # 2(1 + u·v) = |1 + v u|² to relative ~ε for every angle (also for |u|, |v| = 1 ± ε), so R is unit
+    ww = w12 * w12 + w13 * w13 + w23 * w23
+    one_plus = B.where(par, 1.0 + dot, ww / B.where(par, 1.0, 1.0 - dot))
+    anti = one_plus < 0.5 * _ANTI_N2  # |u + v|² = 2(1 + u·v) < 1e-30
     den = B.sqrt(2.0 * B.where(anti, 1.0, one_plus))
     a = half_turn_axis if half_turn_axis is not None else _perp_axis(u)
     # half-turn about axis a: −(a1 e23 − a2 e13 + a3 e12)
@@ -165,11 +236,35 @@ def rotor_between(u: Any, v: Any, half_turn_axis: tuple[float, float, float] | N
 def _similarity_from_params(kind, c1, r1, o1, c2, r2, o2) -> Multivector:
     zero = 0.0 * c2[0]
     if o1 is not None:
-        R = rotor_between(o1, o2, _perp_axis(o1, UNIT_AXIS[kind] if _is_unit_axis(o1, kind) else None))
+        R = _rotor_between(o1, o2, _perp_axis(o1, UNIT_AXIS[kind] if _is_unit_axis(o1, kind) else None))
     else:
         R = Multivector(ROTOR_BLADES, (1.0 + zero, zero, zero, zero))
     if r1 is not None:
-        scale = r2 / r1
+        if not B.any_symbolic(r1, r2) and not (np.all(np.asarray(r1) > 0) and np.all(np.asarray(r2) > 0)):
+            raise DegeneratePrimitiveError(
+                "the similarity needs primitives of non-zero radius (a zero-radius point pair, circle or sphere "
+                "has no scale)"
+            )
+        with np.errstate(over="ignore"):
+            scale = r2 / r1
+        if not B.any_symbolic(scale):
+            sa = np.asarray(scale, dtype=float)
+            if not np.all(np.isfinite(sa) & (sa > 0)):
+                raise DegeneratePrimitiveError(
+                    f"the similarity needs a finite positive ratio of radii, got r2/r1 = {float(np.min(sa)):.3g} "
+                    "(a zero-radius or unresolvable primitive)"
+                )
+            with np.errstate(over="ignore"):
+                big = float(np.max(np.maximum(sa, 1.0 / sa)))
+            est = EPS * big
+            if est > PRECISION_WARN:
+                warn(
+                    f"similarity: the scale factor r2/r1 = {big:.3g} (or its inverse) "
+                    f"is stored as cosh/sinh of ½ log(r2/r1); the versor carries a relative rounding error of "
+                    f"~{est:.1g}",
+                    PrecisionWarning,
+                    key="similarity-scale",
+                )
         beta = B.log(scale)
     else:
         scale, beta = 1.0, zero
@@ -177,8 +272,18 @@ def _similarity_from_params(kind, c1, r1, o1, c2, r2, o2) -> Multivector:
     c1v = Multivector((2, 4, 8), c1)
     Rc1 = (R * c1v * R.reverse()).grade(1)
     rc = (Rc1.get(2), Rc1.get(4), Rc1.get(8))
-    t = tuple(c2[i] - scale * rc[i] for i in range(3))
-    return _compose_trd(t, R.coeffs, beta)
+    if B.any_symbolic(*c2, *rc, scale):
+        return _compose_trd(tuple(c2[i] - scale * rc[i] for i in range(3)), R.coeffs, beta)
+    with np.errstate(over="ignore", invalid="ignore"):
+        t = tuple(c2[i] - scale * rc[i] for i in range(3))
+        V = _compose_trd(t, R.coeffs, beta)
+    for c in V.coeffs:
+        if not np.all(np.isfinite(c)):
+            raise InvalidInputError(
+                "the similarity is beyond the float64 range: its translation (or dilation) is too large to be "
+                "represented as a versor"
+            )
+    return V
 
 
 def _compose_trd(t, Rc, beta) -> Multivector:
@@ -238,5 +343,28 @@ def similarity_from_parameters(kind: str, c: Any, r: Any, o: Any) -> Multivector
     """
     kind = _check_kind(kind)
     c1, r1, o1 = _unit_params(kind)
-    return _similarity_from_params(kind, c1, r1, o1, _tuple3(c), r, None if o is None else _tuple3(o))
+    c = _vec3(c, "c")
+    if r1 is not None:
+        if r is None:
+            raise InvalidInputError(f"similarity_from_parameters: a {kind} needs its radius r")
+        if not B.is_symbolic(r):
+            if type(r) is int and not -1e308 <= r <= 1e308:
+                raise InvalidInputError("r must be a real number in the float range")
+            r = validation.positive(r, "r") if np.ndim(r) == 0 else _positive_array(r, "r")
+    if o1 is not None:
+        if o is None:
+            raise InvalidInputError(f"similarity_from_parameters: a {kind} needs its axis o")
+        o = _axis_arg(o, "o")
+    batch = {"c": c, "o": o if o1 is not None else None}
+    if r1 is not None and not B.is_symbolic(r):
+        batch["r"] = (r,)
+    _same_batch(batch)
+    return _similarity_from_params(kind, c1, r1, o1, c, r, None if o1 is None else o)
+
+
+def _positive_array(r: Any, name: str) -> np.ndarray:
+    a = validation.array(r, name)
+    if not np.all(a > 0):
+        raise InvalidInputError(f"{name} must be > 0, got {a.tolist()}")
+    return a
 

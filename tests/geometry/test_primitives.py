@@ -157,7 +157,7 @@ def test_paper_eq24_gives_inverse_radius(rng):
     "kind, pts, words",
     [
         ("point_pair", [[1, 2, 3], [1, 2, 3]], "coincide"),
-        ("line", [[0, 0, 0], [0, 0, 1e-12]], "coincide"),
+        ("line", [[0, 0, 1e-12], [0, 0, 1e-12]], "coincide"),  # 1e-12 m apart is a fine line now (item 7)
         ("circle", [[0, 0, 0], [1, 1, 1], [2, 2, 2]], "collinear"),
         ("plane", [[0, 0, 0], [1, 0, 0], [3, 0, 0]], "collinear"),
         ("sphere", [[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], "coplanar"),
