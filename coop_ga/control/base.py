@@ -29,7 +29,8 @@ from typing import Any, TypeVar
 import numpy as np
 
 from .. import validation
-from ..errors import InvalidInputError
+from ..diagnostics import collect_warnings
+from ..errors import ChartError, InvalidInputError
 
 __all__ = ["SolverResult", "resolve_options"]
 
@@ -72,6 +73,28 @@ def resolve_options(cls: type[O], options: O | None, overrides: dict[str, Any], 
             raise InvalidInputError(f"{solver}: unknown option(s) {unknown}; {cls.__name__} has {sorted(names)}")
         options = dataclasses.replace(options, **overrides)  # type: ignore[type-var]
     return options
+
+
+#: start configurations whose primitive axis is this close to the chart's antipode are refused [rad]
+CHART_FLIP_ANGLE = np.deg2rad(179.0)
+
+
+def check_problem(task: Any, q: Any, target: Any, what: str = "q_init") -> tuple[np.ndarray, Any]:
+    """The checks every reaching controller makes before it starts: q (nq,) and the target as a
+    :class:`~coop_ga.Similarity` (:meth:`~coop_ga.CooperativeTask.check_target`: refused if it lies across
+    the chart's half-turn), and a start that is not at the half-turn itself (there e = log(Ṽ_Sc V_Sd)
+    jumps and no descent direction means anything): :class:`~coop_ga.errors.ChartError` with the fix."""
+    qv = check_q(task, q, what)
+    V = task.check_target(target)
+    with collect_warnings(silent=True):  # the solver's own first evaluation reports the start's warnings
+        theta = task.chart_angle(qv)
+    if theta >= CHART_FLIP_ANGLE:
+        raise ChartError(
+            f"{what}: the {task.kind}'s axis is {np.degrees(theta):.1f}° from the chart axis of task '{task.name}', "
+            "where V_Sc jumps by a half-turn; build the task with chart_axis='auto' (the default) or "
+            "task.with_chart(<the primitive's axis at q_init>), or reorder the end points (points=...)"
+        )
+    return qv, V
 
 
 def check_q(task: Any, q: Any, what: str = "q") -> np.ndarray:

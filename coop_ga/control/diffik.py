@@ -82,7 +82,7 @@ from .. import validation
 from ..cooperative.manipulability import damped_pinv
 from ..diagnostics import collect_warnings, warn
 from ..errors import JointLimitWarning
-from .base import SolverResult, check_q, resolve_options
+from .base import SolverResult, check_problem, check_q, resolve_options
 from .qp import (
     DEFAULT_LIMIT_GAIN,
     InfeasibleConstraintsError,
@@ -315,8 +315,7 @@ def diff_ik_reach(task: Any, q0: Any, target: Any, options: DiffIKOptions | None
     depend on q).  Problem data, so an argument and not an option.
     """
     o = resolve_options(DiffIKOptions, options, overrides, "diff_ik_reach")
-    Vd = validation.target(target)
-    q = check_q(task, q0, "q0")
+    q, Vd = check_problem(task, q0, target, "q0")
     dynamic = callable(constraints) and not isinstance(constraints, LinearConstraint)
     const_rows = None if dynamic else stack_constraints(constraints, task.nq)
     cfun: Callable[[np.ndarray], Any] | None = constraints if dynamic else None

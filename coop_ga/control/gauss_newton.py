@@ -59,7 +59,7 @@ import numpy as np
 from .. import validation
 from ..diagnostics import collect_warnings, warn
 from ..errors import DegeneratePrimitiveError, InvalidInputError, JointLimitWarning
-from .base import SolverResult, bounds, check_q, resolve_options
+from .base import SolverResult, bounds, check_problem, check_q, resolve_options
 from .qp import describe_active, project_into_limits, solve_qp
 
 __all__ = ["GaussNewtonOptions", "IKResult", "gauss_newton_ik", "gauss_newton_step"]
@@ -184,8 +184,7 @@ def gauss_newton_ik(task: Any, q_init: Any, target: Any, options: GaussNewtonOpt
     must be well defined (otherwise the error is raised).
     """
     o = resolve_options(GaussNewtonOptions, options, overrides, "gauss_newton_ik")
-    Vd = validation.target(target)
-    q = check_q(task, q_init, "q_init")
+    q, Vd = check_problem(task, q_init, target, "q_init")
     lo, hi = bounds(task)
     enforce = o.limits == "enforce"
     active_iters = 0

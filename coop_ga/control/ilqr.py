@@ -96,7 +96,7 @@ from ..cooperative.targets import displaced_target
 from ..diagnostics import collect_warnings, warn
 from ..errors import DegeneratePrimitiveError, InvalidInputError, JointLimitWarning
 from ..geometry.groups import Similarity
-from .base import SolverResult, check_q, resolve_options
+from .base import SolverResult, check_problem, check_q, resolve_options
 
 __all__ = ["DEFAULT_Q", "DEFAULT_QV", "DEFAULT_R", "ILQRIteration", "ILQROptions", "ILQRResult", "ReachingOCP",
            "displaced_target", "ilqr_reach"]
@@ -139,9 +139,8 @@ class ReachingOCP:
                  limits: str = "enforce"):
         self.task = task
         self.nq = n = int(task.nq)
-        self.q_init = check_q(task, q_init, "q_init")
+        self.q_init, self.target = check_problem(task, q_init, target, "q_init")
         self.qd_init = np.zeros(n) if qd_init is None else check_q(task, qd_init, "qd_init")
-        self.target: Similarity = validation.target(target)
         self.horizon = validation.integer(horizon, "horizon", minimum=2)  # ≥ 2: x_n must be controllable
         self.dt = validation.positive(dt, "dt")
         self.R = validation.weight(R, n, "R", definite=True)

@@ -35,8 +35,8 @@ Guards
 ------
 Every entry point also returns ``checks = [ok, w, n2, c2, f]``: the well-definedness ``w`` of
 the end points (:func:`coop_ga.well_definedness`), ``n2`` = the squared norm of all inputs
-(NaN/inf/overflow detection), ``c2 = cos²(θ/2)`` of the rotation of V_Sc (θ → π is the
-chart's half-turn), ``f`` = |sum of all outputs| (finite iff every output is: no NaN is ever
+(NaN/inf/overflow detection), ``c2 = cos²(θ/2)`` with θ the angle of the primitive's axis from
+the chart's reference axis (θ → π is the chart's half-turn), ``f`` = |sum of all outputs| (finite iff every output is: no NaN is ever
 returned), and ``ok`` = w if everything is fine, else −1, so the hot path tests a single number
 and :class:`~coop_ga.cooperative.guard.TaskGuard` diagnoses the rest.
 """
@@ -48,13 +48,14 @@ from functools import cached_property
 from typing import Any
 
 import casadi as ca
+import numpy as np
 
 from ..algebra.multivector import Multivector
 from ..geometry.groups import SIMILARITY_BLADES, bivector_to_tangent, tangent_to_bivector
 from ..geometry.groups import log as sim_log
 from ..geometry.primitives import N_POINTS, well_definedness
 from ..geometry.primitives import point as conformal_point
-from ..geometry.similarity import primitive_parameters, similarity_from_parameters, similarity_from_unit
+from ..geometry.similarity import UNIT_AXIS, primitive_parameters, similarity_from_parameters, similarity_from_unit
 from ..kinematics.chains import KinematicTree
 from .primitive import cooperative_primitive
 
@@ -94,16 +95,22 @@ class TaskGraph:
     name: used to name the CasADi functions (and the compiled libraries).
     """
 
-    def __init__(self, tree: KinematicTree, kind: str, name: str):
+    def __init__(self, tree: KinematicTree, kind: str, name: str, chart_axis: Any = None):
         self.tree = tree
         self.kind = kind
         self.name = name
         self.n_points = N_POINTS[kind]
         self.nq = int(tree.model.nq)
+        # the axis the minimal-rotation chart is measured from (None: the unit primitive's, Eq 26)
+        self.chart_axis = None if chart_axis is None or UNIT_AXIS[kind] is None else \
+            tuple(float(x) for x in np.asarray(chart_axis, float) / np.linalg.norm(np.asarray(chart_axis, float)))
+        self._ref_axis = self.chart_axis if self.chart_axis is not None else UNIT_AXIS[kind]
 
     # ================================================================== the small pose function of p
-    def pose_from_points(self, p: Any) -> tuple[Multivector, Any]:
-        """``(V_Sc, w)`` for point coordinates p (3n SX or list), built about the centroid (module docstring)."""
+    def pose_from_points(self, p: Any) -> tuple[Multivector, Any, Any]:
+        """``(V_Sc, w, c2)`` for point coordinates p (3n SX or list), built about the centroid (module
+        docstring); ``c2 = (1 + o·a)/2 = cos²(θ/2)`` with θ the angle of the primitive's axis o from the
+        chart's reference axis a (1 for kinds without an axis): the chart flips at θ = π."""
         n = self.n_points
         pts = [tuple(p[3 * i + j] for j in range(3)) for i in range(n)]
         w = well_definedness(self.kind, pts) if n > 1 else ca.SX(1.0)
@@ -120,16 +127,21 @@ class TaskGraph:
             c = [s * o[j] for j in range(3)]
         else:
             c = a
-        return similarity_from_parameters(kind, c, r, o), w
+        if o is None:
+            c2: Any = ca.SX(1.0)
+        else:
+            ra = self._ref_axis
+            c2 = 0.5 * (1.0 + o[0] * ra[0] + o[1] * ra[1] + o[2] * ra[2])
+        return similarity_from_parameters(kind, c, r, o, chart_axis=self.chart_axis), w, c2
 
     @cached_property
     def pose_function(self) -> ca.Function:
-        """``p (3n) → (V (12), B (7), G = −2 Ṽ ∂V/∂p (7 × 3n), w)``."""
+        """``p (3n) → (V (12), B (7), G = −2 Ṽ ∂V/∂p (7 × 3n), w, c2)``."""
         p = ca.SX.sym("p", 3 * self.n_points)
-        V, w = self.pose_from_points(p)
+        V, w, c2 = self.pose_from_points(p)
         Vv = _coeffs_expr(V)
         G = _body_columns(V, ca.jacobian(Vv, p))
-        return ca.Function(f"pose_{self.kind}", [p], [Vv, sim_log(V), G, w], ["p"], ["V", "B", "G", "w"])
+        return ca.Function(f"pose_{self.kind}", [p], [Vv, sim_log(V), G, w, c2], ["p"], ["V", "B", "G", "w", "c2"])
 
     @cached_property
     def error_small_function(self) -> ca.Function:
@@ -152,8 +164,9 @@ class TaskGraph:
     def evaluate(self, q: ca.SX) -> dict[str, ca.SX]:
         """``versor`` (12), ``log`` (7), ``jacobian`` J^G (7 × nq), ``points`` (3n), ``well_definedness``."""
         p, Jp = self.points(q)
-        V, B, G, w = self.pose_function(p)
-        return {"versor": V, "log": B, "jacobian": ca.mtimes(G, Jp), "points": p, "well_definedness": w}
+        V, B, G, w, c2 = self.pose_function(p)
+        return {"versor": V, "log": B, "jacobian": ca.mtimes(G, Jp), "points": p, "well_definedness": w,
+                "chart": c2}
 
     def error(self, q: ca.SX, vd: ca.SX) -> dict[str, ca.SX]:
         """:meth:`evaluate` plus ``e = log(Ṽ_Sc V_d)`` (7) and ``J_e`` (7 × nq), Eq 44/47."""
@@ -171,9 +184,7 @@ class TaskGraph:
         """``[ok, w, n2, c2, f]`` (module docstring); ``inputs`` are all arguments of the entry point,
         ``f = |Σ outputs|`` is finite iff every output is (NaN and inf propagate through the sum)."""
         n2 = sum((ca.dot(x, x) for x in inputs), ca.SX(0.0))
-        A = s["versor"]  # the rotor part of a unit V = T R D is cosh(β/2)·R on (1, e12, e13, e23)
-        a2 = A[0] * A[0] + A[1] * A[1] + A[2] * A[2] + A[3] * A[3]
-        c2 = A[0] * A[0] / a2
+        c2 = s["chart"]  # cos²(θ/2), θ the angle of the primitive's axis from the chart's reference axis
         w = s["well_definedness"]
         f = ca.fabs(sum((ca.sum1(ca.vec(o)) for o in outputs), ca.SX(0.0)))
         # comparisons with NaN are false, so NaN anywhere (inputs or outputs) lands in the slow path
@@ -243,7 +254,7 @@ class TaskGraph:
         ps = ca.SX.sym("p", m)
         vd = ca.SX.sym("Vd", NB)
         w = ca.SX.sym("w", 7)
-        V, _ = self.pose_from_points(ps)
+        V, _, _ = self.pose_from_points(ps)
         W = (V.reverse() * versor_expr(vd)).with_blades(SIMILARITY_BLADES)
         Hp, gp = ca.hessian(ca.dot(w, sim_log(W)), ps)
         f_small = ca.Function("hess_small", [ps, vd, w], [Hp, gp])
@@ -262,6 +273,6 @@ class TaskGraph:
         q = ca.SX.sym("q", self.nq)
         pts = self.tree.end_points(q)
         X = cooperative_primitive(self.kind, [conformal_point(list(pt)) for pt in pts])
-        V = similarity_from_unit(X)
+        V = similarity_from_unit(X, chart_axis=self.chart_axis)
         Vv = _coeffs_expr(V)
         return ca.Function("coop_ad", [q], [Vv, ca.densify(_body_columns(V, ca.jacobian(Vv, q)))])

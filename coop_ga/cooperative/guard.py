@@ -11,8 +11,9 @@ every entry point:
    nearly degenerate (``w < warn_below``) → :class:`~coop_ga.errors.DegeneracyWarning`;
 3. a non-finite result (``f``: overflow or lost precision far from the origin) →
    :class:`~coop_ga.errors.InvalidInputError`, never a NaN;
-4. the rotation of V_Sc beyond :data:`~coop_ga.cooperative.graph.CHART_WARN_ANGLE` (the
-   half-turn of the minimal-rotation chart) → :class:`~coop_ga.errors.ChartWarning`.
+4. the primitive's axis beyond :data:`~coop_ga.cooperative.graph.CHART_WARN_ANGLE` from the
+   chart's reference axis (the half-turn of the minimal-rotation chart) →
+   :class:`~coop_ga.errors.ChartWarning`.
 
 Warnings go through :func:`coop_ga.diagnostics.warn` (once per condition and public call,
 at the caller's line).
@@ -50,6 +51,7 @@ class TaskGuard:
     end_frames: tuple[str, ...]
     warn_below: float
     raise_below: float
+    chart_description: str = "the unit primitive's axis"
 
     def ok(self, checks: np.ndarray) -> bool:
         """The hot-path test: True when nothing needs a diagnosis."""
@@ -85,11 +87,11 @@ class TaskGuard:
         c2 = checks.item(3)
         theta = 2.0 * math.acos(min(1.0, math.sqrt(max(c2, 0.0))))
         if theta >= CHART_WARN_ANGLE:
-            axis = "−e2" if self.kind in ("point_pair", "line") else "−e3"
             warn(
-                f"cooperative {self.kind} of '{self.system_name}'{where}: V_Sc rotates by {math.degrees(theta):.1f}°, "
-                f"its axis is near {axis}, where the minimal rotation of V_Sc jumps by a half-turn; reorder the end "
-                "points (points=...) so the nominal axis is far from the antipode",
+                f"cooperative {self.kind} of '{self.system_name}'{where}: its axis is {math.degrees(theta):.1f}° from "
+                f"the chart's reference axis ({self.chart_description}), near the antipode where the minimal "
+                "rotation of V_Sc jumps by a half-turn; build the task with chart_axis= near the primitive's axis "
+                "(task.with_chart(axis)) or reorder the end points (points=...)",
                 ChartWarning,
                 key=self.system_name,
             )

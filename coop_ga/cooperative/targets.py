@@ -17,8 +17,8 @@ def displaced_target(task: Any, q: Any, *, translation: Any = (0.0, 0.0, 0.0), a
     ``S = T(translation) · [rotation by angle [rad] right-handed about axis (3,), then scaling
     by scale] about p̄``, with p̄ the centroid of the task's end points at q (world frame,
     metres).  The target primitive is ``X_d = S X_c(q) S̃`` and the returned target is
-    ``V_Sd = V_S(X_u, X_d)`` (Eq 28, :meth:`Similarity.from_unit`) — the *canonical* versor of
-    X_d, so that ``e = log(Ṽ_Sc V_Sd)`` can vanish (``S · V_Sc(q)`` itself may differ from it
+    ``V_Sd = V_S(X_u, X_d)`` (Eq 28, :meth:`CooperativeTask.target_from_primitive`) — the versor of
+    X_d in the task's chart, so that ``e = log(Ṽ_Sc V_Sd)`` can vanish (``S · V_Sc(q)`` itself may differ from it
     by a roll about a circle's normal, which no configuration realises).
 
     Returns the target :class:`~coop_ga.Similarity`; its primitive is ``target.apply(task.unit)``.
@@ -28,4 +28,4 @@ def displaced_target(task: Any, q: Any, *, translation: Any = (0.0, 0.0, 0.0), a
     Tp = Similarity.from_parts(translation=pbar)
     S = (Similarity.from_parts(translation=translation) @ Tp
          @ Similarity.from_parts(axis=axis, angle=angle, scale=scale) @ Tp.inverse())
-    return Similarity.from_unit(S.apply(task.primitive(qv)))
+    return task.target_from_primitive(S.apply(task.primitive(qv)))

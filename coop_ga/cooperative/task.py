@@ -29,6 +29,8 @@ object per process); each thread evaluates with its own buffers.
 
 from __future__ import annotations
 
+import hashlib
+import math
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -40,11 +42,11 @@ import numpy as np
 from .. import validation
 from ..codegen import CompiledFunction
 from ..diagnostics import collect_warnings
-from ..errors import InvalidInputError
+from ..errors import ChartError, InvalidInputError
 from ..geometry.groups import Similarity, log_jacobian, tangent_to_bivector
 from ..geometry.primitives import N_POINTS, Primitive, _check_kind, well_definedness
 from ..geometry.primitives import point as conformal_point
-from ..geometry.similarity import similarity_from_unit, unit_primitive
+from ..geometry.similarity import UNIT_AXIS, primitive_parameters, similarity_from_unit, unit_primitive
 from ..kinematics.chains import KinematicTree
 from .graph import CHART_WARN_ANGLE, TaskGraph, versor_expr
 from .guard import TaskGuard
@@ -104,10 +106,19 @@ class CooperativeTask:
     warn_below, raise_below:
         Well-definedness thresholds (dimensionless) for :class:`~coop_ga.errors.DegeneracyWarning`
         and :class:`~coop_ga.errors.DegeneratePrimitiveError`.
+    chart_axis:
+        The axis the minimal rotation of V_Sc is measured from (:func:`coop_ga.similarity_from_unit`):
+        ``None`` — the unit primitive's (+e2 for point pairs/lines, +e3 for circles/planes; Eq 26);
+        a 3-vector; or ``"auto"`` (default) — the unit primitive's, unless the primitive at
+        ``system.q0`` points more than 90° away from it, then its axis at q0.  The chart jumps by a
+        half-turn where the primitive's axis is opposite the reference, so "auto" keeps that as far
+        as possible from the nominal configuration.  Targets must be expressed in the same chart:
+        :meth:`target_from_primitive` and :func:`~coop_ga.control.displaced_target` do so.
     """
 
     def __init__(self, system: Any, kind: str, points: Sequence[int] | None = None, *,
-                 codegen: bool | str = "auto", warn_below: float = 1e-2, raise_below: float = 1e-6):
+                 codegen: bool | str = "auto", warn_below: float = 1e-2, raise_below: float = 1e-6,
+                 chart_axis: Any = "auto"):
         self.kind = _check_kind(kind)
         self.system = system
         n = N_POINTS[self.kind]
@@ -130,13 +141,73 @@ class CooperativeTask:
         self.raise_below = validation.nonnegative(raise_below, "raise_below")
         self.unit = unit_primitive(self.kind)
         self.name = f"{getattr(system, 'name', 'custom')}_{self.kind}_{'_'.join(map(str, self.point_indices))}"
-        self.graph = TaskGraph(self.tree, self.kind, self.name)
+        self.chart_axis = self._resolve_chart(chart_axis)
+        if self.chart_axis is not None:
+            # a valid CasADi function name that identifies the chart
+            self.name += "_chart" + hashlib.sha1(repr(self.chart_axis).encode()).hexdigest()[:8]
+        self.graph = TaskGraph(self.tree, self.kind, self.name, chart_axis=self.chart_axis)
+        chart = ("the unit primitive's axis" if self.chart_axis is None
+                 else f"chart_axis {np.round(self.chart_axis, 3).tolist()}")
         self.guard = TaskGuard(self.kind, str(getattr(system, "name", "custom")), self.end_frames,
-                               self.warn_below, self.raise_below)
+                               self.warn_below, self.raise_below, chart)
         self._tls = threading.local()  # per-thread buffers of the compiled entry points
 
     def __repr__(self) -> str:
         return f"CooperativeTask({self.name!r}, nq={self.nq}, end_frames={list(self.end_frames)})"
+
+    # ================================================================== the chart of V_Sc
+    def _resolve_chart(self, chart_axis: Any) -> tuple[float, float, float] | None:
+        unit_axis = UNIT_AXIS[self.kind]
+        if unit_axis is None or chart_axis is None:
+            return None
+        if isinstance(chart_axis, str):
+            validation.choice(chart_axis, ("auto",), "chart_axis")
+            q0 = validation.configuration(self.system.q0, self.nq, "system.q0")
+            pts = self.tree.end_points_array(q0)
+            if N_POINTS[self.kind] > 1 and not well_definedness(self.kind, pts) > self.raise_below:
+                return None  # degenerate at q0: no nominal axis (the guard reports it on use)
+            _, _, _, o = primitive_parameters(cooperative_primitive(self.kind, [conformal_point(p) for p in pts]))
+            o = np.asarray(o, dtype=float).reshape(3)
+            if float(o @ np.asarray(unit_axis)) >= 0.0:
+                return None  # within 90° of the unit axis: the canonical chart (Eq 26) is far from its flip
+            return (float(o[0]), float(o[1]), float(o[2]))
+        a = validation.vector(chart_axis, 3, "chart_axis")
+        n = float(np.linalg.norm(a))
+        if not n > 0:
+            raise InvalidInputError("chart_axis must be a non-zero 3-vector (or None, or 'auto')")
+        return (float(a[0] / n), float(a[1] / n), float(a[2] / n))
+
+    def with_chart(self, chart_axis: Any) -> CooperativeTask:
+        """The same task with its chart measured from ``chart_axis`` (see the class docstring)."""
+        return cooperative_task(self.system, self.kind, self.point_indices, codegen=self.codegen,
+                                warn_below=self.warn_below, raise_below=self.raise_below, chart_axis=chart_axis)
+
+    def target_from_primitive(self, X: Any) -> Similarity:
+        """The target V_Sd = V_S(X_u, X) of a primitive X of the task's kind, in the task's chart (Eq 28)."""
+        if not isinstance(X, Primitive) or X.kind != self.kind:
+            raise InvalidInputError(f"target_from_primitive needs a {self.kind} Primitive, got {type(X).__name__}"
+                                    + (f" ({X.kind})" if isinstance(X, Primitive) else ""))
+        return Similarity(similarity_from_unit(X, chart_axis=self.chart_axis))
+
+    def check_target(self, target: Any, what: str = "target") -> Similarity:
+        """``target`` as a Similarity, refused with a :class:`~coop_ga.errors.ChartError` when its primitive's
+        axis is beyond the chart warning angle (170°) from the chart's reference axis: the path to it would
+        cross the chart's half-turn and the error e = log(Ṽ_Sc V_Sd) would jump on the way."""
+        V = validation.target(target, what)
+        unit_axis = UNIT_AXIS[self.kind]
+        if unit_axis is None:
+            return V
+        ref = np.asarray(self.chart_axis if self.chart_axis is not None else unit_axis)
+        o = V.rotation_matrix @ np.asarray(unit_axis)
+        theta = float(np.arccos(np.clip(o @ ref, -1.0, 1.0)))
+        if theta >= CHART_WARN_ANGLE:
+            raise ChartError(
+                f"{what}: its {self.kind}'s axis {np.round(o, 3).tolist()} is {np.degrees(theta):.1f}° from the chart "
+                f"axis of task '{self.name}' ({np.round(ref, 3).tolist()}); a path to it crosses the chart's half-turn. "
+                "Use a task whose chart is between the two: task.with_chart(axis), e.g. the sum of the current and "
+                "the target axes (then rebuild the target with that task's target_from_primitive)"
+            )
+        return V
 
     # ================================================================== symbolic access
     def symbolic(self, q: Any) -> dict[str, Any]:
@@ -231,6 +302,12 @@ class CooperativeTask:
     def points(self, q: Any) -> np.ndarray:
         """The task's end points [m], shape (n, 3), world frame."""
         return self._run(q)[4].reshape(-1, 3).copy()
+
+    def chart_angle(self, q: Any) -> float:
+        """Angle [rad] of the primitive's axis at q from the chart's reference axis (0 for kinds without
+        an axis); the chart of V_Sc jumps by a half-turn at π."""
+        c2 = self._run(q)[3].item(3)
+        return 2.0 * math.acos(min(1.0, math.sqrt(max(c2, 0.0))))
 
     def well_definedness(self, q: Any) -> float:
         """:func:`coop_ga.well_definedness` of the end points (1 best, 0 degenerate)."""
@@ -342,6 +419,9 @@ class CooperativeTask:
         from .analytic import analytic_similarity_jacobian
         from .primitive import primitive_jacobian
 
+        if self.chart_axis is not None:
+            raise InvalidInputError("the closed forms of Appendix B are for the canonical chart; build the task "
+                                    "with chart_axis=None to use them")
         self._run(q)  # same input checks and guard as every route
         P, dP = self.tree.point_jacobians(np.asarray(q, dtype=float))
         X = cooperative_primitive(self.kind, P)
@@ -356,7 +436,8 @@ class CooperativeTask:
         w = well_definedness(self.kind, pts) if N_POINTS[self.kind] > 1 else 1.0
         if not w > self.warn_below:
             self.guard.degeneracy(float(w), pts)
-        V = similarity_from_unit(cooperative_primitive(self.kind, [conformal_point(p) for p in pts]))
+        V = similarity_from_unit(cooperative_primitive(self.kind, [conformal_point(p) for p in pts]),
+                                 chart_axis=self.chart_axis)
         return Similarity(V, check=False)
 
 
@@ -398,6 +479,9 @@ def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None
         system = systems.load(system)
     pts = None if points is None else validation.indices(
         points, N_POINTS[_check_kind(kind)], len(system.end_frames), "points", labels=tuple(system.end_frames))
+    # array-valued options (chart_axis) become tuples so that the cache key is hashable
+    options = {k: tuple(np.asarray(v, dtype=float).ravel().tolist()) if isinstance(v, (np.ndarray, list)) else v
+               for k, v in options.items()}
     try:
         key = (id(system), kind, pts, tuple(sorted(options.items())))
         hash(key)

@@ -72,6 +72,7 @@ __all__ = [
     "similarity",
     "similarity_from_unit",
     "similarity_from_parameters",
+    "chart_reference",
     "primitive_parameters",
     "UNIT_AXIS",
     "rotor_between",
@@ -233,9 +234,13 @@ def _rotor_between(u: tuple[Any, Any, Any], v: tuple[Any, Any, Any], half_turn_a
     return Multivector(ROTOR_BLADES, coeffs)
 
 
-def _similarity_from_params(kind, c1, r1, o1, c2, r2, o2) -> Multivector:
+def _similarity_from_params(kind, c1, r1, o1, c2, r2, o2, reference=None) -> Multivector:
     zero = 0.0 * c2[0]
-    if o1 is not None:
+    if o1 is not None and reference is not None:
+        # chart about a reference axis a (Eq 26 from a instead of from the unit axis): R = R_min(a → o) R_min(o1 → a)
+        a, Ra = reference
+        R = _rotor_between(a, o2, _perp_axis(a)) * Ra
+    elif o1 is not None:
         R = _rotor_between(o1, o2, _perp_axis(o1, UNIT_AXIS[kind] if _is_unit_axis(o1, kind) else None))
     else:
         R = Multivector(ROTOR_BLADES, (1.0 + zero, zero, zero, zero))
@@ -302,15 +307,39 @@ def _unit_params(kind: str):
     return z, r, UNIT_AXIS[kind]
 
 
-def similarity_from_unit(X: Multivector) -> Multivector:
+def chart_reference(kind: str, axis: Any) -> tuple[tuple[float, float, float], Multivector] | None:
+    """The reference ``(a, R_min(o_u → a))`` of a chart about the unit axis ``a`` (3,), or None (the
+    canonical chart).  With it, the minimal rotation of the similarity is measured from a instead of
+    from the unit primitive's axis o_u, so its half-turn discontinuity sits at −a (see
+    :func:`similarity_from_unit`)."""
+    kind = _check_kind(kind)
+    if axis is None or UNIT_AXIS[kind] is None:
+        return None
+    a = np.asarray(validation.vector(axis, 3, "chart axis"), dtype=float)
+    n = float(np.linalg.norm(a))
+    if not n > 0:
+        raise InvalidInputError("the chart axis must be a non-zero 3-vector")
+    a = a / n
+    o1 = UNIT_AXIS[kind]
+    Ra = _rotor_between(o1, tuple(float(x) for x in a), _perp_axis(o1, o1))
+    return (float(a[0]), float(a[1]), float(a[2])), Ra
+
+
+def similarity_from_unit(X: Multivector, chart_axis: Any = None) -> Multivector:
     """V_S(X_u, X): the similarity that maps the unit primitive of X's kind onto X (Eq 28).
 
     ``V = T(c) R(o_u → o) D(log r)`` with (c, r, o) read from X (module table).  Works
     on numeric and CasADi coefficients; the result lies on the 12 similarity blades.
+
+    ``chart_axis`` (3,): measure the minimal rotation from that axis instead of from o_u,
+    ``R = R_min(a → o) · R_min(o_u → a)`` (:func:`chart_reference`), which moves the chart's
+    half-turn discontinuity from o = −o_u to o = −a.  Both charts map X_u onto X; they differ by
+    a roll about o that no primitive sees.
     """
     kind, c, r, o = primitive_parameters(X)
     c1, r1, o1 = _unit_params(kind)
-    return _similarity_from_params(kind, c1, r1, o1, _tuple3(c), r, None if o is None else _tuple3(o))
+    return _similarity_from_params(kind, c1, r1, o1, _tuple3(c), r, None if o is None else _tuple3(o),
+                                   reference=chart_reference(kind, chart_axis))
 
 
 def similarity(X_from: Multivector, X_to: Multivector) -> Multivector:
@@ -332,14 +361,15 @@ def similarity(X_from: Multivector, X_to: Multivector) -> Multivector:
     )
 
 
-def similarity_from_parameters(kind: str, c: Any, r: Any, o: Any) -> Multivector:
+def similarity_from_parameters(kind: str, c: Any, r: Any, o: Any, chart_axis: Any = None) -> Multivector:
     """V_S(X_u, X) from the read-outs ``(c, r, o)`` of X (module table) instead of X itself.
 
     The same versor as :func:`similarity_from_unit` for a primitive with center (or closest
     point) ``c`` (3,) [m], radius ``r`` (None where undefined) and axis ``o`` (3,, unit; None
     where undefined).  Lets callers read the parameters where they are accurate — e.g. the
     cooperative layer reads them from the primitive built about the end points' centroid and
-    shifts c back (:mod:`coop_ga.cooperative.graph`).  Numeric or CasADi.
+    shifts c back (:mod:`coop_ga.cooperative.graph`).  Numeric or CasADi.  ``chart_axis``: see
+    :func:`similarity_from_unit`.
     """
     kind = _check_kind(kind)
     c1, r1, o1 = _unit_params(kind)
@@ -359,7 +389,8 @@ def similarity_from_parameters(kind: str, c: Any, r: Any, o: Any) -> Multivector
     if r1 is not None and not B.is_symbolic(r):
         batch["r"] = (r,)
     _same_batch(batch)
-    return _similarity_from_params(kind, c1, r1, o1, c, r, None if o1 is None else o)
+    return _similarity_from_params(kind, c1, r1, o1, c, r, None if o1 is None else o,
+                                   reference=chart_reference(kind, chart_axis))
 
 
 def _positive_array(r: Any, name: str) -> np.ndarray:

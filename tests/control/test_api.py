@@ -176,18 +176,59 @@ def test_damping_is_lambda_everywhere():
 
 
 # ----------------------------------------------------------------------------- warnings once per call
-def test_one_warning_per_condition_and_call_at_the_callers_line(load_system):
-    """Diff IK near the chart antipode: one ChartWarning per call (was 49), pointing here, counted."""
-    s = load_system("g1_arms")
-    task = cg.cooperative_task(s, "line", points=(1, 0))  # left → right: axis near −e2, the chart's antipode
-    q0 = np.array(s.q0)
-    V0 = task.similarity(q0)
+def test_one_warning_per_condition_and_call_at_the_callers_line():
+    """Diff IK holding a nearly degenerate circle: one DegeneracyWarning per call (a flood of 104 before),
+    pointing here, with the count in the result."""
+    from tests.cooperative.conftest import BASES, cartesian_system
+
+    task = cg.CooperativeTask(cartesian_system(3), "circle", codegen=False)
+    q = (np.array([[0.0, 0, 0], [1.0, 0, 0], [2.0, 0.005, 0]]) - BASES[:3]).reshape(-1)  # nearly collinear
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        V0 = task.similarity(q)
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")
-        r = diff_ik_reach(task, q0, V0, steps=30, tol=0.0)
-    chart = [w for w in rec if issubclass(w.category, cg.ChartWarning)]
-    assert len(chart) == 1, [str(w.message) for w in rec]
-    assert chart[0].filename == __file__
-    # every evaluation saw it: the initial error, then J and e at each of the 30 steps
-    assert r.warnings.get("ChartWarning:g1_arms", 0) == 61
-    assert "occurred 61 times" in str(chart[0].message)
+        r = diff_ik_reach(task, q, V0, steps=30, tol=0.0, limits="none")
+    deg = [w for w in rec if issubclass(w.category, cg.DegeneracyWarning)]
+    assert len(deg) == 1, [str(w.message) for w in rec]
+    assert deg[0].filename == __file__
+    n = r.warnings.get("DegeneracyWarning:cartesian3", 0)
+    assert n > 30  # every evaluation saw it (the start, then J and e at each of the 30 steps)
+    assert f"occurred {n} times" in str(deg[0].message)
+
+
+def test_chart_auto_solves_the_antipode_case(load_system):
+    """The study's silent failure: g1_arms line with points=(1, 0) (axis −e2, the canonical chart's half-turn)
+    and a 5 cm, 20° target.  chart_axis='auto' measures the chart from the nominal axis: every solver converges,
+    without a ChartWarning; the canonical chart refuses to start there (ChartError), never a silent stall."""
+    s = load_system("g1_arms")
+    q0 = np.array(s.q0)
+    task = cg.cooperative_task(s, "line", points=(1, 0))
+    assert task.chart_axis is not None and task.chart_axis[1] == pytest.approx(-1.0)
+    V = displaced_target(task, q0, translation=(0.05, 0.0, 0.0), axis=(0, 0, 1), angle=np.deg2rad(20))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cg.ChartWarning)
+        for solve in (gauss_newton_ik, ilqr_reach, diff_ik_reach):
+            assert solve(task, q0, V).converged, solve.__name__
+    canonical = cg.cooperative_task(s, "line", points=(1, 0), chart_axis=None)
+    V0 = displaced_target(canonical, q0, translation=(0.05, 0.0, 0.0), axis=(0, 0, 1), angle=np.deg2rad(20))
+    for solve in (gauss_newton_ik, ilqr_reach, diff_ik_reach):
+        with pytest.raises(cg.ChartError, match="half-turn"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", cg.ChartWarning)
+            solve(canonical, q0, V0)
+    # the same primitive either way: the charts differ by a roll no primitive sees
+    np.testing.assert_allclose(V.apply(task.unit).to_dense(), V0.apply(canonical.unit).to_dense(), atol=1e-12)
+
+
+def test_target_across_the_chart_is_refused(load_system):
+    s = load_system("three_franka")
+    task = cg.cooperative_task(s, "circle")
+    q0 = np.array(s.q0)
+    flipped = displaced_target(task, q0, axis=(1, 0, 0), angle=np.deg2rad(178.0))  # normal turned over
+    with pytest.raises(cg.ChartError, match="crosses the chart"):
+        gauss_newton_ik(task, q0, flipped)
+    n0 = np.asarray(cg.normal(task.primitive(q0)), float).reshape(3)
+    n1 = np.asarray(cg.normal(flipped.apply(task.unit)), float).reshape(3)
+    mid = task.with_chart(np.cross(n0, n1))  # an axis at 90° from both
+    assert mid.chart_axis is not None
+    mid.check_target(mid.target_from_primitive(flipped.apply(task.unit)))  # accepted in that chart

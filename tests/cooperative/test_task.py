@@ -189,11 +189,18 @@ def test_scalar_q_is_rejected_not_broadcast() -> None:
 
 
 def test_chart_warning_near_the_antipodal_axis() -> None:
-    """g1_arms ordered left → right points along −e2: the chart's half-turn; a ChartWarning says so."""
+    """g1_arms ordered left → right points along −e2: the canonical chart's half-turn; a ChartWarning says so.
+    The default chart ('auto') is measured from that axis instead, and is silent."""
     sys = systems.load("g1_arms")
-    task = CooperativeTask(sys, "point_pair", points=(1, 0), codegen=False)
+    task = CooperativeTask(sys, "point_pair", points=(1, 0), codegen=False, chart_axis=None)
     with pytest.warns(cg.ChartWarning, match="half-turn"):
         task.log(sys.q0)
+    auto = CooperativeTask(sys, "point_pair", points=(1, 0), codegen=False)
+    assert auto.chart_axis is not None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        auto.log(sys.q0)
+    assert auto.chart_angle(sys.q0) < 1e-6 and task.chart_angle(sys.q0) > np.pi - 1e-6
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         CooperativeTask(sys, "point_pair", codegen=False).log(sys.q0)
