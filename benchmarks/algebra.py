@@ -19,13 +19,13 @@ import casadi as ca
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _timing import per_call_us, print_table  # noqa: E402
+from _timing import per_call_us, print_table
 
-import coop_ga as cg  # noqa: E402
-from coop_ga.algebra import Multivector  # noqa: E402
-from coop_ga.codegen import CompiledFunction  # noqa: E402
-from coop_ga.geometry.groups import SIMILARITY_BLADES  # noqa: E402
-from coop_ga.harness import Experiment  # noqa: E402
+import coop_ga as cg
+from coop_ga.algebra import Multivector
+from coop_ga.codegen import CompiledFunction
+from coop_ga.geometry.groups import SIMILARITY_BLADES
+from coop_ga.harness import Experiment
 
 
 def sim_from(x) -> Multivector:
@@ -51,8 +51,16 @@ def main(argv: list[str] | None = None) -> int:
     sp1, sp2 = ca.SX.sym("p1", 9), ca.SX.sym("p2", 9)
     circ = lambda p: cg.circle(p[0:3], p[3:6], p[6:9])  # noqa: E731
     sym = {
-        "geometric product (similarity × similarity)": (ca.Function("gp", [s1, s2], [ca.vertcat(*(sim_from(s1) * sim_from(s2)).coeffs)]), (v1, v2), lambda: V1 * V2),
-        "exp (7-vector → versor)": (ca.Function("expf", [sb], [ca.vertcat(*cg.exp(sb).coeffs)]), (b1,), lambda: cg.exp(b1)),
+        "geometric product (similarity × similarity)": (
+            ca.Function("gp", [s1, s2], [ca.vertcat(*(sim_from(s1) * sim_from(s2)).coeffs)]),
+            (v1, v2),
+            lambda: V1 * V2,
+        ),
+        "exp (7-vector → versor)": (
+            ca.Function("expf", [sb], [ca.vertcat(*cg.exp(sb).coeffs)]),
+            (b1,),
+            lambda: cg.exp(b1),
+        ),
         "log (versor → 7-vector)": (ca.Function("logf", [s1], [cg.log(sim_from(s1))]), (v1,), lambda: cg.log(V1)),
         "similarity (circle → circle, from points)": (
             ca.Function("simf", [sp1, sp2], [ca.vertcat(*cg.similarity(circ(sp1), circ(sp2)).coeffs)]),
@@ -79,9 +87,19 @@ def main(argv: list[str] | None = None) -> int:
             assert np.allclose(np.asarray(cc(*fargs)).ravel()[:3], np.asarray(vm(*fargs)).ravel()[:3])
         else:
             t_c = float("nan")
-        rows.append([name, f"{t_np:8.1f}", f"{t_vm:6.2f}", f"{t_c:6.2f}", f"{f.n_instructions():5d}", f"{t_c / anchor:6.1f}"])
-        records.append({"operation": name, "numpy_us": t_np, "casadi_vm_us": t_vm, "compiled_c_us": t_c,
-                        "sx_instructions": f.n_instructions(), "compiled_over_anchor": t_c / anchor})
+        rows.append(
+            [name, f"{t_np:8.1f}", f"{t_vm:6.2f}", f"{t_c:6.2f}", f"{f.n_instructions():5d}", f"{t_c / anchor:6.1f}"]
+        )
+        records.append(
+            {
+                "operation": name,
+                "numpy_us": t_np,
+                "casadi_vm_us": t_vm,
+                "compiled_c_us": t_c,
+                "sx_instructions": f.n_instructions(),
+                "compiled_over_anchor": t_c / anchor,
+            }
+        )
     print_table(
         f"coop_ga algebra, per call [µs]   (anchor: numpy 4×4 @ 4×4 = {anchor:.2f} µs, same run)",
         ["operation", "numpy path", "CasADi VM", "compiled C", "SX instr.", "C / anchor"],

@@ -24,10 +24,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _timing import per_call_us, print_table  # noqa: E402
+from _timing import per_call_us, print_table
 
-import coop_ga as cg  # noqa: E402
-from coop_ga.harness import Experiment, positive_int  # noqa: E402
+import coop_ga as cg
+from coop_ga.harness import Experiment, positive_int
 
 CASES = [("three_franka", "circle"), ("allegro", "sphere"), ("two_g1", "sphere")]
 
@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
         sys_ = cg.systems.load(name)
         t0 = time.perf_counter()
         task = cg.cooperative_task(sys_, kind, codegen=True)
-        task.compiled  # build + compile (or load from the disk cache)
+        _ = task.compiled  # build + compile (or load from the disk cache)
         t_build = time.perf_counter() - t0
         q = sys_.q0.copy()
         t_coop = per_call_us(lambda: task.evaluate_views(q))
@@ -65,13 +65,33 @@ def main(argv: list[str] | None = None) -> int:
                 pin.computeFrameJacobian(m, d, q, fid, pin.LOCAL)
 
         t_pin = per_call_us(pin_call)
-        rows.append([
-            name, kind, str(sys_.nq), str(task.casadi_function.n_instructions()),
-            f"{t_coop:.2f}", f"{t_c:.2f}", f"{t_batch:.2f}", f"{t_pin:.2f}", f"{t_coop / t_pin:.2f}",
-        ])
-        records.append({"system": name, "kind": kind, "nq": sys_.nq, "sx_instructions": task.casadi_function.n_instructions(),
-                        "coop_ga_us": t_coop, "c_only_us": t_c, "batch_per_config_us": t_batch, "pinocchio_us": t_pin,
-                        "ratio": t_coop / t_pin, "build_or_load_s": t_build})
+        rows.append(
+            [
+                name,
+                kind,
+                str(sys_.nq),
+                str(task.casadi_function.n_instructions()),
+                f"{t_coop:.2f}",
+                f"{t_c:.2f}",
+                f"{t_batch:.2f}",
+                f"{t_pin:.2f}",
+                f"{t_coop / t_pin:.2f}",
+            ]
+        )
+        records.append(
+            {
+                "system": name,
+                "kind": kind,
+                "nq": sys_.nq,
+                "sx_instructions": task.casadi_function.n_instructions(),
+                "coop_ga_us": t_coop,
+                "c_only_us": t_c,
+                "batch_per_config_us": t_batch,
+                "pinocchio_us": t_pin,
+                "ratio": t_coop / t_pin,
+                "build_or_load_s": t_build,
+            }
+        )
     print_table(
         "cooperative evaluation (V_Sc, B_Sc, J^G) per call [µs]",
         ["system", "kind", "nq", "SX instr", "coop_ga", "C only", "batch/config", "pinocchio FK+J", "ratio"],

@@ -34,13 +34,13 @@ import casadi as ca
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(__file__))
-from _timing import per_call_us, print_table  # noqa: E402
+from _timing import per_call_us, print_table
 
-import coop_ga as cg  # noqa: E402
-from coop_ga.codegen import CompiledFunction  # noqa: E402
-from coop_ga.geometry.groups import MOTOR_BLADES  # noqa: E402
-from coop_ga.harness import Experiment  # noqa: E402
-from coop_ga.kinematics import LOCAL_TO_TANGENT  # noqa: E402
+import coop_ga as cg
+from coop_ga.codegen import CompiledFunction
+from coop_ga.geometry.groups import MOTOR_BLADES
+from coop_ga.harness import Experiment
+from coop_ga.kinematics import LOCAL_TO_TANGENT
 
 
 def kinematics_function(system) -> ca.Function:
@@ -97,20 +97,44 @@ def main(argv: list[str] | None = None) -> int:
                 pin.computeFrameJacobian(m, d, q, fid, pin.LOCAL)
 
         t_a, t_b = per_call_us(pin_a), per_call_us(pin_b)
-        rows.append([
-            name, str(s.nq), str(len(fids)), str(f.n_instructions()), f"{t_comp:.2f}", f"{t_c:.2f}",
-            f"{t_np:.0f}", f"{t_a:.2f}", f"{t_b:.2f}", f"{t_comp / min(t_a, t_b):.2f}",
-        ])
-        records.append({"system": name, "nq": s.nq, "frames": len(fids), "sx_instructions": f.n_instructions(),
-                        "compiled_us": t_comp, "c_only_us": t_c, "numpy_us": t_np, "pin_a_us": t_a, "pin_b_us": t_b,
-                        "ratio": t_comp / min(t_a, t_b), "build_or_load_s": t_build})
+        rows.append(
+            [
+                name,
+                str(s.nq),
+                str(len(fids)),
+                str(f.n_instructions()),
+                f"{t_comp:.2f}",
+                f"{t_c:.2f}",
+                f"{t_np:.0f}",
+                f"{t_a:.2f}",
+                f"{t_b:.2f}",
+                f"{t_comp / min(t_a, t_b):.2f}",
+            ]
+        )
+        records.append(
+            {
+                "system": name,
+                "nq": s.nq,
+                "frames": len(fids),
+                "sx_instructions": f.n_instructions(),
+                "compiled_us": t_comp,
+                "c_only_us": t_c,
+                "numpy_us": t_np,
+                "pin_a_us": t_a,
+                "pin_b_us": t_b,
+                "ratio": t_comp / min(t_a, t_b),
+                "build_or_load_s": t_build,
+            }
+        )
     print_table(
         "motor FK + end-frame geometric Jacobians per call [µs] (q0 of each system; same run)",
         ["system", "nq", "frames", "SX instr", "compiled", "C only", "numpy", "pin (a)", "pin (b)", "compiled/pin"],
         rows,
     )
-    print("pin (a): computeJointJacobians + updateFramePlacements + getFrameJacobian per frame;"
-          " pin (b): forwardKinematics + updateFramePlacements + computeFrameJacobian per frame")
+    print(
+        "pin (a): computeJointJacobians + updateFramePlacements + getFrameJacobian per frame;"
+        " pin (b): forwardKinematics + updateFramePlacements + computeFrameJacobian per frame"
+    )
     exp.write_json("results.json", {"rows": records})
     return 0
 

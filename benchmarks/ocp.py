@@ -96,19 +96,50 @@ def ilqr_kwargs(terminal: str) -> tuple[dict[str, Any], str]:
     return kw, "; ".join(notes)
 
 
-def _row(label: str, *, iterations: int, solve_s: float, cpu_s: float, u: np.ndarray, q: np.ndarray,
-         qd: np.ndarray, ocp: ReachingOCP, lim: Any, status: str, success: bool,
-         extra: dict[str, Any] | None = None) -> dict[str, Any]:
+def _row(
+    label: str,
+    *,
+    iterations: int,
+    solve_s: float,
+    cpu_s: float,
+    u: np.ndarray,
+    q: np.ndarray,
+    qd: np.ndarray,
+    ocp: ReachingOCP,
+    lim: Any,
+    status: str,
+    success: bool,
+    extra: dict[str, Any] | None = None,
+) -> dict[str, Any]:
     chk = check_trajectory(ocp, lim, q, qd, u)
     err = float(np.linalg.norm(ocp.task.error(q[-1], ocp.target)))
-    return {"solver": label, "iterations": int(iterations), "solve_time_s": float(solve_s), "cpu_time_s": float(cpu_s),
-            "cost": float(ocp.cost(u)), "terminal_error": err, "max_violation": chk["max_violation"],
-            "violations": chk["violations"], "active": chk["active"], "defect": chk["defect"], "status": status,
-            "success": bool(success), **(extra or {})}
+    return {
+        "solver": label,
+        "iterations": int(iterations),
+        "solve_time_s": float(solve_s),
+        "cpu_time_s": float(cpu_s),
+        "cost": float(ocp.cost(u)),
+        "terminal_error": err,
+        "max_violation": chk["max_violation"],
+        "violations": chk["violations"],
+        "active": chk["active"],
+        "defect": chk["defect"],
+        "status": status,
+        "success": bool(success),
+        **(extra or {}),
+    }
 
 
-def run_ilqr(task: Any, q0: np.ndarray, Vd: Any, ocp: ReachingOCP, lim: Any, args: argparse.Namespace,
-             kw: dict[str, Any], label: str) -> dict[str, Any]:
+def run_ilqr(
+    task: Any,
+    q0: np.ndarray,
+    Vd: Any,
+    ocp: ReachingOCP,
+    lim: Any,
+    args: argparse.Namespace,
+    kw: dict[str, Any],
+    label: str,
+) -> dict[str, Any]:
     call = dict(horizon=args.horizon, dt=args.dt, **kw)
     ilqr_reach(task, q0, Vd, **call)  # warm-up: compile/build the task's functions once
     best, cpu = None, np.inf
@@ -118,9 +149,20 @@ def run_ilqr(task: Any, q0: np.ndarray, Vd: Any, ocp: ReachingOCP, lim: Any, arg
         c = time.process_time() - c0
         if best is None or r.solve_time_s < best.solve_time_s:
             best, cpu = r, c
-    return _row(label, iterations=best.iterations, solve_s=best.solve_time_s, cpu_s=cpu, u=best.u,
-                q=best.trajectory, qd=best.qd, ocp=ocp, lim=lim, status=best.message, success=best.converged,
-                extra={"options": dict(call)})
+    return _row(
+        label,
+        iterations=best.iterations,
+        solve_s=best.solve_time_s,
+        cpu_s=cpu,
+        u=best.u,
+        q=best.trajectory,
+        qd=best.qd,
+        ocp=ocp,
+        lim=lim,
+        status=best.message,
+        success=best.converged,
+        extra={"options": dict(call)},
+    )
 
 
 def run_reference(P: ReferenceProblem, solver: str, repeat: int) -> dict[str, Any]:
@@ -131,29 +173,56 @@ def run_reference(P: ReferenceProblem, solver: str, repeat: int) -> dict[str, An
             best = r
     creation = first.wall_time_s - first.solve_time_s
     ocp = P.ocp
-    row = _row({"ipopt": "IPOPT", "fatrop": "FATROP"}[solver], iterations=best.iterations, solve_s=best.solve_time_s,
-               cpu_s=best.solve_cpu_s, u=best.u, q=best.q, qd=best.qd, ocp=ocp, lim=P.limits,
-               status=f"{'ok' if best.success else 'FAILED'} ({best.status})", success=best.success,
-               extra={"nlp_cost": best.cost, "build_time_s": P.build_time_s,
-                      "nlpsol_creation_s": max(0.0, creation),
-                      "stats": {k: v for k, v in best.stats.items() if k.startswith(("t_", "fatrop.", "iter"))}})
+    row = _row(
+        {"ipopt": "IPOPT", "fatrop": "FATROP"}[solver],
+        iterations=best.iterations,
+        solve_s=best.solve_time_s,
+        cpu_s=best.solve_cpu_s,
+        u=best.u,
+        q=best.q,
+        qd=best.qd,
+        ocp=ocp,
+        lim=P.limits,
+        status=f"{'ok' if best.success else 'FAILED'} ({best.status})",
+        success=best.success,
+        extra={
+            "nlp_cost": best.cost,
+            "build_time_s": P.build_time_s,
+            "nlpsol_creation_s": max(0.0, creation),
+            "stats": {k: v for k, v in best.stats.items() if k.startswith(("t_", "fatrop.", "iter"))},
+        },
+    )
     return row
 
 
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/ocp"))
     exp.add("--repeat", type=positive_int, default=3, metavar="N", help="timed iLQR solves per problem (best reported)")
-    exp.add("--ref-repeat", type=positive_int, default=1, metavar="N",
-            help="timed IPOPT/FATROP solves per problem (best reported; each takes seconds)")
+    exp.add(
+        "--ref-repeat",
+        type=positive_int,
+        default=1,
+        metavar="N",
+        help="timed IPOPT/FATROP solves per problem (best reported; each takes seconds)",
+    )
     exp.add("--problems", nargs="+", choices=PROBLEMS, default=["flagship", "velocity"], help="problems to run")
-    exp.add("--terminal", choices=("soft", "constraint"), default="soft",
-            help="terminal error in the cost (Eq 57) or as the constraint e(q_n) = 0")
+    exp.add(
+        "--terminal",
+        choices=("soft", "constraint"),
+        default="soft",
+        help="terminal error in the cost (Eq 57) or as the constraint e(q_n) = 0",
+    )
     exp.add("--horizon", type=int_at_least(2), default=250, help="knots")
     exp.add("--dt", type=positive_float, default=0.01, help="time step [s]")
     exp.add("--no-ipopt", action="store_true", help="skip IPOPT")
     exp.add("--no-fatrop", action="store_true", help="skip FATROP")
-    exp.add("--json", type=Path, default=None, metavar="OUT",
-            help="also write every number to this JSON file (results.json in --out is always written)")
+    exp.add(
+        "--json",
+        type=Path,
+        default=None,
+        metavar="OUT",
+        help="also write every number to this JSON file (results.json in --out is always written)",
+    )
     args = exp.parse(argv)
     problems = list(dict.fromkeys(args.problems))
 
@@ -164,11 +233,21 @@ def main(argv: list[str] | None = None) -> int:
     solvers = [s for s in solvers if s not in missing]
     kw, note = ilqr_kwargs(args.terminal)
     out: dict[str, Any] = {
-        "meta": {"casadi": ca.__version__, "python": platform.python_version(), "machine": platform.machine(),
-                 "cpus": os.cpu_count(), "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
-                 "horizon": args.horizon, "dt": args.dt, "terminal": args.terminal, "ilqr_options": kw,
-                 "ilqr_note": note, "missing_solvers": missing},
-        "problems": {}}
+        "meta": {
+            "casadi": ca.__version__,
+            "python": platform.python_version(),
+            "machine": platform.machine(),
+            "cpus": os.cpu_count(),
+            "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
+            "horizon": args.horizon,
+            "dt": args.dt,
+            "terminal": args.terminal,
+            "ilqr_options": kw,
+            "ilqr_note": note,
+            "missing_solvers": missing,
+        },
+        "problems": {},
+    }
     if note:
         print(f"note: {note}", flush=True)
     for m in missing:
@@ -181,8 +260,11 @@ def main(argv: list[str] | None = None) -> int:
         Vd = displaced_target(task, q0, **TARGET)
         ocp = ReachingOCP(task, q0, Vd, horizon=args.horizon, dt=args.dt)
         lim = s.limits
-        print(f"\n[{name}] three_franka circle, {desc}: nq = {task.nq}, {args.horizon} knots × {args.dt:g} s, "
-              f"terminal {args.terminal}, initial ‖e‖ = {np.linalg.norm(task.error(q0, Vd)):.3f}", flush=True)
+        print(
+            f"\n[{name}] three_franka circle, {desc}: nq = {task.nq}, {args.horizon} knots × {args.dt:g} s, "
+            f"terminal {args.terminal}, initial ‖e‖ = {np.linalg.norm(task.error(q0, Vd)):.3f}",
+            flush=True,
+        )
         with exp.stage(f"[{name}] iLQR"):
             rows = [run_ilqr(task, q0, Vd, ocp, lim, args, kw, "iLQR")]
         with exp.stage(f"[{name}] iLQR (tol = 0)"):
@@ -193,25 +275,53 @@ def main(argv: list[str] | None = None) -> int:
                 with exp.stage(f"[{name}] {solver}"):
                     rows.append(run_reference(P, solver, args.ref_repeat))
                 r = rows[-1]
-                print(f"  {r['solver']}: Opti build {r['build_time_s']:.2f} s, nlpsol creation "
-                      f"{r['nlpsol_creation_s']:.2f} s (not in the solve time)", flush=True)
+                print(
+                    f"  {r['solver']}: Opti build {r['build_time_s']:.2f} s, nlpsol creation "
+                    f"{r['nlpsol_creation_s']:.2f} s (not in the solve time)",
+                    flush=True,
+                )
         ref_t = rows[0]["solve_time_s"]
-        feasible = [r["cost"] for r in rows if r["max_violation"] <= FEASIBLE and r["success"]] or \
-                   [r["cost"] for r in rows if r["max_violation"] <= FEASIBLE]
+        feasible = [r["cost"] for r in rows if r["max_violation"] <= FEASIBLE and r["success"]] or [
+            r["cost"] for r in rows if r["max_violation"] <= FEASIBLE
+        ]
         jmin = min(feasible) if feasible else np.nan
         table = []
         for r in rows:
             r["rel_cost"] = (r["cost"] - jmin) / abs(jmin) if np.isfinite(jmin) else np.nan
             r["time_ratio"] = r["solve_time_s"] / ref_t if ref_t > 0 else np.nan
             act = r["active"]
-            table.append([r["solver"], str(r["iterations"]), f"{r['solve_time_s'] * 1e3:.1f}",
-                          f"{r['cpu_time_s'] * 1e3:.1f}", f"{r['cost']:.10f}", f"{r['rel_cost']:+.1e}",
-                          f"{r['terminal_error']:.2e}", f"{r['max_violation']:.1e}",
-                          f"{act['position']}/{act['velocity']}/{act['acceleration']}",
-                          f"{r['time_ratio']:.1f}", r["status"][:60]])
-        print_table(f"[{name}] reaching OCP (Eq 53–57) with {desc}, three_franka circle",
-                    ["solver", "iter", "solve [ms]", "CPU [ms]", "cost J", "ΔJ/J_best", "‖e(q_n)‖",
-                     "max viol", "active q/q̇/u", "t / iLQR", "status"], table)
+            table.append(
+                [
+                    r["solver"],
+                    str(r["iterations"]),
+                    f"{r['solve_time_s'] * 1e3:.1f}",
+                    f"{r['cpu_time_s'] * 1e3:.1f}",
+                    f"{r['cost']:.10f}",
+                    f"{r['rel_cost']:+.1e}",
+                    f"{r['terminal_error']:.2e}",
+                    f"{r['max_violation']:.1e}",
+                    f"{act['position']}/{act['velocity']}/{act['acceleration']}",
+                    f"{r['time_ratio']:.1f}",
+                    r["status"][:60],
+                ]
+            )
+        print_table(
+            f"[{name}] reaching OCP (Eq 53–57) with {desc}, three_franka circle",
+            [
+                "solver",
+                "iter",
+                "solve [ms]",
+                "CPU [ms]",
+                "cost J",
+                "ΔJ/J_best",
+                "‖e(q_n)‖",
+                "max viol",
+                "active q/q̇/u",
+                "t / iLQR",
+                "status",
+            ],
+            table,
+        )
         out["problems"][name] = {"description": desc, "rows": rows}
 
     path = exp.write_json("results.json", out)

@@ -115,7 +115,12 @@ CI_LEVELS = ("small",)
 CI_TARGETS = 1
 
 # Fixed, seed-independent displacement used to warm up a task before its first timed job.
-_WARMUP: dict[str, Any] = {"translation": (0.01, -0.005, 0.004), "axis": (0.3, 0.5, 0.8), "angle": math.radians(3.0), "scale": 1.02}
+_WARMUP: dict[str, Any] = {
+    "translation": (0.01, -0.005, 0.004),
+    "axis": (0.3, 0.5, 0.8),
+    "angle": math.radians(3.0),
+    "scale": 1.02,
+}
 
 # Fields of a job record that are timings (they are all that may differ between runs).
 TIME_FIELDS = ("time_s", "solver_time_s")
@@ -168,9 +173,13 @@ def draw_target(rng: np.random.Generator, level: Level, nq: int) -> Draw:
     sign = 1.0 if rng.random() < 0.5 else -1.0
     qd = rng.uniform(-QD_INIT_MAX, QD_INIT_MAX, size=nq)
     t = level.translation_m * direction
-    return Draw(translation=(float(t[0]), float(t[1]), float(t[2])),
-                axis=(float(axis[0]), float(axis[1]), float(axis[2])), angle=math.radians(level.angle_deg),
-                scale=1.0 + sign * level.scale, qd_init=tuple(float(x) for x in qd))
+    return Draw(
+        translation=(float(t[0]), float(t[1]), float(t[2])),
+        axis=(float(axis[0]), float(axis[1]), float(axis[2])),
+        angle=math.radians(level.angle_deg),
+        scale=1.0 + sign * level.scale,
+        qd_init=tuple(float(x) for x in qd),
+    )
 
 
 # ============================================================================ per-process context
@@ -295,9 +304,18 @@ def _job_record(name: str, task: Any, target: Any, res: Any, wall: float) -> dic
 
 def _exception_record(name: str, exc: BaseException, wall: float) -> dict[str, Any]:
     rec: dict[str, Any] = {
-        "solver": name, "exception": {"type": type(exc).__name__, "message": str(exc)[:MESSAGE_CHARS]},
-        "converged": False, "error": None, "iterations": None, "time_s": wall, "solver_time_s": None,
-        "violation": None, "max_speed": None, "velocity_violation": None, "final_speed": None, "message": None,
+        "solver": name,
+        "exception": {"type": type(exc).__name__, "message": str(exc)[:MESSAGE_CHARS]},
+        "converged": False,
+        "error": None,
+        "iterations": None,
+        "time_s": wall,
+        "solver_time_s": None,
+        "violation": None,
+        "max_speed": None,
+        "velocity_violation": None,
+        "final_speed": None,
+        "message": None,
         "warnings": {},
     }
     if name == "diffik":
@@ -370,13 +388,29 @@ def certify(task: Any, q0: np.ndarray, target: Any) -> dict[str, Any]:
         return cache["e"], cache["J"]
 
     t0 = time.perf_counter()
-    out: dict[str, Any] = {"certified": False, "error": None, "violation": None, "nfev": None, "status": None,
-                           "reason": None, "time_s": None}
+    out: dict[str, Any] = {
+        "certified": False,
+        "error": None,
+        "violation": None,
+        "nfev": None,
+        "status": None,
+        "reason": None,
+        "time_s": None,
+    }
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            sol = least_squares(lambda q: both(q)[0], x0, jac=lambda q: both(q)[1], bounds=(lo, hi), method="trf",
-                                ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=CERT_MAX_NFEV)
+            sol = least_squares(
+                lambda q: both(q)[0],
+                x0,
+                jac=lambda q: both(q)[1],
+                bounds=(lo, hi),
+                method="trf",
+                ftol=1e-12,
+                xtol=1e-12,
+                gtol=1e-12,
+                max_nfev=CERT_MAX_NFEV,
+            )
             err = float(np.linalg.norm(task.error(sol.x, target)))
         viol = lim.position_violation(sol.x)
         out.update(error=_finite(err), violation=_finite(viol), nfev=int(sol.nfev), status=int(sol.status))
@@ -412,21 +446,38 @@ def run_target(spec: TargetSpec) -> dict[str, Any]:
     q0 = np.asarray(task.system.q0, dtype=float)
     d = draw_target(target_rng(spec.seed, spec.system, spec.kind, spec.level, spec.index), LEVELS[spec.level], task.nq)
     rec: dict[str, Any] = {
-        "system": spec.system, "kind": spec.kind, "level": spec.level, "index": spec.index, "nq": int(task.nq),
+        "system": spec.system,
+        "kind": spec.kind,
+        "level": spec.level,
+        "index": spec.index,
+        "nq": int(task.nq),
         "spawn_key": list(spawn_key(spec.system, spec.kind, spec.level, spec.index)),
-        "displacement": {"translation_m": list(d.translation), "axis": list(d.axis), "angle_rad": d.angle,
-                         "scale": d.scale},
-        "qd_init": list(d.qd_init), "certification": None, "jobs": {},
+        "displacement": {
+            "translation_m": list(d.translation),
+            "axis": list(d.axis),
+            "angle_rad": d.angle,
+            "scale": d.scale,
+        },
+        "qd_init": list(d.qd_init),
+        "certification": None,
+        "jobs": {},
     }
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            target = cg.control.displaced_target(task, q0, translation=d.translation, axis=d.axis, angle=d.angle,
-                                                 scale=d.scale)
+            target = cg.control.displaced_target(
+                task, q0, translation=d.translation, axis=d.axis, angle=d.angle, scale=d.scale
+            )
     except Exception as exc:
-        rec["certification"] = {"certified": False, "error": None, "violation": None, "nfev": None, "status": None,
-                                "reason": f"target construction failed: {type(exc).__name__}: {exc}"[:MESSAGE_CHARS],
-                                "time_s": 0.0}
+        rec["certification"] = {
+            "certified": False,
+            "error": None,
+            "violation": None,
+            "nfev": None,
+            "status": None,
+            "reason": f"target construction failed: {type(exc).__name__}: {exc}"[:MESSAGE_CHARS],
+            "time_s": 0.0,
+        }
         return rec
     rec["certification"] = certify(task, q0, target)
     if not rec["certification"]["certified"]:
@@ -479,8 +530,13 @@ def plan(config: Config) -> tuple[list[tuple[str, str]], list[dict[str, str]]]:
         for kind in config.kinds:
             need = cg.geometry.N_POINTS[kind]
             if len(sysobj.end_frames) < need:
-                skipped.append({"system": system, "kind": kind,
-                                "reason": f"needs {need} end points, the system has {len(sysobj.end_frames)}"})
+                skipped.append(
+                    {
+                        "system": system,
+                        "kind": kind,
+                        "reason": f"needs {need} end points, the system has {len(sysobj.end_frames)}",
+                    }
+                )
                 continue
             try:
                 with warnings.catch_warnings():
@@ -489,24 +545,38 @@ def plan(config: Config) -> tuple[list[tuple[str, str]], list[dict[str, str]]]:
                     q0 = np.asarray(sysobj.q0, dtype=float)
                     task.error(q0, cg.control.displaced_target(task, q0))
             except cg.DegeneratePrimitiveError as exc:
-                skipped.append({"system": system, "kind": kind,
-                                "reason": f"degenerate primitive at q0: {str(exc)[:MESSAGE_CHARS]}"})
+                skipped.append(
+                    {
+                        "system": system,
+                        "kind": kind,
+                        "reason": f"degenerate primitive at q0: {str(exc)[:MESSAGE_CHARS]}",
+                    }
+                )
                 continue
             except Exception as exc:
-                skipped.append({"system": system, "kind": kind,
-                                "reason": f"{type(exc).__name__} at q0: {str(exc)[:MESSAGE_CHARS]}"})
+                skipped.append(
+                    {
+                        "system": system,
+                        "kind": kind,
+                        "reason": f"{type(exc).__name__} at q0: {str(exc)[:MESSAGE_CHARS]}",
+                    }
+                )
                 continue
             cases.append((system, kind))
     return cases, skipped
 
 
 def _specs(config: Config, system: str, kind: str) -> list[TargetSpec]:
-    return [TargetSpec(system, kind, lv, i, config.seed, config.solvers)
-            for lv in config.levels for i in range(config.targets)]
+    return [
+        TargetSpec(system, kind, lv, i, config.seed, config.solvers)
+        for lv in config.levels
+        for i in range(config.targets)
+    ]
 
 
-def run_all(config: Config, cases: Sequence[tuple[str, str]], quiet: bool = False
-            ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+def run_all(
+    config: Config, cases: Sequence[tuple[str, str]], quiet: bool = False
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Every target of every case, serially or in ``config.workers`` spawned processes.
 
     Returns (target records, per-case setup records), in the canonical order (case, level,
@@ -524,19 +594,30 @@ def run_all(config: Config, cases: Sequence[tuple[str, str]], quiet: bool = Fals
     else:
         import multiprocessing as mp
 
-        with ProcessPoolExecutor(max_workers=config.workers, mp_context=mp.get_context("spawn"),
-                                 initializer=_init_worker, initargs=(list(cases),)) as pool:
+        with ProcessPoolExecutor(
+            max_workers=config.workers,
+            mp_context=mp.get_context("spawn"),
+            initializer=_init_worker,
+            initargs=(list(cases),),
+        ) as pool:
             # largest systems first (slowest cases): fewer stragglers at the end
             order = sorted(cases, key=lambda c: -_task(*c).nq)
             futs = {pool.submit(run_case, _specs(config, *case)): case for case in order}
-            for fut in progress(as_completed(futs), f"cases ({config.workers} workers)", total=len(futs),
-                                quiet=quiet):
+            for fut in progress(as_completed(futs), f"cases ({config.workers} workers)", total=len(futs), quiet=quiet):
                 case = futs[fut]
                 try:
                     by_case[case] = fut.result()
                 except Exception as exc:  # a crashed worker (jobs' own exceptions never get here): the case is lost
-                    by_case[case] = ([], {"system": case[0], "kind": case[1], "pid": None, "warmup": None,
-                                          "error": f"{type(exc).__name__}: {str(exc)[:MESSAGE_CHARS]}"})
+                    by_case[case] = (
+                        [],
+                        {
+                            "system": case[0],
+                            "kind": case[1],
+                            "pid": None,
+                            "warmup": None,
+                            "error": f"{type(exc).__name__}: {str(exc)[:MESSAGE_CHARS]}",
+                        },
+                    )
     return [r for case in cases for r in by_case[case][0]], [by_case[case][1] for case in cases]
 
 
@@ -597,31 +678,58 @@ def _count(items: Iterable[str]) -> dict[str, int]:
 def _cert_summary(recs: Sequence[dict[str, Any]]) -> dict[str, Any]:
     cert = [r for r in recs if r["certification"]["certified"]]
     times = [r["certification"]["time_s"] for r in cert]
-    return {"candidates": len(recs), "certified": len(cert), "uncertified": len(recs) - len(cert),
-            "certification_time_median_s": _median(times)}
+    return {
+        "candidates": len(recs),
+        "certified": len(cert),
+        "uncertified": len(recs) - len(cert),
+        "certification_time_median_s": _median(times),
+    }
 
 
 def aggregate(records: Sequence[dict[str, Any]], config: Config) -> dict[str, Any]:
     """Aggregates per solver × level, per solver (all levels), per system × kind × solver, and certification counts."""
+
     def jobs_of(recs: Iterable[dict[str, Any]], s: str) -> list[dict[str, Any]]:
         return [r["jobs"][s] for r in recs if s in r["jobs"]]
 
     by_level = {lv: [r for r in records if r["level"] == lv] for lv in config.levels}
     cases = list(dict.fromkeys((r["system"], r["kind"]) for r in records))
     return {
-        "by_solver_level": [{"solver": s, "level": lv, **summarize(jobs_of(by_level[lv], s), s)}
-                            for s in config.solvers for lv in config.levels],
+        "by_solver_level": [
+            {"solver": s, "level": lv, **summarize(jobs_of(by_level[lv], s), s)}
+            for s in config.solvers
+            for lv in config.levels
+        ],
         "by_solver": [{"solver": s, **summarize(jobs_of(records, s), s)} for s in config.solvers],
-        "by_case": [{"system": sy, "kind": k, "solver": s,
-                     **summarize(jobs_of((r for r in records if (r["system"], r["kind"]) == (sy, k)), s), s)}
-                    for sy, k in cases for s in config.solvers],
+        "by_case": [
+            {
+                "system": sy,
+                "kind": k,
+                "solver": s,
+                **summarize(jobs_of((r for r in records if (r["system"], r["kind"]) == (sy, k)), s), s),
+            }
+            for sy, k in cases
+            for s in config.solvers
+        ],
         "certification_by_level": [{"level": lv, **_cert_summary(by_level[lv])} for lv in config.levels],
-        "certification_by_case": [{"system": sy, "kind": k, "level": lv,
-                                   **_cert_summary([r for r in by_level[lv] if (r["system"], r["kind"]) == (sy, k)])}
-                                  for sy, k in cases for lv in config.levels],
+        "certification_by_case": [
+            {
+                "system": sy,
+                "kind": k,
+                "level": lv,
+                **_cert_summary([r for r in by_level[lv] if (r["system"], r["kind"]) == (sy, k)]),
+            }
+            for sy, k in cases
+            for lv in config.levels
+        ],
         "certification": _cert_summary(records),
-        "nq21_ilqr_time_median_s": _median([r["jobs"]["ilqr"]["time_s"] for r in records if r["nq"] == 21
-                                            and "ilqr" in r["jobs"] and r["jobs"]["ilqr"]["exception"] is None]),
+        "nq21_ilqr_time_median_s": _median(
+            [
+                r["jobs"]["ilqr"]["time_s"]
+                for r in records
+                if r["nq"] == 21 and "ilqr" in r["jobs"] and r["jobs"]["ilqr"]["exception"] is None
+            ]
+        ),
     }
 
 
@@ -643,26 +751,42 @@ def issue_targets(agg: dict[str, Any], config: Config) -> list[dict[str, Any]]:
 
     rates = {lv: rate(sl.get(("ilqr", lv))) for lv in config.levels}
     have = [r for r in rates.values() if r is not None]
-    add("constrained iLQR converged ≥ 99.5 % at every level", all(r >= 0.995 for r in have) if have else None,
-        ", ".join(f"{lv} {pct(r)}" for lv, r in rates.items()))
+    add(
+        "constrained iLQR converged ≥ 99.5 % at every level",
+        all(r >= 0.995 for r in have) if have else None,
+        ", ".join(f"{lv} {pct(r)}" for lv, r in rates.items()),
+    )
     a = so.get("ilqr")
-    add("0 iLQR trajectories outside limits", None if not a or not a["runs"] else a["outside_limits"] == 0,
-        "n/a" if not a else f"{a['outside_limits']} of {a['runs']} (max {_fmt(a['max_violation'])})")
+    add(
+        "0 iLQR trajectories outside limits",
+        None if not a or not a["runs"] else a["outside_limits"] == 0,
+        "n/a" if not a else f"{a['outside_limits']} of {a['runs']} (max {_fmt(a['max_violation'])})",
+    )
     few = [x for lv in ("small", "medium") if (x := sl.get(("ilqr", lv))) is not None and x["runs"]]
     share = sum(x["within_5_iterations_rate"] * x["runs"] for x in few) / sum(x["runs"] for x in few) if few else None
-    add("≥ 95 % of small/medium iLQR runs converged in ≤ 5 iterations", None if share is None else share >= 0.95,
-        pct(share))
+    add(
+        "≥ 95 % of small/medium iLQR runs converged in ≤ 5 iterations",
+        None if share is None else share >= 0.95,
+        pct(share),
+    )
     t21 = agg["nq21_ilqr_time_median_s"]
-    add("median iLQR solve ≤ 100 ms for the 21-DOF systems", None if t21 is None else t21 <= 0.100,
-        "n/a" if t21 is None else f"{1e3 * t21:.1f} ms")
+    add(
+        "median iLQR solve ≤ 100 ms for the 21-DOF systems",
+        None if t21 is None else t21 <= 0.100,
+        "n/a" if t21 is None else f"{1e3 * t21:.1f} ms",
+    )
     a = so.get("ilqr_moving")
-    add("moving start ≥ 99 % converged, 0 outside",
+    add(
+        "moving start ≥ 99 % converged, 0 outside",
         None if not a or not a["runs"] else (a["convergence_rate"] >= 0.99 and a["outside_limits"] == 0),
-        "n/a" if not a or not a["runs"] else f"{pct(a['convergence_rate'])}, {a['outside_limits']} outside")
+        "n/a" if not a or not a["runs"] else f"{pct(a['convergence_rate'])}, {a['outside_limits']} outside",
+    )
     a = so.get("gn")
-    add("GN ≥ 99 %, 0 outside", None if not a or not a["runs"] else (a["convergence_rate"] >= 0.99
-                                                                    and a["outside_limits"] == 0),
-        "n/a" if not a or not a["runs"] else f"{pct(a['convergence_rate'])}, {a['outside_limits']} outside")
+    add(
+        "GN ≥ 99 %, 0 outside",
+        None if not a or not a["runs"] else (a["convergence_rate"] >= 0.99 and a["outside_limits"] == 0),
+        "n/a" if not a or not a["runs"] else f"{pct(a['convergence_rate'])}, {a['outside_limits']} outside",
+    )
     a = so.get("diffik")
     r = rate(a, "diffik_1e-4_in_2.5s_rate")
     add("diff IK ≥ 95 % within 1e-4 in 2.5 s", None if r is None else r >= 0.95, pct(r))
@@ -681,37 +805,68 @@ def _fmt(x: Any, spec: str = ".2g") -> str:
     return str(x)
 
 
-def print_report(agg: dict[str, Any], targets: list[dict[str, Any]], skipped: Sequence[dict[str, str]],
-                 config: Config, wall_s: float, setup: Sequence[dict[str, Any]] = ()) -> None:
+def print_report(
+    agg: dict[str, Any],
+    targets: list[dict[str, Any]],
+    skipped: Sequence[dict[str, str]],
+    config: Config,
+    wall_s: float,
+    setup: Sequence[dict[str, Any]] = (),
+) -> None:
     """The compact table (solver × level), certification counts, skipped cases and PASS/MISS lines."""
     cert = {c["level"]: c for c in agg["certification_by_level"]}
     rows = []
     for a in agg["by_solver_level"]:
         ct = cert[a["level"]]["certification_time_median_s"]
         ratio = a["time_median_s"] / ct if a["time_median_s"] is not None and ct else None
-        rows.append([
-            a["solver"], a["level"], str(a["runs"]),
-            "-" if a["convergence_rate"] is None else f"{100 * a['convergence_rate']:.1f}",
-            _fmt(a["iterations_median"], ".0f"), _fmt(a["iterations_max"]),
-            _fmt(None if a["time_median_s"] is None else 1e3 * a["time_median_s"], ".1f"),
-            _fmt(None if a["time_max_s"] is None else 1e3 * a["time_max_s"], ".0f"),
-            _fmt(ratio, ".1f"),
-            _fmt(a["max_violation"], ".2g"), str(a["outside_limits"]), str(a["converged_outside_limits"]),
-            _fmt(a["max_speed"], ".2f"),
-            "-" if a["within_5_iterations_rate"] is None else f"{100 * a['within_5_iterations_rate']:.1f}",
-            "-" if a["diffik_1e-4_in_2.5s_rate"] is None else f"{100 * a['diffik_1e-4_in_2.5s_rate']:.1f}",
-            str(a["exceptions"]),
-        ])
+        rows.append(
+            [
+                a["solver"],
+                a["level"],
+                str(a["runs"]),
+                "-" if a["convergence_rate"] is None else f"{100 * a['convergence_rate']:.1f}",
+                _fmt(a["iterations_median"], ".0f"),
+                _fmt(a["iterations_max"]),
+                _fmt(None if a["time_median_s"] is None else 1e3 * a["time_median_s"], ".1f"),
+                _fmt(None if a["time_max_s"] is None else 1e3 * a["time_max_s"], ".0f"),
+                _fmt(ratio, ".1f"),
+                _fmt(a["max_violation"], ".2g"),
+                str(a["outside_limits"]),
+                str(a["converged_outside_limits"]),
+                _fmt(a["max_speed"], ".2f"),
+                "-" if a["within_5_iterations_rate"] is None else f"{100 * a['within_5_iterations_rate']:.1f}",
+                "-" if a["diffik_1e-4_in_2.5s_rate"] is None else f"{100 * a['diffik_1e-4_in_2.5s_rate']:.1f}",
+                str(a["exceptions"]),
+            ]
+        )
     print_table(
         f"robustness: {agg['certification']['certified']} certified targets "
         f"({agg['certification']['uncertified']} uncertified), seed {config.seed}, {wall_s:.0f} s",
-        ["solver", "level", "runs", "conv %", "it med", "it max", "t med ms", "t max ms", "t/cert",
-         "max viol", "outside", "conv&out", "max|qd|", "≤5 it %", "1e-4@2.5s %", "exc"],
+        [
+            "solver",
+            "level",
+            "runs",
+            "conv %",
+            "it med",
+            "it max",
+            "t med ms",
+            "t max ms",
+            "t/cert",
+            "max viol",
+            "outside",
+            "conv&out",
+            "max|qd|",
+            "≤5 it %",
+            "1e-4@2.5s %",
+            "exc",
+        ],
         rows,
     )
     print("  t/cert: median solve time / median time of the certifying scipy least-squares solve (same run)")
-    print("  certification: " + ", ".join(f"{c['level']} {c['certified']}/{c['candidates']}"
-                                         for c in agg["certification_by_level"]))
+    print(
+        "  certification: "
+        + ", ".join(f"{c['level']} {c['certified']}/{c['candidates']}" for c in agg["certification_by_level"])
+    )
     if skipped:
         print("  skipped (system, kind): " + "; ".join(f"{s['system']}/{s['kind']}" for s in skipped))
     lost = [c for c in setup if c.get("error")]
@@ -733,8 +888,17 @@ def _versions() -> dict[str, str | None]:
         except md.PackageNotFoundError:
             out[pkg] = None
     try:  # read-only: the commit the run was made from (the tree may have local edits)
-        out["git_commit"] = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10,
-                                           check=False, cwd=os.path.dirname(os.path.abspath(__file__))).stdout.strip() or None
+        out["git_commit"] = (
+            subprocess.run(
+                ["git", "rev-parse", "HEAD"],
+                capture_output=True,
+                text=True,
+                timeout=10,
+                check=False,
+                cwd=os.path.dirname(os.path.abspath(__file__)),
+            ).stdout.strip()
+            or None
+        )
     except (OSError, subprocess.SubprocessError):
         out["git_commit"] = None
     return out
@@ -747,8 +911,13 @@ def _machine() -> dict[str, Any]:
             cpu = next((ln.split(":", 1)[1].strip() for ln in f if ln.startswith("model name")), cpu)
     except OSError:
         pass
-    return {"platform": platform.platform(), "machine": platform.machine(), "cpu": cpu,
-            "cpu_count": os.cpu_count(), "python_implementation": platform.python_implementation()}
+    return {
+        "platform": platform.platform(),
+        "machine": platform.machine(),
+        "cpu": cpu,
+        "cpu_count": os.cpu_count(),
+        "python_implementation": platform.python_implementation(),
+    }
 
 
 # ============================================================================ CLI
@@ -756,24 +925,50 @@ def build_parser() -> argparse.ArgumentParser:
     """The command-line interface (``--help``): the harness's ``--out/--seed/--quiet`` plus ours."""
     names = list(cg.systems.names())
     ap = experiment_parser("robustness", __doc__, seed=DEFAULT_SEED, out=DEFAULT_OUT, prog="robustness.py")
-    ap.add_argument("--targets", type=positive_int, default=DEFAULT_TARGETS, metavar="N",
-                    help="random targets per (system, kind, level), before certification")
-    ap.add_argument("--systems", nargs="+", choices=names, default=names, metavar="NAME",
-                    help="systems to run")
-    ap.add_argument("--kinds", nargs="+", choices=list(cg.KINDS), default=list(cg.KINDS), metavar="KIND",
-                    help="primitive kinds")
-    ap.add_argument("--levels", nargs="+", choices=list(LEVELS), default=list(LEVELS), metavar="LEVEL",
-                    help="displacement levels: " + "; ".join(
-                        f"{k} = {v.translation_m * 100:g} cm, {v.angle_deg:g} deg, scale 1 ± {v.scale:g}"
-                        for k, v in LEVELS.items()))
-    ap.add_argument("--solvers", nargs="+", choices=list(SOLVERS), default=list(SOLVERS), metavar="SOLVER",
-                    help="ilqr (from rest), ilqr_moving (initial joint velocity ~ U(±0.2 rad/s)), gn (Gauss–Newton "
-                         "IK), diffik (differential IK); each with its default options")
-    ap.add_argument("--ci", action="store_true",
-                    help=f"small mode: systems {', '.join(CI_SYSTEMS)}, kinds {', '.join(CI_KINDS)}, level "
-                         f"{', '.join(CI_LEVELS)}, {CI_TARGETS} target per case (replaces those four options)")
-    ap.add_argument("--workers", type=positive_int, default=1, metavar="W",
-                    help="worker processes (spawn); same records as serial except timings (which are noisier)")
+    ap.add_argument(
+        "--targets",
+        type=positive_int,
+        default=DEFAULT_TARGETS,
+        metavar="N",
+        help="random targets per (system, kind, level), before certification",
+    )
+    ap.add_argument("--systems", nargs="+", choices=names, default=names, metavar="NAME", help="systems to run")
+    ap.add_argument(
+        "--kinds", nargs="+", choices=list(cg.KINDS), default=list(cg.KINDS), metavar="KIND", help="primitive kinds"
+    )
+    ap.add_argument(
+        "--levels",
+        nargs="+",
+        choices=list(LEVELS),
+        default=list(LEVELS),
+        metavar="LEVEL",
+        help="displacement levels: "
+        + "; ".join(
+            f"{k} = {v.translation_m * 100:g} cm, {v.angle_deg:g} deg, scale 1 ± {v.scale:g}" for k, v in LEVELS.items()
+        ),
+    )
+    ap.add_argument(
+        "--solvers",
+        nargs="+",
+        choices=list(SOLVERS),
+        default=list(SOLVERS),
+        metavar="SOLVER",
+        help="ilqr (from rest), ilqr_moving (initial joint velocity ~ U(±0.2 rad/s)), gn (Gauss–Newton "
+        "IK), diffik (differential IK); each with its default options",
+    )
+    ap.add_argument(
+        "--ci",
+        action="store_true",
+        help=f"small mode: systems {', '.join(CI_SYSTEMS)}, kinds {', '.join(CI_KINDS)}, level "
+        f"{', '.join(CI_LEVELS)}, {CI_TARGETS} target per case (replaces those four options)",
+    )
+    ap.add_argument(
+        "--workers",
+        type=positive_int,
+        default=1,
+        metavar="W",
+        help="worker processes (spawn); same records as serial except timings (which are noisier)",
+    )
     return ap
 
 
@@ -788,9 +983,16 @@ def config_from_args(args: argparse.Namespace) -> Config:
     if args.ci:
         systems = [s for s in CI_SYSTEMS if s in cg.systems.names()]
         kinds, levels, targets = list(CI_KINDS), list(CI_LEVELS), CI_TARGETS
-    return Config(systems=_dedup(systems, cg.systems.names()), kinds=_dedup(kinds, cg.KINDS),
-                  levels=_dedup(levels, list(LEVELS)), solvers=_dedup(args.solvers, SOLVERS), targets=targets,
-                  seed=args.seed, workers=args.workers, ci=bool(args.ci))
+    return Config(
+        systems=_dedup(systems, cg.systems.names()),
+        kinds=_dedup(kinds, cg.KINDS),
+        levels=_dedup(levels, list(LEVELS)),
+        solvers=_dedup(args.solvers, SOLVERS),
+        targets=targets,
+        seed=args.seed,
+        workers=args.workers,
+        ci=bool(args.ci),
+    )
 
 
 def run(config: Config, *, progress: bool = True) -> dict[str, Any]:
@@ -826,10 +1028,16 @@ def run(config: Config, *, progress: bool = True) -> dict[str, Any]:
     agg = aggregate(records, config)
     return {
         "schema_version": SCHEMA_VERSION,
-        "config": {**asdict(config), "level_definitions": {k: asdict(v) for k, v in LEVELS.items()},
-                   "qd_init_max_rad_s": QD_INIT_MAX, "certification_tol": CERT_TOL,
-                   "violation_tol": VIOLATION_TOL, "diffik_tol": DIFFIK_TOL, "diffik_horizon_s": DIFFIK_HORIZON_S,
-                   "few_iterations": FEW_ITERATIONS},
+        "config": {
+            **asdict(config),
+            "level_definitions": {k: asdict(v) for k, v in LEVELS.items()},
+            "qd_init_max_rad_s": QD_INIT_MAX,
+            "certification_tol": CERT_TOL,
+            "violation_tol": VIOLATION_TOL,
+            "diffik_tol": DIFFIK_TOL,
+            "diffik_horizon_s": DIFFIK_HORIZON_S,
+            "few_iterations": FEW_ITERATIONS,
+        },
         "cases": [{"system": s, "kind": k} for s, k in cases],
         "skipped": skipped,
         "setup": setup,

@@ -30,7 +30,9 @@ Reference: T. Löw, C. Bilaloglu, S. Calinon, *Cooperative Task Spaces for Multi
 Manipulation Control based on Similarity Transformations*.
 """
 
+from . import control, diagnostics, systems, validation
 from .algebra import Multivector
+from .cooperative import CooperativeTask, cooperative_task, displaced_target
 from .errors import (
     CacheWarning,
     ChartError,
@@ -88,52 +90,47 @@ from .geometry import (
     well_definedness,
 )
 
-from . import control, diagnostics, systems, validation
-from .cooperative import CooperativeTask, cooperative_task, displaced_target
-
 __version__ = "0.1.0"
 
 __all__ = [
-    "Multivector",
-    "control",
-    "diagnostics",
-    "systems",
-    "validation",
-    "CooperativeTask",
-    "cooperative_task",
-    "displaced_target",
+    "KINDS",
+    "TANGENT_BASIS",
     "CacheWarning",
     "ChartError",
     "ChartWarning",
     "CompilationError",
     "CoopGAError",
     "CoopGAWarning",
+    "CooperativeTask",
     "DegeneracyWarning",
     "DegeneratePrimitiveError",
+    "Dilator",
     "InfeasibleConstraintsError",
     "InvalidInputError",
     "InvalidVersorError",
     "JointLimitWarning",
+    "Motor",
+    "Multivector",
     "NonFiniteError",
     "PrecisionWarning",
-    "ThreadingError",
-    "UnknownNameError",
-    "UnsupportedJointError",
-    "KINDS",
-    "TANGENT_BASIS",
-    "Dilator",
-    "Motor",
     "Primitive",
     "Rotor",
     "Similarity",
+    "ThreadingError",
     "Translator",
+    "UnknownNameError",
+    "UnsupportedJointError",
     "VersorGroup",
     "apply",
     "center",
     "circle",
     "closest_point_to_origin",
+    "control",
+    "cooperative_task",
     "decompose",
+    "diagnostics",
     "direction",
+    "displaced_target",
     "endpoints",
     "exp",
     "kind_of",
@@ -151,7 +148,9 @@ __all__ = [
     "similarity",
     "similarity_from_unit",
     "sphere",
+    "systems",
     "to_euclidean",
     "unit_primitive",
+    "validation",
     "well_definedness",
 ]

@@ -246,8 +246,10 @@ def _warn_fell_back(primary: Path, why: str, used: Path) -> None:
 
 def _no_cache_message(tried: list[tuple[Path, str]]) -> str:
     where = "; ".join(f"{d}: {err}" for d, err in tried)
-    return (f"coop_ga: no writable compile cache ({where}); CasADi functions run on the (slower, same results) "
-            "virtual machine. Set COOP_GA_CACHE to a writable directory.")
+    return (
+        f"coop_ga: no writable compile cache ({where}); CasADi functions run on the (slower, same results) "
+        "virtual machine. Set COOP_GA_CACHE to a writable directory."
+    )
 
 
 def gcc_available() -> bool:
@@ -257,8 +259,11 @@ def gcc_available() -> bool:
 
 def _rename(f: ca.Function, name: str) -> ca.Function:
     """Re-trace ``f`` under a new name (avoids clashes such as ``expf`` with libm)."""
-    args = f.sx_in() if f.is_a("SXFunction") else f.mx_in()
-    return ca.Function(name, args, f.call(args), f.name_in(), f.name_out())
+    if f.is_a("SXFunction"):
+        sx_args = f.sx_in()
+        return ca.Function(name, sx_args, f.call(sx_args), f.name_in(), f.name_out())
+    mx_args = f.mx_in()
+    return ca.Function(name, mx_args, f.call(mx_args), f.name_in(), f.name_out())
 
 
 def _sha256_file(path: Path) -> str | None:
@@ -449,15 +454,19 @@ def _load_or_build(d: Path, f: ca.Function, src: str, key: str, flags: tuple[str
 
 
 def _no_gcc_message() -> str:
-    return ("coop_ga: gcc was not found on PATH; CasADi functions run on the (slower, same results) virtual "
-            "machine. Install gcc (e.g. apt-get install gcc), or set COOP_GA_CODEGEN=0 to use the VM without "
-            "this warning.")
+    return (
+        "coop_ga: gcc was not found on PATH; CasADi functions run on the (slower, same results) virtual "
+        "machine. Install gcc (e.g. apt-get install gcc), or set COOP_GA_CODEGEN=0 to use the VM without "
+        "this warning."
+    )
 
 
 def _gcc_failed_message(name: str, detail: str) -> str:
-    return (f"coop_ga: compiling {name} with gcc failed ({detail}); CasADi functions run on the (slower, same "
-            "results) virtual machine. Check the compiler (gcc --version, a test compile), or set "
-            "COOP_GA_CODEGEN=0 to use the VM without this warning.")
+    return (
+        f"coop_ga: compiling {name} with gcc failed ({detail}); CasADi functions run on the (slower, same "
+        "results) virtual machine. Check the compiler (gcc --version, a test compile), or set "
+        "COOP_GA_CODEGEN=0 to use the VM without this warning."
+    )
 
 
 def _compile(f: ca.Function, flags: tuple[str, ...]) -> ca.Function:
@@ -471,9 +480,12 @@ def _compile(f: ca.Function, flags: tuple[str, ...]) -> ca.Function:
         cg.add(f)
         src = cg.dump()  # in memory: no dependence on a usable TMPDIR
     except (RuntimeError, NotImplementedError) as e:  # e.g. a function CasADi cannot generate C for
-        raise _Fallback("codegen_failed", f"coop_ga: CasADi cannot generate C for {f.name()} ({e}); it runs on "
-                        "the (slower) virtual machine.") from None
-    key = hashlib.sha256((src + " ".join(flags) + ca.__version__ + _cpu_signature()).encode()).hexdigest()[:20]
+        raise _Fallback(
+            "codegen_failed",
+            f"coop_ga: CasADi cannot generate C for {f.name()} ({e}); it runs on the (slower) virtual machine.",
+        ) from None
+    version = ca.__version__  # type: ignore[attr-defined]  # casadi's stubs omit __version__ (set at import)
+    key = hashlib.sha256((src + " ".join(flags) + version + _cpu_signature()).encode()).hexdigest()[:20]
     entry = f"{f.name()}_{key}.so"
     dirs = _dirs()
     # a verified entry is loaded without writing anything, so a read-only (pre-populated) cache works;
@@ -526,9 +538,11 @@ class Binding:
         with _buffer_lock:
             buf, ev = function.buffer()  # own work vectors and memory object (casadi checkout)
         for i, a in enumerate(self.inputs):
-            buf.set_arg(i, memoryview(a.T))
+            # a.T.data is memoryview(a.T); the stub splits SWIG's (buffer, size) pair into two parameters
+            buf.set_arg(i, a.T.data)  # type: ignore[call-arg]
         for i, a in enumerate(self.outputs):
-            buf.set_res(i, memoryview(a.T))
+            # a.T.data is memoryview(a.T); the stub splits SWIG's (buffer, size) pair into two parameters
+            buf.set_res(i, a.T.data)  # type: ignore[call-arg]
         self._buffer = buf  # ev holds a raw pointer into buf: keep buf (and the arrays) alive with it
         self.eval = ev
 
@@ -562,8 +576,15 @@ class CompiledFunction:
         The evaluated ``casadi.Function`` (the ``casadi.external`` or ``f`` itself).
     """
 
-    def __init__(self, f: ca.Function, codegen: bool | str = "auto", check_finite: bool = True,
-                 flags: tuple[str, ...] = _CFLAGS, *, fallback: bool = True):
+    def __init__(
+        self,
+        f: ca.Function,
+        codegen: bool | str = "auto",
+        check_finite: bool = True,
+        flags: tuple[str, ...] = _CFLAGS,
+        *,
+        fallback: bool = True,
+    ):
         if not isinstance(f, ca.Function):
             raise InvalidInputError(f"CompiledFunction needs a casadi.Function, got {type(f).__name__}")
         self.source = f
@@ -596,9 +617,11 @@ class CompiledFunction:
             if not fallback:
                 raise CompilationError(f"compiling {f.name()} failed: {type(e).__name__}: {e}") from e
             reason = "unexpected"
-            message = (f"coop_ga: compiling {f.name()} failed unexpectedly ({type(e).__name__}: {e}); CasADi "
-                       "functions run on the (slower) virtual machine. Please report this; set COOP_GA_CODEGEN=0 "
-                       "to use the VM without this warning.")
+            message = (
+                f"coop_ga: compiling {f.name()} failed unexpectedly ({type(e).__name__}: {e}); CasADi "
+                "functions run on the (slower) virtual machine. Please report this; set COOP_GA_CODEGEN=0 "
+                "to use the VM without this warning."
+            )
         self.fallback_reason = reason
         with _state_lock:
             _stats["vm"] += 1
@@ -652,7 +675,9 @@ class CompiledFunction:
                 try:
                     a = np.asarray(a, dtype=float)
                 except (TypeError, ValueError):
-                    raise InvalidInputError(f"argument {i} of {self.name} must be numeric, got {type(a).__name__}") from None
+                    raise InvalidInputError(
+                        f"argument {i} of {self.name} must be numeric, got {type(a).__name__}"
+                    ) from None
                 if a.size != flat.size:
                     raise InvalidInputError(
                         f"argument {i} of {self.name} must have {dst.size} entries (shape {dst.shape}), got shape {a.shape}"

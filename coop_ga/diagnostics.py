@@ -27,9 +27,9 @@ import threading
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import TracebackType
+from types import FrameType, TracebackType
 
-__all__ = ["collect_warnings", "warn", "user_stacklevel"]
+__all__ = ["collect_warnings", "user_stacklevel", "warn"]
 
 _PKG_DIR = str(Path(__file__).resolve().parent)
 _local = threading.local()
@@ -45,7 +45,7 @@ def _stack() -> list[collect_warnings]:
 def user_stacklevel() -> int:
     """``stacklevel`` for a ``warnings.warn`` call made by the *caller* of this function that
     attributes the warning to the first frame outside the coop_ga package."""
-    frame = sys._getframe(1)  # the function that will call warnings.warn
+    frame: FrameType | None = sys._getframe(1)  # the function that will call warnings.warn
     level = 1
     while frame is not None and frame.f_code.co_filename.startswith(_PKG_DIR):
         frame = frame.f_back

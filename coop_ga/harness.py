@@ -140,20 +140,33 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescript
     """``--help`` keeps the description's layout (the script's docstring) and shows every default."""
 
 
-def experiment_parser(name: str, description: str | None, *, seed: int | None = 0, out: str | Path | None = None,
-                      prog: str | None = None, epilog: str | None = None) -> argparse.ArgumentParser:
+def experiment_parser(
+    name: str,
+    description: str | None,
+    *,
+    seed: int | None = 0,
+    out: str | Path | None = None,
+    prog: str | None = None,
+    epilog: str | None = None,
+) -> argparse.ArgumentParser:
     """An ``ArgumentParser`` with the options every script has.
 
     ``--out`` (default ``out`` or ``results/<name>``), ``--seed`` (default ``seed``; with
     ``seed=None`` the option defaults to None, meaning "each sub-script's own seed"), ``--quiet``.
     ``--help`` shows ``description`` as written and the default of every option.
     """
-    p = argparse.ArgumentParser(prog=prog or f"{name}.py", description=description, epilog=epilog,
-                                formatter_class=HelpFormatter)
-    p.add_argument("--out", type=Path, default=Path(out) if out is not None else Path("results") / name,
-                   help="output directory (created if needed)")
-    p.add_argument("--seed", type=nonneg_int, default=seed,
-                   help="seed of numpy.random.default_rng, used for every random draw")
+    p = argparse.ArgumentParser(
+        prog=prog or f"{name}.py", description=description, epilog=epilog, formatter_class=HelpFormatter
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=Path(out) if out is not None else Path("results") / name,
+        help="output directory (created if needed)",
+    )
+    p.add_argument(
+        "--seed", type=nonneg_int, default=seed, help="seed of numpy.random.default_rng, used for every random draw"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bars or stage timers on stderr")
     return p
 
@@ -230,8 +243,16 @@ def progress(iterable: Iterable[Any], desc: str, *, total: int | None = None, qu
     if not quiet:
         _end_stage_line()
     tty = hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
-    return tqdm(iterable, desc=desc, total=total, disable=quiet, file=sys.stderr, dynamic_ncols=True,
-                mininterval=0.1 if tty else 10.0, leave=True)
+    return tqdm(
+        iterable,
+        desc=desc,
+        total=total,
+        disable=quiet,
+        file=sys.stderr,
+        dynamic_ncols=True,
+        mininterval=0.1 if tty else 10.0,
+        leave=True,
+    )
 
 
 _stage_line_open = False  # a stage printed "label ..." and nothing has ended that line yet
@@ -255,7 +276,7 @@ class stage:
     def __init__(self, label: str, quiet: bool = False):
         self.label, self.quiet, self.seconds = label, quiet, float("nan")
 
-    def __enter__(self) -> stage:  # noqa: PYI034
+    def __enter__(self) -> stage:
         global _stage_line_open
         self._t0 = time.perf_counter()
         if not self.quiet:
@@ -264,8 +285,9 @@ class stage:
             _stage_line_open = True
         return self
 
-    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
-                 tb: TracebackType | None) -> None:
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
         global _stage_line_open
         self.seconds = time.perf_counter() - self._t0
         if not self.quiet:
@@ -288,8 +310,9 @@ class Experiment:
     After :meth:`parse`: ``args``, ``out`` (created), ``seed``, ``quiet`` and ``rng``.
     """
 
-    def __init__(self, file: str | Path, description: str | None, *, seed: int | None = 0,
-                 out: str | Path | None = None):
+    def __init__(
+        self, file: str | Path, description: str | None, *, seed: int | None = 0, out: str | Path | None = None
+    ):
         self.name = Path(file).stem
         self.parser = experiment_parser(self.name, description, seed=seed, out=out, prog=Path(file).name)
         self.args: argparse.Namespace | None = None

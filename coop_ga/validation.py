@@ -33,17 +33,17 @@ if TYPE_CHECKING:
 
 __all__ = [
     "array",
-    "vector",
-    "configuration",
-    "scalar",
-    "positive",
-    "nonnegative",
-    "integer",
     "choice",
-    "weight",
-    "indices",
+    "configuration",
     "frames",
+    "indices",
+    "integer",
+    "nonnegative",
+    "positive",
+    "scalar",
     "target",
+    "vector",
+    "weight",
 ]
 
 
@@ -98,8 +98,15 @@ def configuration(q: Any, nq: int, what: str = "q", *, owner: str = "", joint_na
         raise InvalidInputError(f"{exc}{who}{names}") from None
 
 
-def scalar(x: Any, what: str, *, low: float | None = None, high: float | None = None, low_open: bool = False,
-           allow_inf: bool = False) -> float:
+def scalar(
+    x: Any,
+    what: str,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    allow_inf: bool = False,
+) -> float:
     """A real number (not a bool, string, array or complex), optionally within [low, high] (or (low, high])."""
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real):
         if isinstance(x, np.ndarray) and x.shape == () and x.dtype.kind in "fiu":
@@ -152,7 +159,9 @@ def weight(W: Any, n: int, what: str, *, definite: bool) -> np.ndarray:
     elif a.shape == (n,):
         a = np.diag(a)
     elif a.shape != (n, n):
-        raise InvalidInputError(f"{what} must be a scalar, a ({n},) diagonal or a ({n}, {n}) matrix, got shape {a.shape}")
+        raise InvalidInputError(
+            f"{what} must be a scalar, a ({n},) diagonal or a ({n}, {n}) matrix, got shape {a.shape}"
+        )
     if not np.allclose(a, a.T, rtol=1e-12, atol=1e-12 * max(1.0, float(np.abs(a).max()))):
         raise InvalidInputError(f"{what} must be symmetric")
     a = 0.5 * (a + a.T)
@@ -168,8 +177,9 @@ def indices(x: Any, n: int, size: int, what: str, *, labels: Sequence[str] = ())
     """``n`` distinct integer indices into a sequence of ``size`` items (e.g. end frames)."""
     listing = f" ({', '.join(f'{i}: {s}' for i, s in enumerate(labels))})" if labels else ""
     if isinstance(x, (str, bytes)) or not isinstance(x, Sequence | np.ndarray):
-        raise InvalidInputError(f"{what} must be a sequence of {n} distinct indices into {size} items{listing}; "
-                                f"got {_describe(x)}")
+        raise InvalidInputError(
+            f"{what} must be a sequence of {n} distinct indices into {size} items{listing}; got {_describe(x)}"
+        )
     out = []
     for v in list(x):
         if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Integral):

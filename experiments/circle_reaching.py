@@ -44,25 +44,48 @@ from coop_ga.harness import Experiment, finite_float, nonneg_float, positive_flo
 def _circle_params(X) -> dict:
     import coop_ga as cg
 
-    return {"center_m": np.asarray(cg.center(X), float), "radius_m": float(cg.radius(X)),
-            "normal": np.asarray(cg.normal(X), float)}
+    return {
+        "center_m": np.asarray(cg.center(X), float),
+        "radius_m": float(cg.radius(X)),
+        "normal": np.asarray(cg.normal(X), float),
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0)
-    exp.add("--perturb", type=nonneg_float, default=0.0,
-            help="half-width [rad] of a uniform perturbation U(±perturb) of the initial configuration, drawn with --seed")
-    exp.add("--translation", type=finite_float, nargs=3, default=(0.10, -0.05, 0.10), metavar=("X", "Y", "Z"),
-            help="target displacement of the circle centre [m]")
+    exp.add(
+        "--perturb",
+        type=nonneg_float,
+        default=0.0,
+        help="half-width [rad] of a uniform perturbation U(±perturb) of the initial configuration, drawn with --seed",
+    )
+    exp.add(
+        "--translation",
+        type=finite_float,
+        nargs=3,
+        default=(0.10, -0.05, 0.10),
+        metavar=("X", "Y", "Z"),
+        help="target displacement of the circle centre [m]",
+    )
     exp.add("--tilt-deg", type=finite_float, default=25.0, help="tilt of the target circle [deg]")
-    exp.add("--tilt-axis", type=finite_float, nargs=3, default=(1.0, 0.0, 0.0), metavar=("X", "Y", "Z"),
-            help="world axis of the tilt through the circle centre")
+    exp.add(
+        "--tilt-axis",
+        type=finite_float,
+        nargs=3,
+        default=(1.0, 0.0, 0.0),
+        metavar=("X", "Y", "Z"),
+        help="world axis of the tilt through the circle centre",
+    )
     exp.add("--scale", type=positive_float, default=1.25, help="radius scale factor of the target")
     exp.add("--horizon", type=positive_int, default=250, help="iLQR knots")
     exp.add("--dt", type=positive_float, default=0.01, help="time step [s] of iLQR and differential IK")
     exp.add("--max-iter", type=positive_int, default=40, help="iLQR iteration limit (all outer iterations together)")
-    exp.add("--backward", choices=("auto", "riccati"), default="auto",
-            help="iLQR LQ step: auto = closed form while no constraint is active, riccati = always the box-DDP pass")
+    exp.add(
+        "--backward",
+        choices=("auto", "riccati"),
+        default="auto",
+        help="iLQR LQ step: auto = closed form while no constraint is active, riccati = always the box-DDP pass",
+    )
     exp.add("--diffik-gain", type=positive_float, default=4.0, help="differential-IK gain [1/s]")
     args = exp.parse(argv)
     plt = exp.pyplot()
@@ -85,16 +108,16 @@ def main(argv: list[str] | None = None) -> int:
         task.evaluate(q0)
         task.error_and_jacobian(q0, task.similarity(q0))
     X0 = task.primitive(q0)
-    Vd = displaced_target(task, q0, translation=args.translation, axis=args.tilt_axis,
-                          angle=np.deg2rad(args.tilt_deg), scale=args.scale)
+    Vd = displaced_target(
+        task, q0, translation=args.translation, axis=args.tilt_axis, angle=np.deg2rad(args.tilt_deg), scale=args.scale
+    )
     Xd = Vd.apply(task.unit)
     e0 = task.error(q0, Vd)
 
     with exp.stage("reachability check (Gauss–Newton IK)"):
         ik = gauss_newton_ik(task, q0, Vd)
     with exp.stage("iLQR") as st_i:
-        res = ilqr_reach(task, q0, Vd, horizon=args.horizon, dt=args.dt, max_iter=args.max_iter,
-                         backward=args.backward)
+        res = ilqr_reach(task, q0, Vd, horizon=args.horizon, dt=args.dt, max_iter=args.max_iter, backward=args.backward)
     with exp.stage("differential IK"):
         t0 = time.perf_counter()
         dik = diff_ik_reach(task, q0, Vd, gain=args.diffik_gain, dt=args.dt, steps=args.horizon, tol=1e-5)
@@ -119,22 +142,34 @@ def main(argv: list[str] | None = None) -> int:
         fig = plt.figure(figsize=(15, 7.5))
         gs = fig.add_gridspec(3, 2, width_ratios=[1.25, 1.0], hspace=0.35, wspace=0.2)
         ax = fig.add_subplot(gs[:, 0], projection="3d", computed_zorder=False)  # layers by zorder
-        drawn = [viz.draw_robot(ax, s, q0, color=pal.initial_robot, ends=False, label="initial configuration",
-                                zorder=1),
-                 viz.draw_robot(ax, s, res.q, color=pal.final_robot, ends=False, label="final configuration",
-                                zorder=2)]
+        drawn = [
+            viz.draw_robot(ax, s, q0, color=pal.initial_robot, ends=False, label="initial configuration", zorder=1),
+            viz.draw_robot(ax, s, res.q, color=pal.final_robot, ends=False, label="final configuration", zorder=2),
+        ]
         knots = np.linspace(0, T - 1, 7).astype(int)[1:-1]
         for i, k in enumerate(knots):
-            viz.draw_primitive(ax, task.primitive(res.trajectory[k]), color=pal.intermediate((i + 1) / (len(knots) + 1)),
-                               lw=viz.LINEWIDTH["intermediate"], label="intermediate circles" if i == 0 else None,
-                               zorder=3)
-        for X, col, ls, lab in ((X0, pal.initial_primitive, "-", "initial circle"),
-                                (Xf, pal.final_primitive, "-", "final circle"),
-                                (Xd, pal.target_primitive, "--", "target circle")):
+            viz.draw_primitive(
+                ax,
+                task.primitive(res.trajectory[k]),
+                color=pal.intermediate((i + 1) / (len(knots) + 1)),
+                lw=viz.LINEWIDTH["intermediate"],
+                label="intermediate circles" if i == 0 else None,
+                zorder=3,
+            )
+        for X, col, ls, lab in (
+            (X0, pal.initial_primitive, "-", "initial circle"),
+            (Xf, pal.final_primitive, "-", "final circle"),
+            (Xd, pal.target_primitive, "--", "target circle"),
+        ):
             drawn.append(viz.draw_primitive(ax, X, color=col, ls=ls, lw=2.2, label=lab, zorder=4))
         for i in range(3):
-            ax.plot(*P[:, i].T, color=pal.trajectory, lw=viz.LINEWIDTH["trajectory"],
-                    label="TCP paths (iLQR)" if i == 0 else None, zorder=5)
+            ax.plot(
+                *P[:, i].T,
+                color=pal.trajectory,
+                lw=viz.LINEWIDTH["trajectory"],
+                label="TCP paths (iLQR)" if i == 0 else None,
+                zorder=5,
+            )
         ax.scatter(*P[-1].T, color=pal.trajectory, s=25, depthshade=False, zorder=6)
         viz.set_equal_3d(ax, np.vstack([d.points for d in drawn]), tight=True)
         ax.view_init(elev=18, azim=-60)
@@ -153,62 +188,114 @@ def main(argv: list[str] | None = None) -> int:
         ax3 = fig.add_subplot(gs[2, 1], sharex=ax1)
         viz.plot_error(ax3, t, E, label=f"iLQR (final {res.error:.1e})")
         td = args.dt * np.arange(len(dik.errors))
-        viz.plot_error(ax3, td, dik.errors, ls="--", label=f"differential IK, gain {args.diffik_gain:g}/s "
-                                                           f"(final {dik.error:.1e})")
+        viz.plot_error(
+            ax3, td, dik.errors, ls="--", label=f"differential IK, gain {args.diffik_gain:g}/s (final {dik.error:.1e})"
+        )
         ax3.set_xlabel("t [s]")
         ax3.set_ylabel(r"$\|e\|$")
         ax3.legend(fontsize=8)
         png = exp.save(fig, "circle_reaching.png")
 
     # ---- outputs
-    exp.write_npz("trajectory.npz", t=res.t, q=res.trajectory, qd=res.qd, u=res.u, error_bivector=E,
-                        command_bivector=Bcmd, end_points=P, target_versor=Vd.coeffs,
-                        cost_history=res.cost_history, terminal_error_history=res.error_history,
-                        diffik_q=dik.trajectory, diffik_errors=dik.errors, diffik_end_points=Pd)
+    exp.write_npz(
+        "trajectory.npz",
+        t=res.t,
+        q=res.trajectory,
+        qd=res.qd,
+        u=res.u,
+        error_bivector=E,
+        command_bivector=Bcmd,
+        end_points=P,
+        target_versor=Vd.coeffs,
+        cost_history=res.cost_history,
+        terminal_error_history=res.error_history,
+        diffik_q=dik.trajectory,
+        diffik_errors=dik.errors,
+        diffik_end_points=Pd,
+    )
     c0, cd, cf = _circle_params(X0), _circle_params(Xd), _circle_params(Xf)
     metrics = {
-        "system": "three_franka", "kind": "circle", "nq": s.nq, "seed": args.seed, "perturb_rad": args.perturb,
-        "target": {"translation_m": list(args.translation), "tilt_deg": args.tilt_deg,
-                   "tilt_axis": list(args.tilt_axis), "scale": args.scale, "circle": cd,
-                   "tilt_from_initial_deg": float(np.degrees(np.arccos(np.clip(cd["normal"] @ c0["normal"], -1, 1))))},
-        "initial_circle": c0, "final_circle": cf,
+        "system": "three_franka",
+        "kind": "circle",
+        "nq": s.nq,
+        "seed": args.seed,
+        "perturb_rad": args.perturb,
+        "target": {
+            "translation_m": list(args.translation),
+            "tilt_deg": args.tilt_deg,
+            "tilt_axis": list(args.tilt_axis),
+            "scale": args.scale,
+            "circle": cd,
+            "tilt_from_initial_deg": float(np.degrees(np.arccos(np.clip(cd["normal"] @ c0["normal"], -1, 1)))),
+        },
+        "initial_circle": c0,
+        "final_circle": cf,
         "initial_error": float(np.linalg.norm(e0)),
-        "reachable_by_gauss_newton_ik": bool(ik.converged), "gauss_newton_ik_error": ik.error,
-        "ilqr_iterations": res.iterations, "ilqr_converged": res.converged, "terminal_error": res.error,
-        "terminal_error_vector": res.error_vector, "terminal_speed_rad_s": res.terminal_speed,
-        "solve_time_s": res.solve_time_s, "ilqr_wall_time_s": st_i.seconds, "task_compile_or_load_s": st_c.seconds,
-        "ilqr_backward": args.backward, "ilqr_message": res.message, "cost_history": res.cost_history,
+        "reachable_by_gauss_newton_ik": bool(ik.converged),
+        "gauss_newton_ik_error": ik.error,
+        "ilqr_iterations": res.iterations,
+        "ilqr_converged": res.converged,
+        "terminal_error": res.error,
+        "terminal_error_vector": res.error_vector,
+        "terminal_speed_rad_s": res.terminal_speed,
+        "solve_time_s": res.solve_time_s,
+        "ilqr_wall_time_s": st_i.seconds,
+        "task_compile_or_load_s": st_c.seconds,
+        "ilqr_backward": args.backward,
+        "ilqr_message": res.message,
+        "cost_history": res.cost_history,
         "terminal_error_history": res.error_history,
-        "ilqr_iteration_stats": [{"cost": x.cost, "terminal_error": x.error, "alpha": x.alpha,
-                                  "model": x.model, "outer": x.outer, "violation": x.violation, "travel": x.travel,
-                                  "backward_passes": x.backward_passes, "time_s": x.time_s}
-                                 for x in res.stats],
-        "horizon": args.horizon, "dt_s": args.dt, "horizon_s": args.horizon * args.dt,
+        "ilqr_iteration_stats": [
+            {
+                "cost": x.cost,
+                "terminal_error": x.error,
+                "alpha": x.alpha,
+                "model": x.model,
+                "outer": x.outer,
+                "violation": x.violation,
+                "travel": x.travel,
+                "backward_passes": x.backward_passes,
+                "time_s": x.time_s,
+            }
+            for x in res.stats
+        ],
+        "horizon": args.horizon,
+        "dt_s": args.dt,
+        "horizon_s": args.horizon * args.dt,
         "weights": {"R": DEFAULT_R, "Q": DEFAULT_Q, "Qv": DEFAULT_QV},
         "joint_limit_violation_rad": res.joint_limit_violation,
-        "max_joint_speed_rad_s": float(np.abs(res.qd).max()), "max_joint_accel_rad_s2": float(np.abs(res.u).max()),
+        "max_joint_speed_rad_s": float(np.abs(res.qd).max()),
+        "max_joint_accel_rad_s2": float(np.abs(res.u).max()),
         "final_centre_error_m": float(np.linalg.norm(cf["center_m"] - cd["center_m"])),
         "radius_error_m": abs(cf["radius_m"] - cd["radius_m"]),
-        "diffik_final_error": dik.error, "diffik_converged": dik.converged, "diffik_steps": dik.iterations,
-        "diffik_gain_per_s": args.diffik_gain, "diffik_time_s": dik_time,
+        "diffik_final_error": dik.error,
+        "diffik_converged": dik.converged,
+        "diffik_steps": dik.iterations,
+        "diffik_gain_per_s": args.diffik_gain,
+        "diffik_time_s": dik_time,
         "diffik_error_at_horizon": float(dik.errors[min(len(dik.errors) - 1, args.horizon)]),
         "total_runtime_s": time.perf_counter() - t_total,
     }
     exp.write_json("metrics.json", metrics)
 
     print(f"three_franka circle reaching (21 joints, {args.horizon} knots × {args.dt:g} s)")
+
     def fmt(c: dict) -> str:
         return f"c = {np.round(c['center_m'], 3)}, r = {c['radius_m']:.3f} m, n = {np.round(c['normal'], 3)}"
 
     print(f"  initial circle: {fmt(c0)}")
     print(f"  target  circle: {fmt(cd)}  (reachable by GN-IK: {ik.converged})")
     print(f"  initial error ‖e‖ = {np.linalg.norm(e0):.3f}")
-    print(f"  iLQR: {res.iterations} iterations, converged = {res.converged}, terminal error {res.error:.2e}, "
-          f"solve {res.solve_time_s * 1e3:.1f} ms ({args.backward}), terminal speed {res.terminal_speed:.1e} rad/s, "
-          f"joint-limit violation {res.joint_limit_violation:.2g} rad")
+    print(
+        f"  iLQR: {res.iterations} iterations, converged = {res.converged}, terminal error {res.error:.2e}, "
+        f"solve {res.solve_time_s * 1e3:.1f} ms ({args.backward}), terminal speed {res.terminal_speed:.1e} rad/s, "
+        f"joint-limit violation {res.joint_limit_violation:.2g} rad"
+    )
     print(f"        ‖e‖ per iteration: {' '.join(f'{x:.1e}' for x in res.error_history)}")
-    print(f"  diff-IK (gain {args.diffik_gain:g}/s, {dik.iterations} steps): final error {dik.error:.2e}, "
-          f"converged (tol 1e-5) = {dik.converged}")
+    print(
+        f"  diff-IK (gain {args.diffik_gain:g}/s, {dik.iterations} steps): final error {dik.error:.2e}, "
+        f"converged (tol 1e-5) = {dik.converged}"
+    )
     print(f"  wrote {out / 'metrics.json'}, {out / 'trajectory.npz'}, {png}  ({metrics['total_runtime_s']:.1f} s)")
     return 0
 

@@ -35,8 +35,12 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--duration", type=positive_float, default=4.0, help="simulated time per run [s]")
     exp.add("--dt", type=positive_float, default=1e-3, help="control/integration step [s]")
     exp.add("--system", choices=cg.systems.names(), default="three_iiwa14", help="registered system")
-    exp.add("--nullspace", choices=("compensate", "damping"), default="compensate",
-            help="nullspace term of the controller (see coop_ga.control.impedance)")
+    exp.add(
+        "--nullspace",
+        choices=("compensate", "damping"),
+        default="compensate",
+        help="nullspace term of the controller (see coop_ga.control.impedance)",
+    )
     args = exp.parse(argv)
     plt = exp.pyplot()
 
@@ -52,9 +56,17 @@ def main(argv: list[str] | None = None) -> int:
     gains = {"paper": PAPER_GAINS, "stiff": (25.0 * np.eye(7), 10.0 * np.eye(7))}
     labels = {"paper": "K = diag(1,1,1,7.5,7.5,7.5,7.5), D = 5 I", "stiff": "K = 25 I, D = 10 I"}
 
-    metrics: dict = {"system": args.system, "kind": "circle", "seed": args.seed, "spread_rad": args.spread,
-                     "duration_s": args.duration, "dt_s": args.dt, "nullspace": args.nullspace,
-                     "target": "V_Sc(q0), q0 = nominal iiwa configuration", "gains": {}}
+    metrics: dict = {
+        "system": args.system,
+        "kind": "circle",
+        "seed": args.seed,
+        "spread_rad": args.spread,
+        "duration_s": args.duration,
+        "dt_s": args.dt,
+        "nullspace": args.nullspace,
+        "target": "V_Sc(q0), q0 = nominal iiwa configuration",
+        "gains": {},
+    }
     npz: dict[str, np.ndarray] = {}
     fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
     for ax, (name, (K, D)) in zip(axes, gains.items()):
@@ -63,18 +75,28 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         for i, qi in enumerate(exp.progress(starts, f"simulating ({name} gains)")):
             r = simulate_impedance(t, qi, Vd, K=K, D=D, duration=args.duration, dt=args.dt, nullspace=args.nullspace)
-            rows.append({"run": i, "initial_error": float(r.error_norm[0]), "final_error": float(r.error_norm[-1]),
-                         "ratio": r.ratio, "max_rise_above_running_min": r.max_rise,
-                         "peak_torque_Nm": float(np.abs(r.tau).max()),
-                         "peak_joint_speed_rad_s": float(np.abs(r.qd).max())})
+            rows.append(
+                {
+                    "run": i,
+                    "initial_error": float(r.error_norm[0]),
+                    "final_error": float(r.error_norm[-1]),
+                    "ratio": r.ratio,
+                    "max_rise_above_running_min": r.max_rise,
+                    "peak_torque_Nm": float(np.abs(r.tau).max()),
+                    "peak_joint_speed_rad_s": float(np.abs(r.qd).max()),
+                }
+            )
             E.append(r.error_norm)
             viz.plot_error(ax, r.t, r.error_norm, log=False, lw=1.2)
             npz["t"] = r.t
         wall = time.perf_counter() - t0
         ratios = [row["ratio"] for row in rows]
         metrics["gains"][name] = {
-            "K": np.diag(K).tolist(), "D": np.diag(D).tolist(), "runs": rows,
-            "max_ratio": max(ratios), "mean_ratio": float(np.mean(ratios)),
+            "K": np.diag(K).tolist(),
+            "D": np.diag(D).tolist(),
+            "runs": rows,
+            "max_ratio": max(ratios),
+            "mean_ratio": float(np.mean(ratios)),
             "max_rise": max(row["max_rise_above_running_min"] for row in rows),
             "wall_time_s": wall,
         }

@@ -42,37 +42,68 @@ def main(argv: list[str] | None = None) -> int:
     q0 = s.q0 + rng.uniform(-args.perturb, args.perturb, s.nq)
     target = point_on_circle(t, q0, args.arm, np.deg2rad(args.angle))
     kw = dict(duration=args.duration, dt=args.dt, secondary_gain=args.secondary_gain, primary_gain=args.primary_gain)
-    res = {"nullspace": nullspace_point_reach(t, q0, args.arm, target, project=True, **kw),
-           "direct": nullspace_point_reach(t, q0, args.arm, target, project=False, **kw)}
+    res = {
+        "nullspace": nullspace_point_reach(t, q0, args.arm, target, project=True, **kw),
+        "direct": nullspace_point_reach(t, q0, args.arm, target, project=False, **kw),
+    }
 
     X = t.primitive(q0)
     c, r, n = np.asarray(cg.center(X), float), cg.radius(X), np.asarray(cg.normal(X), float)
-    metrics = {"system": "three_franka", "kind": "circle", "arm": args.arm, "angle_deg": args.angle,
-               "target_point_m": target.tolist(), "circle": {"center": c.tolist(), "radius": r, "normal": n.tolist()},
-               "seed": args.seed, "perturb_rad": args.perturb}
+    metrics = {
+        "system": "three_franka",
+        "kind": "circle",
+        "arm": args.arm,
+        "angle_deg": args.angle,
+        "target_point_m": target.tolist(),
+        "circle": {"center": c.tolist(), "radius": r, "normal": n.tolist()},
+        "seed": args.seed,
+        "perturb_rad": args.perturb,
+    }
     for k, v in res.items():
-        metrics[k] = {"initial_point_error_m": float(v.point_error[0]), "final_point_error_m": float(v.point_error[-1]),
-                      "max_similarity_distance": float(v.similarity_distance.max()),
-                      "final_similarity_distance": float(v.similarity_distance[-1])}
-    exp.write_npz("trajectories.npz", t=res["nullspace"].t, target=target,
-                  **{f"{k}_{f}": getattr(v, f) for k, v in res.items()
-                     for f in ("trajectory", "points", "point_error", "similarity_distance")})
+        metrics[k] = {
+            "initial_point_error_m": float(v.point_error[0]),
+            "final_point_error_m": float(v.point_error[-1]),
+            "max_similarity_distance": float(v.similarity_distance.max()),
+            "final_similarity_distance": float(v.similarity_distance[-1]),
+        }
+    exp.write_npz(
+        "trajectories.npz",
+        t=res["nullspace"].t,
+        target=target,
+        **{
+            f"{k}_{f}": getattr(v, f)
+            for k, v in res.items()
+            for f in ("trajectory", "points", "point_error", "similarity_distance")
+        },
+    )
     exp.write_json("metrics.json", metrics)
 
     # ------------------------------------------------------------------ figure
     P = viz.PALETTE
     fig = plt.figure(figsize=(13, 4.6))
-    for col, (k, title) in enumerate([("direct", "without nullspace (Fig. 16)"),
-                                      ("nullspace", "nullspace projection, Eq 60 (Fig. 17)")]):
+    for col, (k, title) in enumerate(
+        [("direct", "without nullspace (Fig. 16)"), ("nullspace", "nullspace projection, Eq 60 (Fig. 17)")]
+    ):
         v = res[k]
         ax = fig.add_subplot(1, 3, col + 1, projection="3d", computed_zorder=False)  # layers: zorder below
-        drawn = [viz.draw_robot(ax, s, q0, color=P.initial_robot, lw=1.6, ends=False, label="initial", zorder=1),
-                 viz.draw_robot(ax, s, v.trajectory[-1], color=P.final_robot, lw=1.6, ends=False, label="final",
-                                zorder=2)]
-        drawn.append(viz.draw_primitive(ax, X, color=P.initial_primitive, lw=1.8, label=r"circle $V_{Sc}(q_0)$",
-                                        zorder=3))
-        drawn.append(viz.draw_primitive(ax, t.primitive(v.trajectory[-1]), color=P.final_primitive, ls="--", lw=1.4,
-                                        label="final circle", zorder=4))
+        drawn = [
+            viz.draw_robot(ax, s, q0, color=P.initial_robot, lw=1.6, ends=False, label="initial", zorder=1),
+            viz.draw_robot(ax, s, v.trajectory[-1], color=P.final_robot, lw=1.6, ends=False, label="final", zorder=2),
+        ]
+        drawn.append(
+            viz.draw_primitive(ax, X, color=P.initial_primitive, lw=1.8, label=r"circle $V_{Sc}(q_0)$", zorder=3)
+        )
+        drawn.append(
+            viz.draw_primitive(
+                ax,
+                t.primitive(v.trajectory[-1]),
+                color=P.final_primitive,
+                ls="--",
+                lw=1.4,
+                label="final circle",
+                zorder=4,
+            )
+        )
         ax.plot(*v.points.T, color=P.trajectory, lw=2, label="arm path", zorder=5)
         ax.scatter(*target, color=P.initial_primitive, s=40, depthshade=False, label="target", zorder=6)
         ax.set_title(title)
@@ -85,16 +116,19 @@ def main(argv: list[str] | None = None) -> int:
     for k, ls in [("direct", "--"), ("nullspace", "-")]:
         v = res[k]
         viz.plot_error(ax, v.t, v.point_error, floor=1e-9, color="tab:blue", ls=ls, label=f"point error [m] ({k})")
-        viz.plot_error(ax, v.t, v.similarity_distance, floor=1e-12, color=P.trajectory, ls=ls,
-                       label=f"similarity distance ({k})")
+        viz.plot_error(
+            ax, v.t, v.similarity_distance, floor=1e-12, color=P.trajectory, ls=ls, label=f"similarity distance ({k})"
+        )
     ax.set_xlabel("t [s]")
     ax.legend(fontsize=7)
     ax.set_title(r"$\|p - p^*\|$ and $\|\log(\tilde V_{Sc}(q_0)\, V_{Sc}(q))\|$")
     fig.tight_layout()
     png = exp.save(fig, "nullspace_secondary.png")
     for k in res:
-        print(f"{k:9s} final point error {metrics[k]['final_point_error_m']:.2e} m, "
-              f"max similarity distance {metrics[k]['max_similarity_distance']:.2e}")
+        print(
+            f"{k:9s} final point error {metrics[k]['final_point_error_m']:.2e} m, "
+            f"max similarity distance {metrics[k]['max_similarity_distance']:.2e}"
+        )
     print(f"wrote {exp.out}/metrics.json, trajectories.npz, {png.name}")
     return 0
 

@@ -76,8 +76,15 @@ def main(argv: list[str] | None = None) -> int:
         return np.asarray(cg.center(X), float), float(cg.radius(X))
 
     c0, r0 = geom(q0)
-    metrics: dict = {"system": args.system, "kind": args.kind, "seed": args.seed, "perturb_rad": args.perturb,
-                     "initial_radius_m": r0, "initial_center_m": c0.tolist(), "fig21": {}}
+    metrics: dict = {
+        "system": args.system,
+        "kind": args.kind,
+        "seed": args.seed,
+        "perturb_rad": args.perturb,
+        "initial_radius_m": r0,
+        "initial_center_m": c0.tolist(),
+        "fig21": {},
+    }
     configs = {}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", cg.DegeneracyWarning)
@@ -85,25 +92,36 @@ def main(argv: list[str] | None = None) -> int:
         for beta, name in [(-1.0, "close"), (1.0, "open")]:
             one = Teleoperator(t, q0, dt=args.fig21_dt, **gains)
             one.step([0, 0, 0, 0, 0, beta])
-            n_fine = int(round(args.fig21_dt / 0.01))
+            n_fine = round(args.fig21_dt / 0.01)
             fine = Teleoperator(t, q0, dt=0.01, **gains)
             fine.run([[0, 0, 0, 0, 0, beta]] * n_fine)
             c1, r1 = geom(one.q)
             c2, r2 = geom(fine.q)
             clamped = int(np.sum((one.q <= s.q_lower + 1e-12) | (one.q >= s.q_upper - 1e-12)))
             metrics["fig21"][name] = {
-                "command": f"{beta:+g} e0inf", "d_of_command": float(np.exp(beta)), "dt_s": args.fig21_dt,
-                "radius_before_m": r0, "radius_after_m": r1, "ratio": r1 / r0,
+                "command": f"{beta:+g} e0inf",
+                "d_of_command": float(np.exp(beta)),
+                "dt_s": args.fig21_dt,
+                "radius_before_m": r0,
+                "radius_after_m": r1,
+                "ratio": r1 / r0,
                 "ratio_first_order_expected": float(np.exp(beta * args.fig21_dt)),
                 "center_displacement_m": float(np.linalg.norm(c1 - c0)),
                 "joints_at_limit": clamped,
-                "fine_integration": {"steps": n_fine, "dt_s": 0.01, "radius_after_m": r2, "ratio": r2 / r0,
-                                     "center_displacement_m": float(np.linalg.norm(c2 - c0))},
+                "fine_integration": {
+                    "steps": n_fine,
+                    "dt_s": 0.01,
+                    "radius_after_m": r2,
+                    "ratio": r2 / r0,
+                    "center_displacement_m": float(np.linalg.norm(c2 - c0)),
+                },
             }
             configs[name] = one.q
-            print(f"{name:5s} ({beta:+g} e0∞, Δt={args.fig21_dt}): radius {r0:.4f} → {r1:.4f} m "
-                  f"(ratio {r1 / r0:.4f}, first order e^{{βΔt}} = {np.exp(beta * args.fig21_dt):.4f}; "
-                  f"{n_fine}×0.01 s: {r2 / r0:.4f})")
+            print(
+                f"{name:5s} ({beta:+g} e0∞, Δt={args.fig21_dt}): radius {r0:.4f} → {r1:.4f} m "
+                f"(ratio {r1 / r0:.4f}, first order e^{{βΔt}} = {np.exp(beta * args.fig21_dt):.4f}; "
+                f"{n_fine}×0.01 s: {r2 / r0:.4f})"
+            )
 
         # scripted (or interactive) session
         tel = Teleoperator(t, q0, dt=args.dt, **gains)
@@ -122,31 +140,56 @@ def main(argv: list[str] | None = None) -> int:
         geo = [geom(q) for q in log["q"]]
         wd = np.array([t.well_definedness(q) for q in log["q"]])
     if n_degen:
-        print(f"note: {n_degen} DegeneracyWarnings (sphere close to coplanar points); min well-definedness "
-              f"in the session {wd.min():.3g}")
+        print(
+            f"note: {n_degen} DegeneracyWarnings (sphere close to coplanar points); min well-definedness "
+            f"in the session {wd.min():.3g}"
+        )
     centers = np.array([g[0] for g in geo])
     radii = np.array([g[1] for g in geo])
-    metrics["session"] = {"mode": mode, "dt_s": args.dt, "script": [[d, list(c)] for d, c in SESSION] if mode == "scripted" else None,
-                          "duration_s": float(log["t"][-1]), "radius_min_m": float(radii.min()),
-                          "radius_max_m": float(radii.max()), "final_radius_m": float(radii[-1]),
-                          "min_well_definedness": float(wd.min()), "degeneracy_warnings": n_degen,
-                          # clamping at a joint limit breaks the pure similarity motion (e.g. the centre drifts)
-                          "joints_at_limit_during_session": sorted({int(j) for j in np.flatnonzero(
-                              np.any((log["q"] <= s.q_lower + 1e-9) | (log["q"] >= s.q_upper - 1e-9), axis=0))}),
-                          "center_path_during_pure_dilation_m": _dilation_drift(log["commands"], centers)}
+    metrics["session"] = {
+        "mode": mode,
+        "dt_s": args.dt,
+        "script": [[d, list(c)] for d, c in SESSION] if mode == "scripted" else None,
+        "duration_s": float(log["t"][-1]),
+        "radius_min_m": float(radii.min()),
+        "radius_max_m": float(radii.max()),
+        "final_radius_m": float(radii[-1]),
+        "min_well_definedness": float(wd.min()),
+        "degeneracy_warnings": n_degen,
+        # clamping at a joint limit breaks the pure similarity motion (e.g. the centre drifts)
+        "joints_at_limit_during_session": sorted(
+            {
+                int(j)
+                for j in np.flatnonzero(np.any((log["q"] <= s.q_lower + 1e-9) | (log["q"] >= s.q_upper - 1e-9), axis=0))
+            }
+        ),
+        "center_path_during_pure_dilation_m": _dilation_drift(log["commands"], centers),
+    }
 
-    exp.write_npz("session.npz", t=log["t"], q=log["q"], commands=log["commands"], bivectors=log["bivectors"],
-                  centers=centers, radii=radii, q_close=configs["close"], q_open=configs["open"], q0=q0)
+    exp.write_npz(
+        "session.npz",
+        t=log["t"],
+        q=log["q"],
+        commands=log["commands"],
+        bivectors=log["bivectors"],
+        centers=centers,
+        radii=radii,
+        q_close=configs["close"],
+        q_open=configs["open"],
+        q0=q0,
+    )
     exp.write_json("metrics.json", metrics)
 
     # ------------------------------------------------------------------ figure (Fig. 21 + session)
     fig = plt.figure(figsize=(15, 4.4))
-    panels = [("close", configs["close"], r"$B = -e_{0\infty}$ ($d$ = 0.3679): close"),
-              ("orig", q0, "original"),
-              ("open", configs["open"], r"$B = +e_{0\infty}$ ($d$ = 2.718): open")]
+    panels = [
+        ("close", configs["close"], r"$B = -e_{0\infty}$ ($d$ = 0.3679): close"),
+        ("orig", q0, "original"),
+        ("open", configs["open"], r"$B = +e_{0\infty}$ ($d$ = 2.718): open"),
+    ]
     axes = [fig.add_subplot(1, 4, i + 1, projection="3d") for i in range(3)]
     pts = []
-    for ax, (name, q, title) in zip(axes, panels):
+    for ax, (_name, q, title) in zip(axes, panels):
         pts.append(viz.draw_robot(ax, s, q, color=viz.PALETTE.robot, lw=2.0, end_size=18).points)
         pts.append(viz.draw_primitive(ax, t.primitive(q), color=viz.PALETTE.initial_primitive, alpha=0.7).points)
         ax.set_title(f"{title}\nradius {geom(q)[1] * 1000:.1f} mm", fontsize=9)
@@ -162,7 +205,9 @@ def main(argv: list[str] | None = None) -> int:
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
     ax.legend(h1 + h2, l1 + l2, fontsize=7, loc="upper left")
-    ax.set_xlabel("t [s]"); ax.set_ylabel("radius [mm]"); ax.grid(alpha=0.3)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("radius [mm]")
+    ax.grid(alpha=0.3)
     ax.set_title(f"{mode} session (translate x, z, close, open, back)", fontsize=9)
     fig.suptitle(f"Teleoperation of the {args.system} cooperative {args.kind} (cf. Fig. 20–21)")
     fig.tight_layout()

@@ -49,8 +49,13 @@ def _load(path: Path):
 
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=None, out=ROOT / "paper_figures")
-    exp.add("--only", nargs="*", metavar="SUBDIR", choices=[sub for _, sub in JOBS],
-            help="regenerate only these output folders")
+    exp.add(
+        "--only",
+        nargs="*",
+        metavar="SUBDIR",
+        choices=[sub for _, sub in JOBS],
+        help="regenerate only these output folders",
+    )
     args = exp.parse(argv)
     jobs = [(script, sub) for script, sub in JOBS if not args.only or sub in args.only]
     extra = (["--seed", str(args.seed)] if args.seed is not None else []) + (["--quiet"] if args.quiet else [])

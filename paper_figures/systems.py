@@ -85,9 +85,15 @@ def figure(system, out: Path) -> Path:
 
     prims, note = primitives_through(system.end_points(system.q0))
     caption = "\n".join(textwrap.wrap(note, 90))
-    return viz.render(system, system.q0, prims, Path(out) / f"{system.name}.png",
-                      view=VIEWS.get(system.name, (22, -60)), size=(7, 7),
-                      title=f"{system.name}: {system.nq} DOF, {system.n_chains} end points at q0\n{caption}")
+    return viz.render(
+        system,
+        system.q0,
+        prims,
+        Path(out) / f"{system.name}.png",
+        view=VIEWS.get(system.name, (22, -60)),
+        size=(7, 7),
+        title=f"{system.name}: {system.nq} DOF, {system.n_chains} end points at q0\n{caption}",
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

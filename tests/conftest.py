@@ -32,7 +32,6 @@ def rng() -> np.random.Generator:
     return np.random.default_rng(12345)
 
 
-
 @pytest.fixture(scope="session")
 def load_system():
     """``load_system(name)``: a registered system, built once per test session (never at import time)."""

@@ -32,21 +32,29 @@ def test_help_shows_every_default(capsys):
     raw = capsys.readouterr().out
     out = " ".join(raw.split())  # argparse wraps lines at the terminal width
     assert "usage: demo_script.py" in out and "\n    indented usage line\n" in raw  # docstring layout kept
-    for opt, default in (("--out", "results/demo_script"), ("--seed", "7"), ("--duration", "4.0"),
-                         ("--runs", "10"), ("--mode", "a")):
+    for opt, default in (
+        ("--out", "results/demo_script"),
+        ("--seed", "7"),
+        ("--duration", "4.0"),
+        ("--runs", "10"),
+        ("--mode", "a"),
+    ):
         assert opt in out and f"(default: {default})" in out, (opt, default)
     assert "--quiet" in out
 
 
-@pytest.mark.parametrize("argv,option,words", [
-    (["--seed", "abc"], "--seed", "expected an integer, got 'abc'"),
-    (["--seed", "-3"], "--seed", "expected an integer >= 0"),
-    (["--duration", "-1"], "--duration", "expected a number > 0, got '-1'"),
-    (["--duration", "nan"], "--duration", "expected a finite number"),
-    (["--runs", "1"], "--runs", "expected an integer >= 2"),
-    (["--p", "1.5"], "--p", "expected a probability in [0, 1]"),
-    (["--mode", "c"], "--mode", "invalid choice"),
-])
+@pytest.mark.parametrize(
+    "argv,option,words",
+    [
+        (["--seed", "abc"], "--seed", "expected an integer, got 'abc'"),
+        (["--seed", "-3"], "--seed", "expected an integer >= 0"),
+        (["--duration", "-1"], "--duration", "expected a number > 0, got '-1'"),
+        (["--duration", "nan"], "--duration", "expected a finite number"),
+        (["--runs", "1"], "--runs", "expected an integer >= 2"),
+        (["--p", "1.5"], "--p", "expected a probability in [0, 1]"),
+        (["--mode", "c"], "--mode", "invalid choice"),
+    ],
+)
 def test_bad_values_exit_2_naming_the_option(capsys, argv, option, words):
     with pytest.raises(SystemExit) as ex:
         _exp().parse(argv)
@@ -78,13 +86,34 @@ def _strict(text):
 
 
 def test_json_is_strict_and_nan_becomes_null(tmp_path):
-    obj = {"nan": float("nan"), "inf": np.inf, "ninf": -np.float32(np.inf), "arr": np.array([1.0, np.nan, 3.0]),
-           "int": np.int64(4), "bool": np.bool_(True), "f32": np.float32(0.5), "tuple": (1, 2.5),
-           3: "int key", "path": Path("a/b"), "nested": [{"x": np.array([[np.inf]])}]}
+    obj = {
+        "nan": float("nan"),
+        "inf": np.inf,
+        "ninf": -np.float32(np.inf),
+        "arr": np.array([1.0, np.nan, 3.0]),
+        "int": np.int64(4),
+        "bool": np.bool_(True),
+        "f32": np.float32(0.5),
+        "tuple": (1, 2.5),
+        3: "int key",
+        "path": Path("a/b"),
+        "nested": [{"x": np.array([[np.inf]])}],
+    }
     p = harness.write_json(tmp_path / "sub" / "m.json", obj)
     back = _strict(p.read_text())
-    assert back == {"nan": None, "inf": None, "ninf": None, "arr": [1.0, None, 3.0], "int": 4, "bool": True,
-                    "f32": 0.5, "tuple": [1, 2.5], "3": "int key", "path": "a/b", "nested": [{"x": [[None]]}]}
+    assert back == {
+        "nan": None,
+        "inf": None,
+        "ninf": None,
+        "arr": [1.0, None, 3.0],
+        "int": 4,
+        "bool": True,
+        "f32": 0.5,
+        "tuple": [1, 2.5],
+        "3": "int key",
+        "path": "a/b",
+        "nested": [{"x": [[None]]}],
+    }
     with pytest.raises(TypeError, match="cannot encode a complex"):
         harness.write_json(tmp_path / "c.json", {"z": 1j})
 
@@ -128,8 +157,22 @@ def test_headless_backend():
 
 def test_script_quiet_run_has_empty_stderr(tmp_path):
     """A whole experiment with --quiet writes nothing on stderr (and its strict JSON)."""
-    r = subprocess.run([sys.executable, str(ROOT / "experiments" / "nullspace_secondary.py"), "--out", str(tmp_path),
-                        "--quiet", "--duration", "0.5"], capture_output=True, text=True, timeout=300, cwd=ROOT, check=False)
+    r = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "experiments" / "nullspace_secondary.py"),
+            "--out",
+            str(tmp_path),
+            "--quiet",
+            "--duration",
+            "0.5",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
+        check=False,
+    )
     assert r.returncode == 0, r.stderr
     assert r.stderr == ""
     m = _strict((tmp_path / "metrics.json").read_text())
@@ -137,7 +180,13 @@ def test_script_quiet_run_has_empty_stderr(tmp_path):
 
 
 def test_script_rejects_bad_value():
-    r = subprocess.run([sys.executable, str(ROOT / "experiments" / "nullspace_secondary.py"), "--duration", "-1"],
-                       capture_output=True, text=True, timeout=120, cwd=ROOT, check=False)
+    r = subprocess.run(
+        [sys.executable, str(ROOT / "experiments" / "nullspace_secondary.py"), "--duration", "-1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+        check=False,
+    )
     assert r.returncode == 2
     assert "argument --duration: expected a number > 0, got '-1'" in r.stderr

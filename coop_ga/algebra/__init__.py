@@ -4,7 +4,7 @@ from . import backend
 from .basis import BLADES_BY_GRADE, blade_index, blade_name, grade_of
 from .multivector import Multivector, grade_blades
 
-__all__ = ["Multivector", "backend", "blade_index", "blade_name", "grade_of", "grade_blades", "BLADES_BY_GRADE"]
+__all__ = ["BLADES_BY_GRADE", "Multivector", "backend", "blade_index", "blade_name", "grade_blades", "grade_of"]
 
 
 def e(name: str, coeff=1.0) -> Multivector:

@@ -11,7 +11,7 @@ neither values nor derivatives ever contain NaN.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,25 +20,26 @@ from ..errors import InvalidInputError
 try:  # casadi is a hard dependency, but keep import errors readable
     import casadi as ca
 except ImportError:  # pragma: no cover
-    ca = None
+    if not TYPE_CHECKING:  # type checkers see casadi as always present
+        ca = None
 
 __all__ = [
-    "is_symbolic",
     "any_symbolic",
-    "sqrt",
-    "sin",
-    "cos",
-    "sinh",
-    "cosh",
-    "atan2",
-    "log",
-    "exp",
-    "atanh",
-    "log1p",
-    "fabs",
-    "where",
-    "is_structural_zero",
     "asarray_coeff",
+    "atan2",
+    "atanh",
+    "cos",
+    "cosh",
+    "exp",
+    "fabs",
+    "is_structural_zero",
+    "is_symbolic",
+    "log",
+    "log1p",
+    "sin",
+    "sinh",
+    "sqrt",
+    "where",
 ]
 
 _SYM_TYPES: tuple[type, ...] = (ca.SX, ca.MX) if ca is not None else ()
@@ -63,7 +64,9 @@ def _pick(name: str):
         try:
             return np_f(x)
         except TypeError as exc:
-            raise InvalidInputError(f"{name}() needs real numbers or CasADi expressions, got {type(x).__name__}: {exc}") from None
+            raise InvalidInputError(
+                f"{name}() needs real numbers or CasADi expressions, got {type(x).__name__}: {exc}"
+            ) from None
 
     f.__name__ = name
     f.__doc__ = f"``{name}`` on numpy or CasADi coefficients."
@@ -83,12 +86,14 @@ log1p = _pick("log1p")
 
 def atanh(x):
     """``atanh`` on numpy or CasADi coefficients."""
-    if isinstance(x, _SYM_TYPES):
+    if isinstance(x, (ca.SX, ca.MX)):  # _SYM_TYPES, spelled out so that the type checker narrows x
         return ca.atanh(x)
     try:
         return np.arctanh(x)
     except TypeError as exc:
-        raise InvalidInputError(f"atanh() needs real numbers or CasADi expressions, got {type(x).__name__}: {exc}") from None
+        raise InvalidInputError(
+            f"atanh() needs real numbers or CasADi expressions, got {type(x).__name__}: {exc}"
+        ) from None
 
 
 def atan2(y, x):

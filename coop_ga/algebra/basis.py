@@ -17,21 +17,21 @@ each null blade in the orthogonal basis, multiplying there, and mapping back.
 from __future__ import annotations
 
 from fractions import Fraction
-from functools import lru_cache
+from functools import cache
 from numbers import Integral
 
 from ..errors import InvalidInputError
 
 __all__ = [
-    "N_GEN",
-    "N_BLADES",
-    "GEN_NAMES",
-    "blade_name",
-    "blade_index",
-    "grade_of",
     "BLADES_BY_GRADE",
-    "product_table",
+    "GEN_NAMES",
+    "N_BLADES",
+    "N_GEN",
+    "blade_index",
+    "blade_name",
+    "grade_of",
     "outer_table",
+    "product_table",
 ]
 
 N_GEN = 5
@@ -81,11 +81,13 @@ def blade_index(name: str) -> tuple[int, int]:
     Raises :class:`~coop_ga.InvalidInputError` (a ``ValueError``) for anything else.
     """
     if not isinstance(name, str):
-        raise InvalidInputError(f"blade name must be a string such as 'e12' or 'e1inf', got {name!r} ({type(name).__name__})")
+        raise InvalidInputError(
+            f"blade name must be a string such as 'e12' or 'e1inf', got {name!r} ({type(name).__name__})"
+        )
     return _blade_index(name)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _blade_index(name: str) -> tuple[int, int]:
     if name in ("1", "", "scalar"):
         return 0, 1
@@ -186,17 +188,17 @@ def _gens(blade: int) -> list[int]:
     return [i for i in range(N_GEN) if blade >> i & 1]
 
 
-@lru_cache(maxsize=None)
+@cache
 def _null_to_ortho(blade: int) -> tuple[tuple[int, Fraction], ...]:
     return tuple(_outer_expand([_NULL_TO_ORTHO[g] for g in _gens(blade)]).items())
 
 
-@lru_cache(maxsize=None)
+@cache
 def _ortho_to_null(blade: int) -> tuple[tuple[int, Fraction], ...]:
     return tuple(_outer_expand([_ORTHO_TO_NULL[g] for g in _gens(blade)]).items())
 
 
-@lru_cache(maxsize=None)
+@cache
 def _gp_null_blades(a: int, b: int) -> tuple[tuple[int, Fraction], ...]:
     acc: dict[int, Fraction] = {}
     for oa, ca in _null_to_ortho(a):
@@ -207,16 +209,15 @@ def _gp_null_blades(a: int, b: int) -> tuple[tuple[int, Fraction], ...]:
     return tuple(sorted((k, v) for k, v in acc.items() if v != 0))
 
 
-@lru_cache(maxsize=None)
+@cache
 def product_table() -> tuple[tuple[tuple[tuple[int, float], ...], ...], ...]:
     """``T[a][b]`` = tuple of ``(blade, coeff)`` with ``e_a e_b = Σ coeff e_blade`` (null basis)."""
     return tuple(
-        tuple(tuple((k, float(v)) for k, v in _gp_null_blades(a, b)) for b in range(N_BLADES))
-        for a in range(N_BLADES)
+        tuple(tuple((k, float(v)) for k, v in _gp_null_blades(a, b)) for b in range(N_BLADES)) for a in range(N_BLADES)
     )
 
 
-@lru_cache(maxsize=None)
+@cache
 def outer_table() -> tuple[tuple[tuple[tuple[int, float], ...], ...], ...]:
     """``T[a][b]`` for the outer product: ``±e_{a|b}`` when a, b share no generator, else empty."""
     return tuple(

@@ -20,9 +20,9 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from numbers import Integral
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 
@@ -39,7 +39,7 @@ from .basis import (
     product_table,
 )
 
-__all__ = ["Multivector", "PSEUDOSCALAR_BLADE", "coeff_problem", "balance_exponents", "safe_range", "OMEGA"]
+__all__ = ["OMEGA", "PSEUDOSCALAR_BLADE", "Multivector", "balance_exponents", "coeff_problem", "safe_range"]
 
 _EPS = float(np.finfo(float).eps)
 _F64 = np.float64
@@ -97,7 +97,7 @@ def coeff_problem(c: Any) -> str | None:
 def _short(x: Any, n: int = 60) -> str:
     try:
         r = repr(x)
-    except Exception:  # noqa: BLE001  # pragma: no cover - a broken __repr__ must not hide the real error
+    except Exception:  # pragma: no cover - a broken __repr__ must not hide the real error
         r = object.__repr__(x)
     return r if len(r) <= n else r[: n - 3] + "..."
 
@@ -190,12 +190,15 @@ _INV_SIGN = tuple(1 if k % 2 == 0 else -1 for k in range(6))  # grade involution
 
 _PLANS: dict[tuple[str, tuple[int, ...], tuple[int, ...]], tuple[tuple[int, ...], Any]] = {}
 
+_Terms: TypeAlias = tuple[tuple[int, float], ...]  # (blade, coeff) pairs of e_a e_b
+_Table: TypeAlias = tuple[tuple[_Terms, ...], ...]  # T[a][b], as basis.product_table
 
-def _left_contraction_table():
+
+def _left_contraction_table() -> _Table:
     gp = product_table()
-    out = []
+    out: list[tuple[_Terms, ...]] = []
     for a in range(N_BLADES):
-        row = []
+        row: list[_Terms] = []
         for b in range(N_BLADES):
             ga, gb = grade_of(a), grade_of(b)
             if ga > gb:
@@ -206,16 +209,21 @@ def _left_contraction_table():
     return tuple(out)
 
 
-def _scalar_product_table():
+def _scalar_product_table() -> _Table:
     gp = product_table()
     return tuple(tuple(tuple((k, c) for k, c in gp[a][b] if k == 0) for b in range(N_BLADES)) for a in range(N_BLADES))
 
 
-_TABLES = {"gp": product_table, "op": outer_table, "lc": _left_contraction_table, "sp": _scalar_product_table}
-_TABLE_CACHE: dict[str, Any] = {}
+_TABLES: dict[str, Callable[[], _Table]] = {
+    "gp": product_table,
+    "op": outer_table,
+    "lc": _left_contraction_table,
+    "sp": _scalar_product_table,
+}
+_TABLE_CACHE: dict[str, _Table] = {}
 
 
-def _table(kind: str):
+def _table(kind: str) -> _Table:
     t = _TABLE_CACHE.get(kind)
     if t is None:
         t = _TABLE_CACHE[kind] = _TABLES[kind]()
@@ -265,7 +273,7 @@ def _plan(kind: str, ba: tuple[int, ...], bb: tuple[int, ...]):
         exprs.append(s)
     src = "def _f(a, b):\n    return (" + "".join(e + ", " for e in exprs) + ")\n"
     ns: dict[str, Any] = {}
-    exec(compile(src, f"<coop_ga {kind} plan>", "exec"), ns)  # noqa: S102 - generated from exact tables
+    exec(compile(src, f"<coop_ga {kind} plan>", "exec"), ns)
     plan = (tuple(res_blades), ns["_f"])
     _PLANS[key] = plan
     return plan
@@ -274,7 +282,9 @@ def _plan(kind: str, ba: tuple[int, ...], bb: tuple[int, ...]):
 def _as_layout(blades: Any, coeffs: Any) -> tuple[tuple[int, ...], tuple[Any, ...]]:
     """Validate a user-given (blades, coeffs) layout: blades are distinct ints 0..31."""
     if isinstance(blades, (str, bytes, Mapping)) or not isinstance(blades, Iterable):
-        raise InvalidInputError(f"Multivector blades must be a tuple of blade bitmasks (ints 0..31), got {_short(blades)}")
+        raise InvalidInputError(
+            f"Multivector blades must be a tuple of blade bitmasks (ints 0..31), got {_short(blades)}"
+        )
     if isinstance(coeffs, (str, bytes, Mapping)) or not isinstance(coeffs, Iterable):
         raise InvalidInputError(f"Multivector coeffs must be a tuple of coefficients, got {_short(coeffs)}")
     bl = tuple(_blade_int(b, "Multivector blade") for b in blades)
@@ -323,9 +333,7 @@ _REFLECTED = {"+": "__radd__", "-": "__rsub__", "*": "__rmul__", "^": "__rxor__"
 def _check_operand(op: str, x: Any) -> None:
     """Raise for operands that no other type can handle (strings, None, complex, containers, bools,
     objects without the reflected operator); other types get ``NotImplemented`` (e.g. group elements)."""
-    if isinstance(x, (*_BAD_OPERANDS, bool, np.bool_)) or (
-        isinstance(x, np.ndarray) and x.dtype.kind not in "fiu"
-    ):
+    if isinstance(x, (*_BAD_OPERANDS, bool, np.bool_)) or (isinstance(x, np.ndarray) and x.dtype.kind not in "fiu"):
         raise _bad_operand(op, x)
     name = _REFLECTED.get(op)
     if name is not None and not any(name in k.__dict__ for k in type(x).__mro__):  # (not the metaclass's)
@@ -369,7 +377,9 @@ class Multivector:
     def from_dict(cls, d: Mapping[int, Any]) -> Multivector:
         """From ``{blade_bitmask: coeff}``; missing blades are zero."""
         if not isinstance(d, Mapping):
-            raise InvalidInputError(f"Multivector.from_dict needs a mapping {{blade bitmask: coefficient}}, got {_short(d)}")
+            raise InvalidInputError(
+                f"Multivector.from_dict needs a mapping {{blade bitmask: coefficient}}, got {_short(d)}"
+            )
         items = sorted((_blade_int(k, "Multivector.from_dict key"), v) for k, v in d.items())
         for k, v in items:
             _require_coeff(v, f"Multivector.from_dict coefficient of {blade_name(k)}")
@@ -379,7 +389,9 @@ class Multivector:
     def from_names(cls, d: Mapping[str, Any]) -> Multivector:
         """From ``{'e12': 1.0, 'e1inf': 0.5, ...}`` (names as in :func:`basis.blade_index`)."""
         if not isinstance(d, Mapping):
-            raise InvalidInputError(f"Multivector.from_names needs a mapping {{blade name: coefficient}}, got {_short(d)}")
+            raise InvalidInputError(
+                f"Multivector.from_names needs a mapping {{blade name: coefficient}}, got {_short(d)}"
+            )
         acc: dict[int, Any] = {}
         for name, v in d.items():
             k, s = blade_index(name)
@@ -413,7 +425,9 @@ class Multivector:
         n = len(blades)
         if B.is_symbolic(x):
             if x.numel() < n:
-                raise InvalidInputError(f"Multivector.from_dense needs {n} entries, got a CasADi expression of shape {x.shape}")
+                raise InvalidInputError(
+                    f"Multivector.from_dense needs {n} entries, got a CasADi expression of shape {x.shape}"
+                )
             return cls(blades, tuple(x[i] for i in range(n)))
         if isinstance(x, (str, bytes, Mapping)) or x is None:
             raise InvalidInputError(f"Multivector.from_dense needs {n} real numbers, got {_short(x)}")
@@ -495,7 +509,9 @@ class Multivector:
                 for k, c in zip(X.blades, X.coeffs):
                     why = coeff_problem(c)
                     if why is not None:
-                        return InvalidInputError(f"Multivector {op}: the {who} operand's coefficient on {blade_name(k)} is {why}")
+                        return InvalidInputError(
+                            f"Multivector {op}: the {who} operand's coefficient on {blade_name(k)} is {why}"
+                        )
         if isinstance(other, Multivector):
             try:
                 self._batch_shape("left operand")
@@ -773,13 +789,17 @@ class Multivector:
                 raise InvalidInputError(f"{what} has an invalid coefficient on {blade_name(k)}: {why}")
 
     def _batch_shape(self, what: str) -> tuple[int, ...]:
-        shapes = [np.shape(c) for c in self.coeffs if type(c) is not float and type(c) is not _F64 and not B.is_symbolic(c)]
+        shapes = [
+            np.shape(c) for c in self.coeffs if type(c) is not float and type(c) is not _F64 and not B.is_symbolic(c)
+        ]
         if not shapes:
             return ()
         try:
             return np.broadcast_shapes(*shapes)
         except ValueError:
-            raise InvalidInputError(f"{what} has coefficients of incompatible batch shapes {sorted(set(shapes))}") from None
+            raise InvalidInputError(
+                f"{what} has coefficients of incompatible batch shapes {sorted(set(shapes))}"
+            ) from None
 
     def check_finite(self, what: str = "multivector") -> Multivector:
         """Validate the numeric coefficients: real numbers (no bools, complex, strings, None),
@@ -789,7 +809,9 @@ class Multivector:
         (NaN/inf); symbolic coefficients are not checked.  Returns ``self``.
         """
         if type(self.blades) is not tuple or type(self.coeffs) is not tuple or len(self.blades) != len(self.coeffs):
-            raise InvalidInputError(f"{what} is not a well-formed Multivector (blades and coeffs must be tuples of equal length)")
+            raise InvalidInputError(
+                f"{what} is not a well-formed Multivector (blades and coeffs must be tuples of equal length)"
+            )
         for k in self.blades:
             if type(k) is not int or not 0 <= k < N_BLADES:
                 _blade_int(k, f"{what} blade")
@@ -837,7 +859,9 @@ class Multivector:
         try:
             return bool(np.allclose(a, b, atol=atol, rtol=rtol))
         except ValueError:
-            raise InvalidInputError(f"allclose: batch shapes {a.shape[1:]} and {b.shape[1:]} do not broadcast") from None
+            raise InvalidInputError(
+                f"allclose: batch shapes {a.shape[1:]} and {b.shape[1:]} do not broadcast"
+            ) from None
 
     def __repr__(self) -> str:
         if not self.blades:

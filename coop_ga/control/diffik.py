@@ -131,16 +131,37 @@ def joint_velocity(J: Any, command_bivector: Any, damping: float = 1e-3) -> np.n
     return damped_pinv(J, validation.nonnegative(damping, "damping")) @ _check_bivector(command_bivector)
 
 
-def _velocity(task: Any, q: np.ndarray, J: np.ndarray, b: np.ndarray, dt: float, damping: float, limits: str,
-              limit_gain: float, G: np.ndarray, h: np.ndarray, labels: tuple[str, ...]) -> QPSolution:
+def _velocity(
+    task: Any,
+    q: np.ndarray,
+    J: np.ndarray,
+    b: np.ndarray,
+    dt: float,
+    damping: float,
+    limits: str,
+    limit_gain: float,
+    G: np.ndarray,
+    h: np.ndarray,
+    labels: tuple[str, ...],
+) -> QPSolution:
     """The joint velocity of one step (q inside the limits when ``limits='enforce'``)."""
     m = G.shape[0]
     x_free = damped_pinv(J, damping) @ b  # Eq 48: the QP's solution whenever no bound or row is active
     if limits == "enforce":
         lower, upper, vel = limit_arrays(task)
         lb, ub = velocity_bounds(q, lower, upper, vel, dt, limit_gain)
-        return solve_qp(J, b, damping, lb, ub, G if m else None, h if m else None, x_free=x_free, labels=labels,
-                        what="differential IK step")
+        return solve_qp(
+            J,
+            b,
+            damping,
+            lb,
+            ub,
+            G if m else None,
+            h if m else None,
+            x_free=x_free,
+            labels=labels,
+            what="differential IK step",
+        )
     if m:  # constraints without limits
         return solve_qp(J, b, damping, None, None, G, h, x_free=x_free, labels=labels, what="differential IK step")
     n = J.shape[1]
@@ -155,9 +176,17 @@ def _advance(task: Any, q: np.ndarray, qd: np.ndarray, dt: float, limits: str) -
     return q_next
 
 
-def diff_ik_velocity(task: Any, q: Any, command_bivector: Any, *, dt: float = 0.01, damping: float = 1e-3,
-                     limits: str = "enforce", limit_gain: float = DEFAULT_LIMIT_GAIN,
-                     constraints: Any = None) -> QPSolution:
+def diff_ik_velocity(
+    task: Any,
+    q: Any,
+    command_bivector: Any,
+    *,
+    dt: float = 0.01,
+    damping: float = 1e-3,
+    limits: str = "enforce",
+    limit_gain: float = DEFAULT_LIMIT_GAIN,
+    constraints: Any = None,
+) -> QPSolution:
     """The joint velocity of one differential-IK step (Eq 48 as a QP, module docstring).
 
     Parameters
@@ -192,8 +221,17 @@ def diff_ik_velocity(task: Any, q: Any, command_bivector: Any, *, dt: float = 0.
     return _velocity(task, q, J, b, dt, damping, "none" if limits == "clamp" else limits, limit_gain, G, h, labels)
 
 
-def diff_ik_step(task: Any, q: Any, command_bivector: Any, dt: float = 0.01, damping: float = 1e-3,
-                 limits: str = "enforce", *, limit_gain: float = DEFAULT_LIMIT_GAIN, constraints: Any = None) -> np.ndarray:
+def diff_ik_step(
+    task: Any,
+    q: Any,
+    command_bivector: Any,
+    dt: float = 0.01,
+    damping: float = 1e-3,
+    limits: str = "enforce",
+    *,
+    limit_gain: float = DEFAULT_LIMIT_GAIN,
+    constraints: Any = None,
+) -> np.ndarray:
     """One differential-IK step (Eq 48, 61): ``q_next = q + Δt q̇`` with q̇ from :func:`diff_ik_velocity`.
 
     Parameters
@@ -295,8 +333,9 @@ class DiffIKResult(SolverResult):
     infeasible: bool = False
 
 
-def diff_ik_reach(task: Any, q0: Any, target: Any, options: DiffIKOptions | None = None, *,
-                  constraints: Any = None, **overrides: Any) -> DiffIKResult:
+def diff_ik_reach(
+    task: Any, q0: Any, target: Any, options: DiffIKOptions | None = None, *, constraints: Any = None, **overrides: Any
+) -> DiffIKResult:
     """Drive V_Sc(q) to ``target`` (a :class:`~coop_ga.Similarity`) by differential IK (Eq 44, 48, 61).
 
     Each step commands the body velocity ``B_S = gain · log(Ṽ_Sc(q) V_Sd)`` (the error
@@ -335,7 +374,11 @@ def diff_ik_reach(task: Any, q0: Any, target: Any, options: DiffIKOptions | None
         k = 0
         while k < o.steps and errs[-1] >= o.tol:
             J = task.evaluate_views(q)[2]
-            G, h, labels = const_rows if cfun is None else stack_constraints(cfun(q.copy()), task.nq)
+            if cfun is None:
+                assert const_rows is not None  # static constraints: stacked once, above
+                G, h, labels = const_rows
+            else:
+                G, h, labels = stack_constraints(cfun(q.copy()), task.nq)
             try:
                 sol = _velocity(task, q, J, o.gain * e, o.dt, o.damping, qp_mode, o.limit_gain, G, h, labels)
             except InfeasibleConstraintsError as exc:
@@ -365,8 +408,12 @@ def diff_ik_reach(task: Any, q0: Any, target: Any, options: DiffIKOptions | None
         violation = lim.position_violation(traj)
         vviol = lim.velocity_violation(np.diff(traj, axis=0) / o.dt) if k else 0.0
         if o.limits == "none" and lim.position_violation(q) > 0.0:
-            warn(f"diff_ik_reach(limits='none'): the final configuration is outside the joint limits by up to "
-                 f"{lim.position_violation(q):.3g} ({lim.describe(q)})", JointLimitWarning, key=str(task.system.name))
+            warn(
+                f"diff_ik_reach(limits='none'): the final configuration is outside the joint limits by up to "
+                f"{lim.position_violation(q):.3g} ({lim.describe(q)})",
+                JointLimitWarning,
+                key=str(task.system.name),
+            )
     errors = np.array(errs)
     inside = o.limits == "none" or violation <= 1e-9
     converged = bool(errors[-1] < o.tol and inside and not infeasible)
@@ -376,7 +423,19 @@ def diff_ik_reach(task: Any, q0: Any, target: Any, options: DiffIKOptions | None
         message = f"not converged after {k} steps (‖e‖ = {errors[-1]:.3g} ≥ tol)"
         if active:
             message += f"; bounds active at the last step: {', '.join(active)}"
-    return DiffIKResult(converged=converged, error=float(errors[-1]), iterations=k, message=message, q=q.copy(),
-                        warnings=dict(caught.counts), trajectory=traj, errors=errors, limits=o.limits,
-                        limit_violation=violation, velocity_violation=vviol, active_steps=active_steps,
-                        active_limits=active, infeasible=infeasible)
+    return DiffIKResult(
+        converged=converged,
+        error=float(errors[-1]),
+        iterations=k,
+        message=message,
+        q=q.copy(),
+        warnings=dict(caught.counts),
+        trajectory=traj,
+        errors=errors,
+        limits=o.limits,
+        limit_violation=violation,
+        velocity_violation=vviol,
+        active_steps=active_steps,
+        active_limits=active,
+        infeasible=infeasible,
+    )

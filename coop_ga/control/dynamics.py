@@ -40,11 +40,11 @@ from .. import validation
 from .base import check_q
 
 __all__ = [
-    "joint_dynamics",
-    "task_space_dynamics",
-    "task_inertia",
-    "dynamically_consistent_projector",
     "TaskDynamics",
+    "dynamically_consistent_projector",
+    "joint_dynamics",
+    "task_inertia",
+    "task_space_dynamics",
 ]
 
 
@@ -52,8 +52,6 @@ def _pin():
     import pinocchio as pin
 
     return pin
-
-
 
 
 def _data(task: Any) -> Any:

@@ -59,7 +59,7 @@ import numpy as np
 from .. import validation
 from ..diagnostics import collect_warnings, warn
 from ..errors import DegeneratePrimitiveError, InvalidInputError, JointLimitWarning
-from .base import SolverResult, bounds, check_problem, check_q, resolve_options
+from .base import SolverResult, bounds, check_problem, resolve_options
 from .qp import describe_active, project_into_limits, solve_qp
 
 __all__ = ["GaussNewtonOptions", "IKResult", "gauss_newton_ik", "gauss_newton_step"]
@@ -161,8 +161,9 @@ def _at_bounds(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, grad: np.ndarray) 
     return (q - lo <= tol) & (grad > 0), (hi - q <= tol) & (grad < 0)
 
 
-def gauss_newton_ik(task: Any, q_init: Any, target: Any, options: GaussNewtonOptions | None = None,
-                    **overrides: Any) -> IKResult:
+def gauss_newton_ik(
+    task: Any, q_init: Any, target: Any, options: GaussNewtonOptions | None = None, **overrides: Any
+) -> IKResult:
     """Solve ``V_Sc(q) = V_Sd`` by damped Gauss–Newton with Armijo backtracking (Eq 43–47),
     within the joint limits by default (bounded least-squares steps, module docstring).
 
@@ -208,11 +209,15 @@ def gauss_newton_ik(task: Any, q_init: Any, target: Any, options: GaussNewtonOpt
             else:
                 gproj = grad
             if float(np.linalg.norm(gproj)) <= o.gtol * float(np.linalg.norm(Je)) * hist[-1]:
-                message = ("stationary point of ‖e‖² with e ≠ 0 (‖J_eᵀ e‖ ≤ gtol): a local minimum, "
-                           "the target is not reachable from here")
+                message = (
+                    "stationary point of ‖e‖² with e ≠ 0 (‖J_eᵀ e‖ ≤ gtol): a local minimum, "
+                    "the target is not reachable from here"
+                )
                 if enforce and np.any(at_lo | at_hi):
-                    message = ("stationary point of ‖e‖² within the joint limits with e ≠ 0 (projected gradient "
-                               "≤ gtol): the target is not reachable inside the limits from here")
+                    message = (
+                        "stationary point of ‖e‖² within the joint limits with e ≠ 0 (projected gradient "
+                        "≤ gtol): the target is not reachable inside the limits from here"
+                    )
                 break
             dq = gauss_newton_step(e, Je, o.damping)
             big = float(np.max(np.abs(dq)))
@@ -222,8 +227,15 @@ def gauss_newton_ik(task: Any, q_init: Any, target: Any, options: GaussNewtonOpt
                 if np.all(qs >= lo) and np.all(qs <= hi):
                     dq = dqs
                 else:
-                    sol = solve_qp(Je, -e, o.damping, np.maximum(lo - q, -o.max_step), np.minimum(hi - q, o.max_step),
-                                   x_free=dq, what="gauss_newton_ik step")
+                    sol = solve_qp(
+                        Je,
+                        -e,
+                        o.damping,
+                        np.maximum(lo - q, -o.max_step),
+                        np.minimum(hi - q, o.max_step),
+                        x_free=dq,
+                        what="gauss_newton_ik step",
+                    )
                     dq = sol.x
                     active_iters += 1
             if float(np.max(np.abs(dq), initial=0.0)) <= o.xtol * (1.0 + float(np.max(np.abs(q)))):
@@ -258,16 +270,22 @@ def gauss_newton_ik(task: Any, q_init: Any, target: Any, options: GaussNewtonOpt
             hist.append(float(np.sqrt(2 * f)))
             alphas.append(alpha)
             if it >= o.stall_window and hist[-1] >= o.tol and hist[-1 - o.stall_window] - hist[-1] <= o.ftol * hist[-1]:
-                message = (f"stalled: ‖e‖ decreased by less than ftol·‖e‖ over {o.stall_window} iterations "
-                           "(local minimum, singular configuration or unreachable target)")
+                message = (
+                    f"stalled: ‖e‖ decreased by less than ftol·‖e‖ over {o.stall_window} iterations "
+                    "(local minimum, singular configuration or unreachable target)"
+                )
                 break
         if it:
             task.error_and_jacobian(q, Vd)  # re-check the final configuration (reported once)
         lim = task.system.limits
         violation = lim.position_violation(q)
         if o.limits == "none" and violation > 0.0:
-            warn(f"gauss_newton_ik(limits='none'): the solution is outside the joint limits by up to {violation:.3g} "
-                 f"({lim.describe(q)})", JointLimitWarning, key=str(task.system.name))
+            warn(
+                f"gauss_newton_ik(limits='none'): the solution is outside the joint limits by up to {violation:.3g} "
+                f"({lim.describe(q)})",
+                JointLimitWarning,
+                key=str(task.system.name),
+            )
     active: tuple[str, ...] = ()
     if o.limits != "none":
         at_lo, at_hi = _at_bounds(q, lo, hi, Je.T @ e)
@@ -277,6 +295,17 @@ def gauss_newton_ik(task: Any, q_init: Any, target: Any, options: GaussNewtonOpt
         message = "converged"
     elif active:
         message += f"; joint limits active at the final configuration: {', '.join(active)}"
-    return IKResult(converged=bool(converged), error=hist[-1], iterations=it, message=message, q=q,
-                    warnings=dict(caught.counts), history=np.array(hist), step_sizes=np.array(alphas),
-                    limits=o.limits, limit_violation=violation, active_iterations=active_iters, active_limits=active)
+    return IKResult(
+        converged=bool(converged),
+        error=hist[-1],
+        iterations=it,
+        message=message,
+        q=q,
+        warnings=dict(caught.counts),
+        history=np.array(hist),
+        step_sizes=np.array(alphas),
+        limits=o.limits,
+        limit_violation=violation,
+        active_iterations=active_iters,
+        active_limits=active,
+    )

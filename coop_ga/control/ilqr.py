@@ -98,8 +98,17 @@ from ..errors import DegeneratePrimitiveError, InvalidInputError, JointLimitWarn
 from ..geometry.groups import Similarity
 from .base import SolverResult, check_problem, check_q, resolve_options
 
-__all__ = ["DEFAULT_Q", "DEFAULT_QV", "DEFAULT_R", "ILQRIteration", "ILQROptions", "ILQRResult", "ReachingOCP",
-           "displaced_target", "ilqr_reach"]
+__all__ = [
+    "DEFAULT_Q",
+    "DEFAULT_QV",
+    "DEFAULT_R",
+    "ILQRIteration",
+    "ILQROptions",
+    "ILQRResult",
+    "ReachingOCP",
+    "displaced_target",
+    "ilqr_reach",
+]
 
 #: Default control weight R (scalar → R · I) [1/(rad/s²)²].
 DEFAULT_R = 1e-3
@@ -134,9 +143,20 @@ class ReachingOCP:
     The total cost is ``J(u) = Σ_k u_kᵀ R u_k + e(q_n)ᵀ Q e(q_n) + q̇_nᵀ Q_v q̇_n``.
     """
 
-    def __init__(self, task: Any, q_init: Any, target: Any, *, qd_init: Any = None, horizon: int = 250,
-                 dt: float = 0.01, R: Any = DEFAULT_R, Q: Any = DEFAULT_Q, Qv: Any = DEFAULT_QV,
-                 limits: str = "enforce"):
+    def __init__(
+        self,
+        task: Any,
+        q_init: Any,
+        target: Any,
+        *,
+        qd_init: Any = None,
+        horizon: int = 250,
+        dt: float = 0.01,
+        R: Any = DEFAULT_R,
+        Q: Any = DEFAULT_Q,
+        Qv: Any = DEFAULT_QV,
+        limits: str = "enforce",
+    ):
         self.task = task
         self.nq = n = int(task.nq)
         self.q_init, self.target = check_problem(task, q_init, target, "q_init")
@@ -220,8 +240,9 @@ class ReachingOCP:
         """Inequalities c ≤ 0 at the knots 1…n, shape (n, 4, nq): ``q − upper, lower − q, q̇ − v, −v − q̇``
         (−inf where a bound is infinite)."""
         with np.errstate(invalid="ignore"):
-            c = np.stack([q[1:] - self.q_upper, self.q_lower - q[1:], qd[1:] - self.v_max, -self.v_max - qd[1:]],
-                         axis=1)
+            c = np.stack(
+                [q[1:] - self.q_upper, self.q_lower - q[1:], qd[1:] - self.v_max, -self.v_max - qd[1:]], axis=1
+            )
         return np.where(np.isnan(c), -np.inf, c)
 
     def violation(self, q: np.ndarray, qd: np.ndarray, u: np.ndarray | None = None) -> float:
@@ -407,8 +428,9 @@ class ILQRResult(SolverResult):
 
     @property
     def within_limits(self) -> bool:
-        return self.joint_limit_violation == 0.0 and self.velocity_violation == 0.0 and \
-            self.acceleration_violation == 0.0
+        return (
+            self.joint_limit_violation == 0.0 and self.velocity_violation == 0.0 and self.acceleration_violation == 0.0
+        )
 
 
 # ============================================================================ LQ steps
@@ -416,14 +438,15 @@ def _gramian(ocp: ReachingOCP) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Coefficients of x_n w.r.t. u: ``c_k`` with ``∂q_n/∂u_k = c_k I``, ``∂q̇_n/∂u_k = Δt I``,
     and the 2×2 factor G2 of the Gramian ``W = Σ_k G_k (2R)⁻¹ G_kᵀ = G2 ⊗ (2R)⁻¹``."""
     T = ocp.horizon
-    ck = ocp.h + np.arange(T - 1, -1, -1, dtype=float) * ocp.dt ** 2
+    ck = ocp.h + np.arange(T - 1, -1, -1, dtype=float) * ocp.dt**2
     s1 = float(ck.sum())
-    G2 = np.array([[float(ck @ ck), ocp.dt * s1], [ocp.dt * s1, T * ocp.dt ** 2]])
+    G2 = np.array([[float(ck @ ck), ocp.dt * s1], [ocp.dt * s1, T * ocp.dt**2]])
     return ck, G2, np.linalg.inv(ocp.R2)
 
 
-def _condensed_step(ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, ck: np.ndarray,
-                    G2: np.ndarray, R2inv: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+def _condensed_step(
+    ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, ck: np.ndarray, G2: np.ndarray, R2inv: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """The LQ step of the unconstrained problem in closed form through the Gramian.
 
     With ``x_n = x̄_n + Σ_k G_k δu_k`` (``G_k = [c_k I; Δt I]``) the LQ subproblem
@@ -447,8 +470,9 @@ def _condensed_step(ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.nda
     return du, ck @ du, dt * du.sum(axis=0), d1
 
 
-def _box_qp(H: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray,
-            max_iter: int = 30) -> tuple[np.ndarray, np.ndarray]:
+def _box_qp(
+    H: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray, max_iter: int = 30
+) -> tuple[np.ndarray, np.ndarray]:
     """``argmin ½xᵀHx + gᵀx`` s.t. ``lo ≤ x ≤ hi`` by projected Newton (Tassa et al. 2014, Alg. 3).
 
     Returns ``(x, free)`` with ``free`` the mask of the unclamped coordinates at the solution
@@ -484,9 +508,15 @@ def _box_qp(H: np.ndarray, g: np.ndarray, lo: np.ndarray, hi: np.ndarray, x0: np
     return x, free
 
 
-def _backward_box(ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray,
-                  lx: np.ndarray | None = None, lxx: np.ndarray | None = None,
-                  box: bool = False) -> tuple[np.ndarray, np.ndarray, float, float]:
+def _backward_box(
+    ocp: ReachingOCP,
+    u: np.ndarray,
+    Vxx: np.ndarray,
+    vx: np.ndarray,
+    lx: np.ndarray | None = None,
+    lxx: np.ndarray | None = None,
+    box: bool = False,
+) -> tuple[np.ndarray, np.ndarray, float, float]:
     """Riccati recursion (box-DDP) for the double integrator with separable state costs.
 
     ``Vxx, vx``: Hessian and gradient of the terminal cost (plus the knot-n state cost).
@@ -578,8 +608,7 @@ def _backward_box(ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarr
     return kff, Kfb, d1, d2
 
 
-def _backward(ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray, float]:
+def _backward(ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """Unconstrained Riccati pass (:func:`_backward_box` without bounds): ``(k, K, d1)``."""
     kff, Kfb, d1, _ = _backward_box(ocp, u, Vxx, vx)
     return kff, Kfb, d1
@@ -650,8 +679,19 @@ class _Merit:
             al = float(np.sum(z * z - self.lam * self.lam)) / (2.0 * self.mu)
         else:
             z = np.zeros_like(c)
-        return {"u": u, "q": q, "qd": qd, "e": e, "es": es, "Je": Je, "cost": cost, "merit": run + lf + al,
-                "c": c, "z": z, "violation": float(max(np.max(c, initial=0.0), 0.0))}
+        return {
+            "u": u,
+            "q": q,
+            "qd": qd,
+            "e": e,
+            "es": es,
+            "Je": Je,
+            "cost": cost,
+            "merit": run + lf + al,
+            "c": c,
+            "z": z,
+            "violation": float(max(np.max(c, initial=0.0), 0.0)),
+        }
 
     def state_terms(self, ev: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, bool]:
         """Gradients and diagonal Hessians (n+1, 2nq) of the AL terms at the knots; whether any is active."""
@@ -725,8 +765,16 @@ def _active(ocp: ReachingOCP, q: np.ndarray, qd: np.ndarray, u: np.ndarray, tol:
 
 
 # ============================================================================ solver
-def ilqr_reach(task: Any, q_init: Any, target: Any, options: ILQROptions | None = None, *, qd_init: Any = None,
-               u_init: Any = None, **overrides: Any) -> ILQRResult:
+def ilqr_reach(
+    task: Any,
+    q_init: Any,
+    target: Any,
+    options: ILQROptions | None = None,
+    *,
+    qd_init: Any = None,
+    u_init: Any = None,
+    **overrides: Any,
+) -> ILQRResult:
     """Reach the target similarity ``V_Sd`` within the joint limits by iLQR on Eq 53–57 (module docstring).
 
     Parameters
@@ -756,13 +804,16 @@ def ilqr_reach(task: Any, q_init: Any, target: Any, options: ILQROptions | None 
     is built (~0.2 s, once per task and process); ``solve_time_s`` covers everything else.
     """
     o = resolve_options(ILQROptions, options, overrides, "ilqr_reach")
-    ocp = ReachingOCP(task, q_init, target, qd_init=qd_init, horizon=o.horizon, dt=o.dt, R=o.R, Q=o.Q, Qv=o.Qv,
-                      limits=o.limits)
+    ocp = ReachingOCP(
+        task, q_init, target, qd_init=qd_init, horizon=o.horizon, dt=o.dt, R=o.R, Q=o.Q, Qv=o.Qv, limits=o.limits
+    )
     if o.limits == "enforce":
         lim = task.system.limits
         if lim.position_violation(ocp.q_init) > 1e-9:
-            raise InvalidInputError(f"q_init is outside the joint limits ({lim.describe(ocp.q_init, 1e-9)}); move it "
-                                    "inside, or pass limits='none' to solve without bounds")
+            raise InvalidInputError(
+                f"q_init is outside the joint limits ({lim.describe(ocp.q_init, 1e-9)}); move it "
+                "inside, or pass limits='none' to solve without bounds"
+            )
         if lim.velocity_violation(ocp.qd_init) > 1e-9:
             raise InvalidInputError("qd_init exceeds the velocity limits; lower it, or pass limits='none'")
     with collect_warnings() as caught:
@@ -891,7 +942,7 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
                 base = max(0.0, wmin - lmin)
                 models += [("newton", base + lm), ("newton", base + lm + wmin), ("newton", base + lm + 16.0 * wmin)]
             models += [("gauss_newton", lm)]
-            models += [("gauss_newton", lm + 10.0 ** p * hscale) for p in range(-6, 3)]
+            models += [("gauss_newton", lm + 10.0**p * hscale) for p in range(-6, 3)]
             accepted = None
             n_back = 0
             mode_used, mu_used, kind_used = models[0][0], 0.0, "riccati"
@@ -925,8 +976,11 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
                         u_c = _second_order_correction(ocp, ev_t, ck, G2, R2inv)
                         ev_c = merit.evaluate(u_c) if u_c is not None else None
                         trials += 1
-                        if ev_c is not None and ev_c["violation"] <= ev["violation"] and \
-                                ev_c["merit"] <= ev["merit"] + o.armijo * min(expected, 0.0):
+                        if (
+                            ev_c is not None
+                            and ev_c["violation"] <= ev["violation"]
+                            and ev_c["merit"] <= ev["merit"] + o.armijo * min(expected, 0.0)
+                        ):
                             accepted = (alpha, ev_c, expected, trials, travel)
                             break
                     alpha *= 0.5
@@ -935,8 +989,10 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
                     break
             if accepted is None:
                 inner_stalled = True
-                message = ("no descent step found (stationary point of the merit or line-search failure): the "
-                           "terminal error cannot be reduced further from here")
+                message = (
+                    "no descent step found (stationary point of the merit or line-search failure): the "
+                    "terminal error cannot be reduced further from here"
+                )
                 break
             alpha, ev_t, expected, trials, travel = accepted
             decrease = ev["merit"] - ev_t["merit"]
@@ -958,12 +1014,25 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
             it += 1
             costs.append(ev["cost"])
             errs.append(float(np.linalg.norm(ev["e"])))
-            stats.append(ILQRIteration(cost=ev["cost"], error=errs[-1], alpha=alpha, mu=mu_used,
-                                       expected_decrease=-expected, actual_decrease=decrease,
-                                       line_search_trials=trials, backward_passes=n_back,
-                                       time_s=time.perf_counter() - t_it, model=mode_used, merit=ev["merit"],
-                                       outer=outer, violation=ev["violation"], travel=alpha * travel,
-                                       backward=kind_used))
+            stats.append(
+                ILQRIteration(
+                    cost=ev["cost"],
+                    error=errs[-1],
+                    alpha=alpha,
+                    mu=mu_used,
+                    expected_decrease=-expected,
+                    actual_decrease=decrease,
+                    line_search_trials=trials,
+                    backward_passes=n_back,
+                    time_s=time.perf_counter() - t_it,
+                    model=mode_used,
+                    merit=ev["merit"],
+                    outer=outer,
+                    violation=ev["violation"],
+                    travel=alpha * travel,
+                    backward=kind_used,
+                )
+            )
             if done(ev):
                 finished = True
                 break
@@ -972,8 +1041,14 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
                 break
             # near the target the penalty's own optimum keeps e ≈ λ_e/(2Q): once a Newton step no longer halves
             # ‖e‖, shift the terminal target (the multiplier update) instead of creeping toward that optimum
-            if o.terminal == "constraint" and newton and errs[-1] < 100.0 * o.tol and errs[-1] > 0.5 * errs[-2] \
-                    and ev["violation"] <= o.al_violation and not shift_estimated:
+            if (
+                o.terminal == "constraint"
+                and newton
+                and errs[-1] < 100.0 * o.tol
+                and errs[-1] > 0.5 * errs[-2]
+                and ev["violation"] <= o.al_violation
+                and not shift_estimated
+            ):
                 break
             # the AL subproblem is solved well enough: update the multipliers now (the penalty optimum keeps a
             # violation ~ λ*/μ that only the outer update removes)
@@ -1000,11 +1075,15 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
             changed = True
         if not changed:
             if inner_stalled and o.terminal == "soft":
-                message = ("stationary: the optimum of the soft terminal cost (Eq 57) keeps ‖e‖ above tol; use "
-                           "terminal='constraint' (the default) or raise Q relative to R")
+                message = (
+                    "stationary: the optimum of the soft terminal cost (Eq 57) keeps ‖e‖ above tol; use "
+                    "terminal='constraint' (the default) or raise Q relative to R"
+                )
             elif inner_stalled:
-                message = ("stationary: the optimum within the limits is reached but the terminal error stays above "
-                           "tol (the target is not reachable inside the limits from here)")
+                message = (
+                    "stationary: the optimum within the limits is reached but the terminal error stays above "
+                    "tol (the target is not reachable inside the limits from here)"
+                )
             break
         ev_new = merit.evaluate(u)
         assert ev_new is not None  # the same trajectory
@@ -1035,36 +1114,65 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
     vviol = lim.velocity_violation(qd)
     aviol = lim.acceleration_violation(u)
     if o.limits == "none" and pviol > 0 and o.warn_limits:
-        warn(f"iLQR trajectory leaves the joint limits by up to {pviol:.3g} rad (limits='none': not enforced)",
-             JointLimitWarning, key=task.name)
+        warn(
+            f"iLQR trajectory leaves the joint limits by up to {pviol:.3g} rad (limits='none': not enforced)",
+            JointLimitWarning,
+            key=task.name,
+        )
     feasible = o.limits == "none" or (pviol <= 1e-9 and vviol <= 1e-9 and aviol <= 1e-9)
     # every iterate is the result of a step accepted on the true merit (or the initial guess)
     converged = bool(errs[-1] < o.tol and feasible)
     active = _active(ocp, q, qd, u, tol=1e-3) if o.limits == "enforce" else ()
     if converged:
-        message = "converged: terminal error below tol within the limits" if o.limits == "enforce" else \
-            "converged: terminal error below tol (limits not enforced)"
+        message = (
+            "converged: terminal error below tol within the limits"
+            if o.limits == "enforce"
+            else "converged: terminal error below tol (limits not enforced)"
+        )
     else:
         message = f"not converged: {message or 'stopped'}; ‖e‖ = {errs[-1]:.3g}" + (
             f"; bounds within 1e-3 of active: {'; '.join(active[:6])}{' …' if len(active) > 6 else ''}"
-            if active else "")
-    return ILQRResult(converged=converged, error=errs[-1], iterations=it, message=message,
-                      q=q[-1].copy(), warnings=warning_counts, trajectory=q, qd=qd, u=u, t=ocp.times,
-                      error_vector=e.copy(), terminal_speed=float(np.linalg.norm(qd[-1])), cost=cost,
-                      cost_history=np.array(costs), error_history=np.array(errs), solve_time_s=solve_time,
-                      stats=tuple(stats), joint_limit_violation=pviol, velocity_violation=vviol,
-                      acceleration_violation=aviol, active_constraints=active, outer_iterations=outer,
-                      restoration=beta, dt=ocp.dt, target=ocp.target, hessian=o.hessian)
+            if active
+            else ""
+        )
+    return ILQRResult(
+        converged=converged,
+        error=errs[-1],
+        iterations=it,
+        message=message,
+        q=q[-1].copy(),
+        warnings=warning_counts,
+        trajectory=q,
+        qd=qd,
+        u=u,
+        t=ocp.times,
+        error_vector=e.copy(),
+        terminal_speed=float(np.linalg.norm(qd[-1])),
+        cost=cost,
+        cost_history=np.array(costs),
+        error_history=np.array(errs),
+        solve_time_s=solve_time,
+        stats=tuple(stats),
+        joint_limit_violation=pviol,
+        velocity_violation=vviol,
+        acceleration_violation=aviol,
+        active_constraints=active,
+        outer_iterations=outer,
+        restoration=beta,
+        dt=ocp.dt,
+        target=ocp.target,
+        hessian=o.hessian,
+    )
 
 
-def _second_order_correction(ocp: ReachingOCP, ev: dict[str, Any], ck: np.ndarray, G2: np.ndarray,
-                             R2inv: np.ndarray) -> np.ndarray | None:
+def _second_order_correction(
+    ocp: ReachingOCP, ev: dict[str, Any], ck: np.ndarray, G2: np.ndarray, R2inv: np.ndarray
+) -> np.ndarray | None:
     """Controls ``u − δu_c`` with the minimum-energy δu_c such that ``J_e δq_n = e_s`` and ``δq̇_n = 0`` (e_s the
     shifted terminal error at ev); None if the trajectory then leaves the bounds."""
     n, dt = ocp.nq, ocp.dt
     Je, es, u = ev["Je"], ev["es"], ev["u"]
-    Cw = np.block([[G2[0, 0] * Je @ R2inv @ Je.T, G2[0, 1] * Je @ R2inv],
-                   [G2[1, 0] * R2inv @ Je.T, G2[1, 1] * R2inv]])
+    Cw = np.block([[G2[0, 0] * Je @ R2inv @ Je.T, G2[0, 1] * Je @ R2inv], [G2[1, 0] * R2inv @ Je.T, G2[1, 1] * R2inv]])
     y = np.linalg.lstsq(Cw, np.concatenate([es, np.zeros(n)]), rcond=1e-12)[0]
     a_q = R2inv @ (Je.T @ y[:7])
     a_v = R2inv @ y[7:]
@@ -1086,9 +1194,17 @@ def _gn_only(ocp: ReachingOCP, ev: dict[str, Any], lxx_n: np.ndarray) -> np.ndar
     return H
 
 
-def _condensed_box_step(ocp: ReachingOCP, u: np.ndarray, q: np.ndarray, qd: np.ndarray, Vxx: np.ndarray,
-                        vx: np.ndarray, ck: np.ndarray, R2inv: np.ndarray, Winv: np.ndarray
-                        ) -> tuple[np.ndarray, float, float, np.ndarray] | None:
+def _condensed_box_step(
+    ocp: ReachingOCP,
+    u: np.ndarray,
+    q: np.ndarray,
+    qd: np.ndarray,
+    Vxx: np.ndarray,
+    vx: np.ndarray,
+    ck: np.ndarray,
+    R2inv: np.ndarray,
+    Winv: np.ndarray,
+) -> tuple[np.ndarray, float, float, np.ndarray] | None:
     """The LQ step over the terminal state with the terminal bounds, in closed form otherwise.
 
     For a terminal state ``y = Σ_k G_k ũ_k`` (relative to the free drift) the cheapest controls
@@ -1123,8 +1239,9 @@ def _condensed_box_step(ocp: ReachingOCP, u: np.ndarray, q: np.ndarray, qd: np.n
     return du, d1, d2, dx
 
 
-def _control_box_step(ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, ck: np.ndarray,
-                      max_iter: int = 50) -> tuple[np.ndarray, float, float] | None:
+def _control_box_step(
+    ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, ck: np.ndarray, max_iter: int = 50
+) -> tuple[np.ndarray, float, float] | None:
     """The LQ step with the acceleration bounds, exactly, by projected Newton over the whole control sequence.
 
     With linear dynamics the LQ subproblem is the QP ``min ½ δuᵀ H δu + gᵀ δu`` over the box
@@ -1135,7 +1252,7 @@ def _control_box_step(ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.n
     identity (``2R`` diagonal plus a rank-2nq term): O(n·nq·nq) per iteration.  Requires a
     diagonal R; returns ``(δu, d1, d2)`` or None (not convex, or R not diagonal).
     """
-    n, dt, T = ocp.nq, ocp.dt, ocp.horizon
+    n, dt = ocp.nq, ocp.dt
     r2 = np.diag(ocp.R2)
     if not np.allclose(ocp.R2, np.diag(r2)) or not np.all(r2 > 0):
         return None
@@ -1196,9 +1313,20 @@ def _control_box_step(ocp: ReachingOCP, u: np.ndarray, Vxx: np.ndarray, vx: np.n
     return x, d1, d2
 
 
-def _lq_step(ocp: ReachingOCP, o: ILQROptions, u: np.ndarray, ev: dict[str, Any], Vxx: np.ndarray, vx: np.ndarray,
-             lx: np.ndarray, lxx: np.ndarray, state_terms: bool, ck: np.ndarray, R2inv: np.ndarray,
-             Winv: np.ndarray):
+def _lq_step(
+    ocp: ReachingOCP,
+    o: ILQROptions,
+    u: np.ndarray,
+    ev: dict[str, Any],
+    Vxx: np.ndarray,
+    vx: np.ndarray,
+    lx: np.ndarray,
+    lxx: np.ndarray,
+    state_terms: bool,
+    ck: np.ndarray,
+    R2inv: np.ndarray,
+    Winv: np.ndarray,
+):
     """One LQ step: ``(kind, propose(α) → u_trial, d1, d2)`` or None if the model is not convex.
 
     ``"condensed"`` (:func:`_condensed_box_step`) when no AL term is active and the full step's

@@ -83,8 +83,7 @@ from ..errors import CoopGAError, InvalidInputError, JointLimitWarning, NonFinit
 from .base import SolverResult, check_q, resolve_options
 from .dynamics import task_inertia
 
-__all__ = ["PAPER_GAINS", "ImpedanceOptions", "ImpedanceResult", "error_rate", "impedance_torque",
-           "simulate_impedance"]
+__all__ = ["PAPER_GAINS", "ImpedanceOptions", "ImpedanceResult", "error_rate", "impedance_torque", "simulate_impedance"]
 
 #: §4.1: K = diag(1, 1, 1, 7.5, 7.5, 7.5, 7.5), D = 5 I (rows e12, e13, e23, e0∞, e1∞, e2∞, e3∞)
 PAPER_GAINS = (np.diag([1.0, 1.0, 1.0, 7.5, 7.5, 7.5, 7.5]), 5.0 * np.eye(7))
@@ -268,8 +267,9 @@ class _Controller:
         return tau, e
 
 
-def impedance_torque(task: Any, q: Any, qd: Any, target: Any, options: ImpedanceOptions | None = None,
-                     **overrides: Any) -> np.ndarray:
+def impedance_torque(
+    task: Any, q: Any, qd: Any, target: Any, options: ImpedanceOptions | None = None, **overrides: Any
+) -> np.ndarray:
     """Joint torque τ (nq,) [N m] of the similarity impedance law (Eq 49–52) at (q, q̇).
 
     See the module docstring for the law, the nullspace options and ``error_rate``;
@@ -288,8 +288,15 @@ def impedance_torque(task: Any, q: Any, qd: Any, target: Any, options: Impedance
     return tau
 
 
-def simulate_impedance(task: Any, q_init: Any, target: Any, options: ImpedanceOptions | None = None, *,
-                       qd_init: Any = None, **overrides: Any) -> ImpedanceResult:
+def simulate_impedance(
+    task: Any,
+    q_init: Any,
+    target: Any,
+    options: ImpedanceOptions | None = None,
+    *,
+    qd_init: Any = None,
+    **overrides: Any,
+) -> ImpedanceResult:
     """Simulate the similarity impedance controller (Eq 49–52) on the system's rigid-body dynamics.
 
     Parameters
@@ -348,19 +355,38 @@ def simulate_impedance(task: Any, q_init: Any, target: Any, options: ImpedanceOp
     En = np.linalg.norm(E, axis=1)
     small = bool(En[-1] < o.tol)
     converged = small and stats["limit_violation_steps"] == 0
-    msg = (f"‖B_e‖ = {En[-1]:.3g} after {duration:g} s ({'<' if small else '≥'} tol = {o.tol:g}; "
-           f"ratio to the start {En[-1] / En[0] if En[0] > 0 else 0.0:.3g})")
+    msg = (
+        f"‖B_e‖ = {En[-1]:.3g} after {duration:g} s ({'<' if small else '≥'} tol = {o.tol:g}; "
+        f"ratio to the start {En[-1] / En[0] if En[0] > 0 else 0.0:.3g})"
+    )
     if stats["saturated_steps"]:
-        msg += (f"; torque {'saturated' if o.torque_limits == 'saturate' else 'above the effort limit'} in "
-                f"{stats['saturated_steps']} of {n} steps (max |τ|/effort = {stats['effort_ratio']:.3g})")
+        msg += (
+            f"; torque {'saturated' if o.torque_limits == 'saturate' else 'above the effort limit'} in "
+            f"{stats['saturated_steps']} of {n} steps (max |τ|/effort = {stats['effort_ratio']:.3g})"
+        )
     if stats["limit_violation_steps"]:
-        msg += (f"; joint limits violated in {stats['limit_violation_steps']} of {T} states (position by up to "
-                f"{stats['position_violation']:.3g} rad, max |q̇|/limit = {stats['velocity_ratio']:.3g})"
-                + " — not converged")
-    return ImpedanceResult(converged=converged, error=float(En[-1]), iterations=n, message=msg, q=Q[-1].copy(),
-                           warnings=dict(caught.counts), t=np.arange(T) * dt, trajectory=Q, qd=QD,
-                           error_vectors=E, error_norm=En, tau=TAU, tau_command=TAU_CMD,
-                           torque_limits=o.torque_limits, **stats)
+        msg += (
+            f"; joint limits violated in {stats['limit_violation_steps']} of {T} states (position by up to "
+            f"{stats['position_violation']:.3g} rad, max |q̇|/limit = {stats['velocity_ratio']:.3g})"
+            + " — not converged"
+        )
+    return ImpedanceResult(
+        converged=converged,
+        error=float(En[-1]),
+        iterations=n,
+        message=msg,
+        q=Q[-1].copy(),
+        warnings=dict(caught.counts),
+        t=np.arange(T) * dt,
+        trajectory=Q,
+        qd=QD,
+        error_vectors=E,
+        error_norm=En,
+        tau=TAU,
+        tau_command=TAU_CMD,
+        torque_limits=o.torque_limits,
+        **stats,
+    )
 
 
 def _limit_statistics(lim: Any, Q: np.ndarray, QD: np.ndarray, tau_applied_cmd: np.ndarray) -> dict[str, Any]:
@@ -392,15 +418,23 @@ def _warn_limits(name: str, stats: dict[str, Any], torque_limits: str, T: int) -
     if stats["limit_violation_steps"]:
         parts = []
         if stats["position_violation_steps"]:
-            parts.append(f"position by up to {stats['position_violation']:.3g} rad in "
-                         f"{stats['position_violation_steps']} states")
+            parts.append(
+                f"position by up to {stats['position_violation']:.3g} rad in {stats['position_violation_steps']} states"
+            )
         if stats["velocity_violation_steps"]:
-            parts.append(f"velocity up to {stats['velocity_ratio']:.3g}× its limit in "
-                         f"{stats['velocity_violation_steps']} states")
-        warn(f"impedance simulation of '{name}' left the joint limits ({'; '.join(parts)}, of {T}); position and "
-             "velocity limits are monitored, not enforced — lower the gains or start closer to the target",
-             JointLimitWarning, key=name)
+            parts.append(
+                f"velocity up to {stats['velocity_ratio']:.3g}× its limit in {stats['velocity_violation_steps']} states"
+            )
+        warn(
+            f"impedance simulation of '{name}' left the joint limits ({'; '.join(parts)}, of {T}); position and "
+            "velocity limits are monitored, not enforced — lower the gains or start closer to the target",
+            JointLimitWarning,
+            key=name,
+        )
     if torque_limits == "none" and stats["saturated_steps"]:
-        warn(f"impedance simulation of '{name}' applied torques above the effort limits in "
-             f"{stats['saturated_steps']} steps (up to {stats['effort_ratio']:.3g}× the limit; torque_limits='none')",
-             JointLimitWarning, key=f"{name}:effort")
+        warn(
+            f"impedance simulation of '{name}' applied torques above the effort limits in "
+            f"{stats['saturated_steps']} steps (up to {stats['effort_ratio']:.3g}× the limit; torque_limits='none')",
+            JointLimitWarning,
+            key=f"{name}:effort",
+        )

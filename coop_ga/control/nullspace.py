@@ -80,13 +80,22 @@ def _index(task: Any, index: Any) -> int:
     n = len(task.end_frames)
     i = validation.integer(index, "index")
     if not 0 <= i < n:
-        raise InvalidInputError(f"index must be an end point of the task, 0 ≤ index < {n} ({', '.join(task.end_frames)}); "
-                                f"got {index!r}")
+        raise InvalidInputError(
+            f"index must be an end point of the task, 0 ≤ index < {n} ({', '.join(task.end_frames)}); got {index!r}"
+        )
     return i
 
 
-def point_reaching_velocity(task: Any, q: Any, index: int, target_point: Any, *, gain: float = 1.0,
-                            damping: float = 1e-3, max_speed: float | None = 0.2) -> np.ndarray:
+def point_reaching_velocity(
+    task: Any,
+    q: Any,
+    index: int,
+    target_point: Any,
+    *,
+    gain: float = 1.0,
+    damping: float = 1e-3,
+    max_speed: float | None = 0.2,
+) -> np.ndarray:
     """Secondary joint velocity ``[0 … q̇_{i,d} … 0]`` (nq,) moving end point ``index`` to ``target_point``.
 
     ``q̇ = J_p⁺ v`` with ``v = gain · (p* − p_i(q))`` [m/s] (capped at ``max_speed`` m/s),
@@ -110,14 +119,28 @@ def point_reaching_velocity(task: Any, q: Any, index: int, target_point: Any, *,
     return damped_pinv(Jp, damping) @ v
 
 
-def _hierarchical_velocity(task: Any, q: np.ndarray, e: np.ndarray | None, J: np.ndarray | None,
-                           qd2: np.ndarray, dt: float, primary_gain: float, damping: float, project: bool,
-                           limits: str, limit_gain: float, G: np.ndarray, h: np.ndarray,
-                           labels: tuple[str, ...]) -> tuple[np.ndarray, bool, tuple[str, ...]]:
+def _hierarchical_velocity(
+    task: Any,
+    q: np.ndarray,
+    e: np.ndarray | None,
+    J: np.ndarray | None,
+    qd2: np.ndarray,
+    dt: float,
+    primary_gain: float,
+    damping: float,
+    project: bool,
+    limits: str,
+    limit_gain: float,
+    G: np.ndarray,
+    h: np.ndarray,
+    labels: tuple[str, ...],
+) -> tuple[np.ndarray, bool, tuple[str, ...]]:
     """``(q̇, a bound or constraint was active, labels of the active bounds)`` of one step (module docstring)."""
     n = qd2.shape[0]
     m = G.shape[0]
     Gm, hm = (G, h) if m else (None, None)
+    lb: np.ndarray | None
+    ub: np.ndarray | None
     if limits == "enforce":
         lower, upper, vel = limit_arrays(task)
         lb, ub = velocity_bounds(q, lower, upper, vel, dt, limit_gain)
@@ -127,8 +150,14 @@ def _hierarchical_velocity(task: Any, q: np.ndarray, e: np.ndarray | None, J: np
     if not project:
         if m == 0:
             qd = qd2 if lb is None else np.clip(qd2, lb, ub)
-            sol = QPSolution(qd, bool(np.any(qd != qd2)), qd <= lb if lb is not None else np.zeros(n, bool),
-                             qd >= ub if ub is not None else np.zeros(n, bool), np.zeros(0, bool), "clip")
+            sol = QPSolution(
+                qd,
+                bool(np.any(qd != qd2)),
+                qd <= lb if lb is not None else np.zeros(n, bool),
+                qd >= ub if ub is not None else np.zeros(n, bool),
+                np.zeros(0, bool),
+                "clip",
+            )
         else:
             sol = solve_qp(eye, qd2, 0.0, lb, ub, Gm, hm, x_free=qd2, labels=labels, what="nullspace step")
     else:
@@ -138,14 +167,36 @@ def _hierarchical_velocity(task: Any, q: np.ndarray, e: np.ndarray | None, J: np
         x_free = x1_free + (qd2 - Jp @ (J @ qd2))  # Eq 58 + 60
         if (lb is None or (np.all(x_free >= lb) and np.all(x_free <= ub))) and (m == 0 or np.all(G @ x_free <= h)):
             return x_free, False, ()
-        level1 = solve_qp(J, primary_gain * e, damping, lb, ub, Gm, hm, x_free=x1_free, labels=labels,
-                          what="nullspace step (primary task)")
+        level1 = solve_qp(
+            J,
+            primary_gain * e,
+            damping,
+            lb,
+            ub,
+            Gm,
+            hm,
+            x_free=x1_free,
+            labels=labels,
+            what="nullspace step (primary task)",
+        )
         x1 = level1.x
         _, sv, Vt = np.linalg.svd(J, full_matrices=False)
         Vr = Vt[sv > 1e-10 * sv[0]] if sv.size and sv[0] > 0 else Vt[:0]
         try:
-            sol = solve_qp(eye, qd2, 0.0, lb, ub, Gm, hm, E=Vr, f=Vr @ x1, x_free=None, labels=labels,
-                           what="nullspace step (secondary task)")
+            sol = solve_qp(
+                eye,
+                qd2,
+                0.0,
+                lb,
+                ub,
+                Gm,
+                hm,
+                E=Vr,
+                f=Vr @ x1,
+                x_free=None,
+                labels=labels,
+                what="nullspace step (secondary task)",
+            )
         except InfeasibleConstraintsError:
             # cannot happen in exact arithmetic (q̇₁ is feasible); if the solver fails numerically the
             # step falls back to the primary solution q̇₁ — feasible, V_Sc held — and says so
@@ -159,9 +210,20 @@ def _hierarchical_velocity(task: Any, q: np.ndarray, e: np.ndarray | None, J: np
     return sol.x, bool(sol.used_qp or sol.n_active), active
 
 
-def nullspace_step(task: Any, q: Any, V_hold: Any, qd_secondary: Any, *, dt: float = 0.01,
-                   primary_gain: float = 10.0, damping: float = 0.0, project: bool = True,
-                   limits: str = "enforce", limit_gain: float = DEFAULT_LIMIT_GAIN, constraints: Any = None) -> np.ndarray:
+def nullspace_step(
+    task: Any,
+    q: Any,
+    V_hold: Any,
+    qd_secondary: Any,
+    *,
+    dt: float = 0.01,
+    primary_gain: float = 10.0,
+    damping: float = 0.0,
+    project: bool = True,
+    limits: str = "enforce",
+    limit_gain: float = DEFAULT_LIMIT_GAIN,
+    constraints: Any = None,
+) -> np.ndarray:
     """One step ``q + Δt q̇`` with ``q̇ = J⁺ k_p log(Ṽ_Sc V_hold) + N q̇_2`` (Eq 58, 60, 61), within
     the joint limits by the two-level QP of the module docstring; returns q_next (nq,).
 
@@ -198,17 +260,30 @@ def nullspace_step(task: Any, q: Any, V_hold: Any, qd_secondary: Any, *, dt: flo
     return _advance(task, q, qd, dt, limits)
 
 
-def _step_velocity(task: Any, q: np.ndarray, hold: Any, qd2: np.ndarray, dt: float, primary_gain: float,
-                   damping: float, project: bool, limits: str, limit_gain: float, G: np.ndarray, h: np.ndarray,
-                   labels: tuple[str, ...]) -> tuple[np.ndarray, bool, tuple[str, ...]]:
+def _step_velocity(
+    task: Any,
+    q: np.ndarray,
+    hold: Any,
+    qd2: np.ndarray,
+    dt: float,
+    primary_gain: float,
+    damping: float,
+    project: bool,
+    limits: str,
+    limit_gain: float,
+    G: np.ndarray,
+    h: np.ndarray,
+    labels: tuple[str, ...],
+) -> tuple[np.ndarray, bool, tuple[str, ...]]:
     if project:
         e = task.error(q, hold)
         J = task.evaluate_views(q)[2]
     else:
         e = J = None
     mode = "none" if limits == "clamp" else limits
-    return _hierarchical_velocity(task, q, e, J, qd2, dt, primary_gain, damping, project, mode, limit_gain, G, h,
-                                  labels)
+    return _hierarchical_velocity(
+        task, q, e, J, qd2, dt, primary_gain, damping, project, mode, limit_gain, G, h, labels
+    )
 
 
 def _advance(task: Any, q: np.ndarray, qd: np.ndarray, dt: float, limits: str) -> np.ndarray:
@@ -302,8 +377,17 @@ class NullspaceResult(SolverResult):
     active_limits: tuple[str, ...] = ()
 
 
-def nullspace_point_reach(task: Any, q0: Any, index: int, target_point: Any, options: NullspaceOptions | None = None,
-                          *, V_hold: Any = None, constraints: Any = None, **overrides: Any) -> NullspaceResult:
+def nullspace_point_reach(
+    task: Any,
+    q0: Any,
+    index: int,
+    target_point: Any,
+    options: NullspaceOptions | None = None,
+    *,
+    V_hold: Any = None,
+    constraints: Any = None,
+    **overrides: Any,
+) -> NullspaceResult:
     """§4.3 experiment: end point ``index`` reaches ``target_point`` [m] while V_Sc is held (Eq 60).
 
     The primary task holds ``V_hold`` (a :class:`~coop_ga.Similarity`; default V_Sc(q0)); the
@@ -317,7 +401,7 @@ def nullspace_point_reach(task: Any, q0: Any, index: int, target_point: Any, opt
     q = check_q(task, q0, "q0")
     index = _index(task, index)
     p_star = validation.vector(target_point, 3, "target_point [m]")
-    n = int(round(o.duration / o.dt))
+    n = round(o.duration / o.dt)
     G, h, labels = stack_constraints(constraints, task.nq)
     active_steps = 0
     active: tuple[str, ...] = ()
@@ -329,8 +413,9 @@ def nullspace_point_reach(task: Any, q0: Any, index: int, target_point: Any, opt
         Q = [q.copy()]
         for _ in range(n):
             qd2 = point_reaching_velocity(task, q, index, p_star, gain=o.secondary_gain, max_speed=o.max_speed)
-            qd, was_active, act = _step_velocity(task, q, hold, qd2, o.dt, o.primary_gain, o.damping, o.project,
-                                                 o.limits, o.limit_gain, G, h, labels)
+            qd, was_active, act = _step_velocity(
+                task, q, hold, qd2, o.dt, o.primary_gain, o.damping, o.project, o.limits, o.limit_gain, G, h, labels
+            )
             active_steps += was_active
             active = act
             q = _advance(task, q, qd, o.dt, o.limits)
@@ -345,9 +430,23 @@ def nullspace_point_reach(task: Any, q0: Any, index: int, target_point: Any, opt
     msg = f"end point {index} is {err[-1]:.3g} m from the target after {o.duration:g} s"
     if not converged and active:
         msg += f"; bounds active at the last step: {', '.join(active)}"
-    return NullspaceResult(converged=converged, error=float(err[-1]), iterations=n, message=msg, q=Qa[-1].copy(),
-                           warnings=dict(caught.counts), t=np.arange(n + 1) * o.dt, trajectory=Qa, points=P,
-                           point_error=err, similarity_distance=dist, target_point=p_star, projected=o.project,
-                           limits=o.limits, limit_violation=lim.position_violation(Qa),
-                           velocity_violation=lim.velocity_violation(np.diff(Qa, axis=0) / o.dt) if n else 0.0,
-                           active_steps=int(active_steps), active_limits=active)
+    return NullspaceResult(
+        converged=converged,
+        error=float(err[-1]),
+        iterations=n,
+        message=msg,
+        q=Qa[-1].copy(),
+        warnings=dict(caught.counts),
+        t=np.arange(n + 1) * o.dt,
+        trajectory=Qa,
+        points=P,
+        point_error=err,
+        similarity_distance=dist,
+        target_point=p_star,
+        projected=o.project,
+        limits=o.limits,
+        limit_violation=lim.position_violation(Qa),
+        velocity_violation=lim.velocity_violation(np.diff(Qa, axis=0) / o.dt) if n else 0.0,
+        active_steps=int(active_steps),
+        active_limits=active,
+    )

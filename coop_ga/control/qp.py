@@ -71,7 +71,7 @@ from typing import Any
 import numpy as np
 
 from .. import validation
-from ..errors import CoopGAError, InfeasibleConstraintsError, InvalidInputError
+from ..errors import InfeasibleConstraintsError, InvalidInputError
 
 __all__ = [
     "DEFAULT_LIMIT_GAIN",
@@ -95,8 +95,16 @@ FEAS_TOL = 1e-9
 SOLVER = "daqp"
 
 # DAQP exit flags (daqp/include/constants.h)
-_DAQP_STATUS = {1: "optimal", 2: "soft optimal", -1: "infeasible", -2: "cycling", -3: "unbounded",
-                -4: "iteration limit", -5: "nonconvex problem", -6: "initial working set overdetermined"}
+_DAQP_STATUS = {
+    1: "optimal",
+    2: "soft optimal",
+    -1: "infeasible",
+    -2: "cycling",
+    -3: "unbounded",
+    -4: "iteration limit",
+    -5: "nonconvex problem",
+    -6: "initial working set overdetermined",
+}
 
 
 @dataclass(frozen=True)
@@ -128,8 +136,9 @@ class LinearConstraint:
         if h.ndim == 0:
             h = h.reshape(1)
         if h.shape != (G.shape[0],):
-            raise InvalidInputError(f"constraint bound h must have {G.shape[0]} entries (one per row of G), "
-                                    f"got shape {h.shape}")
+            raise InvalidInputError(
+                f"constraint bound h must have {G.shape[0]} entries (one per row of G), got shape {h.shape}"
+            )
         if not isinstance(self.name, str):
             raise InvalidInputError(f"constraint name must be a string, got {self.name!r}")
         G.setflags(write=False)
@@ -145,13 +154,19 @@ def stack_constraints(constraints: Any, n: int) -> tuple[np.ndarray, np.ndarray,
         return np.zeros((0, n)), np.zeros(0), ()
     if isinstance(constraints, LinearConstraint):
         items: list[Any] = [constraints]
-    elif isinstance(constraints, tuple) and len(constraints) == 2 and not isinstance(constraints[0], (LinearConstraint, tuple)):
+    elif (
+        isinstance(constraints, tuple)
+        and len(constraints) == 2
+        and not isinstance(constraints[0], (LinearConstraint, tuple))
+    ):
         items = [constraints]  # a single (G, h) pair
     elif isinstance(constraints, Iterable) and not isinstance(constraints, (str, bytes, np.ndarray)):
         items = list(constraints)
     else:
-        raise InvalidInputError("constraints must be a LinearConstraint, a (G, h) pair or a sequence of them, "
-                                f"got {type(constraints).__name__}")
+        raise InvalidInputError(
+            "constraints must be a LinearConstraint, a (G, h) pair or a sequence of them, "
+            f"got {type(constraints).__name__}"
+        )
     Gs, hs, labels = [], [], []
     for k, c in enumerate(items):
         if not isinstance(c, LinearConstraint):
@@ -159,8 +174,10 @@ def stack_constraints(constraints: Any, n: int) -> tuple[np.ndarray, np.ndarray,
                 raise InvalidInputError(f"constraint {k} must be a LinearConstraint or a (G, h) pair, got {c!r}"[:200])
             c = LinearConstraint(c[0], c[1])
         if c.G.shape[1] != n:
-            raise InvalidInputError(f"constraint {k} ({c.name or 'unnamed'}): G must have {n} columns (one per joint), "
-                                    f"got shape {c.G.shape}")
+            raise InvalidInputError(
+                f"constraint {k} ({c.name or 'unnamed'}): G must have {n} columns (one per joint), "
+                f"got shape {c.G.shape}"
+            )
         Gs.append(c.G)
         hs.append(c.h)
         labels += [f"{c.name or f'constraint {k}'}[{r}]" for r in range(c.G.shape[0])]
@@ -169,8 +186,9 @@ def stack_constraints(constraints: Any, n: int) -> tuple[np.ndarray, np.ndarray,
     return np.vstack(Gs), np.concatenate(hs), tuple(labels)
 
 
-def velocity_bounds(q: np.ndarray, lower: np.ndarray, upper: np.ndarray, velocity: np.ndarray | None, dt: float,
-                    gain: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def velocity_bounds(
+    q: np.ndarray, lower: np.ndarray, upper: np.ndarray, velocity: np.ndarray | None, dt: float, gain: float = 1.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Joint-velocity box ``(lb, ub)`` (nq,) [rad/s] combining position and velocity limits.
 
     ``max(−v, γ (lower − q)/Δt) ≤ q̇ ≤ min(v, γ (upper − q)/Δt)`` — mink's
@@ -235,15 +253,21 @@ class _Conic:
     def __init__(self, n: int, m: int):
         import casadi as ca
 
-        f = ca.conic(f"coop_ga_qp_{n}_{m}", SOLVER, {"h": ca.Sparsity.dense(n, n), "a": ca.Sparsity.dense(m, n)},
-                     {"error_on_fail": False, "print_time": False})
+        f = ca.conic(
+            f"coop_ga_qp_{n}_{m}",
+            SOLVER,
+            {"h": ca.Sparsity.dense(n, n), "a": ca.Sparsity.dense(m, n)},
+            {"error_on_fail": False, "print_time": False},
+        )
         ins = [np.zeros(f.size_in(i), order="F") for i in range(f.n_in())]
         outs = [np.zeros(f.size_out(i), order="F") for i in range(f.n_out())]
         buf, ev = f.buffer()
         for i, a in enumerate(ins):
-            buf.set_arg(i, memoryview(a.T))
+            # a.T.data is memoryview(a.T); the stub splits SWIG's (buffer, size) pair into two parameters
+            buf.set_arg(i, a.T.data)  # type: ignore[call-arg]
         for i, a in enumerate(outs):
-            buf.set_res(i, memoryview(a.T))
+            # a.T.data is memoryview(a.T); the stub splits SWIG's (buffer, size) pair into two parameters
+            buf.set_res(i, a.T.data)  # type: ignore[call-arg]
         names_in = f.name_in()
         # ev and buf hold raw pointers into *every* input and output array (also x0, lam_x, cost, …,
         # which are never read here): keep them all alive as long as the solver
@@ -293,16 +317,31 @@ def _bvls(A: np.ndarray, b: np.ndarray, lam: float, lb: np.ndarray | None, ub: n
     free = np.flatnonzero(~fixed)
     if free.size:
         Af = A[:, free]
-        x[free] = lsq_linear(np.vstack([Af, lam * np.eye(free.size)]),
-                             np.concatenate([b - A[:, fixed] @ x[fixed], np.zeros(free.size)]),
-                             bounds=(lo[free], hi[free]), method="bvls", tol=1e-14).x
+        x[free] = lsq_linear(
+            np.vstack([Af, lam * np.eye(free.size)]),
+            np.concatenate([b - A[:, fixed] @ x[fixed], np.zeros(free.size)]),
+            bounds=(lo[free], hi[free]),
+            method="bvls",
+            tol=1e-14,
+        ).x
     return x
 
 
-def solve_qp(A: np.ndarray, b: np.ndarray, damping: float, lb: np.ndarray | None = None, ub: np.ndarray | None = None,
-             G: np.ndarray | None = None, h: np.ndarray | None = None, *, E: np.ndarray | None = None,
-             f: np.ndarray | None = None, x_free: np.ndarray | None = None, labels: Sequence[str] = (),
-             what: str = "QP") -> QPSolution:
+def solve_qp(
+    A: np.ndarray,
+    b: np.ndarray,
+    damping: float,
+    lb: np.ndarray | None = None,
+    ub: np.ndarray | None = None,
+    G: np.ndarray | None = None,
+    h: np.ndarray | None = None,
+    *,
+    E: np.ndarray | None = None,
+    f: np.ndarray | None = None,
+    x_free: np.ndarray | None = None,
+    labels: Sequence[str] = (),
+    what: str = "QP",
+) -> QPSolution:
     """Solve ``min ½‖A x − b‖² + ½λ²‖x‖²`` s.t. ``lb ≤ x ≤ ub``, ``G x ≤ h``, ``E x = f`` (module docstring).
 
     The step of every limit-aware controller: differential IK (A = J^G, b = B_S, x = q̇: Eq 48
@@ -335,8 +374,11 @@ def solve_qp(A: np.ndarray, b: np.ndarray, damping: float, lb: np.ndarray | None
     p = 0 if E is None else E.shape[0]
     if x_free is None and p == 0:
         x_free = damped_lstsq(A, b, damping)
-    if x_free is not None and ((lb is None or np.all(x_free >= lb)) and (ub is None or np.all(x_free <= ub))
-                               and (m == 0 or np.all(G @ x_free <= h))):
+    if x_free is not None and (
+        (lb is None or np.all(x_free >= lb))
+        and (ub is None or np.all(x_free <= ub))
+        and (m == 0 or np.all(G @ x_free <= h))
+    ):
         return QPSolution(x_free, False, *_no_active(n, m), "unconstrained")
 
     smax = float(np.linalg.norm(A)) if A.size else 1.0  # ‖A‖_F ≥ σ_max: a cheap scale (no SVD)
@@ -346,8 +388,10 @@ def solve_qp(A: np.ndarray, b: np.ndarray, damping: float, lb: np.ndarray | None
     # size of the answer (the unconstrained step): near convergence a Gauss–Newton step is 1e-9, not 1.
     sigma = float(np.max(np.abs(x_free), initial=0.0)) if x_free is not None else float(np.max(np.abs(b), initial=0.0))
     if m:
+        assert G is not None and h is not None  # m > 0: the rows G x ≤ h were given
         sigma = max(sigma, float(np.max(-h / np.maximum(np.linalg.norm(G, axis=1), 1e-300), initial=0.0)))
     if p:
+        assert f is not None  # p > 0: the rows E x = f were given
         sigma = max(sigma, float(np.max(np.abs(f), initial=0.0)))
     box = [float(np.max(np.abs(v[np.isfinite(v)]), initial=0.0)) for v in (lb, ub) if v is not None]
     if box and max(box) > 0.0:
@@ -388,37 +432,61 @@ def solve_qp(A: np.ndarray, b: np.ndarray, damping: float, lb: np.ndarray | None
             y, status = yt, status + tag
             break
         if code == -1 and m + p:
-            worst = f"; most violated: {labels[int(np.argmax(G @ yt - hs))]}" if m and labels else ""
+            worst = ""
+            if m and labels:
+                assert G is not None and hs is not None  # m > 0: the rows G x ≤ h were given
+                worst = f"; most violated: {labels[int(np.argmax(G @ yt - hs))]}"
             raise InfeasibleConstraintsError(
                 f"{what}: the joint limits and the {m} user constraint row(s) G q̇ ≤ h have no common point "
                 f"(QP solver {SOLVER}: infeasible{worst}). Relax h (h ≥ 0 always keeps q̇ = 0 feasible) or remove "
-                "conflicting rows.")
-        report = (f"{SOLVER}: {status}; relative violation of the bounds {viol_box:.3g}, of G x ≤ h {viol_g:.3g}, "
-                  f"of E x = f {viol_e:.3g}")
+                "conflicting rows."
+            )
+        report = (
+            f"{SOLVER}: {status}; relative violation of the bounds {viol_box:.3g}, of G x ≤ h {viol_g:.3g}, "
+            f"of E x = f {viol_e:.3g}"
+        )
     if y is None:
         if m + p:
             raise InfeasibleConstraintsError(
                 f"{what}: the QP solver returned no point satisfying the joint limits and the {m} user constraint "
                 f"row(s) ({report}): they are (numerically) incompatible. Relax h (h ≥ 0 always keeps q̇ = 0 "
-                "feasible) or remove conflicting rows.")
+                "feasible) or remove conflicting rows."
+            )
         y, status = _bvls(A, bs, float(damping), lbs, ubs), "optimal (bvls)"
     if lbs is not None or ubs is not None:
         np.clip(y, -np.inf if lbs is None else lbs, np.inf if ubs is None else ubs, out=y)
     al = np.zeros(n, bool) if lbs is None else (y <= lbs + FEAS_TOL * (1.0 + np.abs(lbs)))
     au = np.zeros(n, bool) if ubs is None else (y >= ubs - FEAS_TOL * (1.0 + np.abs(ubs)))
-    ar = (G @ y >= hs - FEAS_TOL * (1.0 + np.abs(hs))) if m else np.zeros(0, bool)
+    if m:
+        assert G is not None and hs is not None  # m > 0: the rows G x ≤ h were given
+        ar = G @ y >= hs - FEAS_TOL * (1.0 + np.abs(hs))
+    else:
+        ar = np.zeros(0, bool)
     x = sigma * y
     if lb is not None or ub is not None:  # rounding of σ·(lb/σ)
         np.clip(x, -np.inf if lb is None else lb, np.inf if ub is None else ub, out=x)
     return QPSolution(x, True, al, au, ar, status)
 
 
-def _violations(x: np.ndarray, lb: np.ndarray | None, ub: np.ndarray | None, G: np.ndarray | None,
-                h: np.ndarray | None, E: np.ndarray | None, f: np.ndarray | None) -> tuple[float, float, float]:
+def _violations(
+    x: np.ndarray,
+    lb: np.ndarray | None,
+    ub: np.ndarray | None,
+    G: np.ndarray | None,
+    h: np.ndarray | None,
+    E: np.ndarray | None,
+    f: np.ndarray | None,
+) -> tuple[float, float, float]:
     """Largest violation of the box, of G x ≤ h (relative to 1 + max|h|) and of E x = f."""
-    vb = max(float(np.max(lb - x, initial=0.0)) if lb is not None else 0.0,
-             float(np.max(x - ub, initial=0.0)) if ub is not None else 0.0)
-    vg = float(np.max(G @ x - h, initial=0.0)) / (1.0 + float(np.abs(h).max(initial=0.0))) if G is not None and G.size else 0.0
+    vb = max(
+        float(np.max(lb - x, initial=0.0)) if lb is not None else 0.0,
+        float(np.max(x - ub, initial=0.0)) if ub is not None else 0.0,
+    )
+    if G is not None and G.size:
+        assert h is not None  # h comes with G
+        vg = float(np.max(G @ x - h, initial=0.0)) / (1.0 + float(np.abs(h).max(initial=0.0)))
+    else:
+        vg = 0.0
     ve = float(np.max(np.abs(E @ x - f), initial=0.0)) if E is not None and E.size else 0.0
     return vb, vg, ve
 
@@ -442,15 +510,20 @@ def project_into_limits(task: Any, q: np.ndarray, what: str = "q") -> np.ndarray
 
     lim = task.system.limits
     if lim.position_violation(q) > 0.0:
-        warn(f"{what} lies outside the joint limits of '{task.system.name}' by up to {lim.position_violation(q):.3g} "
-             f"({lim.describe(q)}); it was projected onto the limits before solving (pass limits='none' to "
-             "solve without limits)", JointLimitWarning, key=str(task.system.name))
+        warn(
+            f"{what} lies outside the joint limits of '{task.system.name}' by up to {lim.position_violation(q):.3g} "
+            f"({lim.describe(q)}); it was projected onto the limits before solving (pass limits='none' to "
+            "solve without limits)",
+            JointLimitWarning,
+            key=str(task.system.name),
+        )
         return lim.clip(q)
     return q
 
 
-def describe_active(task: Any, q: np.ndarray, lower_idx: Iterable[int], upper_idx: Iterable[int],
-                    velocity_idx: Iterable[int] = ()) -> tuple[str, ...]:
+def describe_active(
+    task: Any, q: np.ndarray, lower_idx: Iterable[int], upper_idx: Iterable[int], velocity_idx: Iterable[int] = ()
+) -> tuple[str, ...]:
     """Labels ``'joint (upper position limit 2.8973)'`` of the given active bounds, in q order."""
     lim = task.system.limits
     names = lim.joint_names
@@ -464,12 +537,21 @@ def describe_active(task: Any, q: np.ndarray, lower_idx: Iterable[int], upper_id
     return tuple(out[i] for i in sorted(out))
 
 
-def classify_velocity_box(sol: QPSolution, q: np.ndarray, lower: np.ndarray, upper: np.ndarray,
-                          velocity: np.ndarray | None, dt: float, gain: float) -> tuple[list[int], list[int], list[int]]:
+def classify_velocity_box(
+    sol: QPSolution,
+    q: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    velocity: np.ndarray | None,
+    dt: float,
+    gain: float,
+) -> tuple[list[int], list[int], list[int]]:
     """Split the active bounds of a joint-velocity QP (box of :func:`velocity_bounds`) into
     (lower position, upper position, velocity) joint indices: an active bound is the velocity
     limit where ``v < γ · (distance to the position limit) / Δt``, otherwise the position limit."""
-    lo_i, hi_i, vel_i = [], [], []
+    lo_i: list[int] = []
+    hi_i: list[int] = []
+    vel_i: list[int] = []
     for i in np.flatnonzero(sol.active_lower):
         (vel_i if velocity is not None and velocity[i] < gain * (q[i] - lower[i]) / dt else lo_i).append(int(i))
     for i in np.flatnonzero(sol.active_upper):

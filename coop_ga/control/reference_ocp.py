@@ -81,8 +81,15 @@ from .. import validation
 from ..errors import InvalidInputError
 from ..systems.limits import JointLimits
 
-__all__ = ["ACTIVE_TOL", "FATROP_BOUND_RELAX", "SOLVERS", "ReferenceProblem", "ReferenceSolution",
-           "check_trajectory", "solve_reference"]
+__all__ = [
+    "ACTIVE_TOL",
+    "FATROP_BOUND_RELAX",
+    "SOLVERS",
+    "ReferenceProblem",
+    "ReferenceSolution",
+    "check_trajectory",
+    "solve_reference",
+]
 
 #: Names accepted by :func:`solve_reference`.
 SOLVERS = ("ipopt", "fatrop")
@@ -182,8 +189,10 @@ class ReferenceProblem:
         elif isinstance(limits, JointLimits):
             own = tuple(ocp.task.system.limits.joint_names)
             if limits.nq != ocp.nq or tuple(limits.joint_names) != own:
-                raise InvalidInputError(f"limits are for the joints {list(limits.joint_names)[:3]}… ({limits.nq}), "
-                                        f"the OCP's task has {list(own)[:3]}… ({ocp.nq}): they must match in order")
+                raise InvalidInputError(
+                    f"limits are for the joints {list(limits.joint_names)[:3]}… ({limits.nq}), "
+                    f"the OCP's task has {list(own)[:3]}… ({ocp.nq}): they must match in order"
+                )
             self.limits = limits
         else:
             raise InvalidInputError(f"limits must be a JointLimits, 'none' or None, got {type(limits).__name__}")
@@ -256,9 +265,17 @@ class ReferenceProblem:
         self.build_time_s = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ solve
-    def solve(self, solver: str = "ipopt", *, u_init: Any = None, tol: float = 1e-10, constr_viol_tol: float = 1e-9,
-              max_iter: int = 1000, solver_options: dict[str, Any] | None = None,
-              verbose: bool = False) -> ReferenceSolution:
+    def solve(
+        self,
+        solver: str = "ipopt",
+        *,
+        u_init: Any = None,
+        tol: float = 1e-10,
+        constr_viol_tol: float = 1e-9,
+        max_iter: int = 1000,
+        solver_options: dict[str, Any] | None = None,
+        verbose: bool = False,
+    ) -> ReferenceSolution:
         """Solve with ``solver`` (``"ipopt"`` or ``"fatrop"``) from ``u_init`` (n, nq) [rad/s²] (default 0).
 
         ``tol``: the solver's convergence tolerance (scaled KKT error, both solvers);
@@ -292,13 +309,19 @@ class ReferenceProblem:
             opti.set_value(par, value)
         extra = dict(solver_options or {})
         base = {"expand": True, "print_time": False, "record_time": True}
-        common = {"print_level": 5 if verbose else 0, "tol": tol, "compl_inf_tol": tol,
-                  "constr_viol_tol": constr_viol_tol, "max_iter": max_iter}
+        common = {
+            "print_level": 5 if verbose else 0,
+            "tol": tol,
+            "compl_inf_tol": tol,
+            "constr_viol_tol": constr_viol_tol,
+            "max_iter": max_iter,
+        }
         if solver == "ipopt":
             opti.solver("ipopt", {**base, "ipopt.sb": "yes"}, {**common, "bound_relax_factor": 0.0, **extra})
         else:
-            opti.solver("fatrop", {**base, "structure_detection": "auto", "debug": False,
-                                   "fatrop": {**common, **extra}})
+            opti.solver(
+                "fatrop", {**base, "structure_detection": "auto", "debug": False, "fatrop": {**common, **extra}}
+            )
 
         t0 = time.perf_counter()
         sol: Any
@@ -324,16 +347,30 @@ class ReferenceProblem:
         e = np.array(sol.value(self.e), dtype=float).reshape(-1)
         cost = float(sol.value(self.J))
         return ReferenceSolution(
-            solver=solver, terminal=self.terminal, success=ok and bool(raw.get("success", False)),
-            status=str(raw.get("return_status", "?")), u=u, q=q, qd=qd, t=ocp.dt * np.arange(N + 1), cost=cost,
-            cost_rollout=float(ocp.cost(u)), error_vector=e, terminal_error=float(np.linalg.norm(e)),
-            **check_trajectory(ocp, self.limits, q, qd, u), iterations=int(raw.get("iter_count", -1)),
-            solve_time_s=float(raw.get("t_wall_total", wall)), solve_cpu_s=float(raw.get("t_proc_total", np.nan)),
-            wall_time_s=wall, build_time_s=self.build_time_s, limits=self.limits, stats=stats)
+            solver=solver,
+            terminal=self.terminal,
+            success=ok and bool(raw.get("success", False)),
+            status=str(raw.get("return_status", "?")),
+            u=u,
+            q=q,
+            qd=qd,
+            t=ocp.dt * np.arange(N + 1),
+            cost=cost,
+            cost_rollout=float(ocp.cost(u)),
+            error_vector=e,
+            terminal_error=float(np.linalg.norm(e)),
+            **check_trajectory(ocp, self.limits, q, qd, u),
+            iterations=int(raw.get("iter_count", -1)),
+            solve_time_s=float(raw.get("t_wall_total", wall)),
+            solve_cpu_s=float(raw.get("t_proc_total", np.nan)),
+            wall_time_s=wall,
+            build_time_s=self.build_time_s,
+            limits=self.limits,
+            stats=stats,
+        )
 
 
-def check_trajectory(ocp: Any, lim: JointLimits | None, q: np.ndarray, qd: np.ndarray,
-                     u: np.ndarray) -> dict[str, Any]:
+def check_trajectory(ocp: Any, lim: JointLimits | None, q: np.ndarray, qd: np.ndarray, u: np.ndarray) -> dict[str, Any]:
     """Bound violations, active-bound counts and the dynamics defect of any trajectory of ``ocp``.
 
     q, qd: (n+1, nq) knot states [rad, rad/s]; u: (n, nq) controls [rad/s²]; lim: the bounds
@@ -353,20 +390,35 @@ def check_trajectory(ocp: Any, lim: JointLimits | None, q: np.ndarray, qd: np.nd
         active = {"position": 0, "velocity": 0, "acceleration": 0}
     else:
         qk, vk = q[1:], qd[1:]
-        viol = {"position": lim.position_violation(qk), "velocity": lim.velocity_violation(vk),
-                "acceleration": lim.acceleration_violation(u)}
+        viol = {
+            "position": lim.position_violation(qk),
+            "velocity": lim.velocity_violation(vk),
+            "acceleration": lim.acceleration_violation(u),
+        }
         with np.errstate(invalid="ignore"):
-            active = {"position": int(np.count_nonzero((np.abs(qk - lim.lower) <= ACTIVE_TOL)
-                                                       | (np.abs(qk - lim.upper) <= ACTIVE_TOL))),
-                      "velocity": int(np.count_nonzero(np.abs(np.abs(vk) - lim.velocity) <= ACTIVE_TOL)),
-                      "acceleration": int(np.count_nonzero(np.abs(np.abs(u) - lim.acceleration) <= ACTIVE_TOL))}
+            active = {
+                "position": int(
+                    np.count_nonzero((np.abs(qk - lim.lower) <= ACTIVE_TOL) | (np.abs(qk - lim.upper) <= ACTIVE_TOL))
+                ),
+                "velocity": int(np.count_nonzero(np.abs(np.abs(vk) - lim.velocity) <= ACTIVE_TOL)),
+                "acceleration": int(np.count_nonzero(np.abs(np.abs(u) - lim.acceleration) <= ACTIVE_TOL)),
+            }
     return {"violations": viol, "max_violation": float(max(viol.values())), "defect": defect, "active": active}
 
 
-def solve_reference(ocp: Any, limits: JointLimits | str | None = None, solver: str = "ipopt", *,
-                    terminal: str = "soft", u_init: Any = None, tol: float = 1e-10, constr_viol_tol: float = 1e-9,
-                    max_iter: int = 1000, solver_options: dict[str, Any] | None = None,
-                    verbose: bool = False) -> ReferenceSolution:
+def solve_reference(
+    ocp: Any,
+    limits: JointLimits | str | None = None,
+    solver: str = "ipopt",
+    *,
+    terminal: str = "soft",
+    u_init: Any = None,
+    tol: float = 1e-10,
+    constr_viol_tol: float = 1e-9,
+    max_iter: int = 1000,
+    solver_options: dict[str, Any] | None = None,
+    verbose: bool = False,
+) -> ReferenceSolution:
     """Solve the constrained reaching OCP (module docstring) with IPOPT or FATROP through CasADi Opti.
 
     Parameters
@@ -385,5 +437,12 @@ def solve_reference(ocp: Any, limits: JointLimits | str | None = None, solver: s
     iterations, times, status).
     """
     problem = ReferenceProblem(ocp, limits, terminal=terminal)
-    return problem.solve(solver, u_init=u_init, tol=tol, constr_viol_tol=constr_viol_tol, max_iter=max_iter,
-                         solver_options=solver_options, verbose=verbose)
+    return problem.solve(
+        solver,
+        u_init=u_init,
+        tol=tol,
+        constr_viol_tol=constr_viol_tol,
+        max_iter=max_iter,
+        solver_options=solver_options,
+        verbose=verbose,
+    )

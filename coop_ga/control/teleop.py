@@ -46,8 +46,9 @@ Input sources
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Iterable, Iterator, Sequence
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -58,28 +59,52 @@ from .base import check_q
 from .diffik import LIMIT_MODES, diff_ik_step
 
 __all__ = [
-    "command_to_bivector",
-    "ScriptedInput",
-    "Teleoperator",
-    "TeleopLog",
     "KEY_BINDINGS",
-    "run_interactive",
+    "ScriptedInput",
+    "TeleopLog",
+    "Teleoperator",
+    "command_to_bivector",
     "interactive_available",
+    "run_interactive",
 ]
 
 #: key → (axis index in (tx, ty, tz, rx, ry, rz), sign)
 KEY_BINDINGS: dict[str, tuple[int, float]] = {
-    "left": (0, -1.0), "right": (0, 1.0),
-    "down": (1, -1.0), "up": (1, 1.0),
-    "pagedown": (2, -1.0), "pageup": (2, 1.0), "f": (2, -1.0), "r": (2, 1.0),
-    "k": (3, -1.0), "i": (3, 1.0),
-    "j": (4, -1.0), "l": (4, 1.0),
-    "-": (5, -1.0), "+": (5, 1.0), "=": (5, 1.0),
+    "left": (0, -1.0),
+    "right": (0, 1.0),
+    "down": (1, -1.0),
+    "up": (1, 1.0),
+    "pagedown": (2, -1.0),
+    "pageup": (2, 1.0),
+    "f": (2, -1.0),
+    "r": (2, 1.0),
+    "k": (3, -1.0),
+    "i": (3, 1.0),
+    "j": (4, -1.0),
+    "l": (4, 1.0),
+    "-": (5, -1.0),
+    "+": (5, 1.0),
+    "=": (5, 1.0),
 }
 
 
-def command_to_bivector(command: Any, *, translation_gain: float = 0.05, rotation_gain: float = 0.5,
-                        dilation_gain: float = 1.0, rz_mode: str = "dilation") -> np.ndarray:
+class _Gains(TypedDict):
+    """The keyword arguments of :func:`command_to_bivector` a :class:`Teleoperator` keeps."""
+
+    translation_gain: float
+    rotation_gain: float
+    dilation_gain: float
+    rz_mode: str
+
+
+def command_to_bivector(
+    command: Any,
+    *,
+    translation_gain: float = 0.05,
+    rotation_gain: float = 0.5,
+    dilation_gain: float = 1.0,
+    rz_mode: str = "dilation",
+) -> np.ndarray:
     """Map a 6-axis command ``(tx, ty, tz, rx, ry, rz)`` to the bivector ``b`` (7,) of Fig. 20.
 
     See the module docstring for the exact mapping.  Gains: ``translation_gain`` k_t [m/s],
@@ -92,12 +117,12 @@ def command_to_bivector(command: Any, *, translation_gain: float = 0.05, rotatio
     validation.choice(rz_mode, ("dilation", "rotation"), "rz_mode")
     b = np.zeros(7)
     b[4:7] = translation_gain * u[0:3]
-    b[2] = rotation_gain * u[3]          # e23: about +x
-    b[1] = -rotation_gain * u[4]         # e13: −θ about +y
+    b[2] = rotation_gain * u[3]  # e23: about +x
+    b[1] = -rotation_gain * u[4]  # e13: −θ about +y
     if rz_mode == "dilation":
-        b[3] = dilation_gain * u[5]      # e0∞: scale e^{β t}
+        b[3] = dilation_gain * u[5]  # e0∞: scale e^{β t}
     else:
-        b[0] = rotation_gain * u[5]      # e12: about +z
+        b[0] = rotation_gain * u[5]  # e12: about +z
     return b
 
 
@@ -121,11 +146,11 @@ class ScriptedInput:
 
     def __iter__(self) -> Iterator[np.ndarray]:
         for d, c in self.segments:
-            for _ in range(int(round(d / self.dt))):
+            for _ in range(round(d / self.dt)):
                 yield c
 
     def __len__(self) -> int:
-        return sum(int(round(d / self.dt)) for d, _ in self.segments)
+        return sum(round(d / self.dt) for d, _ in self.segments)
 
 
 @dataclass
@@ -156,16 +181,27 @@ class Teleoperator:
     gains / rz_mode: see :func:`command_to_bivector`.
     """
 
-    def __init__(self, task: Any, q0: Any, *, dt: float = 0.01, damping: float = 1e-3, limits: str = "enforce",
-                 translation_gain: float = 0.05, rotation_gain: float = 0.5, dilation_gain: float = 1.0,
-                 rz_mode: str = "dilation"):
+    def __init__(
+        self,
+        task: Any,
+        q0: Any,
+        *,
+        dt: float = 0.01,
+        damping: float = 1e-3,
+        limits: str = "enforce",
+        translation_gain: float = 0.05,
+        rotation_gain: float = 0.5,
+        dilation_gain: float = 1.0,
+        rz_mode: str = "dilation",
+    ):
         self.task = task
         self.q = check_q(task, q0, "q0")
         self.dt = validation.positive(dt, "dt")
         self.damping = validation.nonnegative(damping, "damping")
         self.limits = validation.choice(limits, LIMIT_MODES, "limits")
-        self.gains = dict(translation_gain=translation_gain, rotation_gain=rotation_gain,
-                          dilation_gain=dilation_gain, rz_mode=rz_mode)
+        self.gains: _Gains = dict(
+            translation_gain=translation_gain, rotation_gain=rotation_gain, dilation_gain=dilation_gain, rz_mode=rz_mode
+        )
         command_to_bivector(np.zeros(6), **self.gains)  # validate the gains now, not at the first step
         self.t = 0.0
         self.log = TeleopLog(t=[0.0], q=[self.q.copy()])
@@ -211,8 +247,13 @@ def interactive_available() -> bool:
     return True
 
 
-def run_interactive(teleop: Teleoperator, *, fallback_script: Sequence[tuple[float, Any]] | None = None,
-                    max_duration: float = 600.0, draw: Any = None) -> str:
+def run_interactive(
+    teleop: Teleoperator,
+    *,
+    fallback_script: Sequence[tuple[float, Any]] | None = None,
+    max_duration: float = 600.0,
+    draw: Any = None,
+) -> str:
     """Keyboard teleoperation in a matplotlib window (bindings: module docstring).
 
     Returns ``'interactive'`` after the window is closed or ``escape`` pressed, or
@@ -222,9 +263,14 @@ def run_interactive(teleop: Teleoperator, *, fallback_script: Sequence[tuple[flo
     system's skeleton and end points, :func:`coop_ga.viz.draw_robot`).
     """
     if not interactive_available():
-        script = fallback_script if fallback_script is not None else [(1.0, [0, 0, 0, 0, 0, -1]), (1.0, [0, 0, 0, 0, 0, 1])]
-        warnings.warn("no interactive matplotlib display: running the scripted command sequence instead",
-                      UserWarning, stacklevel=2)
+        script = (
+            fallback_script if fallback_script is not None else [(1.0, [0, 0, 0, 0, 0, -1]), (1.0, [0, 0, 0, 0, 0, 1])]
+        )
+        warnings.warn(
+            "no interactive matplotlib display: running the scripted command sequence instead",
+            UserWarning,
+            stacklevel=2,
+        )
         teleop.run(ScriptedInput(script, teleop.dt))
         return "scripted"
 

@@ -1,5 +1,7 @@
 """Cooperative task space layer: X_c(q), V_Sc(q), its Jacobians, manipulability, nullspace."""
 
+from .graph import TaskGraph
+from .guard import TaskGuard
 from .manipulability import (
     damped_pinv,
     force_manipulability,
@@ -9,25 +11,23 @@ from .manipulability import (
     nullspace_projector,
 )
 from .primitive import FLAT_KINDS, cooperative_primitive, primitive_jacobian
-from .graph import TaskGraph
-from .guard import TaskGuard
 from .targets import displaced_target
 from .task import CooperativeTask, TaskState, cooperative_task
 
 __all__ = [
+    "FLAT_KINDS",
+    "CooperativeTask",
+    "TaskGraph",
+    "TaskGuard",
+    "TaskState",
+    "cooperative_primitive",
+    "cooperative_task",
     "damped_pinv",
+    "displaced_target",
     "force_manipulability",
     "manipulability",
     "manipulability_ellipsoid",
     "manipulability_index",
     "nullspace_projector",
-    "FLAT_KINDS",
-    "cooperative_primitive",
     "primitive_jacobian",
-    "CooperativeTask",
-    "TaskState",
-    "cooperative_task",
-    "TaskGraph",
-    "displaced_target",
-    "TaskGuard",
 ]

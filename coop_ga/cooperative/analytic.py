@@ -31,7 +31,8 @@ have no dilation; point pairs and lines use the direction ``o ∝ ⟨X ∧ e∞�
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -145,7 +146,9 @@ def readout_derivatives(kind: str, X: Multivector, dX: Multivector):
     return c, dc, r, dr, o, do
 
 
-def analytic_similarity_jacobian(kind: str, X: Multivector, dX: Multivector) -> tuple[Multivector, np.ndarray, np.ndarray]:
+def analytic_similarity_jacobian(
+    kind: str, X: Multivector, dX: Multivector
+) -> tuple[Multivector, np.ndarray, np.ndarray]:
     """V_Sc, J^A (12×m, rows on SIMILARITY_BLADES) and J^G (7×m) from X_c and ∂X_c/∂q.
 
     ``dX`` is one multivector whose coefficients are arrays of length m (one entry per
@@ -160,13 +163,14 @@ def analytic_similarity_jacobian(kind: str, X: Multivector, dX: Multivector) -> 
     # V_R = N/|N|, N = 1 + o u  (Eq 26 corrected), normalised with Eq 79
     if o is not None:
         u = UNIT_AXIS[kind]
+        assert u is not None  # o is read only for kinds with an axis
         U = Multivector((_E1, _E2, _E3), u)
         N = 1.0 + Multivector((_E1, _E2, _E3), tuple(o)) * U
         dN = Multivector((_E1, _E2, _E3), tuple(do)) * U
         nn = N.norm_squared()  # = 2(1 + o·u)
         dnn = 2.0 * (dN * N.reverse()).get(0)
-        R = N.scale(nn ** -0.5)
-        dR = dN.scale(nn ** -0.5) - N.scale(0.5 * nn ** -1.5) * Multivector.scalar(dnn)
+        R = N.scale(nn**-0.5)
+        dR = dN.scale(nn**-0.5) - N.scale(0.5 * nn**-1.5) * Multivector.scalar(dnn)
     else:
         R = Multivector.scalar(1.0)
         dR = Multivector.scalar(zeros)

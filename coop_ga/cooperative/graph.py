@@ -80,8 +80,9 @@ def _coeffs_expr(V: Multivector) -> ca.SX:
 def _body_columns(V: Multivector, dV: ca.SX) -> ca.SX:
     """``−2 Ṽ ∂V`` per column of dV (12 × m) as tangent 7-vectors (7 × m)."""
     Vr = V.reverse()
-    cols = [ca.vertcat(*bivector_to_tangent((Vr * versor_expr(dV[:, c])).grade(2).scale(-2.0)))
-            for c in range(dV.shape[1])]
+    cols = [
+        ca.vertcat(*bivector_to_tangent((Vr * versor_expr(dV[:, c])).grade(2).scale(-2.0))) for c in range(dV.shape[1])
+    ]
     return ca.horzcat(*cols)
 
 
@@ -102,8 +103,11 @@ class TaskGraph:
         self.n_points = N_POINTS[kind]
         self.nq = int(tree.model.nq)
         # the axis the minimal-rotation chart is measured from (None: the unit primitive's, Eq 26)
-        self.chart_axis = None if chart_axis is None or UNIT_AXIS[kind] is None else \
-            tuple(float(x) for x in np.asarray(chart_axis, float) / np.linalg.norm(np.asarray(chart_axis, float)))
+        self.chart_axis = (
+            None
+            if chart_axis is None or UNIT_AXIS[kind] is None
+            else tuple(float(x) for x in np.asarray(chart_axis, float) / np.linalg.norm(np.asarray(chart_axis, float)))
+        )
         self._ref_axis = self.chart_axis if self.chart_axis is not None else UNIT_AXIS[kind]
 
     # ================================================================== the small pose function of p
@@ -131,6 +135,7 @@ class TaskGraph:
             c2: Any = ca.SX(1.0)
         else:
             ra = self._ref_axis
+            assert ra is not None  # o is read only for kinds with an axis, and then _ref_axis is set
             c2 = 0.5 * (1.0 + o[0] * ra[0] + o[1] * ra[1] + o[2] * ra[2])
         return similarity_from_parameters(kind, c, r, o, chart_axis=self.chart_axis), w, c2
 
@@ -165,8 +170,7 @@ class TaskGraph:
         """``versor`` (12), ``log`` (7), ``jacobian`` J^G (7 × nq), ``points`` (3n), ``well_definedness``."""
         p, Jp = self.points(q)
         V, B, G, w, c2 = self.pose_function(p)
-        return {"versor": V, "log": B, "jacobian": ca.mtimes(G, Jp), "points": p, "well_definedness": w,
-                "chart": c2}
+        return {"versor": V, "log": B, "jacobian": ca.mtimes(G, Jp), "points": p, "well_definedness": w, "chart": c2}
 
     def error(self, q: ca.SX, vd: ca.SX) -> dict[str, ca.SX]:
         """:meth:`evaluate` plus ``e = log(Ṽ_Sc V_d)`` (7) and ``J_e`` (7 × nq), Eq 44/47."""
@@ -198,10 +202,17 @@ class TaskGraph:
         q = ca.SX.sym("q", self.nq)
         s = self.evaluate(q)
         return ca.Function(
-            f"coop_{self.name}", [q],
-            [s["versor"], s["log"], ca.densify(s["jacobian"]),
-             self.checks(s, (q,), (s["versor"], s["log"], s["jacobian"])), s["points"]],
-            ["q"], ["V", "B", "J", "checks", "points"],
+            f"coop_{self.name}",
+            [q],
+            [
+                s["versor"],
+                s["log"],
+                ca.densify(s["jacobian"]),
+                self.checks(s, (q,), (s["versor"], s["log"], s["jacobian"])),
+                s["points"],
+            ],
+            ["q"],
+            ["V", "B", "J", "checks", "points"],
         )
 
     @cached_property
@@ -211,9 +222,11 @@ class TaskGraph:
         vd = ca.SX.sym("Vd", NB)
         s = self.error(q, vd)
         return ca.Function(
-            f"coop_err_{self.name}", [q, vd],
+            f"coop_err_{self.name}",
+            [q, vd],
             [s["e"], ca.densify(s["Je"]), self.checks(s, (q, vd), (s["e"], s["Je"])), s["points"]],
-            ["q", "Vd"], ["e", "Je", "checks", "points"],
+            ["q", "Vd"],
+            ["e", "Je", "checks", "points"],
         )
 
     @cached_property
@@ -224,9 +237,11 @@ class TaskGraph:
         s = self.evaluate(q)
         Jqd = ca.mtimes(s["jacobian"], qd)
         return ca.Function(
-            f"coop_jdot_{self.name}", [q, qd], [ca.densify(jd := ca.jtimes(Jqd, q, qd)), self.checks(s, (q, qd), (jd,)),
-                                                 s["points"]],
-            ["q", "qd"], ["Jdot_qd", "checks", "points"],
+            f"coop_jdot_{self.name}",
+            [q, qd],
+            [ca.densify(jd := ca.jtimes(Jqd, q, qd)), self.checks(s, (q, qd), (jd,)), s["points"]],
+            ["q", "qd"],
+            ["Jdot_qd", "checks", "points"],
         )
 
     @cached_property

@@ -57,8 +57,9 @@ class TaskGuard:
         """The hot-path test: True when nothing needs a diagnosis."""
         return bool(checks.item(0) > self.warn_below)
 
-    def diagnose(self, checks: np.ndarray, points: np.ndarray, inputs: Sequence[tuple[str, np.ndarray]],
-                 where: str = "") -> None:
+    def diagnose(
+        self, checks: np.ndarray, points: np.ndarray, inputs: Sequence[tuple[str, np.ndarray]], where: str = ""
+    ) -> None:
         """Raise or warn for one evaluation (``checks`` (4,), ``points`` (3n,), the inputs by name)."""
         n2 = checks.item(2)
         if not math.isfinite(n2) or n2 >= 1e300:
@@ -67,8 +68,9 @@ class TaskGuard:
                 bad = np.flatnonzero(~np.isfinite(a)).tolist()
                 if bad:
                     raise NonFiniteError(f"{name}{where} contains NaN or inf at indices {bad}")
-            big = max(((name, float(np.max(np.abs(np.asarray(a, dtype=float))))) for name, a in inputs),
-                      key=lambda t: t[1])
+            big = max(
+                ((name, float(np.max(np.abs(np.asarray(a, dtype=float))))) for name, a in inputs), key=lambda t: t[1]
+            )
             raise InvalidInputError(
                 f"{big[0]}{where} is too large (max |entry| = {big[1]:.3g}, its squared norm overflows); "
                 "joint values must be angles [rad] or lengths [m] of a sensible size"

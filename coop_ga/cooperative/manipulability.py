@@ -19,11 +19,11 @@ from ..errors import InvalidInputError, NonFiniteError
 
 __all__ = [
     "damped_pinv",
-    "nullspace_projector",
-    "manipulability",
     "force_manipulability",
+    "manipulability",
     "manipulability_ellipsoid",
     "manipulability_index",
+    "nullspace_projector",
 ]
 
 

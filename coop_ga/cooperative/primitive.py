@@ -20,14 +20,15 @@ discontinuous.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from ..algebra.basis import blade_index
 from ..algebra.multivector import Multivector
 from ..errors import InvalidInputError
 from ..geometry.primitives import N_POINTS, Primitive, _check_kind
 
-__all__ = ["cooperative_primitive", "primitive_jacobian", "N_POINTS", "FLAT_KINDS"]
+__all__ = ["FLAT_KINDS", "N_POINTS", "cooperative_primitive", "primitive_jacobian"]
 
 FLAT_KINDS = ("line", "plane")
 _EI = Multivector((blade_index("einf")[0],), (1.0,))

@@ -10,8 +10,15 @@ from ..geometry.groups import Similarity
 __all__ = ["displaced_target"]
 
 
-def displaced_target(task: Any, q: Any, *, translation: Any = (0.0, 0.0, 0.0), axis: Any = (1.0, 0.0, 0.0),
-                     angle: float = 0.0, scale: float = 1.0) -> Similarity:
+def displaced_target(
+    task: Any,
+    q: Any,
+    *,
+    translation: Any = (0.0, 0.0, 0.0),
+    axis: Any = (1.0, 0.0, 0.0),
+    angle: float = 0.0,
+    scale: float = 1.0,
+) -> Similarity:
     """A reachable-by-construction target: the cooperative primitive at ``q`` moved by a world similarity.
 
     ``S = T(translation) · [rotation by angle [rad] right-handed about axis (3,), then scaling
@@ -26,6 +33,10 @@ def displaced_target(task: Any, q: Any, *, translation: Any = (0.0, 0.0, 0.0), a
     qv = validation.configuration(q, task.nq, owner=f"task '{task.name}'")
     pbar = task.points(qv).mean(axis=0)
     Tp = Similarity.from_parts(translation=pbar)
-    S = (Similarity.from_parts(translation=translation) @ Tp
-         @ Similarity.from_parts(axis=axis, angle=angle, scale=scale) @ Tp.inverse())
+    S = (
+        Similarity.from_parts(translation=translation)
+        @ Tp
+        @ Similarity.from_parts(axis=axis, angle=angle, scale=scale)
+        @ Tp.inverse()
+    )
     return task.target_from_primitive(S.apply(task.primitive(qv)))

@@ -116,9 +116,17 @@ class CooperativeTask:
         :meth:`target_from_primitive` and :func:`~coop_ga.control.displaced_target` do so.
     """
 
-    def __init__(self, system: Any, kind: str, points: Sequence[int] | None = None, *,
-                 codegen: bool | str = "auto", warn_below: float = 1e-2, raise_below: float = 1e-6,
-                 chart_axis: Any = "auto"):
+    def __init__(
+        self,
+        system: Any,
+        kind: str,
+        points: Sequence[int] | None = None,
+        *,
+        codegen: bool | str = "auto",
+        warn_below: float = 1e-2,
+        raise_below: float = 1e-6,
+        chart_axis: Any = "auto",
+    ):
         self.kind = _check_kind(kind)
         self.system = system
         n = N_POINTS[self.kind]
@@ -146,10 +154,14 @@ class CooperativeTask:
             # a valid CasADi function name that identifies the chart
             self.name += "_chart" + hashlib.sha1(repr(self.chart_axis).encode()).hexdigest()[:8]
         self.graph = TaskGraph(self.tree, self.kind, self.name, chart_axis=self.chart_axis)
-        chart = ("the unit primitive's axis" if self.chart_axis is None
-                 else f"chart_axis {np.round(self.chart_axis, 3).tolist()}")
-        self.guard = TaskGuard(self.kind, str(getattr(system, "name", "custom")), self.end_frames,
-                               self.warn_below, self.raise_below, chart)
+        chart = (
+            "the unit primitive's axis"
+            if self.chart_axis is None
+            else f"chart_axis {np.round(self.chart_axis, 3).tolist()}"
+        )
+        self.guard = TaskGuard(
+            self.kind, str(getattr(system, "name", "custom")), self.end_frames, self.warn_below, self.raise_below, chart
+        )
         self._tls = threading.local()  # per-thread buffers of the compiled entry points
 
     def __repr__(self) -> str:
@@ -179,14 +191,23 @@ class CooperativeTask:
 
     def with_chart(self, chart_axis: Any) -> CooperativeTask:
         """The same task with its chart measured from ``chart_axis`` (see the class docstring)."""
-        return cooperative_task(self.system, self.kind, self.point_indices, codegen=self.codegen,
-                                warn_below=self.warn_below, raise_below=self.raise_below, chart_axis=chart_axis)
+        return cooperative_task(
+            self.system,
+            self.kind,
+            self.point_indices,
+            codegen=self.codegen,
+            warn_below=self.warn_below,
+            raise_below=self.raise_below,
+            chart_axis=chart_axis,
+        )
 
     def target_from_primitive(self, X: Any) -> Similarity:
         """The target V_Sd = V_S(X_u, X) of a primitive X of the task's kind, in the task's chart (Eq 28)."""
         if not isinstance(X, Primitive) or X.kind != self.kind:
-            raise InvalidInputError(f"target_from_primitive needs a {self.kind} Primitive, got {type(X).__name__}"
-                                    + (f" ({X.kind})" if isinstance(X, Primitive) else ""))
+            raise InvalidInputError(
+                f"target_from_primitive needs a {self.kind} Primitive, got {type(X).__name__}"
+                + (f" ({X.kind})" if isinstance(X, Primitive) else "")
+            )
         return Similarity(similarity_from_unit(X, chart_axis=self.chart_axis))
 
     def check_target(self, target: Any, what: str = "target") -> Similarity:
@@ -247,7 +268,7 @@ class CooperativeTask:
     def _eval_context(self) -> tuple[np.ndarray, Any, list[np.ndarray]]:
         """This thread's ``(q buffer, eval, outputs)`` of the evaluate entry point (cached per thread)."""
         try:
-            return self._tls.eval_ctx  # type: ignore[no-any-return]
+            return self._tls.eval_ctx
         except AttributeError:
             b = _binding(self.compiled)
             self._tls.eval_ctx = ctx = (b.flat_inputs[0], b.eval, b.outputs)
@@ -272,8 +293,13 @@ class CooperativeTask:
     def evaluate(self, q: Any) -> TaskState:
         """V_Sc, B_Sc, J^G, end points and well-definedness at q (nq,) in one compiled call (copies)."""
         out = self._run(q)
-        return TaskState(out[0].reshape(-1).copy(), out[1].reshape(-1).copy(), out[2].copy(),
-                         out[4].reshape(-1, 3).copy(), out[3].item(1))
+        return TaskState(
+            out[0].reshape(-1).copy(),
+            out[1].reshape(-1).copy(),
+            out[2].copy(),
+            out[4].reshape(-1, 3).copy(),
+            out[3].item(1),
+        )
 
     def evaluate_views(self, q: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Hot-loop variant: ``(V (12,1), B (7,1), J (7,nq))`` as this thread's internal buffers,
@@ -420,8 +446,10 @@ class CooperativeTask:
         from .primitive import primitive_jacobian
 
         if self.chart_axis is not None:
-            raise InvalidInputError("the closed forms of Appendix B are for the canonical chart; build the task "
-                                    "with chart_axis=None to use them")
+            raise InvalidInputError(
+                "the closed forms of Appendix B are for the canonical chart; build the task "
+                "with chart_axis=None to use them"
+            )
         self._run(q)  # same input checks and guard as every route
         P, dP = self.tree.point_jacobians(np.asarray(q, dtype=float))
         X = cooperative_primitive(self.kind, P)
@@ -436,8 +464,9 @@ class CooperativeTask:
         w = well_definedness(self.kind, pts) if N_POINTS[self.kind] > 1 else 1.0
         if not w > self.warn_below:
             self.guard.degeneracy(float(w), pts)
-        V = similarity_from_unit(cooperative_primitive(self.kind, [conformal_point(p) for p in pts]),
-                                 chart_axis=self.chart_axis)
+        V = similarity_from_unit(
+            cooperative_primitive(self.kind, [conformal_point(p) for p in pts]), chart_axis=self.chart_axis
+        )
         return Similarity(V, check=False)
 
 
@@ -477,11 +506,18 @@ def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None
         from .. import systems
 
         system = systems.load(system)
-    pts = None if points is None else validation.indices(
-        points, N_POINTS[_check_kind(kind)], len(system.end_frames), "points", labels=tuple(system.end_frames))
+    pts = (
+        None
+        if points is None
+        else validation.indices(
+            points, N_POINTS[_check_kind(kind)], len(system.end_frames), "points", labels=tuple(system.end_frames)
+        )
+    )
     # array-valued options (chart_axis) become tuples so that the cache key is hashable
-    options = {k: tuple(np.asarray(v, dtype=float).ravel().tolist()) if isinstance(v, (np.ndarray, list)) else v
-               for k, v in options.items()}
+    options = {
+        k: tuple(np.asarray(v, dtype=float).ravel().tolist()) if isinstance(v, (np.ndarray, list)) else v
+        for k, v in options.items()
+    }
     try:
         key = (id(system), kind, pts, tuple(sorted(options.items())))
         hash(key)
@@ -492,5 +528,3 @@ def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None
         t = CooperativeTask(system, kind, pts, **options)
         _TASK_CACHE[key] = t
     return t
-
-

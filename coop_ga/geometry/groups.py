@@ -59,25 +59,25 @@ from ..algebra.multivector import OMEGA, Multivector, _absmax, balance_exponents
 from ..errors import InvalidInputError, InvalidVersorError, NonFiniteError
 
 __all__ = [
-    "TANGENT_BASIS",
-    "SIMILARITY_BLADES",
     "MOTOR_BLADES",
+    "SIMILARITY_BLADES",
+    "TANGENT_BASIS",
+    "Dilator",
+    "Motor",
+    "Rotor",
+    "Similarity",
+    "Translator",
+    "VersorGroup",
+    "apply",
+    "bivector_to_tangent",
+    "decompose",
     "exp",
     "log",
     "log_jacobian",
-    "apply",
-    "VersorGroup",
-    "Rotor",
-    "Translator",
-    "Dilator",
-    "Motor",
-    "Similarity",
-    "decompose",
-    "tangent_to_bivector",
-    "bivector_to_tangent",
     "motor_rotor_translation",
-    "rotor_matrix",
     "rotor_from_matrix",
+    "rotor_matrix",
+    "tangent_to_bivector",
 ]
 
 TANGENT_BASIS = ("e12", "e13", "e23", "e0∞", "e1∞", "e2∞", "e3∞")
@@ -117,7 +117,9 @@ def _tangent(b: Any, n: int, name: str) -> tuple[Any, ...]:
         for i, v in enumerate(b):
             if B.is_symbolic(v):
                 if v.numel() != 1:
-                    raise InvalidInputError(f"{name} tangent entry {i} must be a scalar CasADi expression, got {v.shape}")
+                    raise InvalidInputError(
+                        f"{name} tangent entry {i} must be a scalar CasADi expression, got {v.shape}"
+                    )
                 out.append(v)
             else:
                 if type(v) is int and not -1e308 <= v <= 1e308:
@@ -277,7 +279,9 @@ def _validate_similarity(V: Multivector, what: str = "versor") -> None:
         return
     scale = max([_absmax(c) for c in V.coeffs] + [0.0])
     if scale == 0.0:
-        raise InvalidVersorError(f"{what} is zero; a zero-norm versor has no logarithm (did a normalisation underflow?)")
+        raise InvalidVersorError(
+            f"{what} is zero; a zero-norm versor has no logarithm (did a normalisation underflow?)"
+        )
     allowed = set(SIMILARITY_BLADES)
     if all(k in allowed for k in V.blades):
         return
@@ -392,7 +396,9 @@ def _versor_arg(V: Any, what: str) -> Multivector:
     if isinstance(V, VersorGroup):
         return V.versor
     if not isinstance(V, Multivector):
-        raise InvalidInputError(f"{what} must be a similarity versor (a coop_ga Multivector or group element), got {type(V).__name__}")
+        raise InvalidInputError(
+            f"{what} must be a similarity versor (a coop_ga Multivector or group element), got {type(V).__name__}"
+        )
     return V
 
 
@@ -567,7 +573,10 @@ def tangent_to_bivector(b: Any) -> Multivector:
         v = tuple(x if B.is_symbolic(x) else _tangent_entry(x, i) for i, x in enumerate(b))
     else:
         v = _tangent(b, 7, "similarity")
-    return Multivector(tuple(sorted(_TANGENT_BLADES)), tuple(v[_TANGENT_BLADES.index(k)] * _TANGENT_SIGNS[_TANGENT_BLADES.index(k)] for k in sorted(_TANGENT_BLADES)))
+    return Multivector(
+        tuple(sorted(_TANGENT_BLADES)),
+        tuple(v[_TANGENT_BLADES.index(k)] * _TANGENT_SIGNS[_TANGENT_BLADES.index(k)] for k in sorted(_TANGENT_BLADES)),
+    )
 
 
 def _tangent_entry(x: Any, i: int) -> Any:
@@ -607,7 +616,9 @@ def rotor_matrix(R: tuple[Any, Any, Any, Any]) -> list[list[Any]]:
     if isinstance(R, Multivector):
         R = tuple(R.get(k) for k in ROTOR_BLADES)
     if isinstance(R, (str, bytes)) or not hasattr(R, "__getitem__") or (not B.is_symbolic(R) and len(R) != 4):
-        raise InvalidInputError(f"rotor_matrix(R) needs the 4 rotor coefficients (1, e12, e13, e23), got {type(R).__name__}")
+        raise InvalidInputError(
+            f"rotor_matrix(R) needs the 4 rotor coefficients (1, e12, e13, e23), got {type(R).__name__}"
+        )
     w, x, y, z = R[0], -R[3], R[2], -R[1]
     return [
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
@@ -872,8 +883,9 @@ class Similarity(VersorGroup):
         return _parts(self)[2]
 
     @classmethod
-    def from_parts(cls, translation: Any = (0.0, 0.0, 0.0), axis: Any = (0.0, 0.0, 1.0), angle: float = 0.0,
-                   scale: float = 1.0) -> Similarity:
+    def from_parts(
+        cls, translation: Any = (0.0, 0.0, 0.0), axis: Any = (0.0, 0.0, 1.0), angle: float = 0.0, scale: float = 1.0
+    ) -> Similarity:
         """``T(translation) · R(axis, angle) · D(log scale)``: scale about the origin, rotate by
         ``angle`` [rad] right-handed about ``axis`` (3,), then translate by ``translation`` (3,) [m]."""
         t = _finite_vector(translation, 3, "translation")
@@ -952,8 +964,11 @@ class Similarity(VersorGroup):
 
 def _parts(S: Similarity) -> tuple[np.ndarray, np.ndarray, float]:
     R, beta, t = _decompose_coeffs(S.versor)
-    return (np.array([float(x) for x in t]), np.array(rotor_matrix(tuple(float(x) for x in R)), dtype=float),
-            float(np.exp(float(beta))))
+    return (
+        np.array([float(x) for x in t]),
+        np.array(rotor_matrix((float(R[0]), float(R[1]), float(R[2]), float(R[3]))), dtype=float),
+        float(np.exp(float(beta))),
+    )
 
 
 def _finite_vector(x: Any, n: int, what: str) -> np.ndarray:
@@ -969,7 +984,7 @@ def _finite_vector(x: Any, n: int, what: str) -> np.ndarray:
 
 
 def _finite_scalar(x: Any, what: str) -> float:
-    if isinstance(x, (bool, np.bool_, str, bytes)) or not np.isscalar(x) and np.ndim(x) != 0:
+    if isinstance(x, (bool, np.bool_, str, bytes)) or (not np.isscalar(x) and np.ndim(x) != 0):
         raise InvalidInputError(f"{what} must be a real number, got {x!r}")
     try:
         v = float(x)
@@ -980,7 +995,7 @@ def _finite_scalar(x: Any, what: str) -> float:
     return v
 
 
-def _join(a: type, b: type) -> type:
+def _join(a: type[VersorGroup], b: type[VersorGroup]) -> type[VersorGroup]:
     if a is b:
         return a
     rigid = {Rotor, Translator, Motor}

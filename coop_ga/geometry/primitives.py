@@ -69,27 +69,27 @@ from ..errors import DegeneratePrimitiveError, InvalidInputError, PrecisionWarni
 
 __all__ = [
     "KINDS",
-    "Primitive",
-    "point",
-    "point_pair",
-    "line",
-    "circle",
-    "plane",
-    "sphere",
-    "primitive_from_points",
-    "to_euclidean",
-    "center",
-    "radius",
-    "normal",
-    "direction",
-    "closest_point_to_origin",
-    "endpoints",
-    "project",
-    "meet",
-    "kind_of",
-    "well_definedness",
     "N_POINTS",
     "PRECISION_WARN",
+    "Primitive",
+    "center",
+    "circle",
+    "closest_point_to_origin",
+    "direction",
+    "endpoints",
+    "kind_of",
+    "line",
+    "meet",
+    "normal",
+    "plane",
+    "point",
+    "point_pair",
+    "primitive_from_points",
+    "project",
+    "radius",
+    "sphere",
+    "to_euclidean",
+    "well_definedness",
 ]
 
 KINDS = ("point", "point_pair", "line", "circle", "plane", "sphere")
@@ -195,7 +195,7 @@ def _vec3(x: Any, name: str) -> tuple[Any, Any, Any]:
                 out.append(v)
             else:
                 out.append(_real(validation.scalar, v, f"{name}[{i}]"))
-        return tuple(out)  # type: ignore[return-value]
+        return tuple(out)
     if isinstance(x, Multivector):
         raise InvalidInputError(
             f"{name} must be Euclidean coordinates of shape (3,), got a {type(x).__name__}; "
@@ -240,7 +240,9 @@ def _mv_arg(X: Any, name: str = "X") -> Multivector:
 def _real(check: Any, x: Any, name: str) -> float:
     """``validation.<check>(x, name)``, with integers beyond the float range rejected first."""
     if type(x) is int and not -1e308 <= x <= 1e308:
-        raise InvalidInputError(f"{name} must be a real number in the float range, got an integer of {len(str(x))} digits")
+        raise InvalidInputError(
+            f"{name} must be a real number in the float range, got an integer of {len(str(x))} digits"
+        )
     return check(x, name)
 
 
@@ -303,11 +305,23 @@ def _numeric_measure(kind: str, P: np.ndarray) -> Any:
         Q = np.ldexp(Q, -e)
         Rho = np.ldexp(P, -e) if kind in ("point_pair", "line") else None  # may be inf: then w = 0
         if Q.ndim == 2:  # one set of points: plain floats are much faster than numpy on 3-vectors
-            w = _measure(kind, [_V3(*q) for q in Q.tolist()], math.sqrt, _V3.cross, _V3.dot,
-                         rho_pts=None if Rho is None else [_V3(*q) for q in Rho.tolist()])
+            w = _measure(
+                kind,
+                [_V3(*q) for q in Q.tolist()],
+                math.sqrt,
+                _V3.cross,
+                _V3.dot,
+                rho_pts=None if Rho is None else [_V3(*q) for q in Rho.tolist()],
+            )
         else:
-            w = _measure(kind, [Q[i] for i in range(n)], np.sqrt, np.cross, _dot_np,
-                         rho_pts=None if Rho is None else [Rho[i] for i in range(n)])
+            w = _measure(
+                kind,
+                [Q[i] for i in range(n)],
+                np.sqrt,
+                np.cross,
+                _dot_np,
+                rho_pts=None if Rho is None else [Rho[i] for i in range(n)],
+            )
     w = np.asarray(w, dtype=float)
     return float(w) if w.ndim == 0 else w
 
@@ -369,7 +383,7 @@ def _measure(kind, pts, sqrt, cross, dot, rho_pts=None):
         a, b = pts
         d = b - a
         dn = sqrt(dot(d, d))
-        ra, rb = (rho_pts if rho_pts is not None else pts)
+        ra, rb = rho_pts if rho_pts is not None else pts
         rho = _max(sqrt(dot(ra, ra)), sqrt(dot(rb, rb)))
         den = dn + EPS * rho
         pos = den > 0
@@ -386,7 +400,9 @@ def _measure(kind, pts, sqrt, cross, dot, rho_pts=None):
     a, b, c, d = pts
     vol6 = _abs(dot(cross(b - a, c - a), d - a))
     faces = [cross(b - a, c - a), cross(b - a, d - a), cross(c - a, d - a), cross(c - b, d - b)]
-    fmax = _max(_max(dot(faces[0], faces[0]), dot(faces[1], faces[1])), _max(dot(faces[2], faces[2]), dot(faces[3], faces[3])))
+    fmax = _max(
+        _max(dot(faces[0], faces[0]), dot(faces[1], faces[1])), _max(dot(faces[2], faces[2]), dot(faces[3], faces[3]))
+    )
     ed = [b - a, c - a, d - a, c - b, d - b, d - c]
     lmax2 = dot(ed[0], ed[0])
     for e in ed[1:]:
@@ -394,8 +410,9 @@ def _measure(kind, pts, sqrt, cross, dot, rho_pts=None):
     pos = fmax > 0
     # smallest altitude = 3V / largest face area = vol6 / |largest face cross|
     # (fmax > 0 implies lmax2 > 0: a face of non-zero area has an edge of non-zero length)
-    return B.where(pos, vol6 / sqrt(B.where(pos, fmax, 1.0)) / sqrt(B.where(pos, lmax2, 1.0)) / np.sqrt(2.0 / 3.0),
-                   0.0 * vol6)
+    return B.where(
+        pos, vol6 / sqrt(B.where(pos, fmax, 1.0)) / sqrt(B.where(pos, lmax2, 1.0)) / np.sqrt(2.0 / 3.0), 0.0 * vol6
+    )
 
 
 def _max(a, b):
@@ -414,7 +431,9 @@ def _abs(a):
 
 def _check_kind(kind: str) -> str:
     if not isinstance(kind, str):
-        raise InvalidInputError(f"kind must be a string, one of {', '.join(KINDS)}; got {type(kind).__name__} {kind!r}"[:200])
+        raise InvalidInputError(
+            f"kind must be a string, one of {', '.join(KINDS)}; got {type(kind).__name__} {kind!r}"[:200]
+        )
     if kind not in KINDS:
         raise UnknownNameError(f"unknown primitive kind {kind!r}; choose one of {', '.join(KINDS)}")
     return kind
@@ -513,7 +532,9 @@ def _local_wedge(kind: str, P: np.ndarray) -> Multivector:
     return (T * X * T.reverse()).grade(X.grades[0])
 
 
-def primitive_from_points(kind: str, pts: Any, tol: float = 1e-9, *, _names: tuple[str, ...] | None = None) -> Primitive:
+def primitive_from_points(
+    kind: str, pts: Any, tol: float = 1e-9, *, _names: tuple[str, ...] | None = None
+) -> Primitive:
     """Build a primitive of ``kind`` from its defining points (Eq 2/14).
 
     ``pts``: sequence of ``N_POINTS[kind]`` Euclidean points (each shape (3,), or (N, 3)).
@@ -545,11 +566,17 @@ def primitive_from_points(kind: str, pts: Any, tol: float = 1e-9, *, _names: tup
         if all(type(v) is float for c in coords for v in c):
             P = np.array(coords)
         else:
-            maybe = [_num(c) for c in coords]
+            maybe: list[np.ndarray] = []
+            for c in coords:
+                a = _num(c)
+                assert a is not None  # no coordinate is symbolic (checked above)
+                maybe.append(a)
             try:
                 P = np.stack(np.broadcast_arrays(*maybe))
             except ValueError:
-                raise InvalidInputError(f"pts: the points' batch shapes {[p.shape for p in maybe]} do not match") from None
+                raise InvalidInputError(
+                    f"pts: the points' batch shapes {[p.shape for p in maybe]} do not match"
+                ) from None
         if kind != "point":
             _check_degenerate(kind, P, tol)
         _check_range(kind, P)
@@ -561,27 +588,71 @@ def primitive_from_points(kind: str, pts: Any, tol: float = 1e-9, *, _names: tup
 
 def point_pair(a: Any, b: Any, tol: float = 1e-9) -> Primitive:
     """Point pair P(a)∧P(b), oriented a → b.  Raises if :func:`well_definedness` ≤ tol (coincident points)."""
-    return primitive_from_points("point_pair", [a, b], tol, _names=('a', 'b',))
+    return primitive_from_points(
+        "point_pair",
+        [a, b],
+        tol,
+        _names=(
+            "a",
+            "b",
+        ),
+    )
 
 
 def line(a: Any, b: Any, tol: float = 1e-9) -> Primitive:
     """Line P(a)∧P(b)∧e∞ through a and b, direction a → b.  Raises if a and b coincide."""
-    return primitive_from_points("line", [a, b], tol, _names=('a', 'b',))
+    return primitive_from_points(
+        "line",
+        [a, b],
+        tol,
+        _names=(
+            "a",
+            "b",
+        ),
+    )
 
 
 def circle(a: Any, b: Any, c: Any, tol: float = 1e-9) -> Primitive:
     """Circle P(a)∧P(b)∧P(c) through three points; normal (b−a)×(c−a).  Raises if collinear."""
-    return primitive_from_points("circle", [a, b, c], tol, _names=('a', 'b', 'c',))
+    return primitive_from_points(
+        "circle",
+        [a, b, c],
+        tol,
+        _names=(
+            "a",
+            "b",
+            "c",
+        ),
+    )
 
 
 def plane(a: Any, b: Any, c: Any, tol: float = 1e-9) -> Primitive:
     """Plane P(a)∧P(b)∧P(c)∧e∞; normal (b−a)×(c−a).  Raises if the points are collinear."""
-    return primitive_from_points("plane", [a, b, c], tol, _names=('a', 'b', 'c',))
+    return primitive_from_points(
+        "plane",
+        [a, b, c],
+        tol,
+        _names=(
+            "a",
+            "b",
+            "c",
+        ),
+    )
 
 
 def sphere(a: Any, b: Any, c: Any, d: Any, tol: float = 1e-9) -> Primitive:
     """Sphere P(a)∧P(b)∧P(c)∧P(d) through four points.  Raises if they are coplanar."""
-    return primitive_from_points("sphere", [a, b, c, d], tol, _names=('a', 'b', 'c', 'd',))
+    return primitive_from_points(
+        "sphere",
+        [a, b, c, d],
+        tol,
+        _names=(
+            "a",
+            "b",
+            "c",
+            "d",
+        ),
+    )
 
 
 # ---------------------------------------------------------------------- classification
@@ -636,7 +707,9 @@ def kind_of(X: Multivector, tol: float = 1e-10) -> str:
     X = _mv_arg(X, "X")
     grades = set(X.prune(0.0).grades)
     if len(grades) != 1:
-        raise InvalidInputError(f"not a primitive: a blade has a single grade, this multivector has grades {sorted(grades)}")
+        raise InvalidInputError(
+            f"not a primitive: a blade has a single grade, this multivector has grades {sorted(grades)}"
+        )
     g = grades.pop()
     if g == 1:
         return "point"
@@ -753,7 +826,9 @@ def center(X: Multivector) -> Any:
     w, x = _center_of(Xb)
     w = np.asarray(w, dtype=float)
     if np.any(w == 0):
-        raise DegeneratePrimitiveError(f"the {kind} has no finite center (it is flat or zero); check the defining points")
+        raise DegeneratePrimitiveError(
+            f"the {kind} has no finite center (it is flat or zero); check the defining points"
+        )
     with np.errstate(over="ignore"):
         c = _stack3(tuple(np.asarray(xi, dtype=float) / w for xi in x))
     return _unscale(c, k, f"the {kind}'s center")
@@ -792,7 +867,9 @@ def radius(X: Multivector) -> Any:
     if kind == "point":
         return 0.0
     if kind in _FLAT:
-        raise InvalidInputError(f"a {kind} has no radius (it is flat); use closest_point_to_origin()/normal()/direction()")
+        raise InvalidInputError(
+            f"a {kind} has no radius (it is flat); use closest_point_to_origin()/normal()/direction()"
+        )
     X = _mv_arg(X, "X")
     if X.is_symbolic:
         num, den = _radius2_of(X)
@@ -818,7 +895,9 @@ def radius(X: Multivector) -> Any:
                 f"the {kind}'s radius is lost in rounding: it is ~{float(np.max(np.where(r2 < 0, ratio, 0))):.3g} radii "
                 "from the origin, beyond the precision of its coefficients; build it about a nearer origin"
             )
-        raise DegeneratePrimitiveError(f"the {kind} is imaginary (r² = {float(np.min(r2)):.3g} < 0); it cannot come from real points")
+        raise DegeneratePrimitiveError(
+            f"the {kind} is imaginary (r² = {float(np.min(r2)):.3g} < 0); it cannot come from real points"
+        )
     if est_max > PRECISION_WARN:
         i = int(np.argmax(np.where(r2 == 0, 0.0, est).reshape(-1)))
         rr = float(np.asarray(ratio).reshape(-1)[i]) if np.ndim(ratio) else float(ratio)
@@ -937,12 +1016,12 @@ def _closest_point(X: Multivector, kind: str, numeric: bool) -> tuple[Any, Any, 
         if numeric and np.any(np.asarray(d2) == 0):
             raise DegeneratePrimitiveError("the line has zero direction; its points coincide")
         p = (d[1] * m[2] - d[2] * m[1], d[2] * m[0] - d[0] * m[2], d[0] * m[1] - d[1] * m[0])
-        return tuple(pi / d2 for pi in p)  # type: ignore[return-value]
+        return tuple(pi / d2 for pi in p)
     wn, wd = _dual_flat_plane(X)
     n2 = wn[0] * wn[0] + wn[1] * wn[1] + wn[2] * wn[2]
     if numeric and np.any(np.asarray(n2) == 0):
         raise DegeneratePrimitiveError("the plane has zero normal; its points are collinear")
-    return tuple(wd * v / n2 for v in wn)  # type: ignore[return-value]
+    return tuple(wd * v / n2 for v in wn)
 
 
 def closest_point_to_origin(X: Multivector) -> Any:
@@ -984,7 +1063,9 @@ def _unscale_mv(Y: Multivector, k: int, lam: int, what: str) -> Multivector:
         Z = Y._rescaled(k, lam)
     for c in Z.coeffs:
         if not (math.isfinite(c) if type(c) is float or type(c) is np.float64 else np.all(np.isfinite(c))):
-            raise InvalidInputError(f"{what}: the result's coefficients are beyond the float64 range (|value| > 1.8e308)")
+            raise InvalidInputError(
+                f"{what}: the result's coefficients are beyond the float64 range (|value| > 1.8e308)"
+            )
     return Z
 
 

@@ -68,14 +68,14 @@ from .primitives import (
 )
 
 __all__ = [
-    "unit_primitive",
-    "similarity",
-    "similarity_from_unit",
-    "similarity_from_parameters",
+    "UNIT_AXIS",
     "chart_reference",
     "primitive_parameters",
-    "UNIT_AXIS",
     "rotor_between",
+    "similarity",
+    "similarity_from_parameters",
+    "similarity_from_unit",
+    "unit_primitive",
 ]
 
 #: The orientation axis of each unit primitive X_u (None: no orientation).
@@ -195,7 +195,9 @@ def rotor_between(u: Any, v: Any, half_turn_axis: tuple[float, float, float] | N
         if not B.any_symbolic(*half_turn_axis, *u):
             d = np.abs(sum(np.asarray(a) * np.asarray(b) for a, b in zip(half_turn_axis, u)))
             if np.any(d > 1e-9):
-                raise InvalidInputError(f"half_turn_axis must be perpendicular to u (|axis·u| = {float(np.max(d)):.3g})")
+                raise InvalidInputError(
+                    f"half_turn_axis must be perpendicular to u (|axis·u| = {float(np.max(d)):.3g})"
+                )
     return _rotor_between(u, v, half_turn_axis)
 
 
@@ -205,7 +207,9 @@ def _same_batch(args: dict[str, Any]) -> None:
     try:
         np.broadcast_shapes(*shapes.values())
     except ValueError:
-        raise InvalidInputError(f"the batch shapes of {', '.join(f'{k} {s}' for k, s in shapes.items())} do not match") from None
+        raise InvalidInputError(
+            f"the batch shapes of {', '.join(f'{k} {s}' for k, s in shapes.items())} do not match"
+        ) from None
 
 
 def _is_zero_const(x: Any) -> bool:
@@ -313,16 +317,17 @@ def chart_reference(kind: str, axis: Any) -> tuple[tuple[float, float, float], M
     from the unit primitive's axis o_u, so its half-turn discontinuity sits at −a (see
     :func:`similarity_from_unit`)."""
     kind = _check_kind(kind)
-    if axis is None or UNIT_AXIS[kind] is None:
+    o1 = UNIT_AXIS[kind]
+    if axis is None or o1 is None:
         return None
     a = np.asarray(validation.vector(axis, 3, "chart axis"), dtype=float)
     n = float(np.linalg.norm(a))
     if not n > 0:
         raise InvalidInputError("the chart axis must be a non-zero 3-vector")
     a = a / n
-    o1 = UNIT_AXIS[kind]
-    Ra = _rotor_between(o1, tuple(float(x) for x in a), _perp_axis(o1, o1))
-    return (float(a[0]), float(a[1]), float(a[2])), Ra
+    au = (float(a[0]), float(a[1]), float(a[2]))
+    Ra = _rotor_between(o1, au, _perp_axis(o1, o1))
+    return au, Ra
 
 
 def similarity_from_unit(X: Multivector, chart_axis: Any = None) -> Multivector:
@@ -338,8 +343,9 @@ def similarity_from_unit(X: Multivector, chart_axis: Any = None) -> Multivector:
     """
     kind, c, r, o = primitive_parameters(X)
     c1, r1, o1 = _unit_params(kind)
-    return _similarity_from_params(kind, c1, r1, o1, _tuple3(c), r, None if o is None else _tuple3(o),
-                                   reference=chart_reference(kind, chart_axis))
+    return _similarity_from_params(
+        kind, c1, r1, o1, _tuple3(c), r, None if o is None else _tuple3(o), reference=chart_reference(kind, chart_axis)
+    )
 
 
 def similarity(X_from: Multivector, X_to: Multivector) -> Multivector:
@@ -389,8 +395,9 @@ def similarity_from_parameters(kind: str, c: Any, r: Any, o: Any, chart_axis: An
     if r1 is not None and not B.is_symbolic(r):
         batch["r"] = (r,)
     _same_batch(batch)
-    return _similarity_from_params(kind, c1, r1, o1, c, r, None if o1 is None else o,
-                                   reference=chart_reference(kind, chart_axis))
+    return _similarity_from_params(
+        kind, c1, r1, o1, c, r, None if o1 is None else o, reference=chart_reference(kind, chart_axis)
+    )
 
 
 def _positive_array(r: Any, name: str) -> np.ndarray:
@@ -398,4 +405,3 @@ def _positive_array(r: Any, name: str) -> np.ndarray:
     if not np.all(a > 0):
         raise InvalidInputError(f"{name} must be > 0, got {a.tolist()}")
     return a
-

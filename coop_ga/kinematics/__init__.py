@@ -2,4 +2,4 @@
 
 from .chains import LOCAL_TO_TANGENT, Joint, KinematicTree, motor_from_se3
 
-__all__ = ["Joint", "KinematicTree", "motor_from_se3", "LOCAL_TO_TANGENT"]
+__all__ = ["LOCAL_TO_TANGENT", "Joint", "KinematicTree", "motor_from_se3"]

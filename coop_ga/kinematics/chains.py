@@ -32,23 +32,30 @@ Frames and conventions
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
+from .. import validation
 from ..algebra import backend as Bk
 from ..algebra.basis import blade_index
 from ..algebra.multivector import Multivector
-from .. import validation
-from ..errors import InvalidInputError, NonFiniteError, UnknownNameError, UnsupportedJointError
-from ..geometry.groups import MOTOR_BLADES, bivector_to_tangent, motor_rotor_translation, rotor_from_matrix, rotor_matrix
+from ..errors import InvalidInputError, UnknownNameError, UnsupportedJointError
+from ..geometry.groups import (
+    MOTOR_BLADES,
+    bivector_to_tangent,
+    motor_rotor_translation,
+    rotor_from_matrix,
+    rotor_matrix,
+)
 
 __all__ = [
+    "LOCAL_TO_TANGENT",
     "Joint",
     "KinematicTree",
     "motor_from_se3",
-    "LOCAL_TO_TANGENT",
 ]
 
 
@@ -71,7 +78,7 @@ LOCAL_TO_TANGENT[4, 0] = LOCAL_TO_TANGENT[5, 1] = LOCAL_TO_TANGENT[6, 2] = 1.0
 _PRUNE = 1e-14  # constant placement coefficients below this are structural zeros
 
 
-def _constant_motor(R: tuple[float, float, float, float], t: Sequence[float]) -> Multivector:
+def _constant_motor(R: tuple[float, float, float, float], t: Sequence[float] | np.ndarray) -> Multivector:
     """Unit motor ``T(t) R`` with exact zeros dropped (sparser symbolic graphs)."""
     w, r12, r13, r23 = R
     Rm = Multivector((0, _E12, _E13, _E23), (w, r12, r13, r23))
@@ -88,7 +95,7 @@ def motor_from_se3(M: Any) -> Multivector:
         Rm, t = M.rotation, M.translation
     R = rotor_from_matrix(np.asarray(Rm))
     if R[0] < 0:  # canonical sheet: keeps identities exactly 1
-        R = tuple(-c for c in R)
+        R = (-R[0], -R[1], -R[2], -R[3])
     return _constant_motor(R, np.asarray(t, dtype=float))
 
 
@@ -163,7 +170,8 @@ def _joint_axis(model: Any, jid: int, kind: str) -> tuple[float, float, float]:
         raise UnsupportedJointError(f"joint '{model.names[jid]}': revolute axis does not pass through its frame origin")
     n = float(np.linalg.norm(a))
     a = a / n
-    return tuple(0.0 if abs(x) < 1e-15 else float(x) for x in a)
+    x, y, z = (0.0 if abs(c) < 1e-15 else float(c) for c in a)  # a has 3 entries
+    return x, y, z
 
 
 def _as_q(q: Any, nq: int, what: str = "q") -> Any:
@@ -205,9 +213,7 @@ class KinematicTree:
         self.chains: list[tuple[int, ...]] = []
         for fname in self.end_frames:
             if fname not in names:
-                raise UnknownNameError(
-                    f"unknown frame '{fname}'. Available frames: {', '.join(sorted(set(names)))}"
-                )
+                raise UnknownNameError(f"unknown frame '{fname}'. Available frames: {', '.join(sorted(set(names)))}")
             fid = model.getFrameId(fname)
             f = model.frames[fid]
             parent = int(f.parentJoint)
@@ -351,7 +357,9 @@ class KinematicTree:
         P = []
         for M in Ms:
             p = motor_rotor_translation(M)[1]
-            P.append(Multivector(_POINT_BLADES, (1.0, p[0], p[1], p[2], 0.5 * (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]))))
+            P.append(
+                Multivector(_POINT_BLADES, (1.0, p[0], p[1], p[2], 0.5 * (p[0] * p[0] + p[1] * p[1] + p[2] * p[2])))
+            )
         cols = []
         for Pi, chain in zip(P, self.chains):
             c: list[Multivector | None] = [None] * self.nq
@@ -388,7 +396,9 @@ class KinematicTree:
                 if self.joints[j].kind == "revolute":
                     d = (p[0] - o[0], p[1] - o[1], p[2] - o[2])
                     cols[self.joints[j].q_index] = (
-                        w[1] * d[2] - w[2] * d[1], w[2] * d[0] - w[0] * d[2], w[0] * d[1] - w[1] * d[0]
+                        w[1] * d[2] - w[2] * d[1],
+                        w[2] * d[0] - w[0] * d[2],
+                        w[0] * d[1] - w[1] * d[0],
                     )
                 else:
                     cols[self.joints[j].q_index] = w
@@ -400,11 +410,11 @@ def _assemble(cols: dict[int, tuple[Any, ...]], rows: int, n: int, sym: bool) ->
     if sym:
         import casadi as ca
 
-        J = ca.SX.zeros(rows, n)
+        Js = ca.SX.zeros(rows, n)
         for j, v in cols.items():
             for r in range(rows):
-                J[r, j] = v[r]
-        return J
+                Js[r, j] = v[r]
+        return Js
     J = np.zeros((rows, n))
     for j, v in cols.items():
         J[:, j] = [float(x) for x in v]

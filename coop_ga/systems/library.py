@@ -31,12 +31,14 @@ Conventions shared by the builders
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 from .registry import register
 from .system import ROBOTS_DIR, System, append_robots, prefixed
 
-__all__: list[str] = ["IIWA_Q0", "G1_PELVIS_HEIGHT", "g1_model"]
+__all__: list[str] = ["G1_PELVIS_HEIGHT", "IIWA_Q0", "g1_model"]
 
 #: The paper's nominal iiwa configuration (§4.1) [rad].
 IIWA_Q0 = np.array([0.0, -0.7854, 0.0, 1.3962, 0.0, 0.6109, 0.0])
@@ -160,8 +162,8 @@ def _allegro_q(model, values: dict[str, float]) -> np.ndarray:
     return q
 
 
-def _named(prefix: str, values) -> dict[str, float]:
-    return {f"joint_{i}.0": v for i, v in zip(prefix, values)}
+def _named(indices: Iterable[int], values: Iterable[float]) -> dict[str, float]:
+    return {f"joint_{i}.0": v for i, v in zip(indices, values)}
 
 
 #: Franka Panda joint acceleration limits [rad/s²] (Franka Control Interface documentation,
@@ -268,10 +270,12 @@ _FRANKA_TO_G1_Q0 = np.array([0.0, -0.7, 0.0, -2.4, 0.0, 3.2, 0.7854])
 def _franka_and_g1() -> System:
     arm, _ = _panda_arm()
     g1 = g1_model()
-    model = append_robots([
-        (prefixed(arm, "franka_"), _placement(0.0, 0.0, 0.0)),
-        (prefixed(g1, "g1_"), _placement(1.0, 0.0, G1_PELVIS_HEIGHT, yaw=np.pi)),
-    ])
+    model = append_robots(
+        [
+            (prefixed(arm, "franka_"), _placement(0.0, 0.0, 0.0)),
+            (prefixed(g1, "g1_"), _placement(1.0, 0.0, G1_PELVIS_HEIGHT, yaw=np.pi)),
+        ]
+    )
     system = System(
         name="franka_and_g1",
         model=model,
@@ -297,10 +301,12 @@ _G1_RIGHT_HIGH = _g1_mirror(np.array([-0.75, 0.2, 0.0, 0.3, 0.0, 0.0, 0.0]))
 @register("two_g1", "two Unitree G1s (waist + arms) facing each other 1.0 m apart; the four hands span a sphere")
 def _two_g1() -> System:
     g1 = g1_model()
-    model = append_robots([
-        (prefixed(g1, "a_"), _placement(-0.5, 0.0, G1_PELVIS_HEIGHT)),
-        (prefixed(g1, "b_"), _placement(0.5, 0.0, G1_PELVIS_HEIGHT, yaw=np.pi)),
-    ])
+    model = append_robots(
+        [
+            (prefixed(g1, "a_"), _placement(-0.5, 0.0, G1_PELVIS_HEIGHT)),
+            (prefixed(g1, "b_"), _placement(0.5, 0.0, G1_PELVIS_HEIGHT, yaw=np.pi)),
+        ]
+    )
     qg = _g1_q0(_G1_LEFT_LOW, _G1_RIGHT_HIGH)
     return System(
         name="two_g1",
@@ -326,8 +332,9 @@ _ALLEGRO_Q0 = {
 }
 
 
-@register("three_finger_hand",
-          "Allegro right hand with the middle finger locked straight (12 DOF): index, thumb, ring tips")
+@register(
+    "three_finger_hand", "Allegro right hand with the middle finger locked straight (12 DOF): index, thumb, ring tips"
+)
 def _three_finger_hand() -> System:
     import pinocchio as pin
 

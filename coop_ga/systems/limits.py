@@ -105,10 +105,14 @@ class JointLimits:
         except ValueError:
             raise UnknownNameError(f"unknown joint {name!r}; joints: {', '.join(self.joint_names)}") from None
 
-    def replace(self, *, position: Mapping[str, tuple[float, float]] | None = None,
-                velocity: Mapping[str, float] | float | None = None,
-                acceleration: Mapping[str, float] | float | None = None,
-                effort: Mapping[str, float] | float | None = None) -> JointLimits:
+    def replace(
+        self,
+        *,
+        position: Mapping[str, tuple[float, float]] | None = None,
+        velocity: Mapping[str, float] | float | None = None,
+        acceleration: Mapping[str, float] | float | None = None,
+        effort: Mapping[str, float] | float | None = None,
+    ) -> JointLimits:
         """New limits with the given joints overridden (a scalar velocity/acceleration/effort applies to all)."""
         lo, hi = self.lower.copy(), self.upper.copy()
         for name, pair in (position or {}).items():
@@ -162,5 +166,6 @@ class JointLimits:
         """Human-readable list of the joints of q (nq,) outside their position limits by more than tol."""
         a = np.asarray(q, dtype=float)
         bad = np.flatnonzero((a < self.lower - tol) | (a > self.upper + tol))
-        return ", ".join(f"{self.joint_names[i]}={a[i]:.4f} not in [{self.lower[i]:.4f}, {self.upper[i]:.4f}]"
-                         for i in bad)
+        return ", ".join(
+            f"{self.joint_names[i]}={a[i]:.4f} not in [{self.lower[i]:.4f}, {self.upper[i]:.4f}]" for i in bad
+        )

@@ -6,13 +6,13 @@ The paper's systems are registered by :mod:`coop_ga.systems.library` (imported b
 
 from __future__ import annotations
 
-from functools import lru_cache
-from typing import Callable
+from collections.abc import Callable
+from functools import cache
 
 from ..errors import UnknownNameError
 from .system import System
 
-__all__ = ["register", "names", "load"]
+__all__ = ["load", "names", "register"]
 
 _REGISTRY: dict[str, tuple[Callable[[], System], str]] = {}
 
@@ -32,7 +32,7 @@ def names() -> list[str]:
     return list(_REGISTRY)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _build(name: str) -> System:
     return _REGISTRY[name][0]()
 
@@ -45,5 +45,3 @@ def load(name: str) -> System:
     if not isinstance(name, str) or name not in _REGISTRY:
         raise UnknownNameError(f"unknown system '{name}'. Available systems: {', '.join(names())}")
     return _build(name)
-
-

@@ -16,26 +16,27 @@ Systems are registered by name in :mod:`coop_ga.systems.registry`; ``load(name)`
 from __future__ import annotations
 
 import dataclasses
-from importlib import resources
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
 from .. import validation
 from ..diagnostics import warn
-from ..errors import InvalidInputError, JointLimitWarning, NonFiniteError, UnknownNameError
+from ..errors import InvalidInputError, JointLimitWarning, UnknownNameError
 from ..kinematics.chains import KinematicTree
 from .limits import JointLimits
 
 __all__ = [
-    "System",
-    "from_urdf",
-    "from_model",
-    "append_robots",
-    "prefixed",
     "ROBOTS_DIR",
+    "System",
+    "append_robots",
+    "from_model",
+    "from_urdf",
+    "prefixed",
 ]
 
 #: Directory of the URDFs coop_ga ships (iiwa14, hexapod): package data of ``coop_ga.systems``,
@@ -68,7 +69,9 @@ class System:
         self.q0 = np.array(self.q0, dtype=float)
         self.q0.setflags(write=False)
         if self.q0.shape != (self.model.nq,):
-            raise InvalidInputError(f"q0 of system '{self.name}' must have {self.model.nq} entries, got {self.q0.shape}")
+            raise InvalidInputError(
+                f"q0 of system '{self.name}' must have {self.model.nq} entries, got {self.q0.shape}"
+            )
         if not self.labels:
             self.labels = self.end_frames
         self._data = None
@@ -102,8 +105,15 @@ class System:
         assert self.limits is not None
         return self.limits.upper.copy()
 
-    def with_limits(self, *, position: Any = None, velocity: Any = None, acceleration: Any = None,
-                    effort: Any = None, name: str | None = None) -> System:
+    def with_limits(
+        self,
+        *,
+        position: Any = None,
+        velocity: Any = None,
+        acceleration: Any = None,
+        effort: Any = None,
+        name: str | None = None,
+    ) -> System:
         """A copy of this system with limits overridden by joint name (:meth:`JointLimits.replace`).
 
         ``position``: ``{joint: (lower, upper)}``; ``velocity``, ``acceleration``, ``effort``:
@@ -153,8 +163,12 @@ class System:
         lo, hi = self.q_lower.copy(), self.q_upper.copy()
         unbounded = (hi - lo > 1e6) | ~np.isfinite(hi - lo)
         if np.any(unbounded):
-            span = np.array([1.0 if self.model.joints[j].shortname().startswith("JointModelP") else np.pi
-                             for j in self._joint_ids_in_q()])
+            span = np.array(
+                [
+                    1.0 if self.model.joints[j].shortname().startswith("JointModelP") else np.pi
+                    for j in self._joint_ids_in_q()
+                ]
+            )
             lo[unbounded], hi[unbounded] = -span[unbounded], span[unbounded]
         mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo) * scale
         return rng.uniform(mid - half, mid + half)
@@ -217,8 +231,16 @@ def _default_q0(model: Any) -> np.ndarray:
     return q
 
 
-def from_model(model: Any, end_frames: Sequence[str], *, name: str = "custom", q0: Any = None,
-               locked_joints: Sequence[str] = (), q_lock: Any = None, description: str = "") -> System:
+def from_model(
+    model: Any,
+    end_frames: Sequence[str],
+    *,
+    name: str = "custom",
+    q0: Any = None,
+    locked_joints: Sequence[str] = (),
+    q_lock: Any = None,
+    description: str = "",
+) -> System:
     """Build a :class:`System` from a ``pinocchio.Model``.
 
     ``locked_joints`` (names) are removed with ``pinocchio.buildReducedModel`` at
@@ -238,12 +260,20 @@ def from_model(model: Any, end_frames: Sequence[str], *, name: str = "custom", q
         model = pin.buildReducedModel(model, [model.getJointId(j) for j in locked_joints], ql)
     if q0 is None:
         q0 = _default_q0(model)
-    return System(name=name, model=model, end_frames=tuple(end_frames), q0=np.asarray(q0, dtype=float),
-                  description=description)
+    return System(
+        name=name, model=model, end_frames=tuple(end_frames), q0=np.asarray(q0, dtype=float), description=description
+    )
 
 
-def from_urdf(urdf_path: str | Path, end_frames: Sequence[str], locked_joints: Sequence[str] = (), *,
-              name: str | None = None, q0: Any = None, q_lock: Any = None) -> System:
+def from_urdf(
+    urdf_path: str | Path,
+    end_frames: Sequence[str],
+    locked_joints: Sequence[str] = (),
+    *,
+    name: str | None = None,
+    q0: Any = None,
+    q_lock: Any = None,
+) -> System:
     """Build a system from any URDF Pinocchio loads (fixed base).
 
     Example::
@@ -258,5 +288,12 @@ def from_urdf(urdf_path: str | Path, end_frames: Sequence[str], locked_joints: S
     if not p.exists():
         raise InvalidInputError(f"URDF file not found: {p}")
     model = pin.buildModelFromUrdf(str(p))
-    return from_model(model, end_frames, name=name or p.stem, q0=q0, locked_joints=locked_joints, q_lock=q_lock,
-                      description=f"from URDF {p}")
+    return from_model(
+        model,
+        end_frames,
+        name=name or p.stem,
+        q0=q0,
+        locked_joints=locked_joints,
+        q_lock=q_lock,
+        description=f"from URDF {p}",
+    )

@@ -25,8 +25,9 @@ def axes_box(ax: Any) -> tuple[np.ndarray, np.ndarray]:
     return lims.min(axis=1), lims.max(axis=1)
 
 
-def set_equal_3d(ax: Any, points: Any, pad: float = 0.05, *, floor: bool = False,
-                 tight: bool = False) -> tuple[np.ndarray, float]:
+def set_equal_3d(
+    ax: Any, points: Any, pad: float = 0.05, *, floor: bool = False, tight: bool = False
+) -> tuple[np.ndarray, float]:
     """Give a 3-D axes equal scales on x, y, z around ``points``.
 
     Parameters

@@ -36,12 +36,21 @@ def frame_axes(T: Any) -> tuple[np.ndarray, np.ndarray]:
     M = np.asarray(T, dtype=float)
     if M.shape == (4, 4):
         return M[:3, 3].copy(), M[:3, :3].copy()
-    raise ValueError(f"cannot read a frame from {type(T).__name__} (shape {getattr(M, 'shape', None)}); pass a "
-                     "motor/similarity, a pinocchio.SE3, a 4×4 matrix or (R, p)")
+    raise ValueError(
+        f"cannot read a frame from {type(T).__name__} (shape {getattr(M, 'shape', None)}); pass a "
+        "motor/similarity, a pinocchio.SE3, a 4×4 matrix or (R, p)"
+    )
 
 
-def draw_frame(ax: Any, T: Any, length: float = 0.1, *, colors: tuple[Any, Any, Any] | None = None,
-               lw: float = 1.5, label: str | None = None) -> Drawn:
+def draw_frame(
+    ax: Any,
+    T: Any,
+    length: float = 0.1,
+    *,
+    colors: tuple[Any, Any, Any] | None = None,
+    lw: float = 1.5,
+    label: str | None = None,
+) -> Drawn:
     """Draw the frame ``T`` (see :func:`frame_axes`) as three arrows of ``length`` [m] × the
     length of each axis (1 for rigid frames, the scale for a similarity), x/y/z in ``colors``.
 

@@ -11,8 +11,9 @@ from .style import BIVECTOR_COLORS, BIVECTOR_LABELS
 __all__ = ["plot_bivector", "plot_error"]
 
 
-def plot_bivector(ax: Any, t: Any, B: Any, *, legend: bool = True, ls: str = "-", lw: float = 1.5,
-                  labels: bool = True, **kwargs: Any) -> list[Any]:
+def plot_bivector(
+    ax: Any, t: Any, B: Any, *, legend: bool = True, ls: str = "-", lw: float = 1.5, labels: bool = True, **kwargs: Any
+) -> list[Any]:
     """Plot a bivector trajectory ``B`` (T, 7) in ``coop_ga.TANGENT_BASIS`` order
     ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]`` against time ``t`` (T,) [s], one colour per component.
 
@@ -25,16 +26,21 @@ def plot_bivector(ax: Any, t: Any, B: Any, *, legend: bool = True, ls: str = "-"
     B = np.asarray(B, dtype=float)
     if B.shape != (len(t), 7):
         raise ValueError(f"B must have shape (len(t), 7) = ({len(t)}, 7), got {B.shape}")
-    lines = [ax.plot(t, B[:, j], color=BIVECTOR_COLORS[j], ls=ls, lw=lw,
-                     label=BIVECTOR_LABELS[j] if labels else None, **kwargs)[0] for j in range(7)]
+    lines = [
+        ax.plot(
+            t, B[:, j], color=BIVECTOR_COLORS[j], ls=ls, lw=lw, label=BIVECTOR_LABELS[j] if labels else None, **kwargs
+        )[0]
+        for j in range(7)
+    ]
     if legend and labels:
         ax.legend(ncol=7, loc="upper right", handlelength=1.2, columnspacing=0.8)
     ax.grid(True, alpha=0.3)
     return lines
 
 
-def plot_error(ax: Any, t: Any, err: Any, *, log: bool = True, floor: float | None = None, label: str | None = None,
-               **kwargs: Any) -> Any:
+def plot_error(
+    ax: Any, t: Any, err: Any, *, log: bool = True, floor: float | None = None, label: str | None = None, **kwargs: Any
+) -> Any:
     """Plot an error against time ``t`` (T,) [s]: ``err`` (T,) norms, or (T, n) vectors whose
     Euclidean norm per row is plotted.
 

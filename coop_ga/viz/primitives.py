@@ -110,10 +110,23 @@ def _foot(anchor: Any, base: np.ndarray, n_or_d: np.ndarray, flat: str) -> np.nd
     return a - ((a - base) @ k) * k
 
 
-def draw_primitive(ax: Any, X: Any, *, color: Any = None, lw: float | None = None, ls: str = "-",
-                   alpha: float = 1.0, label: str | None = None, m: int = 120, size: float | None = None,
-                   length: float | None = None, anchor: Any = None, normal_arrow: bool = False,
-                   marker_size: float = 40.0, zorder: float | None = None) -> Drawn:
+def draw_primitive(
+    ax: Any,
+    X: Any,
+    *,
+    color: Any = None,
+    lw: float | None = None,
+    ls: str = "-",
+    alpha: float = 1.0,
+    label: str | None = None,
+    m: int = 120,
+    size: float | None = None,
+    length: float | None = None,
+    anchor: Any = None,
+    normal_arrow: bool = False,
+    marker_size: float = 40.0,
+    zorder: float | None = None,
+) -> Drawn:
     """Draw the primitive ``X`` (any of the six kinds, see the module docstring) on a 3-D axes.
 
     Parameters
@@ -165,8 +178,7 @@ def draw_primitive(ax: Any, X: Any, *, color: Any = None, lw: float | None = Non
     elif kind == "sphere":
         c, r = np.asarray(center(X), float), float(radius(X))
         xs, ys, zs = sphere_mesh(c, r, max(m // 5, 12))
-        out.artists.append(ax.plot_wireframe(xs, ys, zs, lw=wire_lw,
-                                             label=label, **{**kw, "alpha": 0.5 * alpha}))
+        out.artists.append(ax.plot_wireframe(xs, ys, zs, lw=wire_lw, label=label, **{**kw, "alpha": 0.5 * alpha}))
         P = np.stack([xs.ravel(), ys.ravel(), zs.ravel()], axis=1)
     elif kind == "line":
         d = np.asarray(direction(X), float)
@@ -188,8 +200,9 @@ def draw_primitive(ax: Any, X: Any, *, color: Any = None, lw: float | None = Non
         from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
         P = square_points(p, n, size)
-        poly = Poly3DCollection([P], facecolor=col, edgecolor=col, linewidths=lw * 0.5, linestyles=ls,
-                                alpha=0.25 * alpha, label=label)
+        poly = Poly3DCollection(
+            [P], facecolor=col, edgecolor=col, linewidths=lw * 0.5, linestyles=ls, alpha=0.25 * alpha, label=label
+        )
         if zorder is not None:
             poly.set_zorder(zorder)
         ax.add_collection3d(poly)

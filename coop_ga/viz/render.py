@@ -29,9 +29,19 @@ def save(fig: Any, path: str | Path, dpi: int = DPI) -> Path:
     return p
 
 
-def render(system: Any, q: Any, primitives: Sequence[Any] = (), path: str | Path = "robot.png", *,
-           view: tuple[float, float] = (22.0, -60.0), size: tuple[float, float] = (7.0, 7.0), dpi: int = DPI,
-           title: str | None = None, end_labels: bool = True, pad: float = 0.05) -> Path:
+def render(
+    system: Any,
+    q: Any,
+    primitives: Sequence[Any] = (),
+    path: str | Path = "robot.png",
+    *,
+    view: tuple[float, float] = (22.0, -60.0),
+    size: tuple[float, float] = (7.0, 7.0),
+    dpi: int = DPI,
+    title: str | None = None,
+    end_labels: bool = True,
+    pad: float = 0.05,
+) -> Path:
     """Write a PNG of ``system``'s skeleton at ``q`` (nq,) and of ``primitives``, headless (Agg).
 
     Parameters

@@ -100,9 +100,14 @@ def skeleton(system: Any, q: Any) -> Skeleton:
             segs.append((np.array(d.oMf[pf.parentFrame].translation), np.array(d.oMf[i].translation)))
             kinds.append("fixed")
     J = np.array([b for (_, b), k in zip(segs, kinds) if k == "joint"]).reshape(-1, 3)
-    return Skeleton(segments=np.array([[a, b] for a, b in segs]).reshape(-1, 2, 3), kinds=tuple(kinds), joints=J,
-                    end_points=np.array(ends).reshape(-1, 3), fixed_points=np.array(fixed).reshape(-1, 3),
-                    chains=chains)
+    return Skeleton(
+        segments=np.array([[a, b] for a, b in segs]).reshape(-1, 2, 3),
+        kinds=tuple(kinds),
+        joints=J,
+        end_points=np.array(ends).reshape(-1, 3),
+        fixed_points=np.array(fixed).reshape(-1, 3),
+        chains=chains,
+    )
 
 
 @dataclass
@@ -112,10 +117,23 @@ class RobotDrawn(Drawn):
     skeleton: Skeleton | None = None
 
 
-def draw_robot(ax: Any, system: Any, q: Any, *, color: Any = None, lw: float | None = None, alpha: float = 1.0,
-               label: str | None = None, joints: bool = True, ends: bool = True, fixed: bool = True,
-               end_color: Any = None, end_size: float = 40.0, end_labels: bool = False,
-               zorder: float | None = None) -> RobotDrawn:
+def draw_robot(
+    ax: Any,
+    system: Any,
+    q: Any,
+    *,
+    color: Any = None,
+    lw: float | None = None,
+    alpha: float = 1.0,
+    label: str | None = None,
+    joints: bool = True,
+    ends: bool = True,
+    fixed: bool = True,
+    end_color: Any = None,
+    end_size: float = 40.0,
+    end_labels: bool = False,
+    zorder: float | None = None,
+) -> RobotDrawn:
     """Draw the skeleton of ``system`` at configuration ``q`` (nq,) on a matplotlib ``Axes3D``.
 
     ``color``/``lw``/``alpha``: links and joint dots (default ``PALETTE.robot``, 2.2 pt);
@@ -132,9 +150,11 @@ def draw_robot(ax: Any, system: Any, q: Any, *, color: Any = None, lw: float | N
     lw = LINEWIDTH["robot"] if lw is None else float(lw)
     out = RobotDrawn(skeleton=sk)
     extra = {} if zorder is None else {"zorder": zorder}
-    styles = {"joint": {"colors": [col], "linewidths": lw, "linestyles": "-"},
-              "end": {"colors": [col], "linewidths": 0.55 * lw, "linestyles": "--"},
-              "fixed": {"colors": [PALETTE.fixed], "linewidths": 0.45 * lw, "linestyles": "-"}}
+    styles = {
+        "joint": {"colors": [col], "linewidths": lw, "linestyles": "-"},
+        "end": {"colors": [col], "linewidths": 0.55 * lw, "linestyles": "--"},
+        "fixed": {"colors": [PALETTE.fixed], "linewidths": 0.45 * lw, "linestyles": "-"},
+    }
     kinds = np.array(sk.kinds)
     for kind, st in styles.items():
         segs = sk.segments[kinds == kind] if len(kinds) else np.zeros((0, 2, 3))
@@ -144,14 +164,21 @@ def draw_robot(ax: Any, system: Any, q: Any, *, color: Any = None, lw: float | N
         ax.add_collection3d(lc)
         out.artists.append(lc)
     if joints and len(sk.joints):
-        out.artists.append(ax.scatter(*sk.joints.T, s=3.0 * lw ** 2, color=col, alpha=alpha, depthshade=False,
-                                      **extra))
+        out.artists.append(ax.scatter(*sk.joints.T, s=3.0 * lw**2, color=col, alpha=alpha, depthshade=False, **extra))
     if fixed and len(sk.fixed_points):
         out.artists.append(ax.scatter(*sk.fixed_points.T, s=6, color=PALETTE.fixed, alpha=alpha, depthshade=False))
     if ends and len(sk.end_points):
         ec = PALETTE.end_point if end_color is None else end_color
-        out.artists.append(ax.scatter(*sk.end_points.T, s=end_size, color=ec, alpha=alpha, depthshade=False,
-                                      zorder=5 if zorder is None else zorder + 1))
+        out.artists.append(
+            ax.scatter(
+                *sk.end_points.T,
+                s=end_size,
+                color=ec,
+                alpha=alpha,
+                depthshade=False,
+                zorder=5 if zorder is None else zorder + 1,
+            )
+        )
         if end_labels:
             for p, lab in zip(sk.end_points, getattr(system, "labels", system.end_frames)):
                 out.artists.append(ax.text(p[0], p[1], p[2], f"  {lab}", fontsize=7, color=ec))

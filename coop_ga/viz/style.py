@@ -37,8 +37,15 @@ DPI = 150
 
 #: Mathtext labels of the 7 similarity-bivector components, in ``coop_ga.TANGENT_BASIS``
 #: order ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``.
-BIVECTOR_LABELS = (r"$e_{12}$", r"$e_{13}$", r"$e_{23}$", r"$e_{0\infty}$", r"$e_{1\infty}$", r"$e_{2\infty}$",
-                   r"$e_{3\infty}$")
+BIVECTOR_LABELS = (
+    r"$e_{12}$",
+    r"$e_{13}$",
+    r"$e_{23}$",
+    r"$e_{0\infty}$",
+    r"$e_{1\infty}$",
+    r"$e_{2\infty}$",
+    r"$e_{3\infty}$",
+)
 
 #: One colour per bivector component (matplotlib's tab10, first seven).
 BIVECTOR_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2")
@@ -48,16 +55,16 @@ BIVECTOR_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c56
 class Palette:
     """Named colours (any matplotlib colour spec) of the paper style."""
 
-    robot: str = "0.15"                 # a single configuration (system drawings)
-    initial_robot: str = "0.78"         # initial configuration: light
-    final_robot: str = "0.35"           # final configuration: grey
-    fixed: str = "0.6"                  # locked / fixed structure (bases, locked legs)
-    end_point: str = "#d62728"          # end-point markers
+    robot: str = "0.15"  # a single configuration (system drawings)
+    initial_robot: str = "0.78"  # initial configuration: light
+    final_robot: str = "0.35"  # final configuration: grey
+    fixed: str = "0.6"  # locked / fixed structure (bases, locked legs)
+    end_point: str = "#d62728"  # end-point markers
     initial_primitive: str = "#2ca02c"  # green
-    final_primitive: str = "#40e0d0"    # turquoise
-    target_primitive: str = "black"     # dashed
-    primitive: str = "#1f77b4"          # a primitive drawn on its own
-    trajectory: str = "#d62728"         # red end-point paths
+    final_primitive: str = "#40e0d0"  # turquoise
+    target_primitive: str = "black"  # dashed
+    primitive: str = "#1f77b4"  # a primitive drawn on its own
+    trajectory: str = "#d62728"  # red end-point paths
     frame_axes: tuple[str, str, str] = ("#d62728", "#2ca02c", "#1f77b4")  # x, y, z
 
     def intermediate(self, s: float) -> Any:

@@ -36,8 +36,12 @@ def _strict_load(path: Path) -> dict[str, Any]:
 def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
     rb = _module()
     out: dict[str, dict[str, Any]] = {}
-    for name, extra in (("serial", []), ("again", []), ("workers", ["--workers", "2"]),
-                        ("subset", ["--systems", "allegro", "--kinds", "sphere"])):
+    for name, extra in (
+        ("serial", []),
+        ("again", []),
+        ("workers", ["--workers", "2"]),
+        ("subset", ["--systems", "allegro", "--kinds", "sphere"]),
+    ):
         d = tmp_path_factory.mktemp(f"robustness_{name}")
         argv = ["--out", str(d), "--quiet", "--seed", "7"]
         argv += ["--ci", *extra] if name != "subset" else ["--levels", "small", "--targets", "1", *extra]
@@ -66,21 +70,43 @@ def _is_num(x: Any) -> bool:
 def test_schema(runs: dict[str, dict[str, Any]]) -> None:
     rb = _module()
     doc = runs["serial"]
-    for key in ("schema_version", "config", "cases", "skipped", "setup", "records", "aggregates", "issue_targets",
-                "wall_time_s", "versions", "machine"):
+    for key in (
+        "schema_version",
+        "config",
+        "cases",
+        "skipped",
+        "setup",
+        "records",
+        "aggregates",
+        "issue_targets",
+        "wall_time_s",
+        "versions",
+        "machine",
+    ):
         assert key in doc, key
     cfg = doc["config"]
     assert cfg["ci"] is True and cfg["seed"] == 7 and cfg["targets"] == rb.CI_TARGETS
     assert cfg["levels"] == list(rb.CI_LEVELS) and cfg["solvers"] == list(rb.SOLVERS)
     assert set(cfg["level_definitions"]) == set(rb.LEVELS)
     assert all(isinstance(s["reason"], str) and s["reason"] for s in doc["skipped"])
-    assert {"system": "three_franka", "kind": "sphere"} in [{k: s[k] for k in ("system", "kind")}
-                                                           for s in doc["skipped"]]  # 3 arms: no sphere
+    assert {"system": "three_franka", "kind": "sphere"} in [
+        {k: s[k] for k in ("system", "kind")} for s in doc["skipped"]
+    ]  # 3 arms: no sphere
     assert len(doc["records"]) == len(doc["cases"]) * len(cfg["levels"]) * cfg["targets"] > 0
     assert isinstance(doc["versions"]["numpy"], str) and isinstance(doc["machine"]["cpu_count"], int)
     for r in doc["records"]:
-        assert {"system", "kind", "level", "index", "nq", "spawn_key", "displacement", "qd_init", "certification",
-                "jobs"} <= set(r)
+        assert {
+            "system",
+            "kind",
+            "level",
+            "index",
+            "nq",
+            "spawn_key",
+            "displacement",
+            "qd_init",
+            "certification",
+            "jobs",
+        } <= set(r)
         assert len(r["qd_init"]) == r["nq"] and all(abs(v) <= rb.QD_INIT_MAX for v in r["qd_init"])
         d = r["displacement"]
         level = rb.LEVELS[r["level"]]
@@ -95,14 +121,31 @@ def test_schema(runs: dict[str, dict[str, Any]]) -> None:
         else:
             assert isinstance(c["reason"], str) and r["jobs"] == {}
     agg = doc["aggregates"]
-    for key in ("by_solver_level", "by_solver", "by_case", "certification_by_level", "certification_by_case",
-                "certification"):
+    for key in (
+        "by_solver_level",
+        "by_solver",
+        "by_case",
+        "certification_by_level",
+        "certification_by_case",
+        "certification",
+    ):
         assert key in agg, key
     assert len(agg["by_solver_level"]) == len(cfg["solvers"]) * len(cfg["levels"])
     for a in agg["by_solver_level"]:
-        for key in ("runs", "convergence_rate", "iterations_median", "iterations_max", "time_median_s",
-                    "time_max_s", "max_violation", "outside_limits", "converged_outside_limits", "max_speed",
-                    "within_5_iterations_rate", "exceptions"):
+        for key in (
+            "runs",
+            "convergence_rate",
+            "iterations_median",
+            "iterations_max",
+            "time_median_s",
+            "time_max_s",
+            "max_violation",
+            "outside_limits",
+            "converged_outside_limits",
+            "max_speed",
+            "within_5_iterations_rate",
+            "exceptions",
+        ):
             assert key in a, key
         assert a["runs"] == agg["certification"]["certified"]
         assert a["convergence_rate"] is None or 0.0 <= a["convergence_rate"] <= 1.0
@@ -170,11 +213,27 @@ def test_cli_help_and_bad_values(capsys: pytest.CaptureFixture[str]) -> None:
         rb.main(["--help"])
     assert ex.value.code == 0
     text = capsys.readouterr().out
-    for opt in ("--targets", "--systems", "--kinds", "--levels", "--solvers", "--seed", "--out", "--ci", "--quiet",
-                "--workers", "default"):
+    for opt in (
+        "--targets",
+        "--systems",
+        "--kinds",
+        "--levels",
+        "--solvers",
+        "--seed",
+        "--out",
+        "--ci",
+        "--quiet",
+        "--workers",
+        "default",
+    ):
         assert opt in text, opt
-    for bad in (["--targets", "0"], ["--workers", "x"], ["--seed", "-1"], ["--systems", "no_such_robot"],
-                ["--levels", "huge"]):
+    for bad in (
+        ["--targets", "0"],
+        ["--workers", "x"],
+        ["--seed", "-1"],
+        ["--systems", "no_such_robot"],
+        ["--levels", "huge"],
+    ):
         with pytest.raises(SystemExit) as ex:
             rb.main(bad)
         assert ex.value.code == 2

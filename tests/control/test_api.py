@@ -70,9 +70,20 @@ def _bad_targets(task, q0, target):
     }
 
 
-@pytest.mark.parametrize("controller", ["error_and_jacobian", "error_hessian", "gauss_newton_ik", "diff_ik_reach",
-                                        "ilqr_reach", "impedance_torque", "simulate_impedance", "nullspace_step",
-                                        "nullspace_point_reach"])
+@pytest.mark.parametrize(
+    "controller",
+    [
+        "error_and_jacobian",
+        "error_hessian",
+        "gauss_newton_ik",
+        "diff_ik_reach",
+        "ilqr_reach",
+        "impedance_torque",
+        "simulate_impedance",
+        "nullspace_step",
+        "nullspace_point_reach",
+    ],
+)
 def test_bad_targets_raise_invalid_input_naming_the_problem(franka, controller):
     task, q0, target = franka
     f = _controllers(task, q0)[controller]
@@ -151,7 +162,7 @@ def test_options_validate_every_numeric_field(cls):
 
 def test_unknown_option_is_refused(franka):
     task, q0, target = franka
-    with pytest.raises(cg.InvalidInputError, match="unknown option.*max_iters"):
+    with pytest.raises(cg.InvalidInputError, match=r"unknown option.*max_iters"):
         gauss_newton_ik(task, q0, target, max_iters=3)
     with pytest.raises(cg.InvalidInputError, match="GaussNewtonOptions"):
         gauss_newton_ik(task, q0, target, ILQROptions())

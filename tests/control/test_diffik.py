@@ -20,7 +20,7 @@ def test_step_realises_body_bivector(franka):
     s, t = franka
     q = s.q0.copy()
     J = t.jacobian(q)
-    U, sv, Vt = np.linalg.svd(J)
+    U, _sv, _Vt = np.linalg.svd(J)
     rng = np.random.default_rng(3)
     b = U[:, :6] @ rng.normal(size=6)  # circle: rank 6, stay in the range of J
     b *= 0.2 / np.linalg.norm(b)

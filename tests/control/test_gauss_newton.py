@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import warnings
 
 import numpy as np
@@ -60,7 +61,7 @@ def test_quadratic_convergence():
     h = r.history
     assert r.converged and np.all(r.step_sizes == 1.0)
     # e_{k+1} ≤ C e_k² once e_k < 1e-2 (C ~ the curvature of the residual, a few units)
-    pairs = [(a, b) for a, b in zip(h[:-1], h[1:]) if 1e-7 < a < 1e-2]
+    pairs = [(a, b) for a, b in itertools.pairwise(h) if 1e-7 < a < 1e-2]
     assert len(pairs) >= 2
     for a, b in pairs:
         assert b < 10.0 * a * a, (a, b)
@@ -104,7 +105,7 @@ def test_bad_input():
         gauss_newton_ik(t, s.q0[:3], t.similarity(s.q0))
     with pytest.raises(cg.InvalidInputError):
         gauss_newton_ik(t, s.q0, np.zeros(5))
-    with pytest.raises(cg.InvalidInputError, match="Similarity.from_coeffs"):
+    with pytest.raises(cg.InvalidInputError, match=r"Similarity\.from_coeffs"):
         gauss_newton_ik(t, s.q0, np.full(12, np.nan))  # raw coefficients are not a Similarity
     with pytest.raises(cg.NonFiniteError):
         cg.Similarity.from_coeffs(np.full(12, np.nan))

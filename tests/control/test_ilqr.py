@@ -23,14 +23,26 @@ from coop_ga.errors import InvalidInputError, JointLimitWarning, NonFiniteError
 # (system, kind, end-point order, displacement of the primitive at q0)
 CASES = {
     # the flagship of experiments/circle_reaching.py: larger, displaced, tilted circle
-    "three_franka_circle": ("three_franka", "circle", None,
-                            dict(translation=(0.1, -0.05, 0.1), axis=(1, 0, 0), angle=np.deg2rad(25), scale=1.25)),
-    "allegro_sphere": ("allegro", "sphere", None,
-                       dict(translation=(0.005, 0.01, 0.0), axis=(1, 0, 0), angle=np.deg2rad(10), scale=1.1)),
+    "three_franka_circle": (
+        "three_franka",
+        "circle",
+        None,
+        dict(translation=(0.1, -0.05, 0.1), axis=(1, 0, 0), angle=np.deg2rad(25), scale=1.25),
+    ),
+    "allegro_sphere": (
+        "allegro",
+        "sphere",
+        None,
+        dict(translation=(0.005, 0.01, 0.0), axis=(1, 0, 0), angle=np.deg2rad(10), scale=1.1),
+    ),
     # g1_arms' order (right, left) gives a line along +e2 like the unit line, far from the
     # antipode where the canonical versor is discontinuous
-    "g1_arms_line": ("g1_arms", "line", None,
-                     dict(translation=(0.05, 0.05, 0.08), axis=(0, 0, 1), angle=np.deg2rad(20))),
+    "g1_arms_line": (
+        "g1_arms",
+        "line",
+        None,
+        dict(translation=(0.05, 0.05, 0.08), axis=(0, 0, 1), angle=np.deg2rad(20)),
+    ),
 }
 
 
@@ -117,7 +129,7 @@ def test_dynamics_consistency(franka, franka_result):
     np.testing.assert_allclose(x[1:], x[:-1] @ ocp.A.T + r.u @ ocp.B.T, atol=1e-12)
     # the reported cost is Eq 56 + Eq 57 + rest term, recomputed independently
     e = task.error(r.q, Vd)
-    J = 1e-3 * np.sum(r.u ** 2) + 1e5 * e @ e + 1e2 * r.qd[-1] @ r.qd[-1]
+    J = 1e-3 * np.sum(r.u**2) + 1e5 * e @ e + 1e2 * r.qd[-1] @ r.qd[-1]
     assert r.cost == pytest.approx(J, rel=1e-10)
     assert ocp.cost(r.u) == pytest.approx(J, rel=1e-10)
 
@@ -125,8 +137,17 @@ def test_dynamics_consistency(franka, franka_result):
 def test_gradient_matches_finite_differences(franka):
     task, q0, Vd = franka
     rng = np.random.default_rng(0)
-    ocp = ReachingOCP(task, q0, Vd, horizon=6, dt=0.05, R=1e-2, Q=np.diag([1, 2, 3, 4, 5, 6, 7.0]), Qv=0.5,
-                      qd_init=0.1 * rng.standard_normal(task.nq))
+    ocp = ReachingOCP(
+        task,
+        q0,
+        Vd,
+        horizon=6,
+        dt=0.05,
+        R=1e-2,
+        Q=np.diag([1, 2, 3, 4, 5, 6, 7.0]),
+        Qv=0.5,
+        qd_init=0.1 * rng.standard_normal(task.nq),
+    )
     u = rng.standard_normal((6, task.nq))
     g = ocp.gradient(u)
     h = 1e-6
@@ -189,12 +210,12 @@ def test_displaced_target_identity_and_parameters(franka):
     V0 = displaced_target(task, q0)
     assert isinstance(V0, cg.Similarity)
     assert np.linalg.norm(task.error(q0, V0)) < 1e-12
-    Vd = displaced_target(task, q0, translation=(0.1, -0.05, 0.1), axis=(1, 0, 0), angle=np.deg2rad(25),
-                          scale=1.25)
+    Vd = displaced_target(task, q0, translation=(0.1, -0.05, 0.1), axis=(1, 0, 0), angle=np.deg2rad(25), scale=1.25)
     Xd = Vd.apply(task.unit)
     X0 = task.primitive(q0)
-    np.testing.assert_allclose(np.asarray(cg.center(Xd), float),
-                               np.asarray(cg.center(X0), float) + [0.1, -0.05, 0.1], atol=1e-12)
+    np.testing.assert_allclose(
+        np.asarray(cg.center(Xd), float), np.asarray(cg.center(X0), float) + [0.1, -0.05, 0.1], atol=1e-12
+    )
     assert float(cg.radius(Xd)) == pytest.approx(1.25 * float(cg.radius(X0)))
     n = np.asarray(cg.normal(Xd), float)
     assert np.degrees(np.arccos(n @ np.asarray(cg.normal(X0), float))) == pytest.approx(25.0)
@@ -232,7 +253,7 @@ def test_start_outside_the_limits(franka):
     q = q0.copy()
     hi = task.system.limits.upper
     q[3] = hi[3] + 0.05  # start outside the limit of arm0's elbow
-    with pytest.raises(InvalidInputError, match="outside the joint limits.*arm0_panda_joint4"):
+    with pytest.raises(InvalidInputError, match=r"outside the joint limits.*arm0_panda_joint4"):
         ilqr_reach(task, q, Vd)
     with pytest.warns(JointLimitWarning):
         res = ilqr_reach(task, q, Vd, limits="none")

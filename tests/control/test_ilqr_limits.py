@@ -17,8 +17,14 @@ from coop_ga.control import displaced_target, ilqr_reach
 def _random_target(task, q0, rng, translation, angle_deg, scale):
     d = rng.normal(size=3)
     d /= np.linalg.norm(d)
-    return displaced_target(task, q0, translation=translation * d, axis=rng.normal(size=3),
-                            angle=np.deg2rad(angle_deg), scale=1.0 + scale * rng.choice([-1.0, 1.0]))
+    return displaced_target(
+        task,
+        q0,
+        translation=translation * d,
+        axis=rng.normal(size=3),
+        angle=np.deg2rad(angle_deg),
+        scale=1.0 + scale * rng.choice([-1.0, 1.0]),
+    )
 
 
 def _within(res, system, tol=1e-9):
@@ -41,15 +47,28 @@ def flagship(load_system):
 def _certified(task, q0, V) -> bool:
     """Reachable inside the position limits: an independent bounded least-squares solve reaches ‖e‖ < 1e-6."""
     s = task.system
-    res = least_squares(lambda q: task.error(q, V), q0, jac=lambda q: task.error_jacobian(q, V),
-                        bounds=(s.q_lower, s.q_upper), xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=300)
+    res = least_squares(
+        lambda q: task.error(q, V),
+        q0,
+        jac=lambda q: task.error_jacobian(q, V),
+        bounds=(s.q_lower, s.q_upper),
+        xtol=1e-14,
+        ftol=1e-14,
+        gtol=1e-14,
+        max_nfev=300,
+    )
     return bool(np.linalg.norm(res.fun) < 1e-6)
 
 
-@pytest.mark.parametrize(("name", "kind", "level"), [("three_franka", "circle", (0.15, 35.0, 0.3)),
-                                                     ("hexapod", "circle", (0.05, 15.0, 0.15)),
-                                                     ("allegro", "sphere", (0.02, 10.0, 0.1)),
-                                                     ("g1_arms", "line", (0.15, 35.0, 0.3))])
+@pytest.mark.parametrize(
+    ("name", "kind", "level"),
+    [
+        ("three_franka", "circle", (0.15, 35.0, 0.3)),
+        ("hexapod", "circle", (0.05, 15.0, 0.15)),
+        ("allegro", "sphere", (0.02, 10.0, 0.1)),
+        ("g1_arms", "line", (0.15, 35.0, 0.3)),
+    ],
+)
 def test_targets_converge_inside_the_limits(load_system, name, kind, level):
     """Certified targets (the study's levels; smaller ones for the hand and the legs) converge, from rest
     and moving (q̇₀ ~ U(±0.2) rad/s), inside every bound; uncertified ones are reported, inside the bounds."""
@@ -149,8 +168,9 @@ def test_unreachable_target_is_reported(flagship):
 def test_allegro_left_hand_from_neutral_does_not_run_away():
     """The newcomer's case of the study: Allegro left hand from neutral toward a random target (|q| = 407 rad before)."""
     r = erd.load("allegro_left_hand")
-    hand = cg.systems.from_model(r.model, ["link_3.0_tip", "link_7.0_tip", "link_11.0_tip", "link_15.0_tip"],
-                                 name="allegro_left")
+    hand = cg.systems.from_model(
+        r.model, ["link_3.0_tip", "link_7.0_tip", "link_11.0_tip", "link_15.0_tip"], name="allegro_left"
+    )
     task = cg.cooperative_task(hand, "sphere")
     q0 = np.array(hand.q0)
     rng = np.random.default_rng(407)

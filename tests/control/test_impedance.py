@@ -172,10 +172,15 @@ def _recount(r, lim):
     exc = np.concatenate([(lim.lower - r.trajectory)[below], (r.trajectory - lim.upper)[above], [0.0]])
     pos = np.array([np.any(below[k] | above[k]) for k in range(n + 1)])
     vel = np.array([any(abs(r.qd[k, j]) > lim.velocity[j] for j in range(lim.nq)) for k in range(n + 1)])
-    return {"saturated_steps": int(sum(np.any(row > 1.0) for row in ratio)), "effort_ratio": float(ratio.max()),
-            "position_violation": float(exc.max()), "velocity_ratio": float(np.max(np.abs(r.qd) / lim.velocity)),
-            "position_violation_steps": int(pos.sum()), "velocity_violation_steps": int(vel.sum()),
-            "limit_violation_steps": int((pos | vel).sum())}
+    return {
+        "saturated_steps": int(sum(np.any(row > 1.0) for row in ratio)),
+        "effort_ratio": float(ratio.max()),
+        "position_violation": float(exc.max()),
+        "velocity_ratio": float(np.max(np.abs(r.qd) / lim.velocity)),
+        "position_violation_steps": int(pos.sum()),
+        "velocity_violation_steps": int(vel.sum()),
+        "limit_violation_steps": int((pos | vel).sum()),
+    }
 
 
 def _assert_counts_match(r, lim):
@@ -223,8 +228,10 @@ def test_large_gains_saturate_and_report(stiff_runs):
     lim = s.limits
     r, caught = out["saturate"]
     n = len(r.t) - 1
-    print(f"K=1e4: saturated {r.saturated_steps} of {n} steps, max |τ|/effort {r.effort_ratio:.3f}, "
-          f"max |q̇|/limit {r.velocity_ratio:.3f}")
+    print(
+        f"K=1e4: saturated {r.saturated_steps} of {n} steps, max |τ|/effort {r.effort_ratio:.3f}, "
+        f"max |q̇|/limit {r.velocity_ratio:.3f}"
+    )
     assert 5 <= r.saturated_steps <= 40 and 2.0 < r.effort_ratio < 4.0  # measured 11 steps, 2.70×
     assert np.all(np.abs(r.tau) <= lim.effort)  # what was applied respects the ratings …
     clipped = np.abs(r.tau_command) > lim.effort
@@ -256,8 +263,12 @@ def test_torque_limits_none_applies_the_raw_command(stiff_runs):
     opts = {"K": 1e4, "D": 200.0}
     raw = impedance_torque(t, r.trajectory[k], r.qd[k], Vd, torque_limits="none", **opts)
     np.testing.assert_allclose(raw, r.tau_command[k], rtol=1e-12, atol=1e-9)
-    np.testing.assert_allclose(impedance_torque(t, r.trajectory[k], r.qd[k], Vd, **opts),
-                               np.clip(raw, -lim.effort, lim.effort), rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(
+        impedance_torque(t, r.trajectory[k], r.qd[k], Vd, **opts),
+        np.clip(raw, -lim.effort, lim.effort),
+        rtol=1e-12,
+        atol=1e-9,
+    )
 
 
 def test_violation_counts_match_a_recount():
@@ -273,8 +284,10 @@ def test_violation_counts_match_a_recount():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         r = simulate_impedance(t, qi, t.similarity(q0), duration=1.0)
-    print(f"tightened limits: position excursion {r.position_violation:.3g} rad in {r.position_violation_steps} "
-          f"states, |q̇|/limit {r.velocity_ratio:.3g} in {r.velocity_violation_steps} states")
+    print(
+        f"tightened limits: position excursion {r.position_violation:.3g} rad in {r.position_violation_steps} "
+        f"states, |q̇|/limit {r.velocity_ratio:.3g} in {r.velocity_violation_steps} states"
+    )
     assert r.position_violation_steps > 0 and r.velocity_violation_steps > 0
     assert r.position_violation > 0 and r.velocity_ratio > 1
     _assert_counts_match(r, s.limits)

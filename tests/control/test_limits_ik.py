@@ -27,8 +27,13 @@ from coop_ga.control.qp import (
     velocity_bounds,
 )
 
-BOUND_CASES = [("three_franka", "circle"), ("allegro", "sphere"), ("g1_arms", "line"), ("hexapod", "point_pair"),
-               ("hexapod", "circle")]
+BOUND_CASES = [
+    ("three_franka", "circle"),
+    ("allegro", "sphere"),
+    ("g1_arms", "line"),
+    ("hexapod", "point_pair"),
+    ("hexapod", "circle"),
+]
 
 
 def _unit(rng: np.random.Generator) -> np.ndarray:
@@ -42,8 +47,16 @@ def _targets(task, q0, rng, n, translation, angle_deg, scale):
     while len(out) < n:
         s = (1 + scale) if rng.random() < 0.5 else 1 / (1 + scale)
         try:
-            out.append(displaced_target(task, q0, translation=translation * _unit(rng), axis=_unit(rng),
-                                        angle=np.deg2rad(angle_deg), scale=s))
+            out.append(
+                displaced_target(
+                    task,
+                    q0,
+                    translation=translation * _unit(rng),
+                    axis=_unit(rng),
+                    angle=np.deg2rad(angle_deg),
+                    scale=s,
+                )
+            )
         except cg.CoopGAError:
             continue
     return out
@@ -70,7 +83,9 @@ def test_positions_and_velocities_stay_within_limits(load_system, name, kind):
         warnings.simplefilter("ignore", cg.DegeneracyWarning)
         for V in _targets(task, q0, rng, 3, 0.15, 35.0, 0.30):
             r = diff_ik_reach(task, q0, V, steps=120)
-            assert _inside(lim, r.trajectory), lim.describe(r.trajectory[np.argmax(lim.position_violation(r.trajectory))])
+            assert _inside(lim, r.trajectory), lim.describe(
+                r.trajectory[np.argmax(lim.position_violation(r.trajectory))]
+            )
             assert r.limit_violation == 0.0
             qd = np.diff(r.trajectory, axis=0) / DiffIKOptions().dt
             assert np.all(np.abs(qd) <= lim.velocity * (1 + 1e-9)), np.max(np.abs(qd) / lim.velocity)
@@ -124,8 +139,10 @@ def test_qp_redistributes_motion_where_clamping_fails(load_system):
     V = task.similarity(q_out)
     clamp = diff_ik_reach(task, q, V, limits="clamp")
     qp = diff_ik_reach(task, q, V)
-    print(f"clamp: ‖e‖ = {clamp.error:.3g} after {clamp.iterations} steps; QP: ‖e‖ = {qp.error:.3g} after "
-          f"{qp.iterations} steps, {qp.active_steps} with an active bound")
+    print(
+        f"clamp: ‖e‖ = {clamp.error:.3g} after {clamp.iterations} steps; QP: ‖e‖ = {qp.error:.3g} after "
+        f"{qp.iterations} steps, {qp.active_steps} with an active bound"
+    )
     assert not clamp.converged and clamp.error > 5e-3 and clamp.iterations == 250
     assert qp.converged and qp.error < 1e-4 and qp.iterations <= 90
     assert qp.active_steps >= 70 and qp.limit_violation == 0.0
@@ -182,14 +199,19 @@ def test_end_point_half_space_constraint(franka):
     assert n @ (Jp @ sol.x) <= 1e-9
 
     def no_descent(q):  # a configuration-dependent constraint: end point 0 may not move down (−ż ≤ 0)
-        return [LinearConstraint(np.array([0.0, 0.0, -1.0]) @ task.tree.euclidean_point_jacobians(q)[0], [0.0],
-                                 "no descent")]
+        return [
+            LinearConstraint(
+                np.array([0.0, 0.0, -1.0]) @ task.tree.euclidean_point_jacobians(q)[0], [0.0], "no descent"
+            )
+        ]
 
     r = diff_ik_reach(task, q0, V, constraints=no_descent, steps=60)
     z = np.array([task.points(q)[0][2] for q in r.trajectory])
     free_run = diff_ik_reach(task, q0, V, steps=60)
     z_free = np.array([task.points(q)[0][2] for q in free_run.trajectory])
-    print(f"end point 0 descends by {z[0] - z.min():.2e} m with the constraint, {z_free[0] - z_free.min():.2e} m without")
+    print(
+        f"end point 0 descends by {z[0] - z.min():.2e} m with the constraint, {z_free[0] - z_free.min():.2e} m without"
+    )
     assert z_free[0] - z_free.min() > 0.05  # 6.7e-2 m
     # the constraint holds exactly on every commanded velocity (first order) …
     for qa, qb in zip(r.trajectory[:-1], r.trajectory[1:]):
@@ -226,7 +248,11 @@ def test_constraint_input_is_checked(franka):
     with pytest.raises(cg.InvalidInputError):
         diff_ik_step(task, q0, np.zeros(7), constraints="G <= h")
     G, h, labels = stack_constraints([LinearConstraint(np.ones(s.nq), 1.0, "a"), (np.eye(s.nq)[:2], [1.0, 2.0])], s.nq)
-    assert G.shape == (3, s.nq) and h.tolist() == [1.0, 1.0, 2.0] and labels == ("a[0]", "constraint 1[0]", "constraint 1[1]")
+    assert (
+        G.shape == (3, s.nq)
+        and h.tolist() == [1.0, 1.0, 2.0]
+        and labels == ("a[0]", "constraint 1[0]", "constraint 1[1]")
+    )
     with pytest.raises(cg.InvalidInputError):
         diff_ik_step(task, q0, np.zeros(7), limit_gain=1.5)
 
@@ -294,8 +320,10 @@ def test_nullspace_secondary_task_stops_at_a_bound_and_keeps_the_primary(load_sy
     task = cg.cooperative_task(s, "circle")
     r = nullspace_point_reach(task, q0, 0, target, duration=3.0)
     c = nullspace_point_reach(task, q0, 0, target, duration=3.0, limits="clamp")
-    print(f"QP: drift {r.similarity_distance.max():.3g}, point error {r.point_error[-1]:.3g} m, active steps "
-          f"{r.active_steps}; clamp: drift {c.similarity_distance.max():.3g}")
+    print(
+        f"QP: drift {r.similarity_distance.max():.3g}, point error {r.point_error[-1]:.3g} m, active steps "
+        f"{r.active_steps}; clamp: drift {c.similarity_distance.max():.3g}"
+    )
     assert _inside(s.limits, r.trajectory) and r.limit_violation == 0.0 and r.velocity_violation <= 1e-9
     assert abs(r.q[j] - hi) < 1e-9  # stopped on the bound …
     assert r.similarity_distance.max() < 3e-4  # … while V_Sc is held (1.7e-4, as without limits)
@@ -320,8 +348,9 @@ def test_qp_matches_bounded_least_squares_reference():
         lam = [3e-5, 1e-3, 0.1][k % 3]
         lb, ub = -rng.uniform(0, 0.5, n), rng.uniform(0, 0.5, n)
         sol = solve_qp(A, b, lam, lb, ub)
-        ref = lsq_linear(np.vstack([A, lam * np.eye(n)]), np.r_[b, np.zeros(n)], bounds=(lb, ub), method="bvls",
-                         tol=1e-14).x
+        ref = lsq_linear(
+            np.vstack([A, lam * np.eye(n)]), np.r_[b, np.zeros(n)], bounds=(lb, ub), method="bvls", tol=1e-14
+        ).x
 
         def f(x, A=A, b=b, lam=lam):
             return 0.5 * np.sum((A @ x - b) ** 2) + 0.5 * lam**2 * x @ x
@@ -373,8 +402,10 @@ def test_qp_step_cost(load_system):
     t_none = per_call(lambda: diff_ik_velocity(task, q, free_b, limits="none"))
     t_free = per_call(lambda: diff_ik_velocity(task, q, free_b))
     t_qp = per_call(lambda: diff_ik_velocity(task, q, sat_b))
-    print(f"diff_ik_velocity: pseudo-inverse {t_none:.0f} µs, enforce (no bound active) {t_free:.0f} µs, "
-          f"enforce (QP, 9 bounds active) {t_qp:.0f} µs")
+    print(
+        f"diff_ik_velocity: pseudo-inverse {t_none:.0f} µs, enforce (no bound active) {t_free:.0f} µs, "
+        f"enforce (QP, 9 bounds active) {t_qp:.0f} µs"
+    )
     assert t_qp < 20 * t_none + 2000  # generous: timing on shared CI machines
 
 

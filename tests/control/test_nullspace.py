@@ -24,9 +24,11 @@ def franka():
 def runs(franka):
     s, t = franka
     target = point_on_circle(t, s.q0, 0, np.deg2rad(30.0))
-    return (target,
-            nullspace_point_reach(t, s.q0, 0, target, duration=4.0, dt=0.01, project=True),
-            nullspace_point_reach(t, s.q0, 0, target, duration=4.0, dt=0.01, project=False))
+    return (
+        target,
+        nullspace_point_reach(t, s.q0, 0, target, duration=4.0, dt=0.01, project=True),
+        nullspace_point_reach(t, s.q0, 0, target, duration=4.0, dt=0.01, project=False),
+    )
 
 
 def test_target_is_on_the_circle(franka):
@@ -41,7 +43,7 @@ def test_target_is_on_the_circle(franka):
 
 
 def test_projected_secondary_task_keeps_the_circle(runs):
-    target, r, _ = runs
+    _target, r, _ = runs
     print("nullspace: max similarity distance", r.similarity_distance.max(), "final point error", r.point_error[-1])
     assert r.point_error[0] > 0.2
     assert r.point_error[-1] < 0.01  # the arm reaches the new point on the circle (< 1 cm)

@@ -17,8 +17,9 @@ import coop_ga as cg
 from coop_ga.control.ilqr import ILQROptions, ReachingOCP, displaced_target, ilqr_reach
 from coop_ga.control.reference_ocp import ReferenceProblem, solve_reference
 
-pytestmark = pytest.mark.skipif(not (ca.has_nlpsol("ipopt") and ca.has_nlpsol("fatrop")),
-                                reason="this CasADi lacks IPOPT or FATROP")
+pytestmark = pytest.mark.skipif(
+    not (ca.has_nlpsol("ipopt") and ca.has_nlpsol("fatrop")), reason="this CasADi lacks IPOPT or FATROP"
+)
 
 TARGET = {"translation": (0.10, -0.05, 0.10), "axis": (1.0, 0.0, 0.0), "angle": np.deg2rad(25.0), "scale": 1.25}
 HORIZON, DT = 20, 0.05
@@ -68,8 +69,10 @@ def test_ipopt_and_fatrop_agree_with_an_active_velocity_bound(franka):
     _, _, ocp = _problem(s)
     P = ReferenceProblem(ocp)
     ri, rf = P.solve("ipopt"), P.solve("fatrop")
-    print(f"|q̇| ≤ 0.3: IPOPT {ri.iterations} it, J = {ri.cost:.12g}, {ri.solve_time_s:.2f} s; "
-          f"FATROP {rf.iterations} it, J = {rf.cost:.12g}, {rf.solve_time_s:.2f} s; active {ri.active} {rf.active}")
+    print(
+        f"|q̇| ≤ 0.3: IPOPT {ri.iterations} it, J = {ri.cost:.12g}, {ri.solve_time_s:.2f} s; "
+        f"FATROP {rf.iterations} it, J = {rf.cost:.12g}, {rf.solve_time_s:.2f} s; active {ri.active} {rf.active}"
+    )
     for r in (ri, rf):
         _check_solution(r, ocp, s.limits)
         assert r.active["velocity"] > 50 and r.active["position"] == 0  # measured 120 (knot, joint) entries
@@ -87,8 +90,10 @@ def test_ipopt_and_fatrop_agree_with_an_active_one_sided_position_bound(franka):
     _, _, ocp = _problem(s)
     ri = solve_reference(ocp, solver="ipopt")
     rf = solve_reference(ocp, solver="fatrop")
-    print(f"q_10 ≤ q0_10 + 0.3: IPOPT {ri.iterations} it, J = {ri.cost:.12g}; FATROP {rf.iterations} it, "
-          f"J = {rf.cost:.12g}; active {ri.active} {rf.active}")
+    print(
+        f"q_10 ≤ q0_10 + 0.3: IPOPT {ri.iterations} it, J = {ri.cost:.12g}; FATROP {rf.iterations} it, "
+        f"J = {rf.cost:.12g}; active {ri.active} {rf.active}"
+    )
     for r in (ri, rf):
         _check_solution(r, ocp, s.limits)
         assert r.active["position"] >= 1
@@ -106,8 +111,10 @@ def test_a_tight_joint_range_has_several_local_optima(franka):
     P = ReferenceProblem(ocp)
     ri, rf = P.solve("ipopt"), P.solve("fatrop")
     warm = P.solve("ipopt", u_init=rf.u)
-    print(f"q_4 ≥ q0_4 − 0.1: IPOPT J = {ri.cost:.10g} ({ri.iterations} it), FATROP J = {rf.cost:.10g} "
-          f"({rf.iterations} it), IPOPT from FATROP's solution J = {warm.cost:.10g} ({warm.iterations} it)")
+    print(
+        f"q_4 ≥ q0_4 − 0.1: IPOPT J = {ri.cost:.10g} ({ri.iterations} it), FATROP J = {rf.cost:.10g} "
+        f"({rf.iterations} it), IPOPT from FATROP's solution J = {warm.cost:.10g} ({warm.iterations} it)"
+    )
     for r in (ri, rf, warm):
         _check_solution(r, ocp, s.limits)
     assert warm.cost == pytest.approx(rf.cost, rel=1e-6)
@@ -120,8 +127,10 @@ def test_without_active_bounds_the_references_match_ilqr(franka):
     P = ReferenceProblem(ocp)
     ri, rf = P.solve("ipopt"), P.solve("fatrop")
     il = _ilqr_soft(task, q0, ocp.target)
-    print(f"no active bound: IPOPT {ri.iterations} it J = {ri.cost:.12g}; FATROP {rf.iterations} it "
-          f"J = {rf.cost:.12g}; iLQR {il.iterations} it J = {ocp.cost(il.u):.12g}")
+    print(
+        f"no active bound: IPOPT {ri.iterations} it J = {ri.cost:.12g}; FATROP {rf.iterations} it "
+        f"J = {rf.cost:.12g}; iLQR {il.iterations} it J = {ocp.cost(il.u):.12g}"
+    )
     for r in (ri, rf):
         _check_solution(r, ocp, franka.limits)
         assert sum(r.active.values()) == 0

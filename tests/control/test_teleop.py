@@ -30,8 +30,9 @@ def test_axis_mapping():
     np.testing.assert_allclose(command_to_bivector([0, 0, 0, 1, 0, 0], **g), [0, 0, 0.5, 0, 0, 0, 0])
     np.testing.assert_allclose(command_to_bivector([0, 0, 0, 0, 1, 0], **g), [0, -0.5, 0, 0, 0, 0, 0])
     np.testing.assert_allclose(command_to_bivector([0, 0, 0, 0, 0, 1], **g), [0, 0, 0, 2.0, 0, 0, 0])
-    np.testing.assert_allclose(command_to_bivector([0, 0, 0, 0, 0, 1], rz_mode="rotation", **g),
-                               [0.5, 0, 0, 0, 0, 0, 0])
+    np.testing.assert_allclose(
+        command_to_bivector([0, 0, 0, 0, 0, 1], rz_mode="rotation", **g), [0.5, 0, 0, 0, 0, 0, 0]
+    )
     with pytest.raises(cg.InvalidInputError):
         command_to_bivector([1, 2, 3])
     with pytest.raises(cg.InvalidInputError):
@@ -41,8 +42,10 @@ def test_axis_mapping():
 def test_rotation_signs_are_right_handed():
     """The rx / ry axes rotate right-handedly about +x / +y (checked on a point)."""
     p = np.array([0.0, 0.0, 1.0])
-    for cmd, expected in [([0, 0, 0, 1, 0, 0], np.array([0, -1.0, 0])),  # +x: z → −y
-                          ([0, 0, 0, 0, 1, 0], np.array([1.0, 0, 0]))]:  # +y: z → +x
+    for cmd, expected in [
+        ([0, 0, 0, 1, 0, 0], np.array([0, -1.0, 0])),  # +x: z → −y
+        ([0, 0, 0, 0, 1, 0], np.array([1.0, 0, 0])),
+    ]:  # +y: z → +x
         b = command_to_bivector(cmd, rotation_gain=1e-3)
         moved = cg.to_euclidean(cg.apply(cg.exp(b), cg.point(p)))
         d = (np.asarray(moved, float) - p) / 1e-3

@@ -12,7 +12,6 @@ to be non-zero: a finger whose columns are silently zero is the bug this exists 
 from __future__ import annotations
 
 import warnings
-
 import zlib
 
 import numpy as np
@@ -24,12 +23,7 @@ from coop_ga.cooperative import CooperativeTask
 from coop_ga.geometry.primitives import N_POINTS
 
 KINDS = ("point", "point_pair", "line", "circle", "plane", "sphere")
-CASES = [
-    (name, kind)
-    for name in systems.names()
-    for kind in KINDS
-    if N_POINTS[kind] <= systems.load(name).n_chains
-]
+CASES = [(name, kind) for name in systems.names() for kind in KINDS if N_POINTS[kind] <= systems.load(name).n_chains]
 
 
 def _configs(task: CooperativeTask, rng: np.random.Generator, n: int) -> list[np.ndarray]:

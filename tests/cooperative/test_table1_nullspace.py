@@ -88,7 +88,7 @@ def test_damped_pinv_and_manipulability() -> None:
     np.testing.assert_allclose(Jd, J.T @ np.linalg.inv(J @ J.T + 1e-6 * np.eye(7)), atol=1e-8)
     M = manipulability(J)
     np.testing.assert_allclose(M, J @ J.T)
-    w, Q = manipulability_ellipsoid(J)
+    w, _Q = manipulability_ellipsoid(J)
     assert w[0] == pytest.approx(0.0, abs=1e-10) and np.all(w[1:] > 0)
     Mi = force_manipulability(J)
     np.testing.assert_allclose(M @ Mi @ M, M, atol=1e-8)

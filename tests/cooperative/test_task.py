@@ -174,7 +174,9 @@ def test_nominal_axis_is_far_from_the_chart_discontinuity(name: str) -> None:
     (−e2 for point pairs/lines, −e3 for circles/planes), where the minimal rotation of V_Sc
     jumps by a half-turn (g1_arms once had its hands ordered left → right: exactly −e2)."""
     sys = systems.load(name)
-    kinds = {2: ("point_pair", "line"), 3: ("circle", "plane")}.get(min(sys.n_chains, 3) if sys.n_chains != 4 else 4, ())
+    kinds = {2: ("point_pair", "line"), 3: ("circle", "plane")}.get(
+        min(sys.n_chains, 3) if sys.n_chains != 4 else 4, ()
+    )
     for kind in kinds:
         task = CooperativeTask(sys, kind, codegen=False)
         theta = task.log(sys.q0)[:3]

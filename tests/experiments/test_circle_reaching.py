@@ -30,8 +30,18 @@ def run(tmp_path_factory):
 
 def test_metrics(run):
     m = json.loads((run / "metrics.json").read_text())
-    for key in ("ilqr_iterations", "terminal_error", "solve_time_s", "diffik_final_error", "diffik_steps",
-                "ilqr_converged", "diffik_converged", "target", "initial_circle", "final_circle"):
+    for key in (
+        "ilqr_iterations",
+        "terminal_error",
+        "solve_time_s",
+        "diffik_final_error",
+        "diffik_steps",
+        "ilqr_converged",
+        "diffik_converged",
+        "target",
+        "initial_circle",
+        "final_circle",
+    ):
         assert key in m, key
     assert m["ilqr_converged"] is True
     assert m["terminal_error"] < 1e-4

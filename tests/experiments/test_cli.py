@@ -10,8 +10,12 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-SCRIPTS = sorted(str(p.relative_to(ROOT)) for d in ("experiments", "paper_figures", "benchmarks")
-                 for p in (ROOT / d).glob("*.py") if not p.name.startswith("_"))
+SCRIPTS = sorted(
+    str(p.relative_to(ROOT))
+    for d in ("experiments", "paper_figures", "benchmarks")
+    for p in (ROOT / d).glob("*.py")
+    if not p.name.startswith("_")
+)
 
 
 def _main(script: str):
@@ -60,4 +64,3 @@ def test_unknown_system_is_rejected(capsys):
         _main("paper_figures/systems.py")(["--only", "no_such_system"])
     assert ex.value.code == 2
     assert "argument --only: invalid choice: 'no_such_system'" in capsys.readouterr().err
-

@@ -63,7 +63,7 @@ def _same(a: Any, b: Any) -> bool:
         return a == b or (math.isnan(abs(a)) and math.isnan(abs(b)))
     try:
         return bool(a == b) or a is b
-    except Exception:  # noqa: BLE001 - objects whose comparison fails compare by identity
+    except Exception:
         return a is b
 
 
@@ -113,8 +113,24 @@ def call(f, *args, _finite_out: bool = True, **kwargs) -> Any:
 
 # ---------------------------------------------------------------------- strategies
 EXTREME = [0.0, -0.0, 1e-300, -1e-300, 5e-324, 1e300, -1e300, 1.7976931348623157e308, 1e154, 1e-154, 1e60, 1e-60]
-BAD_SCALARS = [None, "1.0", "x", b"1", True, False, np.bool_(True), 1 + 2j, np.complex128(1j), [1.0], {"a": 1},
-               float("nan"), float("inf"), -float("inf"), 10**400, object()]
+BAD_SCALARS = [
+    None,
+    "1.0",
+    "x",
+    b"1",
+    True,
+    False,
+    np.bool_(True),
+    1 + 2j,
+    np.complex128(1j),
+    [1.0],
+    {"a": 1},
+    float("nan"),
+    float("inf"),
+    -float("inf"),
+    10**400,
+    object(),
+]
 
 finite = st.floats(allow_nan=False, allow_infinity=False)
 moderate = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)
@@ -148,7 +164,9 @@ def junk_for(n: int):
 
 def vec3():
     return st.one_of(
-        _vec(3, moderate), _vec(3), junk_for(3),
+        _vec(3, moderate),
+        _vec(3),
+        junk_for(3),
         st.lists(st.lists(moderate, min_size=3, max_size=3), min_size=1, max_size=4).map(np.array),  # a batch
     )
 
@@ -215,12 +233,18 @@ def valid_versor(draw):
 
 
 multivector = st.one_of(
-    valid_primitive(), junk_multivector(), valid_versor(),
-    st.builds(lambda: Multivector.scalar(0.0)), st.sampled_from(BAD_SCALARS), vec3(),
+    valid_primitive(),
+    junk_multivector(),
+    valid_versor(),
+    st.builds(lambda: Multivector.scalar(0.0)),
+    st.sampled_from(BAD_SCALARS),
+    vec3(),
 )
 versor = st.one_of(valid_versor(), junk_multivector(), valid_primitive(), st.sampled_from(BAD_SCALARS))
 tangent7 = st.one_of(
-    _vec(7), _vec(7, moderate), junk_for(7),
+    _vec(7),
+    _vec(7, moderate),
+    junk_for(7),
     st.lists(st.lists(moderate, min_size=7, max_size=7), min_size=1, max_size=3).map(np.array),
 )
 
@@ -243,16 +267,32 @@ def test_constructors(kind, pts, tol):
     call(cg.primitive_from_points, kind, p)
     call(cg.well_definedness, kind, p)
     if isinstance(kind, str) and kind in N_POINTS and isinstance(p, list) and len(p) == n:
-        ctor = {"point_pair": cg.point_pair, "line": cg.line, "circle": cg.circle, "plane": cg.plane,
-                "sphere": cg.sphere, "point": cg.point}[kind]
+        ctor = {
+            "point_pair": cg.point_pair,
+            "line": cg.line,
+            "circle": cg.circle,
+            "plane": cg.plane,
+            "sphere": cg.sphere,
+            "point": cg.point,
+        }[kind]
         call(ctor, *p)
     if X is not None:
         _readouts(X)
 
 
 def _readouts(X):
-    for f in (cg.center, cg.radius, cg.normal, cg.direction, cg.closest_point_to_origin, cg.endpoints,
-              cg.kind_of, cg.to_euclidean, primitive_parameters, cg.similarity_from_unit):
+    for f in (
+        cg.center,
+        cg.radius,
+        cg.normal,
+        cg.direction,
+        cg.closest_point_to_origin,
+        cg.endpoints,
+        cg.kind_of,
+        cg.to_euclidean,
+        primitive_parameters,
+        cg.similarity_from_unit,
+    ):
         call(f, X)
 
 
@@ -341,9 +381,15 @@ def test_multivector_algebra(A, Bm, s):
             call(A.scalar_product, Bm, **raw)
 
 
-@given(name=st.one_of(st.text(max_size=6), st.sampled_from(["e12", "e1inf", "e0123inf", "1", "e21", "e11", "e"]),
-                      st.sampled_from(BAD_SCALARS)),
-       k=st.one_of(st.integers(-40, 40), st.sampled_from(BAD_SCALARS)), coeff=scalar)
+@given(
+    name=st.one_of(
+        st.text(max_size=6),
+        st.sampled_from(["e12", "e1inf", "e0123inf", "1", "e21", "e11", "e"]),
+        st.sampled_from(BAD_SCALARS),
+    ),
+    k=st.one_of(st.integers(-40, 40), st.sampled_from(BAD_SCALARS)),
+    coeff=scalar,
+)
 def test_blade_names(name, k, coeff):
     call(blade_index, name)
     call(blade_name, k)

@@ -23,8 +23,15 @@ floats = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True),
     st.sampled_from([0.0, -0.0, 1e-300, -1e-300, 1e300, -1e300, 1e-12, 5.0, -5.0]),
 )
-junk = st.one_of(st.none(), st.text(max_size=3), st.integers(-3, 3), st.booleans(), st.just({"a": 1}),
-                 st.lists(st.text(max_size=2), max_size=3), st.complex_numbers(max_magnitude=2.0))
+junk = st.one_of(
+    st.none(),
+    st.text(max_size=3),
+    st.integers(-3, 3),
+    st.booleans(),
+    st.just({"a": 1}),
+    st.lists(st.text(max_size=2), max_size=3),
+    st.complex_numbers(max_magnitude=2.0),
+)
 
 
 def vectors(n: int):
@@ -75,9 +82,19 @@ def _call(f, *args):
 @given(q=vectors(NQ))
 def test_fuzz_task_evaluations(task, q):
     target = task.similarity(np.zeros(NQ))
-    for f in (task.evaluate, task.similarity, task.jacobian, task.points, task.log, task.primitive,
-              lambda x: task.error_and_jacobian(x, target), lambda x: task.jdot_qdot(x, x),
-              lambda x: task.evaluate_batch([x, x]), task.analytic_jacobian, task.bivector_jacobian):
+    for f in (
+        task.evaluate,
+        task.similarity,
+        task.jacobian,
+        task.points,
+        task.log,
+        task.primitive,
+        lambda x: task.error_and_jacobian(x, target),
+        lambda x: task.jdot_qdot(x, x),
+        lambda x: task.evaluate_batch([x, x]),
+        task.analytic_jacobian,
+        task.bivector_jacobian,
+    ):
         _call(f, q)
 
 
@@ -101,13 +118,19 @@ def test_fuzz_diff_ik_step(task, q, command, dt, damping):
 
 @given(q=vectors(NQ), translation=vectors(3), angle=st.one_of(floats, junk), scale=st.one_of(floats, junk))
 def test_fuzz_displaced_target(task, q, translation, angle, scale):
-    _call(lambda *a: displaced_target(task, a[0], translation=a[1], angle=a[2], scale=a[3]), q, translation, angle,
-          scale)
+    _call(
+        lambda *a: displaced_target(task, a[0], translation=a[1], angle=a[2], scale=a[3]), q, translation, angle, scale
+    )
 
 
 @given(qd=vectors(NQ), K=st.one_of(floats, junk))
 def test_fuzz_impedance_gains(qd, K):
     s = cg.systems.load("three_franka")
     t = cg.cooperative_task(s, "circle")
-    _call(lambda a, k: impedance_torque(t, s.q0, np.resize(a, s.nq) if isinstance(a, np.ndarray) else a,
-                                        t.similarity(s.q0), K=k), qd, K)
+    _call(
+        lambda a, k: impedance_torque(
+            t, s.q0, np.resize(a, s.nq) if isinstance(a, np.ndarray) else a, t.similarity(s.q0), K=k
+        ),
+        qd,
+        K,
+    )

@@ -57,7 +57,10 @@ def test_exp_log_is_identity_and_unit_norm(group, data):
 @pytest.mark.parametrize("group", GROUPS, ids=lambda g: g.__name__)
 @given(data=st.data())
 def test_composition_associative_and_inverse(group, data):
-    vs = [data.draw(arrays(np.float64, len(group.tangent_slots), elements=st.floats(-2, 2, allow_nan=False))) for _ in range(3)]
+    vs = [
+        data.draw(arrays(np.float64, len(group.tangent_slots), elements=st.floats(-2, 2, allow_nan=False)))
+        for _ in range(3)
+    ]
     a, b, c = (group.exp(v) for v in vs)
     lhs = ((a @ b) @ c).versor.to_dense()
     rhs = (a @ (b @ c)).versor.to_dense()
@@ -66,7 +69,10 @@ def test_composition_associative_and_inverse(group, data):
     np.testing.assert_allclose(ident, Multivector.scalar(1.0).with_blades(group.blades).to_dense(), atol=1e-9)
 
 
-@given(arrays(np.float64, 7, elements=st.floats(-2, 2, allow_nan=False)), arrays(np.float64, 3, elements=st.floats(-3, 3, allow_nan=False)))
+@given(
+    arrays(np.float64, 7, elements=st.floats(-2, 2, allow_nan=False)),
+    arrays(np.float64, 3, elements=st.floats(-3, 3, allow_nan=False)),
+)
 def test_similarity_acts_as_scale_rotate_translate(b, x):
     """exp(b) applied to a point equals t + e^β R x with R from scipy's rotation (independent)."""
     from scipy.spatial.transform import Rotation

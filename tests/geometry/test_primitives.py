@@ -106,7 +106,7 @@ def test_projection_of_point_onto_plane_and_line(rng):
         Pp = cg.project(cg.point(x), E)
         assert Pp.prune(1e-12).grades == (1,)
         np.testing.assert_allclose(cg.to_euclidean(Pp), foot, atol=1e-10)
-        assert np.isclose((Pp * Pp).get(0) / Pp["e0"] ** 2, -np.dot(x - a, n) ** 2)
+        assert np.isclose((Pp * Pp).get(0) / Pp["e0"] ** 2, -(np.dot(x - a, n) ** 2))
         L = cg.line(a, b)
         d = (b - a) / np.linalg.norm(b - a)
         foot = a + np.dot(x - a, d) * d
@@ -123,7 +123,7 @@ def test_meet_line_plane_and_two_spheres(rng):
     s = np.dot(a - p, n) / np.dot(q - p, n)
     x = p + s * (q - p)
     Y = cg.meet(L, E)
-    lam, res = proportionality(Y, cg.point(x) ^ Multivector.blade("einf"))
+    _lam, res = proportionality(Y, cg.point(x) ^ Multivector.blade("einf"))
     assert res < 1e-8
     # sphere ∩ sphere: a circle whose center and radius match the closed form
     c1, c2 = np.zeros(3), np.array([1.0, 0.5, -0.2])

@@ -50,8 +50,9 @@ def test_from_parts_read_outs():
     assert S.scale == pytest.approx(1.5, rel=1e-14)
     p = np.array([0.3, 0.7, -0.2])
     moved = cg.to_euclidean(S.apply(cg.point(p)))
-    np.testing.assert_allclose(np.asarray(moved, float).reshape(3), 1.5 * S.rotation_matrix @ p + S.translation,
-                               atol=1e-13)
+    np.testing.assert_allclose(
+        np.asarray(moved, float).reshape(3), 1.5 * S.rotation_matrix @ p + S.translation, atol=1e-13
+    )
 
 
 def test_between_and_from_unit():
@@ -99,7 +100,9 @@ def test_coerce_refuses_everything_else(bad, match):
         cg.Similarity.coerce(bad, "target")
 
 
-@pytest.mark.parametrize("bad", [np.ones(11), np.full(12, np.nan), "abc", None, np.ones(12, dtype=complex), [True] * 12])
+@pytest.mark.parametrize(
+    "bad", [np.ones(11), np.full(12, np.nan), "abc", None, np.ones(12, dtype=complex), [True] * 12]
+)
 def test_from_coeffs_refuses_bad_input(bad):
     with pytest.raises(cg.InvalidInputError):
         cg.Similarity.from_coeffs(bad)

@@ -34,8 +34,17 @@ def _motor_Rt(M):
 
 
 def test_every_paper_system_is_registered():
-    expected = {"three_franka", "three_iiwa14", "g1_arms", "g1_torso_arms", "franka_and_g1", "two_g1",
-                "three_finger_hand", "allegro", "hexapod"}
+    expected = {
+        "three_franka",
+        "three_iiwa14",
+        "g1_arms",
+        "g1_torso_arms",
+        "franka_and_g1",
+        "two_g1",
+        "three_finger_hand",
+        "allegro",
+        "hexapod",
+    }
     assert expected <= set(NAMES)
 
 
@@ -60,8 +69,12 @@ def test_fk_and_jacobians_match_pinocchio(name):
             ref = d.oMf[fid]
             J_local = pin.getFrameJacobian(m, d, fid, pin.LOCAL)
             J_lwa = pin.getFrameJacobian(m, d, fid, pin.LOCAL_WORLD_ALIGNED)
-            err = [np.abs(R - ref.rotation).max(), np.abs(t - ref.translation).max(),
-                   np.abs(Jg - LOCAL_TO_TANGENT @ J_local).max(), np.abs(Jp - J_lwa[:3]).max()]
+            err = [
+                np.abs(R - ref.rotation).max(),
+                np.abs(t - ref.translation).max(),
+                np.abs(Jg - LOCAL_TO_TANGENT @ J_local).max(),
+                np.abs(Jp - J_lwa[:3]).max(),
+            ]
             worst = np.maximum(worst, err)
     assert worst[0] < 1e-10 and worst[1] < 1e-10, f"FK rotation/translation error {worst[:2]}"
     assert worst[2] < 1e-9, f"geometric Jacobian error {worst[2]}"
@@ -93,8 +106,9 @@ def test_casadi_path_equals_numpy(name):
         ref_m = [np.array(M.with_blades(MOTOR_BLADES).coeffs, dtype=float) for M in s.tree.frame_motors(q)]
         ref = ref_m + s.tree.geometric_jacobians(q) + s.tree.euclidean_point_jacobians(q)
         for i, (a, b) in enumerate(zip(res, ref)):
-            np.testing.assert_allclose(np.asarray(a, float).reshape(np.shape(b)), b, atol=1e-12, rtol=0,
-                                       err_msg=f"output {i} (chain {i % k})")
+            np.testing.assert_allclose(
+                np.asarray(a, float).reshape(np.shape(b)), b, atol=1e-12, rtol=0, err_msg=f"output {i} (chain {i % k})"
+            )
 
 
 # ---------------------------------------------------------------------- finite differences
@@ -110,7 +124,8 @@ def test_analytic_motor_jacobian_matches_finite_differences(name):
         cols = s.tree.analytic_jacobians(q)
         for i in range(s.n_chains):
             fd = central_difference(
-                lambda x, i=i: np.array(s.tree.frame_motors(x)[i].with_blades(MOTOR_BLADES).coeffs, float), q)
+                lambda x, i=i: np.array(s.tree.frame_motors(x)[i].with_blades(MOTOR_BLADES).coeffs, float), q
+            )
             J = np.zeros((len(MOTOR_BLADES), s.nq))
             for j, c in enumerate(cols[i]):
                 if c is not None:
@@ -131,12 +146,13 @@ def test_conformal_point_jacobian_eq17(name):
         fd_all = central_difference(lambda x: s.tree.end_points_array(x).ravel(), q)
         blades = (e0, e1, e2, e3, ei)
         fd_conf = central_difference(
-            lambda x: np.array([[float(Pi.get(b)) for b in blades] for Pi in s.tree.conformal_points(x)]).ravel(), q)
+            lambda x: np.array([[float(Pi.get(b)) for b in blades] for Pi in s.tree.conformal_points(x)]).ravel(), q
+        )
         for i in range(s.n_chains):
             assert float(P[i].get(e0)) == 1.0
             np.testing.assert_allclose([float(P[i].get(b)) for b in (e1, e2, e3)], pts[i], atol=1e-15)
             for j in range(s.nq):
-                fd = fd_all[3 * i:3 * i + 3, j]
+                fd = fd_all[3 * i : 3 * i + 3, j]
                 c = cols[i][j]
                 if c is None:
                     assert np.all(fd == 0.0), f"joint {j} is off chain {i} but moves its end point"
@@ -145,8 +161,9 @@ def test_conformal_point_jacobian_eq17(name):
                 np.testing.assert_allclose(dp, fd, atol=1e-7, rtol=0)
                 assert float(c.get(e0)) == 0.0
                 assert float(c.get(ei)) == pytest.approx(float(pts[i] @ dp), abs=1e-12)
-                np.testing.assert_allclose([float(c.get(b)) for b in (e0, e1, e2, e3, ei)],
-                                           fd_conf[5 * i:5 * i + 5, j], atol=1e-7, rtol=0)
+                np.testing.assert_allclose(
+                    [float(c.get(b)) for b in (e0, e1, e2, e3, ei)], fd_conf[5 * i : 5 * i + 5, j], atol=1e-7, rtol=0
+                )
         # the cheap cross-product form is the Euclidean part of P⌋L_j
         for i, Jp in enumerate(s.tree.euclidean_point_jacobians(q)):
             for j in range(s.nq):
@@ -247,8 +264,9 @@ def test_prismatic_and_unaligned_joints_and_world_frames():
         q = rng.normal(size=5)
         pin.computeJointJacobians(m, d, q)
         pin.updateFramePlacements(m, d)
-        for name, M, Jg, Jp in zip(tree.end_frames, tree.frame_motors(q), tree.geometric_jacobians(q),
-                                   tree.euclidean_point_jacobians(q)):
+        for name, M, Jg, Jp in zip(
+            tree.end_frames, tree.frame_motors(q), tree.geometric_jacobians(q), tree.euclidean_point_jacobians(q)
+        ):
             fid = m.getFrameId(name)
             R, t = _motor_Rt(M)
             np.testing.assert_allclose(R, d.oMf[fid].rotation, atol=1e-12)

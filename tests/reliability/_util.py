@@ -44,12 +44,13 @@ def parse(proc_returncode: int, stdout: str, stderr: str) -> Run:
     run = Run(proc_returncode, stdout, stderr)
     for line in stdout.splitlines():
         if line.startswith("RESULT "):
-            run.result = json.loads(line[len("RESULT "):])
+            run.result = json.loads(line[len("RESULT ") :])
     return run
 
 
-def run_worker(spec: dict, env: dict[str, str], prefix: list[str] | None = None, worker: Path = WORKER,
-               timeout: float = 120.0) -> Run:
+def run_worker(
+    spec: dict, env: dict[str, str], prefix: list[str] | None = None, worker: Path = WORKER, timeout: float = 120.0
+) -> Run:
     """Run the worker to completion (``prefix``: e.g. a ``setpriv`` command line)."""
     cmd = [*(prefix or []), sys.executable, str(worker), json.dumps(spec)]
     p = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=timeout, check=False)

@@ -121,8 +121,14 @@ def main(argv: list[str]) -> int:
         out["build_s"] = time.perf_counter() - t0
         refs = [cg.CompiledFunction(f, codegen=False) for f in funcs]
         for cf, ref in zip(cfs, refs):
-            out["functions"].append({"name": cf.name, "codegen": bool(cf.codegen), "max_err": _max_err(cf, ref),
-                                     "fallback_reason": getattr(cf, "fallback_reason", None)})
+            out["functions"].append(
+                {
+                    "name": cf.name,
+                    "codegen": bool(cf.codegen),
+                    "max_err": _max_err(cf, ref),
+                    "fallback_reason": getattr(cf, "fallback_reason", None),
+                }
+            )
         if spec.get("hold"):
             Path(spec["hold"]).touch()
             _wait(spec["resume"])

@@ -81,7 +81,7 @@ def _run_threads(work: Callable[[int], object]) -> list:
         try:
             barrier.wait()
             results[t] = work(t)
-        except BaseException as e:  # noqa: BLE001 (re-raised in the main thread)
+        except BaseException as e:
             errors.append(e)
 
     threads = [threading.Thread(target=target, args=(t,)) for t in range(N_THREADS)]
@@ -166,8 +166,8 @@ def test_defect2_batch_map_threads(variant: str, parallel: str, compiled_cache: 
     X, Y = results[0][0][-1]
     e, M = cf(X, Y)
     for k in (0, n - 1):
-        ek, Mk = base(X[:, k], Y[:, 2 * k: 2 * k + 2])
-        assert np.array_equal(e[:, k: k + 1], ek) and np.array_equal(M[:, k: k + 1], Mk)
+        ek, Mk = base(X[:, k], Y[:, 2 * k : 2 * k + 2])
+        assert np.array_equal(e[:, k : k + 1], ek) and np.array_equal(M[:, k : k + 1], Mk)
 
 
 def test_defect2_task_evaluate_batch_from_threads(fast_switching: None) -> None:

@@ -109,8 +109,10 @@ def test_defect1_concurrent_first_compiles_do_not_crash(tmp_path: Path, shm_tmpd
     env = worker_env(cache, shm_tmpdir)
     go = tmp_path / "go"
     # depth 150: ~1 s of gcc, a wide window for the processes to collide in
-    specs = [{"functions": ["concurrent"], "depth": 150, "ready": str(tmp_path / f"ready{i}"), "go": str(go)}
-             for i in range(n)]
+    specs = [
+        {"functions": ["concurrent"], "depth": 150, "ready": str(tmp_path / f"ready{i}"), "go": str(go)}
+        for i in range(n)
+    ]
     procs = [start_worker(s, env) for s in specs]
     try:
         t0 = time.monotonic()
@@ -387,7 +389,9 @@ def test_defect3_cache_dir_reports_the_fallback(tmp_path: Path, monkeypatch: pyt
 
 def test_worker_runs_without_the_package_init() -> None:
     """The worker imports coop_ga.codegen alone (guards the helper the tests above rely on)."""
-    code = (f"import sys; sys.path.insert(0, {str(WORKER.parent)!r}); import _worker; cg = _worker.import_codegen(); "
-            "print(cg.__file__, 'coop_ga.cooperative' in sys.modules)")
+    code = (
+        f"import sys; sys.path.insert(0, {str(WORKER.parent)!r}); import _worker; cg = _worker.import_codegen(); "
+        "print(cg.__file__, 'coop_ga.cooperative' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert out == [str(ROOT / "coop_ga" / "codegen.py"), "False"]

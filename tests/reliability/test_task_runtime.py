@@ -73,9 +73,12 @@ def test_item4_scaled_target_versors_give_the_same_finite_result(franka, scale):
     task, q0, target = franka
     e_ref = task.error(q0, target)
     Vs = target.versor.scale(scale)
-    for f in (lambda V: task.error(q0, V), lambda V: gauss_newton_ik(task, q0, V, max_iter=3).q,
-              lambda V: impedance_torque(task, q0, np.zeros(task.nq), V),
-              lambda V: nullspace_step(task, q0, V, np.zeros(task.nq))):
+    for f in (
+        lambda V: task.error(q0, V),
+        lambda V: gauss_newton_ik(task, q0, V, max_iter=3).q,
+        lambda V: impedance_torque(task, q0, np.zeros(task.nq), V),
+        lambda V: nullspace_step(task, q0, V, np.zeros(task.nq)),
+    ):
         out = f(Vs)
         assert np.all(np.isfinite(out))
     np.testing.assert_allclose(task.error(q0, Vs), e_ref, atol=1e-12)
@@ -88,11 +91,15 @@ def test_item4_non_versor_targets_are_refused_by_every_route(franka):
     from coop_ga.geometry.groups import SIMILARITY_BLADES
 
     junk = cg.Multivector(SIMILARITY_BLADES, tuple(rng.standard_normal(12)))
-    routes = [lambda: task.error_and_jacobian(q0, junk), lambda: gauss_newton_ik(task, q0, junk),
-              lambda: diff_ik_reach(task, q0, junk, steps=1), lambda: ilqr_reach(task, q0, junk, horizon=3),
-              lambda: simulate_impedance(task, q0, junk, duration=0.001),
-              lambda: impedance_torque(task, q0, np.zeros(task.nq), junk),
-              lambda: nullspace_step(task, q0, junk, np.zeros(task.nq))]
+    routes = [
+        lambda: task.error_and_jacobian(q0, junk),
+        lambda: gauss_newton_ik(task, q0, junk),
+        lambda: diff_ik_reach(task, q0, junk, steps=1),
+        lambda: ilqr_reach(task, q0, junk, horizon=3),
+        lambda: simulate_impedance(task, q0, junk, duration=0.001),
+        lambda: impedance_torque(task, q0, np.zeros(task.nq), junk),
+        lambda: nullspace_step(task, q0, junk, np.zeros(task.nq)),
+    ]
     for r in routes:
         with pytest.raises(cg.InvalidInputError, match="not a similarity"):
             r()
@@ -141,8 +148,11 @@ def test_item7_cooperative_primitive_is_accurate_far_from_the_origin(offset):
     np.testing.assert_allclose(S.translation, [offset, -offset, 0.5 * offset], rtol=1e-12, atol=1e-9)
     J = task.jacobian(q)
     assert np.all(np.isfinite(J))
-    np.testing.assert_allclose(np.linalg.svd(J, compute_uv=False)[:6], np.linalg.svd(
-        task.jacobian((pts - pts.mean(0) - BASES[:3]).reshape(-1)), compute_uv=False)[:6], rtol=1e-6)
+    np.testing.assert_allclose(
+        np.linalg.svd(J, compute_uv=False)[:6],
+        np.linalg.svd(task.jacobian((pts - pts.mean(0) - BASES[:3]).reshape(-1)), compute_uv=False)[:6],
+        rtol=1e-6,
+    )
 
 
 def test_item7_small_well_shaped_circles_are_accepted():
@@ -170,11 +180,21 @@ BAD_VALUES = ["abc", {"a": 1}, ["a", "b"], None, object(), np.array(["x"] * 21),
 @pytest.mark.parametrize("bad", BAD_VALUES, ids=lambda b: type(b).__name__)
 def test_item9_bad_q_raises_coopga_error(franka, bad):
     task, q0, target = franka
-    calls = [task.evaluate, task.jacobian, task.points, lambda x: task.error(x, target),
-             lambda x: task.jdot_qdot(x, q0), lambda x: task.jdot_qdot(q0, x), lambda x: task.evaluate_batch(x),
-             lambda x: gauss_newton_ik(task, x, target), lambda x: ilqr_reach(task, x, target),
-             lambda x: diff_ik_reach(task, x, target), lambda x: displaced_target(task, x),
-             lambda x: task.system.check_q(x), lambda x: cg.control.task_space_dynamics(task, x, q0)]
+    calls = [
+        task.evaluate,
+        task.jacobian,
+        task.points,
+        lambda x: task.error(x, target),
+        lambda x: task.jdot_qdot(x, q0),
+        lambda x: task.jdot_qdot(q0, x),
+        lambda x: task.evaluate_batch(x),
+        lambda x: gauss_newton_ik(task, x, target),
+        lambda x: ilqr_reach(task, x, target),
+        lambda x: diff_ik_reach(task, x, target),
+        lambda x: displaced_target(task, x),
+        lambda x: task.system.check_q(x),
+        lambda x: cg.control.task_space_dynamics(task, x, q0),
+    ]
     for c in calls:
         with pytest.raises(cg.CoopGAError):
             c(bad)
@@ -183,8 +203,12 @@ def test_item9_bad_q_raises_coopga_error(franka, bad):
 @pytest.mark.parametrize("bad", BAD_VALUES + [1.5, -1], ids=lambda b: type(b).__name__)
 def test_item9_bad_options_raise_coopga_error(franka, bad):
     task, q0, target = franka
-    for c in (lambda v: ilqr_reach(task, q0, target, horizon=v), lambda v: gauss_newton_ik(task, q0, target, max_iter=v),
-              lambda v: diff_ik_reach(task, q0, target, steps=v), lambda v: ilqr_reach(task, q0, target, hessian=v)):
+    for c in (
+        lambda v: ilqr_reach(task, q0, target, horizon=v),
+        lambda v: gauss_newton_ik(task, q0, target, max_iter=v),
+        lambda v: diff_ik_reach(task, q0, target, steps=v),
+        lambda v: ilqr_reach(task, q0, target, hessian=v),
+    ):
         with pytest.raises(cg.CoopGAError):
             c(bad)
 

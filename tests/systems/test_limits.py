@@ -52,7 +52,7 @@ def test_overrides_by_joint_name_return_a_new_system(load_system):
     assert float(s.model.upperPositionLimit[i]) == float(s.q_upper[i])
     # controllers read the new limits
     task = cg.cooperative_task(t, "circle")
-    lo, hi = cg.control.base.bounds(task)
+    _lo, hi = cg.control.base.bounds(task)
     assert hi[i] == -0.2
 
 

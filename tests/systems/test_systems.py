@@ -20,8 +20,8 @@ from coop_ga.errors import (
     UnsupportedJointError,
 )
 from coop_ga.kinematics import KinematicTree
-from coop_ga.systems.library import IIWA_Q0
 from coop_ga.systems import ROBOTS_DIR
+from coop_ga.systems.library import IIWA_Q0
 
 IIWA_URDF = ROBOTS_DIR / "iiwa14" / "iiwa14.urdf"
 HEXAPOD_URDF = ROBOTS_DIR / "hexapod" / "hexapod.urdf"
@@ -76,17 +76,20 @@ def test_three_iiwa14_layout():
         assert tool[:2] @ (-M.translation[:2]) / np.linalg.norm(M.translation[:2]) > 0.99
 
 
-@pytest.mark.parametrize("name,kind,threshold", [
-    ("three_franka", "circle", 0.9),
-    ("three_iiwa14", "circle", 0.9),
-    ("g1_arms", "line", 0.3),  # metres: hand distance
-    ("g1_torso_arms", "circle", 0.5),
-    ("franka_and_g1", "circle", 0.5),
-    ("two_g1", "sphere", 0.3),
-    ("three_finger_hand", "circle", 0.5),
-    ("allegro", "sphere", 0.5),
-    ("hexapod", "circle", 0.5),
-])
+@pytest.mark.parametrize(
+    "name,kind,threshold",
+    [
+        ("three_franka", "circle", 0.9),
+        ("three_iiwa14", "circle", 0.9),
+        ("g1_arms", "line", 0.3),  # metres: hand distance
+        ("g1_torso_arms", "circle", 0.5),
+        ("franka_and_g1", "circle", 0.5),
+        ("two_g1", "sphere", 0.3),
+        ("three_finger_hand", "circle", 0.5),
+        ("allegro", "sphere", 0.5),
+        ("hexapod", "circle", 0.5),
+    ],
+)
 def test_primitive_well_defined_at_q0(name, kind, threshold):
     s = systems.load(name)
     n = cg.geometry.primitives.N_POINTS[kind]
@@ -96,6 +99,7 @@ def test_primitive_well_defined_at_q0(name, kind, threshold):
 
 def test_circle_orientations_documented():
     """The normals the system descriptions promise."""
+
     def normal(name):
         s = systems.load(name)
         return np.asarray(cg.normal(cg.circle(*s.end_points(s.q0)[:3])), float)
@@ -169,12 +173,15 @@ def test_g1_wrist_chains_share_the_waist():
     assert t.chain_joints()[0] == waist
 
 
-@pytest.mark.parametrize("name,robots", [
-    ("three_franka", ["arm0_", "arm1_", "arm2_"]),
-    ("three_iiwa14", ["arm0_", "arm1_", "arm2_"]),
-    ("two_g1", ["a_", "a_", "b_", "b_"]),
-    ("franka_and_g1", ["franka_", "g1_", "g1_"]),
-])
+@pytest.mark.parametrize(
+    "name,robots",
+    [
+        ("three_franka", ["arm0_", "arm1_", "arm2_"]),
+        ("three_iiwa14", ["arm0_", "arm1_", "arm2_"]),
+        ("two_g1", ["a_", "a_", "b_", "b_"]),
+        ("franka_and_g1", ["franka_", "g1_", "g1_"]),
+    ],
+)
 def test_appended_copies_are_distinct(name, robots):
     s = systems.load(name)
     m = s.model
@@ -303,8 +310,9 @@ def test_from_urdf_iiwa_matches_pinocchio():
 
 
 def test_from_urdf_with_locked_joints():
-    s = systems.from_urdf(IIWA_URDF, ["iiwa_flange"], locked_joints=["iiwa_joint_7", "iiwa_joint_3"],
-                          name="iiwa5", q_lock=IIWA_Q0)
+    s = systems.from_urdf(
+        IIWA_URDF, ["iiwa_flange"], locked_joints=["iiwa_joint_7", "iiwa_joint_3"], name="iiwa5", q_lock=IIWA_Q0
+    )
     assert s.name == "iiwa5" and s.nq == 5
     assert "iiwa_joint_7" not in s.joint_names and "iiwa_joint_3" not in s.joint_names
     full = pin.buildModelFromUrdf(str(IIWA_URDF))
@@ -338,8 +346,9 @@ def test_from_model_default_q0_moves_into_limits():
 
 # ---------------------------------------------------------------------- CLI
 def test_cli_lists_every_system_with_dof():
-    out = subprocess.run([sys.executable, "-m", "coop_ga.systems"], capture_output=True, text=True, timeout=120,
-                         check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-m", "coop_ga.systems"], capture_output=True, text=True, timeout=120, check=True
+    ).stdout
     lines = {ln.split()[0]: ln.split() for ln in out.splitlines()[1:] if ln.strip()}
     assert set(lines) == set(systems.names())
     for name, (nq, k) in TABLE.items():

@@ -69,7 +69,9 @@ def test_every_registered_system_loads_from_the_wheel(wheel_site: Path, tmp_path
     out = json.loads(res.stdout.strip().splitlines()[-1])
     assert out["file"].startswith(str(wheel_site)), out["file"]
     assert out["robots"].startswith(str(wheel_site)), out["robots"]
-    assert all(m.startswith(str(wheel_site)) for m in out["modules"]), [m for m in out["modules"] if not m.startswith(str(wheel_site))]
+    assert all(m.startswith(str(wheel_site)) for m in out["modules"]), [
+        m for m in out["modules"] if not m.startswith(str(wheel_site))
+    ]
     from coop_ga import systems
 
     assert sorted(out["systems"]) == sorted(systems.names())

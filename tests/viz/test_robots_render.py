@@ -74,8 +74,15 @@ def test_render_writes_a_nonblank_png(franka, tmp_path):
     import matplotlib.image as mpimg
 
     X = cg.circle(*franka.end_points(franka.q0))
-    p = viz.render(franka, franka.q0, [X, (cg.plane(*franka.end_points(franka.q0)), {"size": 0.5})],
-                   tmp_path / "sub" / "three_franka.png", view=(35, -70), size=(5, 4), dpi=80)
+    p = viz.render(
+        franka,
+        franka.q0,
+        [X, (cg.plane(*franka.end_points(franka.q0)), {"size": 0.5})],
+        tmp_path / "sub" / "three_franka.png",
+        view=(35, -70),
+        size=(5, 4),
+        dpi=80,
+    )
     assert p.exists() and p.stat().st_size > 10_000
     img = mpimg.imread(p)
     assert img.shape[0] > 200 and img.shape[1] > 250
