@@ -86,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
         default="auto",
         help="iLQR LQ step: auto = closed form while no constraint is active, riccati = always the box-DDP pass",
     )
-    exp.add("--diffik-gain", type=positive_float, default=4.0, help="differential-IK gain [1/s]")
+    exp.add("--diffik-gain", type=positive_float, default=10.0, help="differential-IK gain [1/s] (its default)")
     args = exp.parse(argv)
     plt = exp.pyplot()
 
@@ -120,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
         res = ilqr_reach(task, q0, Vd, horizon=args.horizon, dt=args.dt, max_iter=args.max_iter, backward=args.backward)
     with exp.stage("differential IK"):
         t0 = time.perf_counter()
-        dik = diff_ik_reach(task, q0, Vd, gain=args.diffik_gain, dt=args.dt, steps=args.horizon, tol=1e-5)
+        dik = diff_ik_reach(task, q0, Vd, gain=args.diffik_gain, dt=args.dt, steps=args.horizon, tol=1e-6)
         dik_time = time.perf_counter() - t0
 
     # ---- trajectories in the task space
@@ -294,7 +294,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"        ‖e‖ per iteration: {' '.join(f'{x:.1e}' for x in res.error_history)}")
     print(
         f"  diff-IK (gain {args.diffik_gain:g}/s, {dik.iterations} steps): final error {dik.error:.2e}, "
-        f"converged (tol 1e-5) = {dik.converged}"
+        f"converged (tol 1e-6) = {dik.converged}"
     )
     print(f"  wrote {out / 'metrics.json'}, {out / 'trajectory.npz'}, {png}  ({metrics['total_runtime_s']:.1f} s)")
     return 0

@@ -85,6 +85,7 @@ A start outside the limits raises :class:`~coop_ga.errors.InvalidInputError` (us
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -327,6 +328,8 @@ class ILQROptions:
             updated) once an iteration decreases the merit by less than this fraction.
         al_violation: the solve may stop once the bounds are violated by at most this much
             [rad, rad/s]; the final blend with the feasible reference removes it exactly.
+        restart: if the solve from the default guess fails, restart once from the minimum-energy
+            controls to the bounded Gauss–Newton IK solution (counted in ``iterations``).
         warn_limits: with ``limits="none"``, warn when the trajectory leaves the joint limits.
     """
 
@@ -353,6 +356,7 @@ class ILQROptions:
     al_max_penalty: float = 1e9
     al_inner_tol: float = 1e-3
     al_violation: float = 1e-6
+    restart: bool = True
     warn_limits: bool = True
 
     def __post_init__(self) -> None:
@@ -375,7 +379,7 @@ class ILQROptions:
         validation.positive(self.al_max_penalty, "al_max_penalty")
         validation.nonnegative(self.al_inner_tol, "al_inner_tol")
         validation.positive(self.al_violation, "al_violation")
-        for name in ("soc", "warn_limits"):
+        for name in ("soc", "warn_limits", "restart"):
             if not isinstance(getattr(self, name), bool):
                 raise InvalidInputError(f"{name} must be True or False, got {getattr(self, name)!r}")
 
@@ -817,7 +821,47 @@ def ilqr_reach(
         if lim.velocity_violation(ocp.qd_init) > 1e-9:
             raise InvalidInputError("qd_init exceeds the velocity limits; lower it, or pass limits='none'")
     with collect_warnings() as caught:
-        return _solve(ocp, o, u_init, caught.counts)
+        res = _solve(ocp, o, u_init, caught.counts)
+        if res.converged or u_init is not None or not o.restart:
+            return res
+        # Globalisation.  A failed solve usually stalls on a local minimum of the bounded terminal problem
+        # (joints pressed on their limits, ‖e‖ ~ 1e-2).  The bounded Gauss–Newton IK reaches the target
+        # inside the limits more often from q_init; restart from the minimum-energy controls to its answer
+        # (rest-to-rest they are cubics, monotone between the bounds) and keep the better result.
+        from .gauss_newton import gauss_newton_ik
+
+        with collect_warnings(silent=True):
+            ik = gauss_newton_ik(task, ocp.q_init, ocp.target, limits=o.limits)
+        if not ik.converged:
+            return res
+        u_guess = _controls_to(ocp, ik.q)
+        if o.limits == "enforce" and ocp.violation(*ocp.rollout(u_guess), u_guess) > 0:
+            blended = _restore(ocp, u_guess, _reference_controls(ocp))  # e.g. a moving start overshoots a bound
+            if blended is not None:
+                u_guess = blended[0]
+        o2 = dataclasses.replace(o, max_iter=max(o.max_iter - res.iterations, 1))
+        res2 = _solve(ocp, o2, u_guess, caught.counts)
+        if not (res2.converged or res2.error < res.error):
+            return res
+        return dataclasses.replace(
+            res2,
+            iterations=res.iterations + res2.iterations,
+            solve_time_s=res.solve_time_s + res2.solve_time_s,
+            stats=res.stats + res2.stats,
+            message=f"{res2.message} (restarted after {res.iterations} iterations from the minimum-energy controls "
+            f"to the bounded Gauss–Newton IK configuration, ‖e‖ = {res.error:.3g} before)",
+        )
+
+
+def _controls_to(ocp: ReachingOCP, q_goal: np.ndarray) -> np.ndarray:
+    """Minimum-energy controls (n, nq) taking (q_init, q̇_init) to (q_goal, 0) (closed form via the Gramian)."""
+    n, dt, T = ocp.nq, ocp.dt, ocp.horizon
+    ck, G2, R2inv = _gramian(ocp)
+    Winv = np.kron(np.linalg.inv(G2), ocp.R2)
+    free = np.concatenate([ocp.q_init + T * dt * ocp.qd_init, ocp.qd_init])  # the drift with u = 0
+    y = np.concatenate([q_goal, np.zeros(n)]) - free
+    lam = Winv @ y
+    return np.outer(ck, R2inv @ lam[:n]) + dt * (R2inv @ lam[n:])[None, :]
 
 
 def _multiplier_estimate(ocp: ReachingOCP, ev: dict[str, Any], ck: np.ndarray) -> np.ndarray:
