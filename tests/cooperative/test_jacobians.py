@@ -23,7 +23,24 @@ from coop_ga.cooperative import CooperativeTask
 from coop_ga.geometry.primitives import N_POINTS
 
 KINDS = ("point", "point_pair", "line", "circle", "plane", "sphere")
-CASES = [(name, kind) for name in systems.names() for kind in KINDS if N_POINTS[kind] <= systems.load(name).n_chains]
+# end frames per registered system, written out so that collection loads no system (checked below)
+N_CHAINS = {
+    "three_franka": 3,
+    "three_iiwa14": 3,
+    "g1_arms": 2,
+    "g1_torso_arms": 3,
+    "franka_and_g1": 3,
+    "two_g1": 4,
+    "three_finger_hand": 3,
+    "allegro": 4,
+    "hexapod": 6,
+}
+CASES = [(name, kind) for name in systems.names() for kind in KINDS if N_POINTS[kind] <= N_CHAINS[name]]
+
+
+def test_chain_counts_are_those_of_the_registry(load_system) -> None:
+    assert sorted(N_CHAINS) == sorted(systems.names())
+    assert all(load_system(name).n_chains == n for name, n in N_CHAINS.items())
 
 
 def _configs(task: CooperativeTask, rng: np.random.Generator, n: int) -> list[np.ndarray]:
