@@ -81,7 +81,7 @@ import numpy as np
 from .. import validation
 from ..cooperative.manipulability import damped_pinv
 from ..diagnostics import collect_warnings, warn
-from ..errors import JointLimitWarning
+from ..errors import InvalidInputError, JointLimitWarning
 from .base import SolverResult, check_problem, check_q, resolve_options
 from .qp import (
     DEFAULT_LIMIT_GAIN,
@@ -169,7 +169,13 @@ def _velocity(
 
 
 def _advance(task: Any, q: np.ndarray, qd: np.ndarray, dt: float, limits: str) -> np.ndarray:
-    q_next = q + dt * qd
+    with np.errstate(over="ignore", invalid="ignore"):
+        q_next = q + dt * qd
+    if not np.all(np.isfinite(q_next)):  # never a NaN: a step of dt·q̇ beyond the float range is refused
+        raise InvalidInputError(
+            f"the differential-IK step is not finite (dt = {dt:.3g} s, max |q̇| = {float(np.max(np.abs(qd))):.3g}); "
+            "use a time step of a control loop (e.g. 0.01 s) and a command of a sensible size"
+        )
     if limits != "none":  # 'enforce': only rounding (γ(bound − q) reaches the bound at most); 'clamp': the ablation
         lower, upper, _ = limit_arrays(task)
         np.clip(q_next, lower, upper, out=q_next)

@@ -328,8 +328,9 @@ class ILQROptions:
             updated) once an iteration decreases the merit by less than this fraction.
         al_violation: the solve may stop once the bounds are violated by at most this much
             [rad, rad/s]; the final blend with the feasible reference removes it exactly.
-        restart: if the solve from the default guess fails, restart once from the minimum-energy
-            controls to the bounded Gauss–Newton IK solution (counted in ``iterations``).
+        restart: if the solve from the default guess stalls short of tol (not when it runs out of
+            ``max_iter``), restart once from the minimum-energy controls to the bounded Gauss–Newton IK
+            solution; both solves count in ``iterations`` and the histories, and the message says so.
         warn_limits: with ``limits="none"``, warn when the trajectory leaves the joint limits.
     """
 
@@ -822,7 +823,10 @@ def ilqr_reach(
             raise InvalidInputError("qd_init exceeds the velocity limits; lower it, or pass limits='none'")
     with collect_warnings() as caught:
         res = _solve(ocp, o, u_init, caught.counts)
-        if res.converged or u_init is not None or not o.restart:
+        # restart only a solve that stalled (not one that ran out of its iteration budget, not an
+        # unreachable tol = 0, not a user's own initial guess)
+        stalled = "max_iter" not in res.message and res.iterations < o.max_iter
+        if res.converged or u_init is not None or not o.restart or not stalled or o.tol == 0:
             return res
         # Globalisation.  A failed solve usually stalls on a local minimum of the bounded terminal problem
         # (joints pressed on their limits, ‖e‖ ~ 1e-2).  The bounded Gauss–Newton IK reaches the target
@@ -848,6 +852,9 @@ def ilqr_reach(
             iterations=res.iterations + res2.iterations,
             solve_time_s=res.solve_time_s + res2.solve_time_s,
             stats=res.stats + res2.stats,
+            # the histories of both solves (the restart's own starting point left out, so len = iterations + 1)
+            cost_history=np.concatenate([res.cost_history, res2.cost_history[1:]]),
+            error_history=np.concatenate([res.error_history, res2.error_history[1:]]),
             message=f"{res2.message} (restarted after {res.iterations} iterations from the minimum-energy controls "
             f"to the bounded Gauss–Newton IK configuration, ‖e‖ = {res.error:.3g} before)",
         )

@@ -372,6 +372,15 @@ def solve_qp(
     n = A.shape[1]
     m = 0 if G is None else G.shape[0]
     p = 0 if E is None else E.shape[0]
+    for name, arr in (("A", A), ("b", b), ("lb", lb), ("ub", ub), ("G", G), ("h", h), ("E", E), ("f", f)):
+        # ±inf bounds mean "no bound"; anything else must be finite and leave room for the scaling below
+        if arr is not None and (
+            np.any(np.isnan(arr)) or (name not in ("lb", "ub", "h") and not np.all(np.abs(arr) < 1e150))
+        ):
+            raise InvalidInputError(
+                f"the QP data {name} is not finite or beyond 1e150 in magnitude; check the "
+                "command, dt and the constraints passed to the controller"
+            )
     if x_free is None and p == 0:
         x_free = damped_lstsq(A, b, damping)
     if x_free is not None and (
@@ -465,6 +474,11 @@ def solve_qp(
     x = sigma * y
     if lb is not None or ub is not None:  # rounding of σ·(lb/σ)
         np.clip(x, -np.inf if lb is None else lb, np.inf if ub is None else ub, out=x)
+    if not np.all(np.isfinite(x)):
+        raise InvalidInputError(
+            "the QP step is not finite: its data spans beyond the float range (e.g. a time step "
+            "of 1e300 s); use the scales of a control loop"
+        )
     return QPSolution(x, True, al, au, ar, status)
 
 

@@ -198,3 +198,26 @@ def test_soft_terminal_is_eq57(flagship):
     assert 1e-8 < res.error < 1e-5
     hard = ilqr_reach(task, q0, V, tol=1e-9, max_iter=30)
     assert hard.error < 1e-9  # the multiplier shift removes the bias
+
+
+def test_restart_from_the_bounded_ik_configuration(load_system):
+    """Allegro plane, 11 cm / 35° / ×1.3 (robustness benchmark, seed 0, large #5): the first solve stalls with joint 4
+    on its upper limit at ‖e‖ = 0.023; the restart from the minimum-energy controls to the bounded Gauss–Newton
+    configuration reaches the target inside the limits, and the result says so."""
+    s = load_system("allegro")
+    task = cg.cooperative_task(s, "plane")
+    q0 = np.array(s.q0)
+    V = displaced_target(
+        task,
+        q0,
+        translation=(-0.1106214767677044, 0.10114961658422042, -0.0056252948898201155),
+        axis=(0.5729264816812533, -0.3647019089074783, 0.7339943897793646),
+        angle=0.6108652381980153,
+        scale=1.3,
+    )
+    first = ilqr_reach(task, q0, V, restart=False)
+    assert not first.converged and first.error > 1e-3
+    res = ilqr_reach(task, q0, V)
+    assert res.converged and "restarted" in res.message, res.message
+    _within(res, s)
+    assert res.iterations == len(res.stats) == len(res.error_history) - 1
