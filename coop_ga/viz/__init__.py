@@ -13,7 +13,8 @@ canvas directly, so they work headless whatever the backend.
 * :mod:`~coop_ga.viz.frames` — :func:`draw_frame`;
 * :mod:`~coop_ga.viz.plots` — :func:`plot_bivector`, :func:`plot_error`;
 * :mod:`~coop_ga.viz.axes` — :func:`set_equal_3d`, :func:`label_axes_3d`;
-* :mod:`~coop_ga.viz.render` — :func:`render`, :func:`save`.
+* :mod:`~coop_ga.viz.render` — :func:`render`, :func:`save`;
+* :mod:`~coop_ga.viz.scene` — :class:`Scene`, :func:`render_scene` (every figure's 3-D panel).
 """
 
 from .axes import Drawn, axes_box, label_axes_3d, set_equal_3d
@@ -22,6 +23,7 @@ from .plots import plot_bivector, plot_error
 from .primitives import circle_points, clip_line, draw_primitive, plane_basis, sphere_mesh, square_points
 from .render import render, save
 from .robots import RobotDrawn, Skeleton, draw_robot, skeleton
+from .scene import ROLES, Scene, SceneCurve, ScenePrimitive, SceneRobot, render_scene
 from .style import BIVECTOR_COLORS, BIVECTOR_LABELS, DPI, LINEWIDTH, PALETTE, Palette, style, use_style
 
 __all__ = [
@@ -30,9 +32,14 @@ __all__ = [
     "DPI",
     "LINEWIDTH",
     "PALETTE",
+    "ROLES",
     "Drawn",
     "Palette",
     "RobotDrawn",
+    "Scene",
+    "SceneCurve",
+    "ScenePrimitive",
+    "SceneRobot",
     "Skeleton",
     "axes_box",
     "circle_points",
@@ -46,6 +53,7 @@ __all__ = [
     "plot_bivector",
     "plot_error",
     "render",
+    "render_scene",
     "save",
     "set_equal_3d",
     "skeleton",

@@ -1,0 +1,211 @@
+"""Figure scenes: several robot configurations, primitives, curves and points in one rendered PNG.
+
+:func:`render_scene` is the one call every paper figure's 3-D panel goes through.  A scene is
+described by *roles* rather than colours, so every figure gets the same paper style
+(:data:`~coop_ga.viz.style.PALETTE`):
+
+============  ====================================================================
+role          drawn as
+============  ====================================================================
+initial       robot light, primitive green
+final         robot grey, primitive turquoise
+target        primitive black, dashed
+intermediate  primitive thin, shaded green → turquoise by ``fraction`` ∈ [0, 1]
+trajectory    curve red (end-point paths)
+neutral       robot / primitive / curve / points in the default colour
+============  ====================================================================
+
+Backends: ``"matplotlib"`` draws robot skeletons (joint origins, Pinocchio FK) with a
+painter's-algorithm 3-D axes; ``"auto"`` picks the best available renderer.  The mesh
+renderer (robots drawn from their visual meshes, PyVista/VTK offscreen with a depth buffer,
+falling back to a depth-sorted matplotlib mesh) plugs in behind the same signature.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .axes import label_axes_3d, set_equal_3d
+from .primitives import draw_primitive
+from .robots import draw_robot
+from .style import DPI, LINEWIDTH, PALETTE, style
+
+__all__ = ["ROLES", "Scene", "SceneCurve", "ScenePrimitive", "SceneRobot", "render_scene"]
+
+ROLES = ("initial", "final", "target", "intermediate", "trajectory", "neutral")
+
+
+def _role(role: str) -> str:
+    if role not in ROLES:
+        from ..errors import InvalidInputError
+
+        raise InvalidInputError(f"scene role must be one of {', '.join(ROLES)}, got {role!r}")
+    return role
+
+
+@dataclass
+class SceneRobot:
+    """A system drawn at configuration ``q`` (nq,) [rad | m] in a role (``initial``, ``final`` or ``neutral``)."""
+
+    system: Any
+    q: Any
+    role: str = "neutral"
+    label: str | None = None
+
+
+@dataclass
+class ScenePrimitive:
+    """A :class:`coop_ga.Primitive` in a role; ``fraction`` shades ``intermediate`` ones (0 → initial, 1 → final)."""
+
+    X: Any
+    role: str = "neutral"
+    label: str | None = None
+    fraction: float = 0.5
+
+
+@dataclass
+class SceneCurve:
+    """A polyline (N, 3) [m], e.g. an end-point path (role ``trajectory``), or markers if ``markers``."""
+
+    points: Any
+    role: str = "trajectory"
+    label: str | None = None
+    markers: bool = False
+
+
+@dataclass
+class Scene:
+    """Everything one 3-D panel shows (world frame, metres)."""
+
+    robots: list[SceneRobot] = field(default_factory=list)
+    primitives: list[ScenePrimitive] = field(default_factory=list)
+    curves: list[SceneCurve] = field(default_factory=list)
+
+    def robot(self, system: Any, q: Any, role: str = "neutral", label: str | None = None) -> Scene:
+        self.robots.append(SceneRobot(system, q, _role(role), label))
+        return self
+
+    def primitive(self, X: Any, role: str = "neutral", label: str | None = None, fraction: float = 0.5) -> Scene:
+        self.primitives.append(ScenePrimitive(X, _role(role), label, float(fraction)))
+        return self
+
+    def curve(self, points: Any, role: str = "trajectory", label: str | None = None, markers: bool = False) -> Scene:
+        self.curves.append(SceneCurve(np.asarray(points, dtype=float).reshape(-1, 3), _role(role), label, markers))
+        return self
+
+
+def _robot_style(role: str) -> dict[str, Any]:
+    styles: dict[str, dict[str, Any]] = {
+        "initial": {"color": PALETTE.initial_robot, "ends": False},
+        "final": {"color": PALETTE.final_robot},
+    }
+    return styles.get(role, {"color": PALETTE.robot})
+
+
+def _primitive_style(p: ScenePrimitive) -> dict[str, Any]:
+    if p.role == "initial":
+        return {"color": PALETTE.initial_primitive, "lw": LINEWIDTH["primitive"]}
+    if p.role == "final":
+        return {"color": PALETTE.final_primitive, "lw": LINEWIDTH["primitive"]}
+    if p.role == "target":
+        return {"color": PALETTE.target_primitive, "ls": "--", "lw": LINEWIDTH["primitive"]}
+    if p.role == "intermediate":
+        return {"color": PALETTE.intermediate(p.fraction), "lw": LINEWIDTH["intermediate"]}
+    return {"color": PALETTE.primitive}
+
+
+def render_scene(
+    scene: Scene,
+    path: str | Path,
+    *,
+    view: tuple[float, float] = (22.0, -60.0),
+    size: tuple[float, float] = (7.0, 6.0),
+    dpi: int = DPI,
+    title: str | None = None,
+    backend: str = "auto",
+    legend: bool = True,
+    pad: float = 0.05,
+) -> Path:
+    """Write the PNG of ``scene`` (module docstring), headless.
+
+    Parameters
+    ----------
+    scene: the :class:`Scene`.  path: output PNG (parents created).
+    view: camera (elevation, azimuth) [deg]; size: figure size [in]; dpi: resolution.
+    title: panel title.  backend: ``"auto"``, ``"matplotlib"`` (skeletons).
+    legend: a legend of the labelled items.  pad: margin around the content [m].
+
+    The axes have equal scales around everything drawn.  Returns the path written.
+    """
+    from ..errors import InvalidInputError
+
+    if backend not in ("auto", "matplotlib"):
+        raise InvalidInputError(f"backend must be 'auto' or 'matplotlib', got {backend!r}")
+    return _render_matplotlib(scene, Path(path), view=view, size=size, dpi=dpi, title=title, legend=legend, pad=pad)
+
+
+def _render_matplotlib(
+    scene: Scene,
+    path: Path,
+    *,
+    view: tuple[float, float],
+    size: tuple[float, float],
+    dpi: int,
+    title: str | None,
+    legend: bool,
+    pad: float,
+) -> Path:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from ..geometry import kind_of
+
+    with style():
+        fig = Figure(figsize=size)
+        FigureCanvasAgg(fig)
+        ax = fig.add_subplot(projection="3d")
+        pts: list[np.ndarray] = []
+        anchors: list[np.ndarray] = []
+        # light (initial) robots first, so that the final configuration is drawn over them
+        order = sorted(scene.robots, key=lambda r: {"initial": 0, "neutral": 1, "final": 2}.get(r.role, 1))
+        for r in order:
+            drawn = draw_robot(
+                ax, r.system, r.q, label=r.label, zorder=2 if r.role == "final" else 1, **_robot_style(r.role)
+            )
+            pts.append(drawn.points)
+            if drawn.skeleton is not None and len(drawn.skeleton.end_points):
+                anchors.append(drawn.skeleton.end_points.mean(axis=0))
+        flats = []
+        for p in scene.primitives:
+            if kind_of(p.X) in ("line", "plane"):
+                flats.append(p)
+                continue
+            pts.append(draw_primitive(ax, p.X, label=p.label, **_primitive_style(p)).points)
+        for c in scene.curves:
+            P = np.asarray(c.points, dtype=float).reshape(-1, 3)
+            col = PALETTE.trajectory if c.role == "trajectory" else PALETTE.robot
+            if c.markers:
+                ax.scatter(*P.T, s=25, color=col, depthshade=False, label=c.label)
+            else:
+                ax.plot(*P.T, color=col, lw=LINEWIDTH["trajectory"], label=c.label)
+            pts.append(P)
+        if pts:
+            set_equal_3d(ax, np.vstack(pts), pad)
+        anchor = np.mean(anchors, axis=0) if anchors else None
+        for p in flats:
+            draw_primitive(ax, p.X, label=p.label, anchor=anchor, **_primitive_style(p))
+        ax.view_init(*view)
+        label_axes_3d(ax)
+        if title:
+            ax.set_title(title)
+        if legend and any(
+            h.get_label() and not h.get_label().startswith("_") for h in ax.get_children() if hasattr(h, "get_label")
+        ):
+            ax.legend(loc="upper left", fontsize=7)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path, dpi=dpi)
+    return path
