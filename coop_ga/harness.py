@@ -10,7 +10,8 @@ A script does::
         ...
     for q in exp.progress(qs, "evaluating"):                # a tqdm progress bar on stderr
         ...
-    exp.write_json("metrics.json", metrics)                 # strict JSON: NaN/inf → null
+    exp.write_json("metrics.json", metrics)                 # strict JSON, NaN/inf → null, 6 digits
+    exp.write_timing({"solve_s": t})                        # wall-clock times: timing.json, untracked
     exp.write_npz("trajectory.npz", q=Q)
     exp.save(fig, "figure.png")
 
@@ -47,6 +48,8 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "METRIC_DIGITS",
+    "TIMING_FILE",
     "Experiment",
     "HelpFormatter",
     "experiment_parser",
@@ -177,9 +180,19 @@ def make_rng(seed: int | None) -> np.random.Generator:
 
 
 # ---------------------------------------------------------------------- output
-def to_jsonable(x: Any) -> Any:
+#: significant digits of every float an :class:`Experiment` writes to JSON (committed metrics).
+METRIC_DIGITS = 6
+#: the untracked per-run file of wall-clock times, next to ``metrics.json``.
+TIMING_FILE = "timing.json"
+
+
+def to_jsonable(x: Any, digits: int | None = None) -> Any:
     """``x`` as plain JSON data: numpy scalars/arrays → numbers/lists, tuples/sets → lists,
-    paths → strings, dataclasses → dicts, keys → strings, and **NaN/±inf → None** (``null``)."""
+    paths → strings, dataclasses → dicts, keys → strings, and **NaN/±inf → None** (``null``).
+
+    ``digits``: round every float to that many *significant* digits (``1.234567e-07`` stays
+    ``1.23457e-07`` with 6), so that a committed metrics file does not change with the last
+    bits of a re-run; ``None`` keeps full precision."""
     if x is None or isinstance(x, str):
         return x
     if isinstance(x, (bool, np.bool_)):
@@ -188,34 +201,53 @@ def to_jsonable(x: Any) -> Any:
         return int(x)
     if isinstance(x, (float, np.floating)):
         v = float(x)
-        return v if math.isfinite(v) else None
+        if not math.isfinite(v):
+            return None
+        return float(f"{v:.{digits}g}") if digits is not None else v
     if isinstance(x, dict):
-        return {str(k): to_jsonable(v) for k, v in x.items()}
+        return {str(k): to_jsonable(v, digits) for k, v in x.items()}
     if isinstance(x, (list, tuple, set, frozenset)):
-        return [to_jsonable(v) for v in x]
+        return [to_jsonable(v, digits) for v in x]
     if isinstance(x, np.ndarray):
-        return to_jsonable(x.tolist())
+        return to_jsonable(x.tolist(), digits)
     if isinstance(x, Path):
         return str(x)
     if dataclasses.is_dataclass(x) and not isinstance(x, type):
-        return to_jsonable(dataclasses.asdict(x))
+        return to_jsonable(dataclasses.asdict(x), digits)
     raise TypeError(f"write_json cannot encode a {type(x).__name__}: convert it to numbers, strings or lists first")
 
 
-def write_json(path: str | Path, obj: Any, *, indent: int = 2) -> Path:
-    """Write ``obj`` as strict, indented JSON (see :func:`to_jsonable`: NaN/inf → ``null``);
-    parent directories are created.  Returns the path."""
+def write_json(path: str | Path, obj: Any, *, indent: int = 2, digits: int | None = None) -> Path:
+    """Write ``obj`` as strict, indented JSON (see :func:`to_jsonable`: NaN/inf → ``null``,
+    floats rounded to ``digits`` significant digits if given); parent directories are
+    created.  Returns the path."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(json.dumps(to_jsonable(obj), indent=indent, allow_nan=False) + "\n")
+    p.write_text(json.dumps(to_jsonable(obj, digits), indent=indent, allow_nan=False) + "\n")
     return p
 
 
 def write_npz(path: str | Path, **arrays: Any) -> Path:
-    """Write the arrays to a compressed ``.npz`` (parent directories created).  Returns the path."""
+    """Write the arrays to a compressed ``.npz`` (parent directories created).  Returns the path.
+
+    The file is byte-for-byte reproducible: ``numpy.savez_compressed`` stamps each member
+    with the current time, so the same arrays gave a different file on every run (and a
+    changed tracked file after every figure regeneration).  Here every member gets the
+    fixed zip epoch 1980-01-01 and a sorted order; ``numpy.load`` reads it as usual.
+    """
+    import io
+    import zipfile
+
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    np.savez_compressed(p, **arrays)
+    with zipfile.ZipFile(p, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for name in sorted(arrays):
+            buf = io.BytesIO()
+            np.lib.format.write_array(buf, np.asanyarray(arrays[name]), allow_pickle=False)
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = 0o644 << 16
+            zf.writestr(info, buf.getvalue())
     return p
 
 
@@ -351,9 +383,17 @@ class Experiment:
         """:class:`stage`, silent with ``--quiet``."""
         return stage(label, self.quiet)
 
-    def write_json(self, name: str, obj: Any) -> Path:
-        """:func:`write_json` into ``--out``."""
-        return write_json(self.out / name, obj)
+    def write_json(self, name: str, obj: Any, digits: int | None = METRIC_DIGITS) -> Path:
+        """:func:`write_json` into ``--out``, floats rounded to ``digits`` significant digits
+        (default :data:`METRIC_DIGITS`) so that a re-run leaves committed results unchanged.
+
+        Wall-clock times change on every run: write them with :meth:`write_timing` instead."""
+        return write_json(self.out / name, obj, digits=digits)
+
+    def write_timing(self, obj: Any) -> Path:
+        """Write wall-clock measurements [s] to ``--out/timing.json`` (3 significant digits).
+        This file is *not* tracked (``.gitignore``): times differ on every run and machine."""
+        return write_json(self.out / TIMING_FILE, obj, digits=3)
 
     def write_npz(self, name: str, **arrays: Any) -> Path:
         """:func:`write_npz` into ``--out``."""

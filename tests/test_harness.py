@@ -190,3 +190,25 @@ def test_script_rejects_bad_value():
     )
     assert r.returncode == 2
     assert "argument --duration: expected a number > 0, got '-1'" in r.stderr
+
+
+def test_write_npz_is_byte_reproducible(tmp_path):
+    # numpy.savez_compressed stamps the current time; ours must give identical bytes
+    import time
+
+    a = harness.write_npz(tmp_path / "a.npz", x=np.arange(4.0), y=np.eye(2))
+    time.sleep(2.1)  # zip timestamps have 2 s resolution
+    b = harness.write_npz(tmp_path / "b.npz", y=np.eye(2), x=np.arange(4.0))
+    assert a.read_bytes() == b.read_bytes()
+    d = np.load(a)
+    np.testing.assert_array_equal(d["x"], np.arange(4.0))
+    np.testing.assert_array_equal(d["y"], np.eye(2))
+
+
+def test_experiment_rounds_metrics_and_splits_timing(tmp_path):
+    exp = harness.Experiment("demo.py", "demo", seed=0)
+    exp.parse(["--out", str(tmp_path), "--quiet"])
+    p = exp.write_json("m.json", {"e": 1.234567891e-7, "v": [np.float64(2.0 / 3.0)], "n": 3})
+    assert json.loads(p.read_text()) == {"e": 1.23457e-07, "v": [0.666667], "n": 3}
+    t = exp.write_timing({"solve_s": 0.123456})
+    assert t.name == harness.TIMING_FILE and json.loads(t.read_text()) == {"solve_s": 0.123}
