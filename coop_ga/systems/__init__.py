@@ -5,6 +5,7 @@
 * :mod:`~coop_ga.systems.limits`: :class:`JointLimits` (position, velocity, acceleration, effort);
 * :mod:`~coop_ga.systems.registry`: :func:`register`, :func:`names`, :func:`load`;
 * :mod:`~coop_ga.systems.library`: the paper's systems (registered on import);
+* :mod:`~coop_ga.systems.synthetic`: :func:`cartesian_points` (free end points, ∂p/∂q = I);
 * ``robots/``: the URDFs coop_ga ships (package data, :data:`ROBOTS_DIR`).
 
 Run ``python -m coop_ga.systems`` to list the registered systems with their DOF and end points.
@@ -15,14 +16,17 @@ from __future__ import annotations
 from . import library as _library  # noqa: F401  (registers the paper's systems)
 from .limits import DEFAULT_VELOCITY_LIMIT, JointLimits
 from .registry import load, names, register
+from .synthetic import CARTESIAN_BASES, cartesian_points
 from .system import ROBOTS_DIR, System, append_robots, from_model, from_urdf, prefixed
 
 __all__ = [
+    "CARTESIAN_BASES",
     "DEFAULT_VELOCITY_LIMIT",
     "ROBOTS_DIR",
     "JointLimits",
     "System",
     "append_robots",
+    "cartesian_points",
     "from_model",
     "from_urdf",
     "load",

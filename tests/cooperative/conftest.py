@@ -7,31 +7,16 @@ and ∂p/∂q = I isolates the similarity part of the Jacobian.
 
 from __future__ import annotations
 
-import numpy as np
-import pinocchio as pin
 import pytest
 
-from coop_ga.systems import System
+from coop_ga.systems import CARTESIAN_BASES as BASES
+from coop_ga.systems import System, cartesian_points
 
-BASES = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+__all__ = ["BASES", "cartesian_system"]
 
 
 def cartesian_system(n_points: int) -> System:
-    m = pin.Model()
-    frames = []
-    for i in range(n_points):
-        parent = 0
-        for k, jm in enumerate((pin.JointModelPX(), pin.JointModelPY(), pin.JointModelPZ())):
-            pl = pin.SE3(np.eye(3), BASES[i]) if k == 0 else pin.SE3.Identity()
-            parent = m.addJoint(parent, jm, pl, f"c{i}_p{'xyz'[k]}")
-            m.lowerPositionLimit[-1:] = -5.0
-            m.upperPositionLimit[-1:] = 5.0
-        name = f"tip{i}"
-        m.addFrame(pin.Frame(name, parent, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
-        frames.append(name)
-    m.lowerPositionLimit = -5.0 * np.ones(m.nq)
-    m.upperPositionLimit = 5.0 * np.ones(m.nq)
-    return System(name=f"cartesian{n_points}", model=m, end_frames=tuple(frames), q0=np.zeros(m.nq))
+    return cartesian_points(n_points)
 
 
 @pytest.fixture(scope="session")

@@ -1,0 +1,263 @@
+"""Regenerate every figure of the paper, and the gallery that shows them, in one command.
+
+    python -m paper_figures [--out DIR] [--only fig12 ...] [--fast] [--jobs N]
+
+Runs each figure's experiment script (``paper_figures.FIGURES``: Figs. 5–21, Table 1 and
+the drawings of the systems) into ``DIR/figNN_<name>/`` — its PNGs, ``metrics.json`` and,
+untracked, ``timing.json`` and ``log.txt`` (the script's own output) — and writes the
+gallery ``DIR/README.md``: per figure the paper's claim, the measured numbers that support
+or contradict it, and the command that made it.
+
+Deterministic: every script draws from its own fixed seed (``--seed`` overrides all of
+them), metrics are rounded to 6 significant digits and NPZ files carry no timestamps, so
+a re-run without code changes leaves the committed files unchanged.
+
+A figure fails if its script raises or returns non-zero, if a figure its gallery block
+lists is missing, or if a published trajectory leaves the joint limits
+(``max_limit_violation`` > 0 anywhere in its metrics).  The other figures still run; the
+exit status is 1 and the failures are listed.
+
+``--fast`` uses each script's short horizons (for CI): the numbers are not the published
+ones, and the gallery says so.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import os
+import sys
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from pathlib import Path
+from typing import Any
+
+from coop_ga.harness import experiment_parser, positive_int, write_json
+
+from . import FIGURES, ROOT, Figure, load_script, select
+
+LOG_FILE = "log.txt"
+
+
+def _limit_violations(obj: Any, path: str = "") -> list[tuple[str, float]]:
+    """Every ``max_limit_violation`` value > 0 in a metrics tree, with its key path."""
+    out: list[tuple[str, float]] = []
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            p = f"{path}.{k}" if path else str(k)
+            if k == "max_limit_violation" and isinstance(v, (int, float)) and v > 0:
+                out.append((p, float(v)))
+            else:
+                out += _limit_violations(v, p)
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            out += _limit_violations(v, f"{path}[{i}]")
+    return out
+
+
+def run_one(fig: Figure, out: Path, extra: list[str], verbose: bool) -> dict[str, Any]:
+    """Run one figure's script into ``out/fig.folder`` and check what it wrote.
+
+    Returns ``{"key", "ok", "seconds", "problems": [...]}``.  The script's stdout/stderr go
+    to ``log.txt`` in its folder (and to the terminal too with ``verbose``)."""
+    folder = out / fig.folder
+    folder.mkdir(parents=True, exist_ok=True)
+    argv = [*fig.args, "--out", str(folder), *extra]
+    problems: list[str] = []
+    t0 = time.perf_counter()
+    log = io.StringIO()
+    try:
+        main = load_script(fig.script)
+        if verbose:
+            rc = main(argv)
+        else:
+            with contextlib.redirect_stdout(log), contextlib.redirect_stderr(log):
+                rc = main(argv)
+        if rc not in (0, None):
+            problems.append(f"{fig.script} returned exit status {rc}")
+    except SystemExit as e:  # argparse errors
+        if e.code not in (0, None):
+            problems.append(f"{fig.script} exited with status {e.code}")
+    except Exception:
+        problems.append(f"{fig.script} raised:\n{traceback.format_exc()}")
+    seconds = time.perf_counter() - t0
+    (folder / LOG_FILE).write_text(log.getvalue())
+    metrics_path = folder / "metrics.json"
+    if not problems:
+        if not metrics_path.exists():
+            problems.append("no metrics.json written")
+        else:
+            metrics = json.loads(metrics_path.read_text())
+            gallery = metrics.get("gallery")
+            if not isinstance(gallery, dict) or not {"title", "claim", "evidence", "agrees"} <= set(gallery):
+                problems.append("metrics.json has no complete 'gallery' block (title, claim, evidence, agrees)")
+            else:
+                for name in [*gallery.get("figures", []), *gallery.get("tables", [])]:
+                    if not (folder / name).exists():
+                        problems.append(f"the gallery lists {name}, which was not written")
+            for where, v in _limit_violations(metrics):
+                problems.append(f"a trajectory leaves the joint limits: {where} = {v:g} rad")
+    return {"key": fig.key, "ok": not problems, "seconds": seconds, "problems": problems}
+
+
+def _worker(args: tuple[str, str, list[str]]) -> dict[str, Any]:
+    key, out, extra = args
+    fig = next(f for f in FIGURES if f.key == key)
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    return run_one(fig, Path(out), extra, verbose=False)
+
+
+def _numbers(fig: Figure) -> str:
+    if fig.key.startswith("table"):
+        return f"Table {int(fig.key[5:])}"
+    if not fig.numbers:
+        return "Systems"
+    n = fig.numbers
+    return f"Fig. {n[0]}" if len(n) == 1 else f"Figs. {n[0]}–{n[-1]}"
+
+
+def write_gallery(out: Path, fast: bool, failures: dict[str, list[str]]) -> Path:
+    """Write ``out/README.md`` from the ``gallery`` block of every folder present in ``out``."""
+    lines = [
+        "# Paper figures",
+        "",
+        "Every figure of Löw, Bilaloglu and Calinon, *Cooperative Task Spaces for Multi-Arm Manipulation "
+        "Control based on Similarity Transformations* (§4, Figs. 5–21, Table 1), reproduced by coop_ga.",
+        "Regenerate all of them with",
+        "",
+        "```bash",
+        "python -m paper_figures" + ("" if out.resolve() == (ROOT / "paper_figures").resolve() else f" --out {out}"),
+        "```",
+        "",
+        "or one with `python -m paper_figures --only fig12`. Each folder holds the PNGs and a `metrics.json`; "
+        "every number quoted below is read from it. *Agrees* means the measurement supports the paper's claim; "
+        "where it does not, the text says what we measured instead.",
+        "",
+    ]
+    if fast:
+        lines += [
+            "> **Fast mode** (`--fast`, short horizons for CI): these numbers are not the published ones.",
+            "",
+        ]
+    entries = []
+    for fig in FIGURES:
+        mpath = out / fig.folder / "metrics.json"
+        if fig.key in failures:
+            entries.append((fig, None))
+        elif mpath.exists():
+            entries.append((fig, json.loads(mpath.read_text()).get("gallery")))
+    lines += ["| | figure | agrees |", "|---|---|---|"]
+    for fig, g in entries:
+        title = g["title"] if g else "(failed)"
+        mark = "—" if not g else ("yes" if g.get("agrees") else "**no**, see below")
+        anchor = fig.folder.replace("_", "-")
+        lines.append(f"| {_numbers(fig)} | [{title}](#{anchor}) | {mark} |")
+    lines.append("")
+    for fig, g in entries:
+        title = g["title"] if g else fig.key
+        # "Table 1: …" or "The systems" already say what they are; "Fig. 7: <title>" otherwise
+        heading = title if title.startswith(_numbers(fig)) or fig.key == "systems" else f"{_numbers(fig)}: {title}"
+        lines += [f'<a id="{fig.folder.replace("_", "-")}"></a>', "", f"## {heading}", ""]
+        if g is None:
+            lines += ["**This figure failed in the last run:**", "", "```", *failures[fig.key], "```", ""]
+            continue
+        lines += [
+            f"**Paper.** {g['claim']}",
+            "",
+            f"**Measured.** {g['evidence']}",
+            "",
+            f"**Agrees:** {'yes' if g.get('agrees') else 'no'}.",
+            "",
+        ]
+        for name in g.get("figures", []):
+            lines += [f"![{fig.folder}/{name}]({fig.folder}/{name})", ""]
+        for name in g.get("tables", []):
+            table = (out / fig.folder / name).read_text()
+            body = [ln for ln in table.splitlines() if not ln.startswith("# ") and "do not edit" not in ln]
+            lines += [*body, ""]
+        lines += [
+            f"Command: `{fig.command}` (or `{fig.script_command(f'DIR/{fig.folder}')}`); "
+            f"numbers: [`metrics.json`]({fig.folder}/metrics.json).",
+            "",
+        ]
+    path = out / "README.md"
+    path.write_text("\n".join(lines).rstrip() + "\n")
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = experiment_parser(
+        "paper_figures", __doc__, seed=None, out=ROOT / "paper_figures", prog="python -m paper_figures"
+    )
+    p.add_argument("--only", nargs="+", metavar="FIG", help="run only these figures (fig12, fig16_17, table01, ...)")
+    p.add_argument("--fast", action="store_true", help="short horizons in every script (CI); not the published numbers")
+    p.add_argument("--jobs", type=positive_int, default=1, help="figures run in parallel processes")
+    p.add_argument("--verbose", action="store_true", help="show each script's own output (only with --jobs 1)")
+    p.add_argument("--list", action="store_true", help="list the figures and their scripts, then exit")
+    args = p.parse_args(argv)
+    if args.list:
+        for f in FIGURES:
+            print(f"{f.key:10s} {_numbers(f):14s} {f.folder:32s} {' '.join([f.script, *f.args])}")
+        return 0
+    try:
+        figs = select(args.only)
+    except ValueError as e:
+        p.error(str(e))
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    extra = (
+        ["--quiet"] + (["--fast"] if args.fast else []) + (["--seed", str(args.seed)] if args.seed is not None else [])
+    )
+    say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
+    say(f"paper_figures: {len(figs)} figure(s) into {out}" + (" (fast mode)" if args.fast else ""))
+    t_all = time.perf_counter()
+    results: dict[str, dict[str, Any]] = {}
+
+    def report(i: int, r: dict[str, Any]) -> None:
+        fig = next(f for f in FIGURES if f.key == r["key"])
+        status = "done" if r["ok"] else "FAILED"
+        say(f"[{i}/{len(figs)}] {_numbers(fig):14s} {fig.folder:32s} {status} in {r['seconds']:.1f} s")
+        for prob in r["problems"]:
+            say("    " + prob.replace("\n", "\n    "))
+
+    if args.jobs == 1:
+        from coop_ga.harness import use_backend
+
+        use_backend()
+        for i, fig in enumerate(figs, 1):
+            say(f"[{i}/{len(figs)}] {_numbers(fig):14s} {fig.folder:32s} running ...")
+            results[fig.key] = r = run_one(fig, out, extra, args.verbose)
+            report(i, r)
+    else:
+        import multiprocessing as mp
+
+        with ProcessPoolExecutor(max_workers=args.jobs, mp_context=mp.get_context("spawn")) as pool:
+            futures = [pool.submit(_worker, (f.key, str(out), extra)) for f in figs]
+            for i, fut in enumerate(as_completed(futures), 1):
+                r = fut.result()
+                results[r["key"]] = r
+                report(i, r)
+    failures = {k: r["problems"] for k, r in results.items() if not r["ok"]}
+    gallery = write_gallery(out, args.fast, failures)
+    total = time.perf_counter() - t_all
+    write_json(
+        out / "timing.json",
+        {
+            "total_s": total,
+            "jobs": args.jobs,
+            "fast": args.fast,
+            "figures_s": {k: r["seconds"] for k, r in results.items()},
+        },
+        digits=3,
+    )
+    say(f"gallery: {gallery}  ({total:.1f} s in all)")
+    if failures:
+        say(f"{len(failures)} figure(s) failed: {', '.join(failures)}")
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

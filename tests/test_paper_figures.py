@@ -1,0 +1,82 @@
+"""The figures runner ``python -m paper_figures``: selection, checks, gallery."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+import paper_figures
+from paper_figures.__main__ import _limit_violations, main, write_gallery
+
+
+def test_every_figure_of_the_paper_has_an_entry():
+    covered = {n for f in paper_figures.FIGURES for n in f.numbers}
+    assert covered == set(range(5, 22)), sorted(set(range(5, 22)) - covered)  # Figs. 5–21
+    assert any(f.key == "table01" for f in paper_figures.FIGURES)
+    for f in paper_figures.FIGURES:
+        assert (paper_figures.ROOT / f.script).exists(), f.script
+        if f.numbers:  # figNN_<name>, NN the paper's first number, two digits
+            assert f.folder.startswith(f"fig{f.numbers[0]:02d}_"), f.folder
+
+
+@pytest.mark.parametrize(
+    "name,keys",
+    [
+        ("fig12", ["fig12"]),
+        ("fig17", ["fig16_17"]),
+        ("16", ["fig16_17"]),
+        ("fig05_06_impedance", ["fig05_06"]),
+        ("table1", ["table01"]),
+        ("TABLE01", ["table01"]),
+    ],
+)
+def test_select_by_key_folder_or_number(name, keys):
+    assert [f.key for f in paper_figures.select([name])] == keys
+
+
+def test_select_keeps_gallery_order_and_refuses_unknown_names():
+    assert [f.key for f in paper_figures.select(["fig20", "fig07", "fig21"])] == ["fig07", "fig20_21"]
+    with pytest.raises(ValueError, match=r"unknown figure 'fig99'.*choose from"):
+        paper_figures.select(["fig99"])
+    with pytest.raises(SystemExit) as ex:
+        main(["--only", "fig99"])
+    assert ex.value.code == 2
+
+
+def test_limit_violations_are_found_anywhere_in_the_metrics():
+    m = {"max_limit_violation": 0.0, "a": {"max_limit_violation": 0.2}, "runs": [{"max_limit_violation": 1e-3}]}
+    assert _limit_violations(m) == [("a.max_limit_violation", 0.2), ("runs[0].max_limit_violation", 1e-3)]
+    assert _limit_violations({"max_limit_violation": 0}) == []
+
+
+def test_runner_writes_folders_and_gallery(tmp_path, capsys):
+    assert main(["--only", "table01", "systems", "--fast", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "[1/2]" in out and "[2/2]" in out and "done in" in out  # progress per figure
+    for folder in ("systems", "table01_controllable_spaces"):
+        m = json.loads((tmp_path / folder / "metrics.json").read_text())
+        assert m["gallery"]["claim"] and m["gallery"]["evidence"]
+        assert (tmp_path / folder / "log.txt").exists()
+    text = (tmp_path / "README.md").read_text()
+    assert "## Table 1: controllable bivector spaces" in text
+    assert "![systems/allegro.png](systems/allegro.png)" in text
+    assert "python -m paper_figures --only table01" in text
+    assert "Fast mode" in text
+    # deterministic: a second run leaves metrics and gallery byte-identical
+    before = {
+        p: p.read_bytes() for p in tmp_path.rglob("*") if p.suffix in (".json", ".md") and p.name != "timing.json"
+    }
+    assert main(["--only", "table01", "systems", "--fast", "--quiet", "--out", str(tmp_path)]) == 0
+    after = {p: p.read_bytes() for p in before}
+    assert after == before
+
+
+def test_a_failing_figure_is_reported_and_the_rest_still_runs(tmp_path, monkeypatch, capsys):
+    bad = paper_figures.Figure("table01", "table01_controllable_spaces", "experiments/table1.py", ("--samples", "0"))
+    monkeypatch.setattr(paper_figures.__main__, "FIGURES", (bad,))
+    monkeypatch.setattr(paper_figures.__main__, "select", lambda names: [bad])
+    assert main(["--out", str(tmp_path)]) == 1
+    out = capsys.readouterr().out
+    assert "FAILED" in out and "exited with status 2" in out
+    assert "This figure failed in the last run" in write_gallery(tmp_path, False, {"table01": ["x"]}).read_text()
