@@ -10,6 +10,20 @@ shared names).
 
 from ..cooperative.targets import displaced_target
 from .base import SolverResult
+from .constrained import (
+    LINE_PARAMETERS,
+    ConstrainedReachOptions,
+    ConstrainedReachResult,
+    EqualityConstraint,
+    constrained_point_reach,
+    constrained_velocity,
+    end_point_jacobians,
+    line_parameter_constraint,
+    line_parameters,
+    point_constraint,
+    point_task,
+    project_onto_constraints,
+)
 from .diffik import DiffIKOptions, DiffIKResult, diff_ik_reach, diff_ik_step, diff_ik_velocity, joint_velocity
 from .dynamics import TaskDynamics, joint_dynamics, task_inertia, task_space_dynamics
 from .gauss_newton import GaussNewtonOptions, IKResult, gauss_newton_ik
@@ -28,9 +42,13 @@ from .reference_ocp import ReferenceProblem, solve_reference
 from .teleop import ScriptedInput, Teleoperator, command_to_bivector, run_interactive
 
 __all__ = [
+    "LINE_PARAMETERS",
     "PAPER_GAINS",
+    "ConstrainedReachOptions",
+    "ConstrainedReachResult",
     "DiffIKOptions",
     "DiffIKResult",
+    "EqualityConstraint",
     "GaussNewtonOptions",
     "IKResult",
     "ILQRIteration",
@@ -48,19 +66,27 @@ __all__ = [
     "TaskDynamics",
     "Teleoperator",
     "command_to_bivector",
+    "constrained_point_reach",
+    "constrained_velocity",
     "diff_ik_reach",
     "diff_ik_step",
     "diff_ik_velocity",
     "displaced_target",
+    "end_point_jacobians",
     "gauss_newton_ik",
     "ilqr_reach",
     "impedance_torque",
     "joint_dynamics",
     "joint_velocity",
+    "line_parameter_constraint",
+    "line_parameters",
     "nullspace_point_reach",
     "nullspace_step",
+    "point_constraint",
     "point_on_circle",
     "point_reaching_velocity",
+    "point_task",
+    "project_onto_constraints",
     "run_interactive",
     "simulate_impedance",
     "solve_qp",
