@@ -92,9 +92,22 @@ def manipulability_ellipsoid(J: Any, weights: Any | None = None) -> tuple[np.nda
     Principal semi-axes of the velocity ellipsoid are ``√eigenvalue`` along the
     eigenvectors (in bivector coordinates); zero eigenvalues are the geometric
     nullspace directions of Table 1 (uncontrollable similarity directions).
+
+    Computed from the SVD of ``J`` (``M_S = U Σ² Uᵀ``), not by ``eigh(J Jᵀ)``: forming
+    ``J Jᵀ`` squares the condition number, so ``eigh`` resolves eigenvalues only down to
+    ~1e-16 × the largest.  Near a geometric singularity the largest grow like w⁻² and the
+    smallest fall like w² (Figs. 18–19, ``experiments/singularity.py``), and ``eigh``
+    reported the falling ones as rounding noise ~1e-3 long before the guard's threshold;
+    the SVD keeps them to ~1e-16 × σ_max *relative to σ*, i.e. eigenvalues to ~1e-32 λ_max.
     """
-    w, Q = np.linalg.eigh(manipulability(J, weights))
-    return np.clip(w, 0.0, None), Q
+    J = _check_J(J)
+    if weights is not None:
+        J = np.asarray(weights, dtype=float).reshape(-1, 1) * J
+    U, s, _ = np.linalg.svd(J, full_matrices=True)
+    lam = np.zeros(J.shape[0])
+    lam[: s.size] = s**2
+    order = np.argsort(lam, kind="stable")
+    return lam[order], U[:, order]
 
 
 def manipulability_index(J: Any, rank: int | None = None, weights: Any | None = None) -> float:

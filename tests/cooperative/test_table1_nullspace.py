@@ -137,3 +137,18 @@ def test_table1_rows_exact_at_the_unit_primitive(kind: str, cartesian4) -> None:
     excluded = [i for i in range(7) if i not in allowed]
     assert np.abs(J[excluded]).max(initial=0.0) < 1e-12
     assert np.linalg.matrix_rank(J[allowed], tol=1e-9) == len(allowed)
+
+
+def test_manipulability_ellipsoid_resolves_eigenvalues_eigh_loses() -> None:
+    """Singular values 1e6 … 1e-6: eigh(J Jᵀ) returns noise ~1e-4 for λ = 1e-12, the SVD route the value."""
+    rng = np.random.default_rng(3)
+    U, _ = np.linalg.qr(rng.normal(size=(7, 7)))
+    V, _ = np.linalg.qr(rng.normal(size=(21, 21)))
+    s = np.array([0.0, 1e-6, 1e-3, 1.0, 2.0, 1e3, 1e6])
+    J = U @ np.diag(s) @ V[:7]
+    w, Q = manipulability_ellipsoid(J)
+    # SVD: σ to ~1e-16 σ_max = 1e-10 absolute, so λ = σ² = 1e-12 to ~2e-4 relative
+    np.testing.assert_allclose(w[1:], np.sort(s**2)[1:], rtol=1e-3)
+    assert w[0] < 1e-18
+    np.testing.assert_allclose(Q.T @ Q, np.eye(7), atol=1e-12)
+    assert abs(np.linalg.eigvalsh(J @ J.T)[1] - 1e-12) > 1e-10  # eigh is off by far more than the value
