@@ -80,3 +80,13 @@ def test_a_failing_figure_is_reported_and_the_rest_still_runs(tmp_path, monkeypa
     out = capsys.readouterr().out
     assert "FAILED" in out and "exited with status 2" in out
     assert "This figure failed in the last run" in write_gallery(tmp_path, False, {"table01": ["x"]}).read_text()
+
+
+def test_help_lists_the_options(capsys):
+    with pytest.raises(SystemExit) as ex:
+        main(["--help"])
+    assert ex.value.code == 0
+    out = " ".join(capsys.readouterr().out.split())
+    for opt in ("--out", "--only", "--fast", "--jobs", "--seed", "--quiet", "--list"):
+        assert opt in out, opt
+    assert "usage: python -m paper_figures" in out
