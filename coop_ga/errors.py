@@ -28,6 +28,8 @@ __all__ = [
     "JointLimitWarning",
     "NonFiniteError",
     "PrecisionWarning",
+    "RenderWarning",
+    "RendererUnavailableError",
     "ThreadingError",
     "UnknownNameError",
     "UnsupportedJointError",
@@ -103,3 +105,12 @@ class PrecisionWarning(CoopGAWarning):
 
 class CacheWarning(CoopGAWarning):
     """The compile cache was unusable and a fallback was taken (the message says which and the fix)."""
+
+
+class RenderWarning(CoopGAWarning):
+    """The figure was drawn with a fallback: no OpenGL context for the mesh renderer (matplotlib
+    meshes instead), or a robot without visual geometry (its skeleton instead)."""
+
+
+class RendererUnavailableError(CoopGAError, RuntimeError):
+    """The renderer asked for explicitly (``backend="vtk"``) cannot run here (the message says why)."""

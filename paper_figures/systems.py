@@ -1,19 +1,16 @@
-"""One 3D figure per registered system: link skeleton at q0 and the primitive through its end points.
+"""One 3D figure per registered system at q0: the robot and the primitive through its end points.
 
-    python paper_figures/systems.py [--out paper_figures/systems] [--only NAME ...] [--quiet]
+    python paper_figures/systems.py [--out paper_figures/systems] [--only NAME ...] [--fast] [--quiet]
 
 For every system (``coop_ga.systems.names()``) this draws, at the system's ``q0``:
 
-* the actuated skeleton: joint origins (Pinocchio ``data.oMi``) connected parent → child,
-  each root joint connected to the body it hangs from, and every end frame connected to
-  its joint (end points as red markers, labelled);
-* locked/fixed structure (e.g. a G1's locked legs, the Panda's link0) as grey dots;
-* the primitive through the end points: 2 points → the segment, 3 → the circle (sampled
-  from ``coop_ga.center/radius/normal``), 4 → a sphere wireframe (skipped with a note
-  when the points are coplanar), more → the circles through consecutive triples (and the
-  sphere of the first four if it is well defined).
+* the robot from its visual meshes (:func:`coop_ga.viz.render`, the default renderer; the
+  end points labelled);
+* the primitive through the end points: 2 points → the point pair, 3 → the circle,
+  4 → the sphere (skipped with a note when the points are coplanar), more → the circles
+  through consecutive triples (and the sphere of the first four if it is well defined).
 
-Output: ``<out>/<name>.png`` (headless, :func:`coop_ga.viz.render`), equal axis scales, and
+Output: ``<out>/<name>.png`` (headless), and
 ``metrics.json`` (DOF, end points and the primitive's well-definedness at q0 per system).
 """
 

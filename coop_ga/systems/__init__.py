@@ -17,7 +17,7 @@ from . import library as _library  # noqa: F401  (registers the paper's systems)
 from .limits import DEFAULT_VELOCITY_LIMIT, JointLimits
 from .registry import load, names, register
 from .synthetic import CARTESIAN_BASES, cartesian_points
-from .system import ROBOTS_DIR, System, append_robots, from_model, from_urdf, prefixed
+from .system import ROBOTS_DIR, System, VisualSource, append_robots, from_model, from_urdf, prefixed
 
 __all__ = [
     "CARTESIAN_BASES",
@@ -25,6 +25,7 @@ __all__ = [
     "ROBOTS_DIR",
     "JointLimits",
     "System",
+    "VisualSource",
     "append_robots",
     "cartesian_points",
     "from_model",

@@ -36,7 +36,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from .registry import register
-from .system import ROBOTS_DIR, System, append_robots, prefixed
+from .system import ROBOTS_DIR, System, VisualSource, append_robots, prefixed
 
 __all__: list[str] = ["G1_PELVIS_HEIGHT", "IIWA_Q0", "g1_model"]
 
@@ -80,6 +80,26 @@ def _placement(x: float, y: float, z: float, yaw: float = 0.0):
     import pinocchio as pin
 
     return pin.SE3(pin.utils.rotate("z", yaw), np.array([x, y, z], dtype=float))
+
+
+def _erd_visual(loader: str, prefix: str = "") -> VisualSource:
+    """Visual geometry of an example-robot-data robot (``loader``: a ``robots_loader`` class name):
+    its URDF and the package folder that resolves ``package://example-robot-data/...``."""
+    import os
+
+    import example_robot_data as erd
+
+    L = getattr(erd.robots_loader, loader)
+    rel = os.path.join(L.path, L.urdf_subpath, L.urdf_filename)
+    root = erd.getModelPath(rel)
+    return VisualSource(
+        urdf=os.path.join(root, rel), package_dirs=(os.path.normpath(os.path.join(root, "..", "..")),), prefix=prefix
+    )
+
+
+def _own_visual(robot: str, prefix: str = "") -> VisualSource:
+    """Visual geometry of a URDF we ship (``robots/<robot>/<robot>.urdf``: boxes, cylinders, spheres)."""
+    return VisualSource(urdf=ROBOTS_DIR / robot / f"{robot}.urdf", prefix=prefix)
 
 
 # ---------------------------------------------------------------------- iiwa
@@ -189,6 +209,7 @@ def _three_franka() -> System:
         q0=np.tile(q0, 3),
         description="three Franka Panda arms (fingers locked) 120° apart on a 0.8 m circle, facing the centre",
         labels=("arm0 tcp", "arm1 tcp", "arm2 tcp"),
+        visuals=tuple(_erd_visual("PandaLoader", f"arm{i}_") for i in range(3)),
     )
     return _with_panda_accelerations(system, ("arm0_", "arm1_", "arm2_"))
 
@@ -217,6 +238,7 @@ def _three_iiwa14() -> System:
             "0.40 m circle at z = 0.43 m, counter-clockwise (circle normal +z)"
         ),
         labels=("arm0 flange", "arm1 flange", "arm2 flange"),
+        visuals=tuple(_own_visual("iiwa14", f"arm{i}_") for i in range(3)),
     )
 
 
@@ -235,6 +257,7 @@ def _g1_arms() -> System:
             "hands 0.30 m in front of the pelvis and 0.36 m apart"
         ),
         labels=("right hand", "left hand"),
+        visuals=(_erd_visual("G1Loader"),),
     )
 
 
@@ -258,6 +281,7 @@ def _g1_torso_arms() -> System:
             "left hand, right hand: the circle through them faces forward and up (normal ≈ (+0.6, 0, +0.8) at q0)"
         ),
         labels=("chest", "right hand", "left hand"),
+        visuals=(_erd_visual("G1Loader"),),
     )
 
 
@@ -288,6 +312,7 @@ def _franka_and_g1() -> System:
             "(normal ≈ (−0.6, 0, +0.8) at q0)"
         ),
         labels=("franka tcp", "g1 left hand", "g1 right hand"),
+        visuals=(_erd_visual("PandaLoader", "franka_"), _erd_visual("G1Loader", "g1_")),
     )
     return _with_panda_accelerations(system, ("franka_",))
 
@@ -319,6 +344,7 @@ def _two_g1() -> System:
             "lowers its left hand and raises its right one, so the four hands are far from coplanar (sphere)"
         ),
         labels=("a left hand", "a right hand", "b left hand", "b right hand"),
+        visuals=(_erd_visual("G1Loader", "a_"), _erd_visual("G1Loader", "b_")),
     )
 
 
@@ -353,6 +379,7 @@ def _three_finger_hand() -> System:
             "angles of the allegro ball grasp; the three tips face each other in front of the palm"
         ),
         labels=("index tip", "thumb tip", "ring tip"),
+        visuals=(_erd_visual("AllegroRightHandLoader"),),
     )
 
 
@@ -370,6 +397,7 @@ def _allegro() -> System:
             "8 cm in front of the palm (far from coplanar)"
         ),
         labels=("index tip", "middle tip", "ring tip", "thumb tip"),
+        visuals=(_erd_visual("AllegroRightHandLoader"),),
     )
 
 
@@ -403,4 +431,5 @@ def _hexapod() -> System:
             "the plane z = −0.0993 m, so a 4-foot sphere is DEGENERATE at q0 (lift a foot to define one)"
         ),
         labels=tuple(f"{leg} foot" for leg in _HEXAPOD_FEET),
+        visuals=(_own_visual("hexapod"),),
     )

@@ -7,7 +7,11 @@ A :class:`System` bundles
   ``pinocchio.buildReducedModel``);
 * ``end_frames`` — frame names, one per chain, in the order the cooperative layer uses;
 * ``q0``, ``q_lower``, ``q_upper``, ``joint_names`` — a nominal configuration and limits;
-* ``tree`` — the :class:`~coop_ga.kinematics.chains.KinematicTree` (motor FK, Jacobians).
+* ``tree`` — the :class:`~coop_ga.kinematics.chains.KinematicTree` (motor FK, Jacobians);
+* ``visuals`` — where each robot's visual geometry comes from (:class:`VisualSource`: a URDF
+  and its package folders, or a ``pinocchio.GeometryModel``, plus the frame-name prefix the
+  robot got in the combined model); :meth:`System.visual_model` builds the visual
+  ``pinocchio.GeometryModel`` that matches ``model`` (for :mod:`coop_ga.viz`).
 
 Systems are registered by name in :mod:`coop_ga.systems.registry`; ``load(name)`` builds
 (and caches) one.  Any URDF that Pinocchio loads becomes a system with :func:`from_urdf`.
@@ -33,6 +37,7 @@ from .limits import JointLimits
 __all__ = [
     "ROBOTS_DIR",
     "System",
+    "VisualSource",
     "append_robots",
     "from_model",
     "from_urdf",
@@ -42,6 +47,108 @@ __all__ = [
 #: Directory of the URDFs coop_ga ships (iiwa14, hexapod): package data of ``coop_ga.systems``,
 #: located with :mod:`importlib.resources`, so it exists in a wheel install as in a checkout.
 ROBOTS_DIR = Path(str(resources.files("coop_ga.systems") / "robots"))
+
+
+@dataclass(frozen=True)
+class VisualSource:
+    """Where the visual geometry of one robot of a :class:`System` comes from.
+
+    Either ``urdf`` (its ``<visual>`` elements are read with ``pinocchio.buildGeomFromUrdf``,
+    meshes loaded by coal/assimp; ``package_dirs`` resolve ``package://`` URIs) or ``geometry``,
+    a ``pinocchio.GeometryModel`` built for ``model``.  ``prefix`` is the prefix that robot's
+    frame names carry in the system's model (:func:`prefixed`; ``""`` for a single robot).
+
+    The geometry is matched to the system's (reduced, appended, prefixed) model by frame
+    name: an object attached to link ``L`` of the source is attached to frame ``prefix + L``
+    of the system, at the same pose relative to that link (:meth:`System.visual_model`).
+    """
+
+    urdf: Path | None = None
+    package_dirs: tuple[str, ...] = ()
+    prefix: str = ""
+    geometry: Any = field(default=None, compare=False, repr=False)
+    model: Any = field(default=None, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if (self.urdf is None) == (self.geometry is None):
+            raise InvalidInputError("a VisualSource needs exactly one of urdf= or geometry= (with model=)")
+        if self.geometry is not None and self.model is None:
+            raise InvalidInputError(
+                "VisualSource(geometry=...) also needs model=, the pinocchio.Model it was built for"
+            )
+        if self.urdf is not None:
+            object.__setattr__(self, "urdf", Path(self.urdf))
+        object.__setattr__(self, "package_dirs", tuple(str(d) for d in self.package_dirs))
+
+
+#: Source geometry models already read, keyed by (URDF path, package dirs): (pin.Model, pin.GeometryModel).
+_SOURCE_CACHE: dict[tuple[str, tuple[str, ...]], tuple[Any, Any]] = {}
+_MESH_LOADER: Any = None
+
+
+def _mesh_loader() -> Any:
+    """One coal ``CachedMeshLoader`` per process (a mesh file is read once), or None without coal."""
+    global _MESH_LOADER
+    if _MESH_LOADER is None:
+        try:
+            import importlib
+
+            _MESH_LOADER = importlib.import_module("coal").CachedMeshLoader()
+        except ImportError:  # pragma: no cover - coal ships with the pin wheels
+            _MESH_LOADER = False
+    return _MESH_LOADER or None
+
+
+def _source_geometry(src: VisualSource) -> tuple[Any, Any]:
+    """(pin.Model, visual pin.GeometryModel) of a source, read once per process for a URDF."""
+    import pinocchio as pin
+
+    if src.geometry is not None:
+        return src.model, src.geometry
+    assert src.urdf is not None
+    key = (str(src.urdf), src.package_dirs)
+    if key not in _SOURCE_CACHE:
+        if not src.urdf.exists():
+            raise InvalidInputError(f"visual geometry: URDF file not found: {src.urdf}")
+        model = pin.buildModelFromUrdf(str(src.urdf))
+        try:
+            geom = pin.buildGeomFromUrdf(
+                model, str(src.urdf), pin.GeometryType.VISUAL, None, list(src.package_dirs), _mesh_loader()
+            )
+        except (ValueError, RuntimeError) as e:
+            raise InvalidInputError(
+                f"visual geometry of {src.urdf} could not be loaded ({e}); pass the folders that resolve its "
+                "package:// URIs as package_dirs"
+            ) from e
+        _SOURCE_CACHE[key] = (model, geom)
+    return _SOURCE_CACHE[key]
+
+
+def _matched_geometry(model: Any, sources: Sequence[VisualSource]) -> tuple[Any, list[str]]:
+    """The visual ``pin.GeometryModel`` of ``sources`` re-attached to ``model`` by frame name,
+    and the names of the objects whose link is not a frame of ``model`` (skipped)."""
+    import pinocchio as pin
+
+    out = pin.GeometryModel()
+    skipped: list[str] = []
+    for src in sources:
+        smodel, sgeom = _source_geometry(src)
+        for obj in sgeom.geometryObjects:
+            sframe = smodel.frames[obj.parentFrame]
+            name = src.prefix + sframe.name
+            if not model.existFrame(name, sframe.type):
+                skipped.append(src.prefix + obj.name)
+                continue
+            fid = model.getFrameId(name, sframe.type)
+            frame = model.frames[fid]
+            new = obj.copy()
+            new.name = src.prefix + obj.name
+            new.parentJoint = frame.parentJoint
+            new.parentFrame = fid
+            # the object's pose in its link frame is kept; the link's pose in its (new) joint is the system's
+            new.placement = frame.placement * sframe.placement.inverse() * obj.placement
+            out.addGeometryObject(new)
+    return out, skipped
 
 
 @dataclass
@@ -57,6 +164,8 @@ class System:
     labels: tuple[str, ...] = ()
     #: joint limits (default: read from the model, see :mod:`coop_ga.systems.limits`)
     limits: JointLimits | None = field(default=None, repr=False)
+    #: where the robots' visual geometry comes from (:class:`VisualSource`; empty: none known)
+    visuals: tuple[VisualSource, ...] = field(default=(), repr=False)
     tree: KinematicTree = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -74,7 +183,11 @@ class System:
             )
         if not self.labels:
             self.labels = self.end_frames
+        self.visuals = tuple(self.visuals)
+        if not all(isinstance(v, VisualSource) for v in self.visuals):
+            raise InvalidInputError(f"visuals of system '{self.name}' must be VisualSource objects")
         self._data = None
+        self._visual: Any = None
 
     # ------------------------------------------------------------------ description
     @property
@@ -122,7 +235,9 @@ class System:
         """
         assert self.limits is not None
         new = self.limits.replace(position=position, velocity=velocity, acceleration=acceleration, effort=effort)
-        return dataclasses.replace(self, name=name or self.name, limits=new)
+        out = dataclasses.replace(self, name=name or self.name, limits=new)
+        out._visual = self._visual  # same model, same visual geometry
+        return out
 
     @property
     def data(self) -> Any:
@@ -130,6 +245,32 @@ class System:
         if self._data is None:
             self._data = self.model.createData()
         return self._data
+
+    def visual_model(self) -> Any:
+        """The visual ``pinocchio.GeometryModel`` of this system, matched to :attr:`model`, or None.
+
+        Built once per system from :attr:`visuals` (each source's URDF is read once per
+        process, meshes by coal/assimp): every visual object of a source's link ``L`` is
+        attached to the frame ``prefix + L`` of :attr:`model` — the frames survive
+        ``buildReducedModel`` (locked links ride on their parent joint) and ``appendModel``
+        (root links carry the base placement) — at the pose it has in that link's frame.
+        Objects whose link is missing from the model are skipped (``visual_skipped``).
+        Place it with ``pinocchio.updateGeometryPlacements(model, data, geom, geom_data, q)``;
+        the world pose of object i is then ``geom_data.oMg[i]`` (rotation, translation [m]).
+
+        Returns None when the system has no visual sources (e.g. :func:`from_model` without
+        ``visual_model=``).  Raises :class:`InvalidInputError` if a URDF or mesh cannot be read.
+        """
+        if not self.visuals:
+            return None
+        if self._visual is None:
+            self._visual = _matched_geometry(self.model, self.visuals)
+        return self._visual[0]
+
+    @property
+    def visual_skipped(self) -> list[str]:
+        """Names of visual objects not attached because their link is not a frame of the model."""
+        return [] if self._visual is None else list(self._visual[1])
 
     def _joint_ids_in_q(self) -> list[int]:
         m = self.model
@@ -240,15 +381,25 @@ def from_model(
     locked_joints: Sequence[str] = (),
     q_lock: Any = None,
     description: str = "",
+    visual_model: Any = None,
+    visuals: Sequence[VisualSource] = (),
 ) -> System:
     """Build a :class:`System` from a ``pinocchio.Model``.
 
     ``locked_joints`` (names) are removed with ``pinocchio.buildReducedModel`` at
     ``q_lock`` (default: the neutral configuration).  ``q0`` defaults to the neutral
     configuration, moved to mid-range where the limits exclude it.
+
+    ``visual_model``: a visual ``pinocchio.GeometryModel`` built for ``model`` (before
+    locking), so that :mod:`coop_ga.viz` draws the robot's meshes; or ``visuals``, the
+    :class:`VisualSource` list of a combined model (one per robot, with its prefix).
+    Without either the robot is drawn as a skeleton.
     """
     import pinocchio as pin
 
+    sources = tuple(visuals)
+    if visual_model is not None:
+        sources += (VisualSource(geometry=visual_model, model=pin.Model(model)),)
     if locked_joints:
         known = set(model.names)
         missing = [j for j in locked_joints if j not in known]
@@ -261,8 +412,19 @@ def from_model(
     if q0 is None:
         q0 = _default_q0(model)
     return System(
-        name=name, model=model, end_frames=tuple(end_frames), q0=np.asarray(q0, dtype=float), description=description
+        name=name,
+        model=model,
+        end_frames=tuple(end_frames),
+        q0=np.asarray(q0, dtype=float),
+        description=description,
+        visuals=sources,
     )
+
+
+def _default_package_dirs(urdf: Path) -> tuple[str, ...]:
+    """Folders that resolve ``package://NAME/...`` for a URDF inside its package: its parents."""
+    p = urdf.resolve().parent
+    return tuple(str(d) for d in [p, *list(p.parents)[:3]])
 
 
 def from_urdf(
@@ -273,8 +435,13 @@ def from_urdf(
     name: str | None = None,
     q0: Any = None,
     q_lock: Any = None,
+    package_dirs: Sequence[str | Path] | None = None,
 ) -> System:
     """Build a system from any URDF Pinocchio loads (fixed base).
+
+    ``package_dirs``: folders that resolve the ``package://`` mesh URIs of its ``<visual>``
+    elements (default: the URDF's folder and three of its parents); the visual geometry is
+    read only when the system is drawn (:meth:`System.visual_model`).
 
     Example::
 
@@ -288,6 +455,7 @@ def from_urdf(
     if not p.exists():
         raise InvalidInputError(f"URDF file not found: {p}")
     model = pin.buildModelFromUrdf(str(p))
+    dirs = _default_package_dirs(p) if package_dirs is None else tuple(str(d) for d in package_dirs)
     return from_model(
         model,
         end_frames,
@@ -296,4 +464,5 @@ def from_urdf(
         locked_joints=locked_joints,
         q_lock=q_lock,
         description=f"from URDF {p}",
+        visuals=(VisualSource(urdf=p.resolve(), package_dirs=dirs),),
     )

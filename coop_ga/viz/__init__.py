@@ -14,11 +14,18 @@ canvas directly, so they work headless whatever the backend.
 * :mod:`~coop_ga.viz.plots` — :func:`plot_bivector`, :func:`plot_error`;
 * :mod:`~coop_ga.viz.axes` — :func:`set_equal_3d`, :func:`label_axes_3d`;
 * :mod:`~coop_ga.viz.render` — :func:`render`, :func:`save`;
-* :mod:`~coop_ga.viz.scene` — :class:`Scene`, :func:`render_scene` (every figure's 3-D panel).
+* :mod:`~coop_ga.viz.scene` — :class:`Scene`, :func:`render_scene` (every figure's 3-D panel);
+* :mod:`~coop_ga.viz.mesh` — robots' visual meshes at a configuration (:func:`robot_mesh`,
+  :class:`TriMesh`, :func:`decimate`), cached per process; :class:`RenderWarning`;
+* :mod:`~coop_ga.viz.backends` — the renderers behind :func:`render_scene` / :func:`render`
+  (``"vtk"``, ``"matplotlib"`` meshes, ``"skeleton"``; :func:`resolve_backend`,
+  :func:`vtk_status`, :class:`Camera`, :func:`frame_camera`).
 """
 
 from .axes import Drawn, axes_box, label_axes_3d, set_equal_3d
+from .backends import BACKENDS, Camera, frame_camera, resolve_backend, vtk_status
 from .frames import draw_frame, frame_axes
+from .mesh import RendererUnavailableError, RenderWarning, TriMesh, decimate, object_mesh, robot_mesh
 from .plots import plot_bivector, plot_error
 from .primitives import circle_points, clip_line, draw_primitive, plane_basis, sphere_mesh, square_points
 from .render import render, save
@@ -27,33 +34,43 @@ from .scene import ROLES, Scene, SceneCurve, ScenePrimitive, SceneRobot, render_
 from .style import BIVECTOR_COLORS, BIVECTOR_LABELS, DPI, LINEWIDTH, PALETTE, Palette, style, use_style
 
 __all__ = [
+    "BACKENDS",
     "BIVECTOR_COLORS",
     "BIVECTOR_LABELS",
     "DPI",
     "LINEWIDTH",
     "PALETTE",
     "ROLES",
+    "Camera",
     "Drawn",
     "Palette",
+    "RenderWarning",
+    "RendererUnavailableError",
     "RobotDrawn",
     "Scene",
     "SceneCurve",
     "ScenePrimitive",
     "SceneRobot",
     "Skeleton",
+    "TriMesh",
     "axes_box",
     "circle_points",
     "clip_line",
+    "decimate",
     "draw_frame",
     "draw_primitive",
     "draw_robot",
     "frame_axes",
+    "frame_camera",
     "label_axes_3d",
+    "object_mesh",
     "plane_basis",
     "plot_bivector",
     "plot_error",
     "render",
     "render_scene",
+    "resolve_backend",
+    "robot_mesh",
     "save",
     "set_equal_3d",
     "skeleton",
@@ -61,4 +78,5 @@ __all__ = [
     "square_points",
     "style",
     "use_style",
+    "vtk_status",
 ]

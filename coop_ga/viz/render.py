@@ -41,22 +41,40 @@ def render(
     title: str | None = None,
     end_labels: bool = True,
     pad: float = 0.05,
+    backend: str = "auto",
 ) -> Path:
-    """Write a PNG of ``system``'s skeleton at ``q`` (nq,) and of ``primitives``, headless (Agg).
+    """Write a PNG of ``system`` at ``q`` (nq,) and of ``primitives``, headless.
 
     Parameters
     ----------
     system: a :class:`coop_ga.systems.System` (or any object with ``model``, ``end_frames``).
     q: configuration (nq,) [rad | m].
     primitives: :class:`coop_ga.Primitive` objects, or ``(primitive, kwargs)`` pairs whose
-        keyword arguments go to :func:`~coop_ga.viz.draw_primitive`.
+        keyword arguments go to :func:`~coop_ga.viz.draw_primitive` (``color``, ``lw``, ``ls``,
+        ``alpha``, ``size``, ``length``, ``normal_arrow``, ``marker_size``).
     path: output file; view: camera (elevation, azimuth) [deg]; size: figure size [in];
         dpi: resolution; title: figure title (default: the system's name);
         end_labels: label the end points with ``system.labels``; pad: margin [m].
+    backend: as :func:`~coop_ga.viz.render_scene`: ``"auto"`` (the robot from its visual
+        meshes, VTK or matplotlib), ``"vtk"``, ``"matplotlib"`` or ``"skeleton"``.
 
-    The axes have equal scales and cover the skeleton and every primitive (a line or plane
-    is drawn after the limits are set, within them).  Returns the path written.
+    The same machinery as :func:`~coop_ga.viz.render_scene` with one robot in the neutral
+    role.  Returns the path written.
     """
+    from .backends import render_mesh_scene, resolve_backend
+
+    chosen = resolve_backend(backend)
+    name = getattr(system, "name", "") if title is None else title
+    if chosen != "skeleton":
+        from .scene import Scene
+
+        scene = Scene().robot(system, q, "neutral", end_labels=end_labels)
+        for X in primitives:
+            X, kw = X if isinstance(X, tuple) else (X, {})
+            scene.primitive(X, "neutral", style=kw)
+        return render_mesh_scene(
+            scene, path, backend=chosen, view=view, size=size, dpi=dpi, title=name, legend=False, pad=pad
+        )
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -74,7 +92,7 @@ def render(
             draw_primitive(ax, X, **{"anchor": drawn.skeleton.end_points.mean(axis=0), **kw})
         ax.view_init(*view)
         label_axes_3d(ax)
-        ax.set_title(getattr(system, "name", "") if title is None else title)
+        ax.set_title(name)
         p = Path(path)
         p.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(p, dpi=dpi)

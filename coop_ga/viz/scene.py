@@ -15,10 +15,15 @@ trajectory    curve red (end-point paths)
 neutral       robot / primitive / curve / points in the default colour
 ============  ====================================================================
 
-Backends: ``"matplotlib"`` draws robot skeletons (joint origins, Pinocchio FK) with a
-painter's-algorithm 3-D axes; ``"auto"`` picks the best available renderer.  The mesh
-renderer (robots drawn from their visual meshes, PyVista/VTK offscreen with a depth buffer,
-falling back to a depth-sorted matplotlib mesh) plugs in behind the same signature.
+Backends (:mod:`coop_ga.viz.backends`): ``"vtk"`` draws the robots from their visual
+meshes (:meth:`coop_ga.systems.System.visual_model`) with PyVista/VTK offscreen — depth
+buffer, lighting, primitives as tubes and translucent surfaces — and composes the image
+into a matplotlib figure (title, legend, fonts of the paper style); ``"matplotlib"`` draws
+the same meshes, decimated, as one depth-sorted ``Poly3DCollection``; ``"skeleton"`` draws
+stick figures (joint origins, Pinocchio FK); ``"auto"`` (default) is ``"vtk"`` when an
+offscreen OpenGL context can be made, else ``"matplotlib"`` with one
+:class:`~coop_ga.errors.RenderWarning`.  ``$COOP_GA_RENDERER`` replaces ``"auto"``.
+A robot without visual geometry is drawn as its skeleton (with a notice).
 """
 
 from __future__ import annotations
@@ -49,22 +54,29 @@ def _role(role: str) -> str:
 
 @dataclass
 class SceneRobot:
-    """A system drawn at configuration ``q`` (nq,) [rad | m] in a role (``initial``, ``final`` or ``neutral``)."""
+    """A system drawn at configuration ``q`` (nq,) [rad | m] in a role (``initial``, ``final`` or ``neutral``);
+    ``end_labels``: write ``system.labels`` next to its end points."""
 
     system: Any
     q: Any
     role: str = "neutral"
     label: str | None = None
+    end_labels: bool = False
 
 
 @dataclass
 class ScenePrimitive:
-    """A :class:`coop_ga.Primitive` in a role; ``fraction`` shades ``intermediate`` ones (0 → initial, 1 → final)."""
+    """A :class:`coop_ga.Primitive` in a role; ``fraction`` shades ``intermediate`` ones (0 → initial, 1 → final).
+
+    ``style``: optional :func:`~coop_ga.viz.draw_primitive` keywords that override the role's
+    (``color``, ``lw``, ``ls``, ``alpha``, ``size``, ``length``, ``normal_arrow``, ``marker_size``).
+    """
 
     X: Any
     role: str = "neutral"
     label: str | None = None
     fraction: float = 0.5
+    style: dict[str, Any] | None = None
 
 
 @dataclass
@@ -85,15 +97,28 @@ class Scene:
     primitives: list[ScenePrimitive] = field(default_factory=list)
     curves: list[SceneCurve] = field(default_factory=list)
 
-    def robot(self, system: Any, q: Any, role: str = "neutral", label: str | None = None) -> Scene:
-        self.robots.append(SceneRobot(system, q, _role(role), label))
+    def robot(
+        self, system: Any, q: Any, role: str = "neutral", label: str | None = None, *, end_labels: bool = False
+    ) -> Scene:
+        """Add ``system`` at configuration ``q`` (nq,) [rad | m]; returns the scene (chainable)."""
+        self.robots.append(SceneRobot(system, q, _role(role), label, bool(end_labels)))
         return self
 
-    def primitive(self, X: Any, role: str = "neutral", label: str | None = None, fraction: float = 0.5) -> Scene:
-        self.primitives.append(ScenePrimitive(X, _role(role), label, float(fraction)))
+    def primitive(
+        self,
+        X: Any,
+        role: str = "neutral",
+        label: str | None = None,
+        fraction: float = 0.5,
+        *,
+        style: dict[str, Any] | None = None,
+    ) -> Scene:
+        """Add the primitive ``X`` (world frame, metres); returns the scene (chainable)."""
+        self.primitives.append(ScenePrimitive(X, _role(role), label, float(fraction), dict(style) if style else None))
         return self
 
     def curve(self, points: Any, role: str = "trajectory", label: str | None = None, markers: bool = False) -> Scene:
+        """Add a polyline (N, 3) [m] (or markers); returns the scene (chainable)."""
         self.curves.append(SceneCurve(np.asarray(points, dtype=float).reshape(-1, 3), _role(role), label, markers))
         return self
 
@@ -118,6 +143,11 @@ def _primitive_style(p: ScenePrimitive) -> dict[str, Any]:
     return {"color": PALETTE.primitive}
 
 
+def _styled(p: ScenePrimitive) -> dict[str, Any]:
+    """The role's style with the primitive's own ``style`` overrides."""
+    return {**_primitive_style(p), **(p.style or {})}
+
+
 def render_scene(
     scene: Scene,
     path: str | Path,
@@ -135,17 +165,26 @@ def render_scene(
     Parameters
     ----------
     scene: the :class:`Scene`.  path: output PNG (parents created).
-    view: camera (elevation, azimuth) [deg]; size: figure size [in]; dpi: resolution.
-    title: panel title.  backend: ``"auto"``, ``"matplotlib"`` (skeletons).
+    view: camera (elevation, azimuth) [deg], as matplotlib's ``view_init``; size: figure size [in];
+        dpi: resolution.
+    title: panel title.  backend: ``"auto"`` (VTK meshes if an offscreen OpenGL context can be
+        made, else matplotlib meshes; ``$COOP_GA_RENDERER`` replaces it), ``"vtk"``,
+        ``"matplotlib"`` (meshes, depth-sorted) or ``"skeleton"`` (stick figures).
     legend: a legend of the labelled items.  pad: margin around the content [m].
 
-    The axes have equal scales around everything drawn.  Returns the path written.
+    Everything drawn is framed by the camera (mesh backends) or by axes with equal scales
+    (skeleton).  Returns the path written.  Raises :class:`~coop_ga.errors.InvalidInputError`
+    for an unknown backend and :class:`~coop_ga.errors.RendererUnavailableError` for
+    ``"vtk"`` where it cannot run.
     """
-    from ..errors import InvalidInputError
+    from .backends import render_mesh_scene, resolve_backend
 
-    if backend not in ("auto", "matplotlib"):
-        raise InvalidInputError(f"backend must be 'auto' or 'matplotlib', got {backend!r}")
-    return _render_matplotlib(scene, Path(path), view=view, size=size, dpi=dpi, title=title, legend=legend, pad=pad)
+    chosen = resolve_backend(backend)
+    if chosen == "skeleton":
+        return _render_matplotlib(scene, Path(path), view=view, size=size, dpi=dpi, title=title, legend=legend, pad=pad)
+    return render_mesh_scene(
+        scene, path, backend=chosen, view=view, size=size, dpi=dpi, title=title, legend=legend, pad=pad
+    )
 
 
 def _render_matplotlib(
@@ -174,7 +213,13 @@ def _render_matplotlib(
         order = sorted(scene.robots, key=lambda r: {"initial": 0, "neutral": 1, "final": 2}.get(r.role, 1))
         for r in order:
             drawn = draw_robot(
-                ax, r.system, r.q, label=r.label, zorder=2 if r.role == "final" else 1, **_robot_style(r.role)
+                ax,
+                r.system,
+                r.q,
+                label=r.label,
+                zorder=2 if r.role == "final" else 1,
+                end_labels=r.end_labels,
+                **_robot_style(r.role),
             )
             pts.append(drawn.points)
             if drawn.skeleton is not None and len(drawn.skeleton.end_points):
@@ -184,7 +229,7 @@ def _render_matplotlib(
             if kind_of(p.X) in ("line", "plane"):
                 flats.append(p)
                 continue
-            pts.append(draw_primitive(ax, p.X, label=p.label, **_primitive_style(p)).points)
+            pts.append(draw_primitive(ax, p.X, label=p.label, **_styled(p)).points)
         for c in scene.curves:
             P = np.asarray(c.points, dtype=float).reshape(-1, 3)
             col = PALETTE.trajectory if c.role == "trajectory" else PALETTE.robot
@@ -197,14 +242,13 @@ def _render_matplotlib(
             set_equal_3d(ax, np.vstack(pts), pad)
         anchor = np.mean(anchors, axis=0) if anchors else None
         for p in flats:
-            draw_primitive(ax, p.X, label=p.label, anchor=anchor, **_primitive_style(p))
+            draw_primitive(ax, p.X, label=p.label, **{"anchor": anchor, **_styled(p)})
         ax.view_init(*view)
         label_axes_3d(ax)
         if title:
             ax.set_title(title)
-        if legend and any(
-            h.get_label() and not h.get_label().startswith("_") for h in ax.get_children() if hasattr(h, "get_label")
-        ):
+        labels = [h.get_label() for h in ax.get_children() if hasattr(h, "get_label")]
+        if legend and any(isinstance(lab, str) and lab and not lab.startswith("_") for lab in labels):
             ax.legend(loc="upper left", fontsize=7)
         path.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(path, dpi=dpi)

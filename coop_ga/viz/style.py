@@ -1,9 +1,10 @@
 """One palette, one font set-up and one resolution for every coop_ga figure (paper style).
 
 Colours follow the paper's figures: the robot at its *initial* configuration is drawn
-light, at its *final* configuration grey; the *initial* primitive is green, the *final*
-one turquoise, a *target* black and dashed; end-point *trajectories* are red;
-*intermediate* primitives are thin lines shaded from the initial to the final colour.
+light (a near-white surface when drawn from its meshes), at its *final* configuration
+grey; the *initial* primitive is green, the *final* one turquoise, a *target* black and
+dashed; end-point *trajectories* are red; *intermediate* primitives are thin lines shaded
+from the initial to the final colour.
 
 Use :func:`style` as a context manager (``with style(): ...``) or :func:`use_style`
 once per script; :data:`DPI` is the resolution every figure is saved with.
@@ -66,6 +67,10 @@ class Palette:
     primitive: str = "#1f77b4"  # a primitive drawn on its own
     trajectory: str = "#d62728"  # red end-point paths
     frame_axes: tuple[str, str, str] = ("#d62728", "#2ca02c", "#1f77b4")  # x, y, z
+    # robots drawn from their meshes (lit surfaces: lighter than the skeleton lines)
+    initial_mesh: str = "0.96"  # initial configuration: near-white
+    final_mesh: str = "0.58"  # final configuration: grey
+    robot_mesh: str = "0.72"  # a single configuration
 
     def intermediate(self, s: float) -> Any:
         """Colour of an intermediate primitive at fraction ``s`` ∈ [0, 1] of the motion
