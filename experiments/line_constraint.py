@@ -254,7 +254,7 @@ def main(argv: list[str] | None = None) -> int:
         "max_constrained_deviation": m2["max_constrained_deviation"],
         "max_limit_violation": max_violation,
         "gallery": {
-            "title": "Figs. 14-15: right-hand reaching with the cooperative line of a G1's hands, free and horizontal",
+            "title": "Figs. 14–15: right-hand reaching with the cooperative line of a G1's hands, free and horizontal",
             "claim": "The cooperative line of the two wrists can constrain a single-arm task: with the left hand held "
             "the line changes freely as the right hand reaches its target, and when the line must stay horizontal its "
             "vertical direction component stays constant while both arms move in coordination.",

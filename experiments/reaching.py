@@ -132,7 +132,7 @@ PRESETS: dict[str, Preset] = {
             (7.5, 6.5),
             21,
             "Fig. 8: three Franka arms reaching a larger, displaced and tilted circle",
-            "Three Franka arms (21 DOF) reach a larger target circle, so the dilation command e0inf is "
+            "Three Franka arms (21 DOF) reach a larger target circle, so the dilation command e0∞ is "
             "non-zero, and iLQR converges in five or fewer iterations with the terminal error vanishing.",
             compare_diffik=True,
         ),
@@ -179,7 +179,7 @@ PRESETS: dict[str, Preset] = {
             12,
             "Fig. 11: three-fingered hand reaching a cooperative plane",
             "A three-fingered hand reaches a desired cooperative plane by iLQR; since a plane is flat, the "
-            "dilation component e0inf of the bivector command is zero.",
+            "dilation component e0∞ of the bivector command is zero.",
         ),
         Preset(
             "fig12",
@@ -636,16 +636,16 @@ def gallery(setup: Setup, s: Any, res: Any, m: dict[str, Any]) -> dict[str, Any]
     ev = (
         f"{p.system} ({s.nq} DOF), cooperative {p.kind}: iLQR "
         f"{'converged' if res.converged else 'did NOT converge'} in {res.iterations} iterations "
-        f"(paper: typically <= {PAPER_MAX_ITERATIONS}) to terminal error {res.error:.1e} (tol {m['tol']:g}) from "
+        f"(paper: typically ≤ {PAPER_MAX_ITERATIONS}) to terminal error {res.error:.1e} (tol {m['tol']:g}) from "
         f"{m['initial_error']:.3g}, max joint-limit violation {m['max_limit_violation']:.3g} rad, over "
-        f"{setup.horizon} knots x {setup.dt:g} s = {setup.horizon * setup.dt:g} s (the paper's dt = {PAPER_DT:g} s "
+        f"{setup.horizon} knots × {setup.dt:g} s = {setup.horizon * setup.dt:g} s (the paper's Δt = {PAPER_DT:g} s "
         f"would give {HORIZON * PAPER_DT:g} s, not its 2.5 s)."
     )
     agrees = ok and within
     if p.kind in FLAT_KINDS:
         zero = m["max_abs_dilation_command"] == 0.0 and m["max_abs_dilation_error"] == 0.0
         ev += (
-            f" Dilation (e0inf) of the command: max |.| = {m['max_abs_dilation_command']:.3g}, of the error "
+            f" Dilation (e0∞) of the command: max |·| = {m['max_abs_dilation_command']:.3g}, of the error "
             f"{m['max_abs_dilation_error']:.3g} (largest command component {m['max_abs_command']:.3g})."
         )
         if p.kind == "plane":
@@ -654,7 +654,7 @@ def gallery(setup: Setup, s: Any, res: Any, m: dict[str, Any]) -> dict[str, Any]
         ev += " The line passes through the hand frames (rubber_hand), not the wrists the paper names."
     if "integrated_dilation_command" in m:
         ev += (
-            f" Radius x{np.exp(m['log_radius_ratio_final_initial']):.3f}; dilation command max |e0inf| = "
+            f" Radius ×{np.exp(m['log_radius_ratio_final_initial']):.3f}; dilation command max |e0∞| = "
             f"{m['max_abs_dilation_command']:.3g} 1/s, integral {m['integrated_dilation_command']:.4f} = "
             f"log(r_n/r_0) {m['log_radius_ratio_final_initial']:.4f}."
         )

@@ -158,7 +158,7 @@ def write_gallery(out: Path, fast: bool, failures: dict[str, list[str]]) -> Path
     for fig, g in entries:
         title = g["title"] if g else fig.key
         # "Table 1: …" or "The systems" already say what they are; "Fig. 7: <title>" otherwise
-        heading = title if title.startswith(_numbers(fig)) or fig.key == "systems" else f"{_numbers(fig)}: {title}"
+        heading = title if title.startswith(("Fig", "Table")) or fig.key == "systems" else f"{_numbers(fig)}: {title}"
         lines += [f'<a id="{fig.folder.replace("_", "-")}"></a>', "", f"## {heading}", ""]
         if g is None:
             lines += ["**This figure failed in the last run:**", "", "```", *failures[fig.key], "```", ""]

@@ -136,7 +136,7 @@ def test_files(run):
     assert g["agrees"] is True and g["figures"] == ["scene.png", "bivector.png"]
     assert f"{m['iterations']} iterations" in g["evidence"] and "0.25 s" in g["evidence"]
     if fig == "fig11":
-        assert "Dilation (e0inf) of the command: max |.| = 0" in g["evidence"]
+        assert "Dilation (e0∞) of the command: max |·| = 0" in g["evidence"]
     for name in g["figures"]:
         img = mpimg.imread(out / name)
         assert img.shape[0] > 500 and img.shape[1] > 500, name
