@@ -4,7 +4,8 @@
 
 Runs each figure's experiment script (``paper_figures.FIGURES``: Figs. 5–21, Table 1 and
 the drawings of the systems) into ``DIR/figNN_<name>/`` — its PNGs, ``metrics.json`` and,
-untracked, ``timing.json`` and ``log.txt`` (the script's own output) — and writes the
+untracked, ``timing.json`` and ``log.txt`` (the script's own output); earlier PNG/JSON/NPZ/MD/TXT
+files in that folder are removed first, so no stale figure survives — and writes the
 gallery ``DIR/README.md``: per figure the paper's claim, the measured numbers that support
 or contradict it, and the command that made it.
 
@@ -39,6 +40,8 @@ from coop_ga.harness import experiment_parser, positive_int, write_json
 from . import FIGURES, ROOT, Figure, load_script, select
 
 LOG_FILE = "log.txt"
+#: files a figure folder holds; removed before its script runs again (nothing else is touched)
+OUTPUT_SUFFIXES = (".png", ".json", ".npz", ".md", ".txt")
 
 
 def _limit_violations(obj: Any, path: str = "") -> list[tuple[str, float]]:
@@ -64,6 +67,10 @@ def run_one(fig: Figure, out: Path, extra: list[str], verbose: bool) -> dict[str
     to ``log.txt`` in its folder (and to the terminal too with ``verbose``)."""
     folder = out / fig.folder
     folder.mkdir(parents=True, exist_ok=True)
+    # outputs of an earlier run (perhaps of an older script version) must not linger as stale figures
+    for old in folder.iterdir():
+        if old.is_file() and old.suffix in OUTPUT_SUFFIXES:
+            old.unlink()
     argv = [*fig.args, "--out", str(folder), *extra]
     problems: list[str] = []
     t0 = time.perf_counter()

@@ -90,3 +90,13 @@ def test_help_lists_the_options(capsys):
     for opt in ("--out", "--only", "--fast", "--jobs", "--seed", "--quiet", "--list"):
         assert opt in out, opt
     assert "usage: python -m paper_figures" in out
+
+
+def test_stale_outputs_are_removed_before_a_figure_runs(tmp_path):
+    folder = tmp_path / "table01_controllable_spaces"
+    folder.mkdir()
+    (folder / "old_figure.png").write_bytes(b"stale")
+    (folder / "notes.keep").write_text("not an output")
+    assert main(["--only", "table01", "--fast", "--quiet", "--out", str(tmp_path)]) == 0
+    assert not (folder / "old_figure.png").exists()
+    assert (folder / "notes.keep").exists() and (folder / "table1.md").exists()
