@@ -579,7 +579,14 @@ class _VTKScene:
                 n = d["normal"] / np.linalg.norm(d["normal"])
                 L = 0.5 * d["radius"]
                 rr = self.radius(max(0.6 * lw, 0.8))
-                arrow = pv.Arrow(start=d["center"], direction=n, tip_length=0.25, tip_radius=2.5 * rr / L, shaft_radius=rr / L, scale=L)
+                arrow = pv.Arrow(
+                    start=d["center"],
+                    direction=n,
+                    tip_length=0.25,
+                    tip_radius=2.5 * rr / L,
+                    shaft_radius=rr / L,
+                    scale=L,
+                )
                 self.pl.add_mesh(arrow, **self.flat(col, alpha))
         elif pr.kind == "sphere":
             s = pv.Sphere(radius=d["radius"], center=d["center"], theta_resolution=48, phi_resolution=32)
