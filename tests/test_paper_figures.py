@@ -100,3 +100,58 @@ def test_stale_outputs_are_removed_before_a_figure_runs(tmp_path):
     assert main(["--only", "table01", "--fast", "--quiet", "--out", str(tmp_path)]) == 0
     assert not (folder / "old_figure.png").exists()
     assert (folder / "notes.keep").exists() and (folder / "table1.md").exists()
+
+
+# ---------------------------------------------------------------------- the one command, every figure
+REACHING = ("fig07", "fig08", "fig09", "fig10", "fig11", "fig12", "fig13")
+
+
+@pytest.fixture(scope="module")
+def fast_run(tmp_path_factory):
+    """``python -m paper_figures --fast`` over every figure, once for the checks below."""
+    out = tmp_path_factory.mktemp("paper_figures_fast")
+    rc = main(["--fast", "--quiet", "--out", str(out)])
+    return rc, out
+
+
+def _metrics(out, key):
+    fig = next(f for f in paper_figures.FIGURES if f.key == key)
+    return json.loads((out / fig.folder / "metrics.json").read_text())
+
+
+def test_fast_run_succeeds_for_every_figure(fast_run):
+    rc, out = fast_run
+    assert rc == 0  # no script failed, every listed figure exists, nothing left the joint limits
+    text = (out / "README.md").read_text()
+    for f in paper_figures.FIGURES:
+        g = _metrics(out, f.key)["gallery"]
+        assert g["title"] in text and g["evidence"] in text
+        for name in g["figures"]:
+            assert (out / f.folder / name).stat().st_size > 10_000, (f.key, name)  # a real image
+
+
+@pytest.mark.parametrize("key", REACHING)
+def test_fast_reaching_figures_converge_inside_the_limits(fast_run, key):
+    m = _metrics(fast_run[1], key)
+    assert m["converged"] is True and m["terminal_error"] < 1e-5
+    assert 1 <= m["iterations"] <= 5  # the paper: "typically five or less iterations"
+    assert m["max_limit_violation"] == 0.0
+
+
+def test_fast_plane_has_no_dilation(fast_run):
+    assert _metrics(fast_run[1], "fig11")["max_abs_dilation_command"] <= 1e-14
+
+
+def test_fast_line_constraint_keeps_its_component(fast_run):
+    m = _metrics(fast_run[1], "fig14_15")
+    assert m["max_constrained_deviation"] < 1e-9  # the horizontal line's d_z, projected each step
+    assert m["scenario1"]["direction_z_max_deviation"] > 1e-2  # free line: d_z changes
+    assert m["max_limit_violation"] == 0.0
+
+
+def test_fast_singularity_eigenvalue_falls_toward_zero(fast_run):
+    m = _metrics(fast_run[1], "fig18_19")
+    assert m["stopped_at_threshold"] is True and m["well_definedness_final"] >= m["raise_below"]
+    assert m["well_definedness_final"] < 2 * m["raise_below"]  # it got close to the singularity
+    assert m["min_eigenvalue_ratio_last_resolved"] < 1e-6  # λ₂ falls like w²
+    assert m["radius_final"] > 1e3 * m["radius_initial"]
