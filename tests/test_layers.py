@@ -1,4 +1,4 @@
-"""Layers depend downward only: algebra → geometry → kinematics → systems → viz → cooperative → control → legged → harness."""
+"""Layers depend downward only: algebra → geometry → kinematics → systems → collision → viz → cooperative → control → legged → harness."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 PKG = Path(__file__).resolve().parents[1] / "coop_ga"
-ORDER = ["algebra", "geometry", "kinematics", "systems", "viz", "cooperative", "control", "legged", "harness"]
+ORDER = ["algebra", "geometry", "kinematics", "systems", "collision", "viz", "cooperative", "control", "legged", "harness"]
 
 
 def _imported_layers(path: Path) -> set[str]:
