@@ -8,7 +8,18 @@ from pathlib import Path
 import pytest
 
 PKG = Path(__file__).resolve().parents[1] / "coop_ga"
-ORDER = ["algebra", "geometry", "kinematics", "systems", "collision", "viz", "cooperative", "control", "legged", "harness"]
+ORDER = [
+    "algebra",
+    "geometry",
+    "kinematics",
+    "systems",
+    "collision",
+    "viz",
+    "cooperative",
+    "control",
+    "legged",
+    "harness",
+]
 
 
 def _imported_layers(path: Path) -> set[str]:
