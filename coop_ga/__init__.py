@@ -52,6 +52,7 @@ from .errors import (
     RenderWarning,
     ThreadingError,
     UnknownNameError,
+    UnreachableError,
     UnsupportedJointError,
 )
 from .geometry import (
@@ -123,6 +124,7 @@ __all__ = [
     "ThreadingError",
     "Translator",
     "UnknownNameError",
+    "UnreachableError",
     "UnsupportedJointError",
     "VersorGroup",
     "apply",

@@ -32,6 +32,7 @@ __all__ = [
     "RendererUnavailableError",
     "ThreadingError",
     "UnknownNameError",
+    "UnreachableError",
     "UnsupportedJointError",
 ]
 
@@ -81,6 +82,23 @@ class CompilationError(CoopGAError, RuntimeError):
 
 class ThreadingError(CoopGAError, RuntimeError):
     """An object that is not thread-safe was used from a second thread."""
+
+
+class UnreachableError(CoopGAError, ValueError):
+    """A foot (end-point) target has no inverse-kinematics solution: it is out of a leg's reach
+    (the message names the legs and by how many mm) or its only solution leaves the joint limits
+    (the message names the joint and by how much).
+
+    Attributes: ``legs`` (names of the offending legs), ``distance`` (the largest distance out of
+    reach [m], 0.0 for a pure joint-limit failure) and ``violation`` (the largest joint-limit
+    violation [rad], 0.0 for a reach failure).
+    """
+
+    def __init__(self, message: str, *, legs: tuple[str, ...] = (), distance: float = 0.0, violation: float = 0.0):
+        super().__init__(message)
+        self.legs = tuple(legs)
+        self.distance = float(distance)
+        self.violation = float(violation)
 
 
 class CoopGAWarning(UserWarning):
