@@ -30,6 +30,8 @@ class Figure:
     folder: ``DIR/<folder>/`` (``figNN_<short name>``, NN the paper's number).
     script: path of the script relative to :data:`ROOT`.  args: its extra arguments.
     numbers: the paper's figure (or table) numbers the folder holds.
+    addition: True for our own additions beyond the paper (hexapod, obstacles, linkages, …):
+    their folders are ``ours_<name>`` and the gallery lists them after the paper's figures.
     """
 
     key: str
@@ -37,6 +39,7 @@ class Figure:
     script: str
     args: tuple[str, ...] = ()
     numbers: tuple[int, ...] = ()
+    addition: bool = False
 
     @property
     def command(self) -> str:
@@ -63,6 +66,8 @@ FIGURES: tuple[Figure, ...] = (
     Figure("fig18_19", "fig18_19_singularity", "experiments/singularity.py", numbers=(18, 19)),
     Figure("fig20_21", "fig20_21_teleop", "experiments/teleop_allegro.py", numbers=(20, 21)),
     Figure("table01", "table01_controllable_spaces", "experiments/table1.py", numbers=()),
+    # our additions (not in the paper)
+    Figure("linkages", "ours_linkages", "experiments/linkages.py", addition=True),
 )
 
 

@@ -117,6 +117,8 @@ def _worker(args: tuple[str, str, list[str]]) -> dict[str, Any]:
 
 
 def _numbers(fig: Figure) -> str:
+    if fig.addition:
+        return "Ours"
     if fig.key.startswith("table"):
         return f"Table {int(fig.key[5:])}"
     if not fig.numbers:
@@ -140,7 +142,8 @@ def write_gallery(out: Path, fast: bool, failures: dict[str, list[str]]) -> Path
         "",
         "or one with `python -m paper_figures --only fig12`. Each folder holds the PNGs and a `metrics.json`; "
         "every number quoted below is read from it. *Agrees* means the measurement supports the paper's claim; "
-        "where it does not, the text says what we measured instead.",
+        "where it does not, the text says what we measured instead. Rows marked *Ours* are our own additions "
+        "beyond the paper (its claims are then those of the seed named in the title).",
         "",
     ]
     if fast:
@@ -165,13 +168,17 @@ def write_gallery(out: Path, fast: bool, failures: dict[str, list[str]]) -> Path
     for fig, g in entries:
         title = g["title"] if g else fig.key
         # "Table 1: …" or "The systems" already say what they are; "Fig. 7: <title>" otherwise
-        heading = title if title.startswith(("Fig", "Table")) or fig.key == "systems" else f"{_numbers(fig)}: {title}"
+        heading = (
+            title
+            if title.startswith(("Fig", "Table")) or fig.key == "systems" or fig.addition
+            else f"{_numbers(fig)}: {title}"
+        )
         lines += [f'<a id="{fig.folder.replace("_", "-")}"></a>', "", f"## {heading}", ""]
         if g is None:
             lines += ["**This figure failed in the last run:**", "", "```", *failures[fig.key], "```", ""]
             continue
         lines += [
-            f"**Paper.** {g['claim']}",
+            f"**{'Claim' if fig.addition else 'Paper'}.** {g['claim']}",
             "",
             f"**Measured.** {g['evidence']}",
             "",

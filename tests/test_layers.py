@@ -1,4 +1,4 @@
-"""Layers depend downward only: algebra → geometry → kinematics → systems → collision → viz → cooperative → control → legged → harness."""
+"""Layers depend downward only: algebra → geometry → kinematics → linkages → systems → collision → viz → cooperative → control → legged → harness."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ ORDER = [
     "algebra",
     "geometry",
     "kinematics",
+    "linkages",
     "systems",
     "collision",
     "viz",
