@@ -1,0 +1,499 @@
+"""Clearances of a multi-chain system: every capsule against every obstacle, and against the other
+capsules, with their Jacobians w.r.t. q, on numpy (fast, for a controller loop) and CasADi (exact AD).
+
+:class:`CollisionModel` holds a :class:`~coop_ga.systems.System`, its capsules
+(:func:`~coop_ga.collision.capsules.fit_capsules` by default) and obstacles
+(:class:`~coop_ga.collision.distance.Sphere` / :class:`~coop_ga.collision.distance.Plane`, or
+anything :func:`~coop_ga.collision.distance.as_obstacle` accepts).  Its distances, in this order:
+
+1. **capsule–obstacle**, obstacle-major: for obstacle k, every capsule (label
+   ``"<link> – sphere k"`` / ``"<link> – plane k"``, or the obstacle's name);
+2. **capsule–capsule** (``self_collision=True``; label ``"<link A> – <link B>"``), all pairs except
+   * two capsules on the *same rigid body* (same parent joint, or both fixed to the world): their
+     distance is constant — always excluded;
+   * pairs the robot's SRDF disables (``srdf=True``: ``<disable_collisions>`` of the SRDF next to
+     each robot's URDF, e.g. example-robot-data's ``panda.srdf``: "Adjacent", "Never" and
+     "Default" pairs such as Panda link5–link7, whose capsules are 5 mm apart at q0 and touch
+     as soon as the wrist bends);
+   * *adjacent* bodies (``exclude_adjacent=True``): one body is the direct kinematic parent of
+     the other — they share a joint (Panda link3–link4, link6–hand, link0–link1) and their
+     capsules overlap at the joint by construction.  An arm's world-fixed base is adjacent only
+     to the first link of *its* arm (bases mounted on the universe separately are told apart by
+     their frame path);
+   * pairs whose capsules already overlap at ``system.q0`` (clearance ≤ 0;
+     ``exclude_overlapping=True``): q0 is the system's nominal collision-free pose, so such a
+     pair is a modelling artefact of the conservative capsules (Allegro's neighbouring finger
+     bases, G1's pelvis and hip links).
+   :attr:`CollisionModel.excluded` lists every excluded pair with its reason, and
+   :attr:`CollisionModel.inter_branch` marks the rows between different branches of the
+   kinematic tree (neither body an ancestor of the other: arm–arm, hand–hand).
+
+Every distance is a signed clearance [m] (negative: penetration depth) minus ``margin``.  The
+formulas are those of :mod:`coop_ga.collision.distance` (Eq 1–2, Lumelsky segment–segment); the
+Jacobian row of a pair follows from its witness points x (on A) and y (on B or the obstacle)
+and the unit normal n = (x − y)/|x − y| (the envelope theorem, module docstring of
+:mod:`~coop_ga.collision.distance`):
+
+    ∂d/∂q = nᵀ (J_x − J_y),   J_x = (1 − s) J_a + s J_b                              (3)
+
+with J_a the (3, nq) world-frame Jacobian of a capsule end: ``J_v + ω × a`` from Pinocchio's
+world-frame joint Jacobians (``computeJointJacobians``, the columns of the joints supporting the
+capsule's frame).  For a plane, n is its normal and x the closer end.
+
+:meth:`CollisionModel.casadi` builds the same distance code on CasADi SX, with the capsule
+frames placed by the motor kinematics of :class:`coop_ga.kinematics.KinematicTree` (equal to
+Pinocchio's ``oMf`` to ~1e-15), so its AD Jacobian equals Eq (3) wherever d is differentiable
+(checked in ``tests/collision/test_model.py``, together with central finite differences).
+
+Speed (three_franka, 21 DOF, 33 capsules, one sphere: 33 obstacle + 420 self distances; one
+Pinocchio ``computeJointJacobians`` and ~150 vectorised numpy operations per call, measured on
+the shared 2-core machine by ``python -m coop_ga.collision.model``): ``distances`` ≈ 0.2 ms
+(0.4–0.5 ms under load), ``distances_and_jacobian`` ≈ 0.35 ms (0.7 ms under load); the CasADi
+SX function with its AD Jacobian, interpreted, ≈ 1.2 ms.  ``tests/collision/test_model.py``
+prints the numbers of its run.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InvalidInputError
+from .capsules import Capsule, fit_capsules
+from .distance import (
+    Plane,
+    Sphere,
+    as_obstacle,
+    capsule_capsule_distance,
+    capsule_plane_distance,
+    capsule_sphere_distance,
+)
+
+__all__ = ["CollisionModel"]
+
+Body = tuple[str, int]
+
+
+def _cols(X: np.ndarray) -> tuple[Any, Any, Any]:
+    return (X[..., 0], X[..., 1], X[..., 2])
+
+
+def _unit(w: np.ndarray) -> np.ndarray:
+    """Rows of w (k, 3) normalised; zero rows stay zero."""
+    n = np.linalg.norm(w, axis=-1, keepdims=True)
+    return np.divide(w, n, out=np.zeros_like(w), where=n > 0.0)
+
+
+class CollisionModel:
+    """Signed clearances of ``system``'s capsules from obstacles and from each other (module docstring).
+
+    Parameters
+    ----------
+    system: a :class:`coop_ga.systems.System`.
+    obstacles: spheres / planes (:func:`~coop_ga.collision.distance.as_obstacle` inputs), world frame.
+    capsules: the robot's capsules; default :func:`~coop_ga.collision.capsules.fit_capsules` (collision meshes).
+    self_collision: include capsule–capsule pairs.
+    exclude_adjacent: drop pairs of directly connected bodies.
+    margin: subtracted from every distance [m] (≥ 0: a safety distance).
+    exclude_overlapping: drop the pairs that overlap at ``system.q0``.
+    srdf: drop the pairs a robot's SRDF disables (``<disable_collisions>``; module docstring).
+
+    Attributes
+    ----------
+    labels: one per distance; ``kinds``: ``"obstacle"`` / ``"self"`` per distance;
+    pairs: (n, 2) int — (capsule, obstacle) for obstacle rows, (capsule, capsule) for self rows;
+    inter_branch: (n,) bool — self rows between different branches (arm–arm); False elsewhere;
+    n_obstacle_rows: the obstacle rows come first (``2 × n_capsules`` for two obstacles);
+    excluded: ``(label, reason)`` of every capsule pair left out.
+    """
+
+    def __init__(
+        self,
+        system: Any,
+        obstacles: Iterable[Any] = (),
+        capsules: Sequence[Capsule] | None = None,
+        self_collision: bool = True,
+        exclude_adjacent: bool = True,
+        margin: float = 0.0,
+        exclude_overlapping: bool = True,
+        srdf: bool = True,
+    ) -> None:
+        import pinocchio as pin
+
+        self.system = system
+        model = system.model
+        self._model = model
+        self._data = model.createData()
+        self.capsules: tuple[Capsule, ...] = tuple(fit_capsules(system) if capsules is None else capsules)
+        if not all(isinstance(c, Capsule) for c in self.capsules):
+            raise InvalidInputError("capsules must be collision.Capsule objects")
+        from ..geometry.primitives import Primitive
+
+        if isinstance(obstacles, (Sphere, Plane, dict, Primitive)):
+            obstacles = [obstacles]  # one obstacle
+        self.obstacles: tuple[Sphere | Plane, ...] = tuple(as_obstacle(o) for o in obstacles)
+        m = float(margin)
+        if not (np.isfinite(m) and m >= 0.0):
+            raise InvalidInputError(f"margin must be finite and ≥ 0 [m], got {margin!r}")
+        self.margin = m
+        self.nq = int(model.nq)
+
+        # ---- per capsule: frame id, parent joint, ends in the parent joint's frame, supporting columns
+        nc = len(self.capsules)
+        self._fid = np.zeros(nc, int)
+        self._joint = np.zeros(nc, int)
+        self._a_j = np.zeros((nc, 3))
+        self._b_j = np.zeros((nc, 3))
+        self._radius = np.array([c.radius for c in self.capsules], float)
+        self._mask = np.zeros((nc, self.nq), bool)
+        for i, c in enumerate(self.capsules):
+            if not model.existFrame(c.frame):
+                raise InvalidInputError(f"capsule frame '{c.frame}' is not a frame of system '{system.name}'")
+            fid = model.getFrameId(c.frame)
+            f = model.frames[fid]
+            self._fid[i], self._joint[i] = fid, int(f.parentJoint)
+            Rf, tf = np.asarray(f.placement.rotation), np.asarray(f.placement.translation)
+            self._a_j[i] = Rf @ c.a + tf
+            self._b_j[i] = Rf @ c.b + tf
+            for j in model.supports[int(f.parentJoint)]:
+                if j > 0:
+                    self._mask[i, model.idx_vs[j]] = True
+        self._joints_used = sorted(set(int(j) for j in self._joint))
+        self._jpos = np.array([self._joints_used.index(int(j)) for j in self._joint], int)
+        self._pin = pin
+
+        # ---- obstacle rows
+        labels: list[str] = []
+        kinds: list[str] = []
+        pairs: list[tuple[int, int]] = []
+        for k, ob in enumerate(self.obstacles):
+            oname = ob.name or (f"sphere {k}" if isinstance(ob, Sphere) else f"plane {k}")
+            for i, c in enumerate(self.capsules):
+                labels.append(f"{c.link} – {oname}")
+                kinds.append("obstacle")
+                pairs.append((i, k))
+        self.n_obstacle_rows = len(pairs)
+
+        # ---- self pairs
+        self.excluded: list[tuple[str, str]] = []
+        self_pairs: list[tuple[int, int]] = []
+        inter: list[bool] = [False] * len(pairs)
+        if self_collision and nc > 1:
+            paths = [self._body_path(int(f)) for f in self._fid]
+            disabled = _srdf_disabled(system) if srdf else {}
+            cand: list[tuple[int, int, bool]] = []
+            for i in range(nc):
+                for j in range(i + 1, nc):
+                    lab = f"{self.capsules[i].link} – {self.capsules[j].link}"
+                    pi, pj = paths[i], paths[j]
+                    if pi[0] == pj[0] or (pi[0][0] == "w" and pj[0][0] == "w"):
+                        self.excluded.append((lab, "same rigid body"))  # (all world-fixed bodies are one)
+                        continue
+                    why = disabled.get(frozenset((self.capsules[i].frame, self.capsules[j].frame)))
+                    if why is not None:
+                        self.excluded.append((lab, f"SRDF disable_collisions ({why})"))
+                        continue
+                    adjacent = (len(pj) > 1 and pj[1] == pi[0]) or (len(pi) > 1 and pi[1] == pj[0])
+                    if exclude_adjacent and adjacent:
+                        self.excluded.append((lab, "adjacent links (share a joint)"))
+                        continue
+                    cand.append((i, j, pi[0] in pj or pj[0] in pi))
+            if exclude_overlapping and cand:
+                A, B, _ = self._ends(np.asarray(system.q0, float), jac=False)
+                I = np.array([c[0] for c in cand])
+                J = np.array([c[1] for c in cand])
+                d0, _, _ = capsule_capsule_distance(
+                    _cols(A[I]), _cols(B[I]), self._radius[I], _cols(A[J]), _cols(B[J]), self._radius[J]
+                )
+                d0 = np.atleast_1d(np.asarray(d0, float))
+            else:
+                d0 = np.full(len(cand), np.inf)
+            for (i, j, same_branch), dd in zip(cand, d0):
+                lab = f"{self.capsules[i].link} – {self.capsules[j].link}"
+                if dd <= 0.0:
+                    where = "same branch" if same_branch else "different branches"
+                    self.excluded.append((lab, f"overlapping at q0 ({where}, clearance {dd:.4f} m)"))
+                    continue
+                self_pairs.append((i, j))
+                inter.append(not same_branch)
+                labels.append(lab)
+                kinds.append("self")
+                pairs.append((i, j))
+        self._si = np.array([p[0] for p in self_pairs], int)
+        self._sj = np.array([p[1] for p in self_pairs], int)
+        self.labels: tuple[str, ...] = tuple(labels)
+        self.kinds: tuple[str, ...] = tuple(kinds)
+        self.pairs = np.array(pairs, int).reshape(-1, 2)
+        self.inter_branch = np.array(inter, bool)
+        self._casadi: Any = None
+        self._casadi_jac: Any = None
+
+    # ------------------------------------------------------------------ structure
+    @property
+    def n(self) -> int:
+        """Number of distances."""
+        return len(self.labels)
+
+    def _body_path(self, fid: int) -> list[Body]:
+        """Rigid bodies from the frame's body to the world: ``("j", joint id)`` for a moving body, and
+        last ``("w", root frame id)``: the world-fixed body it hangs from, named by the frame just
+        below the universe on its frame path (bases attached to the universe separately get different
+        ids; a frame path broken by ``buildReducedModel`` ends at the locked joint's frame)."""
+        frames, model = self._model.frames, self._model
+        path: list[Body] = []
+        f = fid
+        for _ in range(len(frames) + 1):
+            j = int(frames[f].parentJoint)
+            if j == 0:
+                while f != 0 and int(frames[f].parentFrame) not in (0, f):
+                    f = int(frames[f].parentFrame)
+                path.append(("w", f))
+                return path
+            path.append(("j", j))
+            g = f
+            while int(frames[g].parentJoint) == j and int(frames[g].parentFrame) != g:
+                g = int(frames[g].parentFrame)
+            if int(frames[g].parentJoint) == j:  # no frame above: follow the joint tree
+                parent = int(model.parents[j])
+                if parent == 0:
+                    path.append(("w", 0))
+                    return path
+                g = next(k for k in range(len(frames)) if int(frames[k].parentJoint) == parent)
+            f = g
+        return path  # pragma: no cover - a frame tree always ends at the universe
+
+    # ------------------------------------------------------------------ numeric kinematics
+    def _ends(self, q: np.ndarray, jac: bool = True) -> tuple[np.ndarray, np.ndarray, Any]:
+        """World capsule ends A, B (nc, 3) [m] and the world-frame joint Jacobian (6, nq) ([v at the
+        world origin; ω], Pinocchio's ``data.J``; None without ``jac``)."""
+        pin, model, data = self._pin, self._model, self._data
+        if jac:
+            pin.computeJointJacobians(model, data, q)
+        else:
+            pin.forwardKinematics(model, data, q)
+        oMi = data.oMi
+        H = np.array([oMi[j].homogeneous for j in self._joints_used])[self._jpos]  # (nc, 4, 4)
+        R, t = H[:, :3, :3], H[:, :3, 3]
+        A = np.einsum("cij,cj->ci", R, self._a_j) + t
+        B = np.einsum("cij,cj->ci", R, self._b_j) + t
+        return A, B, (np.asarray(data.J) if jac else None)
+
+    def _rows(self, J6: np.ndarray, cap: np.ndarray, x: np.ndarray, n: np.ndarray) -> np.ndarray:
+        """``nᵀ J_x`` (k, nq) for witness points x (k, 3) [m] on capsules ``cap`` (k,) and unit normals n:
+        ``J_x = J_v + ω × x`` restricted to the joints supporting the capsule, so
+        ``nᵀ J_x = (nᵀ J_v + (x × n)ᵀ J_ω) ⊙ mask``."""
+        xn = np.empty_like(n)
+        xn[:, 0] = x[:, 1] * n[:, 2] - x[:, 2] * n[:, 1]
+        xn[:, 1] = x[:, 2] * n[:, 0] - x[:, 0] * n[:, 2]
+        xn[:, 2] = x[:, 0] * n[:, 1] - x[:, 1] * n[:, 0]
+        return (n @ J6[:3] + xn @ J6[3:]) * self._mask[cap]
+
+    def capsule_segments(self, q: Any) -> tuple[np.ndarray, np.ndarray]:
+        """World segment ends ``(A, B)``, each (n_capsules, 3) [m], at q (for drawing)."""
+        A, B, _ = self._ends(self._q(q), jac=False)
+        return A, B
+
+    def _q(self, q: Any) -> np.ndarray:
+        if type(q) is np.ndarray and q.shape == (self.nq,) and q.dtype == np.float64 and np.isfinite(q).all():
+            return q
+        return self.system.check_q(q, warn_limits=False)
+
+    # ------------------------------------------------------------------ distances
+    def _eval(self, q: np.ndarray, jac: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        A, B, J6 = self._ends(q, jac)
+        r = self._radius
+        ds: list[np.ndarray] = []
+        Js: list[np.ndarray] = []
+        nc = len(self.capsules)
+        allc = np.arange(nc)
+        for ob in self.obstacles:
+            if isinstance(ob, Sphere):
+                d, t = capsule_sphere_distance(_cols(A), _cols(B), r, ob)
+                ds.append(np.asarray(d, float).reshape(nc))
+                if jac:
+                    t = np.asarray(t, float).reshape(nc, 1)
+                    x = A + t * (B - A)
+                    Js.append(self._rows(J6, allc, x, _unit(x - ob.center)))
+            else:
+                d, t = capsule_plane_distance(_cols(A), _cols(B), r, ob)
+                ds.append(np.asarray(d, float).reshape(nc))
+                if jac:
+                    x = np.where(np.asarray(t, float).reshape(nc, 1) > 0.5, B, A)
+                    Js.append(self._rows(J6, allc, x, np.tile(ob.normal, (nc, 1))))
+        if len(self._si):
+            i, j = self._si, self._sj
+            d, _, (x, y) = capsule_capsule_distance(_cols(A[i]), _cols(B[i]), r[i], _cols(A[j]), _cols(B[j]), r[j])
+            k = len(i)
+            ds.append(np.asarray(d, float).reshape(k))
+            if jac:
+                X = np.stack(x, axis=-1).reshape(k, 3)
+                Y = np.stack(y, axis=-1).reshape(k, 3)
+                n = _unit(X - Y)
+                Js.append(self._rows(J6, i, X, n) - self._rows(J6, j, Y, n))
+        dist = (np.concatenate(ds) if ds else np.zeros(0)) - self.margin
+        if not jac:
+            return dist, None
+        return dist, (np.concatenate(Js, axis=0) if Js else np.zeros((0, self.nq)))
+
+    def distances(self, q: Any) -> np.ndarray:
+        """Signed clearances (n,) [m] at q (nq,); a batch q (..., nq) gives (..., n)."""
+        Q = np.asarray(q, float)
+        if Q.ndim >= 2 and Q.shape[-1] == self.nq:
+            flat = Q.reshape(-1, self.nq)
+            out = np.stack([self._eval(self._q(qq), False)[0] for qq in flat]) if len(flat) else np.zeros((0, self.n))
+            return out.reshape(*Q.shape[:-1], self.n)
+        return self._eval(self._q(q), False)[0]
+
+    def distances_and_jacobian(self, q: Any) -> tuple[np.ndarray, np.ndarray]:
+        """``(d (n,) [m], ∂d/∂q (n, nq) [m/rad or m/m])`` at q (nq,) — Eq (3) of the module docstring."""
+        d, J = self._eval(self._q(q), True)
+        assert J is not None
+        return d, J
+
+    def min_clearance(self, q: Any, kind: str | None = None) -> float:
+        """The smallest distance at q [m] (``inf`` if there are none); a batch q (..., nq) gives (...).
+
+        ``kind``: None (all rows), ``"obstacle"``, ``"self"`` or ``"inter_branch"`` (arm–arm rows)."""
+        d = self.distances(q)
+        if kind is not None:
+            d = d[..., self.mask(kind)]
+        if d.shape[-1] == 0:
+            return float("inf") if d.ndim == 1 else np.full(d.shape[:-1], np.inf)  # type: ignore[return-value]
+        return float(d.min()) if d.ndim == 1 else d.min(axis=-1)
+
+    def mask(self, kind: str) -> np.ndarray:
+        """(n,) bool rows of ``kind``: ``"obstacle"``, ``"self"`` or ``"inter_branch"``."""
+        if kind == "inter_branch":
+            return self.inter_branch.copy()
+        if kind in ("obstacle", "self"):
+            return np.array([k == kind for k in self.kinds], bool)
+        raise InvalidInputError(f"kind must be 'obstacle', 'self' or 'inter_branch', got {kind!r}")
+
+    def closest(self, q: Any) -> tuple[str, float]:
+        """``(label, distance [m])`` of the smallest distance at q."""
+        d = self.distances(q)
+        if not len(d):
+            return "", float("inf")
+        k = int(np.argmin(d))
+        return self.labels[k], float(d[k])
+
+    # ------------------------------------------------------------------ CasADi
+    def symbolic(self, q: Any) -> Any:
+        """The distances (n,) [m] as an SX column of the SX column q (nq,): to embed in a larger graph."""
+        return self._symbolic(q)
+
+    def _symbolic(self, q: Any) -> Any:
+        """The distances as an SX column (n,) of the SX column q (nq,)."""
+        import casadi as ca
+
+        from ..geometry.groups import motor_rotor_translation, rotor_matrix
+        from ..kinematics import KinematicTree
+
+        tree = KinematicTree(self._model, [c.frame for c in self.capsules]) if self.capsules else None
+        A: list[tuple[Any, Any, Any]] = []
+        B: list[tuple[Any, Any, Any]] = []
+        if tree is not None:
+            for M, c in zip(tree.frame_motors(q), self.capsules):
+                R, t = motor_rotor_translation(M)
+                Rm = rotor_matrix(R)
+
+                def place(p: np.ndarray, Rm: Any = Rm, t: Any = t) -> tuple[Any, Any, Any]:
+                    return tuple(t[r] + sum(Rm[r][k] * float(p[k]) for k in range(3)) for r in range(3))
+
+                A.append(place(c.a))
+                B.append(place(c.b))
+        out: list[Any] = []
+        for ob in self.obstacles:
+            for i, c in enumerate(self.capsules):
+                if isinstance(ob, Sphere):
+                    d, _ = capsule_sphere_distance(A[i], B[i], c.radius, ob)
+                else:
+                    d, _ = capsule_plane_distance(A[i], B[i], c.radius, ob)
+                out.append(d)
+        for i, j in zip(self._si, self._sj):
+            d, _, _ = capsule_capsule_distance(A[i], B[i], float(self._radius[i]), A[j], B[j], float(self._radius[j]))
+            out.append(d)
+        return (ca.vertcat(*out) if out else ca.SX.zeros(0, 1)) - self.margin
+
+    def casadi(self) -> Any:
+        """``casadi.Function("collision_distances", [q (nq,)], [d (n,)])``: the same distance code on SX
+        (built once); ``casadi.jacobian`` of it is the exact ∂d/∂q."""
+        if self._casadi is None:
+            import casadi as ca
+
+            q = ca.SX.sym("q", self.nq)
+            self._casadi = ca.Function("collision_distances", [q], [self._symbolic(q)], ["q"], ["d"])
+        return self._casadi
+
+    def casadi_jacobian(self) -> Any:
+        """``casadi.Function("collision_distances_jac", [q], [d (n,), J (n, nq)])`` by CasADi AD."""
+        if self._casadi_jac is None:
+            import casadi as ca
+
+            q = ca.SX.sym("q", self.nq)
+            d = self._symbolic(q)
+            self._casadi_jac = ca.Function("collision_distances_jac", [q], [d, ca.jacobian(d, q)], ["q"], ["d", "J"])
+        return self._casadi_jac
+
+    def __repr__(self) -> str:
+        return (
+            f"CollisionModel({self.system.name!r}, capsules={len(self.capsules)}, obstacles={len(self.obstacles)}, "
+            f"distances={self.n}, excluded={len(self.excluded)})"
+        )
+
+
+def _srdf_path(urdf: Path) -> Path | None:
+    """The SRDF next to a URDF: ``<dir>/../srdf/<name>.srdf`` or ``<dir>/<name>.srdf``, or None."""
+    for cand in (urdf.parent.parent / "srdf" / f"{urdf.stem}.srdf", urdf.with_suffix(".srdf")):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def _srdf_disabled(system: Any) -> dict[frozenset[str], str]:
+    """``{frozenset({frame A, frame B}): reason}`` of the ``<disable_collisions>`` pairs in the SRDFs of
+    the system's robots (one per :class:`~coop_ga.systems.VisualSource` with a URDF), link names
+    carrying that robot's prefix.  Pairs are only ever disabled within one robot."""
+    import xml.etree.ElementTree as ET
+
+    out: dict[frozenset[str], str] = {}
+    for src in getattr(system, "visuals", ()):
+        if src.urdf is None:
+            continue
+        path = _srdf_path(Path(src.urdf))
+        if path is None:
+            continue
+        try:
+            root = ET.parse(path).getroot()
+        except ET.ParseError as e:
+            raise InvalidInputError(f"SRDF {path} could not be parsed: {e}") from e
+        for el in root.iter("disable_collisions"):
+            a, b = el.get("link1"), el.get("link2")
+            if a and b:
+                out[frozenset((src.prefix + a, src.prefix + b))] = el.get("reason", "") or "disabled"
+    return out
+
+
+def _benchmark(system_name: str = "three_franka", reps: int = 200) -> dict[str, float]:
+    """µs per call of :meth:`CollisionModel.distances` and :meth:`~CollisionModel.distances_and_jacobian`."""
+    from .. import systems
+
+    s = systems.load(system_name)
+    cm = CollisionModel(s, [Sphere(np.array([0.0, 0.0, 0.5]), 0.1)])
+    q = s.q0
+    out: dict[str, float] = {"n": float(cm.n)}
+    for name, f in (("distances_us", cm.distances), ("distances_and_jacobian_us", cm.distances_and_jacobian)):
+        f(q)
+        t0 = time.perf_counter()
+        for _ in range(reps):
+            f(q)
+        out[name] = 1e6 * (time.perf_counter() - t0) / reps
+    return out
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(_benchmark())
