@@ -14,6 +14,7 @@ from .groups import (
     log,
     log_jacobian,
 )
+from .interpolation import interpolate, reference_trajectory, screw_axis, screw_exp, screw_log
 from .primitives import (
     KINDS,
     N_POINTS,
@@ -59,6 +60,7 @@ __all__ = [
     "direction",
     "endpoints",
     "exp",
+    "interpolate",
     "kind_of",
     "line",
     "log",
@@ -72,7 +74,11 @@ __all__ = [
     "primitive_parameters",
     "project",
     "radius",
+    "reference_trajectory",
     "rotor_between",
+    "screw_axis",
+    "screw_exp",
+    "screw_log",
     "similarity",
     "similarity_from_unit",
     "sphere",

@@ -37,7 +37,7 @@ def test_scripts_found():
             *("linkages.py", "potential_field.py"),  # experiments: our additions
             "systems.py",  # paper_figures (the runner is the package's __main__)
             *("algebra.py", "cooperative.py", "kinematics.py", "ocp.py", "robustness.py"),  # benchmarks
-            *("legged.py", "linkages.py"),  # benchmarks: our additions
+            *("legged.py", "linkages.py", "motor_fk.py"),  # benchmarks: our additions
         ]
     ), names
 
