@@ -10,11 +10,20 @@ from .manipulability import (
     manipulability_index,
     nullspace_projector,
 )
-from .primitive import FLAT_KINDS, cooperative_primitive, primitive_jacobian
+from .primitive import (
+    COOPERATIVE_KINDS,
+    FIT_KINDS,
+    FLAT_KINDS,
+    cooperative_primitive,
+    fit_primitive,
+    primitive_jacobian,
+)
 from .targets import displaced_target
 from .task import CooperativeTask, TaskState, cooperative_task
 
 __all__ = [
+    "COOPERATIVE_KINDS",
+    "FIT_KINDS",
     "FLAT_KINDS",
     "CooperativeTask",
     "TaskGraph",
@@ -24,6 +33,7 @@ __all__ = [
     "cooperative_task",
     "damped_pinv",
     "displaced_target",
+    "fit_primitive",
     "force_manipulability",
     "manipulability",
     "manipulability_ellipsoid",

@@ -39,6 +39,8 @@ _WHAT = {
     "circle": "the three end points are (nearly) collinear",
     "plane": "the three end points are (nearly) collinear",
     "sphere": "the four end points are (nearly) coplanar",
+    "sphere_fit": "the end points are (nearly) coplanar: no 4 of them span a sphere",
+    "plane_fit": "the end points are (nearly) collinear, or spread evenly in every direction (no best plane)",
 }
 
 

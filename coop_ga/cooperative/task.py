@@ -44,13 +44,28 @@ from ..codegen import CompiledFunction
 from ..diagnostics import collect_warnings
 from ..errors import ChartError, InvalidInputError
 from ..geometry.groups import Similarity, log_jacobian, tangent_to_bivector
-from ..geometry.primitives import N_POINTS, Primitive, _check_kind, well_definedness
+from ..geometry.primitives import N_POINTS, Primitive, well_definedness
 from ..geometry.primitives import point as conformal_point
-from ..geometry.similarity import UNIT_AXIS, primitive_parameters, similarity_from_unit, unit_primitive
+from ..geometry.similarity import (
+    UNIT_AXIS,
+    primitive_parameters,
+    similarity_from_parameters,
+    similarity_from_unit,
+    unit_primitive,
+)
 from ..kinematics.chains import KinematicTree
 from .graph import CHART_WARN_ANGLE, TaskGraph, versor_expr
 from .guard import TaskGuard
-from .primitive import cooperative_primitive
+from .primitive import (
+    FIT_KINDS,
+    base_kind,
+    check_kind,
+    cooperative_primitive,
+    fit_parameters,
+    fit_primitive,
+    fit_well_definedness,
+    n_points,
+)
 
 __all__ = ["CHART_WARN_ANGLE", "CooperativeTask", "TaskState", "cooperative_task"]
 
@@ -96,11 +111,15 @@ class CooperativeTask:
         A :class:`coop_ga.systems.System` (or anything with ``model``, ``end_frames``,
         ``name``, ``q0``).
     kind:
-        ``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``.
+        ``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``, or a least-squares kind
+        ``'sphere_fit'`` (≥ 4 points) / ``'plane_fit'`` (≥ 3 points): the CGA least-squares sphere /
+        plane of any number of end points (:mod:`coop_ga.cooperative.primitive`); V_Sc is then the
+        similarity of that sphere / plane (:attr:`primitive_kind`), built in the same task graph.
     points:
         Indices into ``system.end_frames`` giving the end points and their order
-        (default: the first ``N_POINTS[kind]``).  The order fixes the orientation (see
-        :mod:`coop_ga.cooperative.primitive`).
+        (default: the first ``N_POINTS[kind]``; for the least-squares kinds all end frames).  The
+        order fixes the orientation (see :mod:`coop_ga.cooperative.primitive`; for ``plane_fit`` the
+        normal follows the points' Newell normal, counter-clockwise seen from its tip).
     codegen:
         ``"auto"`` (C via gcc when available), ``True`` or ``False`` (CasADi VM).
     warn_below, raise_below:
@@ -127,10 +146,14 @@ class CooperativeTask:
         raise_below: float = 1e-6,
         chart_axis: Any = "auto",
     ):
-        self.kind = _check_kind(kind)
+        self.kind = check_kind(kind)
+        #: the kind of the primitive X_c and of V_Sc's unit primitive ("sphere" for "sphere_fit", …)
+        self.primitive_kind = base_kind(self.kind)
         self.system = system
-        n = N_POINTS[self.kind]
         frames = tuple(system.end_frames)
+        if self.kind in FIT_KINDS and points is None:
+            points = tuple(range(len(frames)))
+        n = n_points(self.kind, _count(points) if self.kind in FIT_KINDS else None)
         if points is None:
             if len(frames) < n:
                 raise InvalidInputError(
@@ -147,7 +170,7 @@ class CooperativeTask:
         self.codegen = codegen
         self.warn_below = validation.nonnegative(warn_below, "warn_below")
         self.raise_below = validation.nonnegative(raise_below, "raise_below")
-        self.unit = unit_primitive(self.kind)
+        self.unit = unit_primitive(self.primitive_kind)
         self.name = f"{getattr(system, 'name', 'custom')}_{self.kind}_{'_'.join(map(str, self.point_indices))}"
         self.chart_axis = self._resolve_chart(chart_axis)
         if self.chart_axis is not None:
@@ -169,16 +192,21 @@ class CooperativeTask:
 
     # ================================================================== the chart of V_Sc
     def _resolve_chart(self, chart_axis: Any) -> tuple[float, float, float] | None:
-        unit_axis = UNIT_AXIS[self.kind]
+        unit_axis = UNIT_AXIS[self.primitive_kind]
         if unit_axis is None or chart_axis is None:
             return None
         if isinstance(chart_axis, str):
             validation.choice(chart_axis, ("auto",), "chart_axis")
             q0 = validation.configuration(self.system.q0, self.nq, "system.q0")
             pts = self.tree.end_points_array(q0)
-            if N_POINTS[self.kind] > 1 and not well_definedness(self.kind, pts) > self.raise_below:
+            if self.kind in FIT_KINDS:
+                if not fit_well_definedness(self.kind, pts) > self.raise_below:
+                    return None
+                o = fit_parameters(self.kind, [tuple(p) for p in pts.tolist()])[3]
+            elif N_POINTS[self.kind] > 1 and not well_definedness(self.kind, pts) > self.raise_below:
                 return None  # degenerate at q0: no nominal axis (the guard reports it on use)
-            _, _, _, o = primitive_parameters(cooperative_primitive(self.kind, [conformal_point(p) for p in pts]))
+            else:
+                _, _, _, o = primitive_parameters(cooperative_primitive(self.kind, [conformal_point(p) for p in pts]))
             o = np.asarray(o, dtype=float).reshape(3)
             if float(o @ np.asarray(unit_axis)) >= 0.0:
                 return None  # within 90° of the unit axis: the canonical chart (Eq 26) is far from its flip
@@ -203,9 +231,9 @@ class CooperativeTask:
 
     def target_from_primitive(self, X: Any) -> Similarity:
         """The target V_Sd = V_S(X_u, X) of a primitive X of the task's kind, in the task's chart (Eq 28)."""
-        if not isinstance(X, Primitive) or X.kind != self.kind:
+        if not isinstance(X, Primitive) or X.kind != self.primitive_kind:
             raise InvalidInputError(
-                f"target_from_primitive needs a {self.kind} Primitive, got {type(X).__name__}"
+                f"target_from_primitive needs a {self.primitive_kind} Primitive, got {type(X).__name__}"
                 + (f" ({X.kind})" if isinstance(X, Primitive) else "")
             )
         return Similarity(similarity_from_unit(X, chart_axis=self.chart_axis))
@@ -215,7 +243,7 @@ class CooperativeTask:
         axis is beyond the chart warning angle (170°) from the chart's reference axis: the path to it would
         cross the chart's half-turn and the error e = log(Ṽ_Sc V_Sd) would jump on the way."""
         V = validation.target(target, what)
-        unit_axis = UNIT_AXIS[self.kind]
+        unit_axis = UNIT_AXIS[self.primitive_kind]
         if unit_axis is None:
             return V
         ref = np.asarray(self.chart_axis if self.chart_axis is not None else unit_axis)
@@ -340,7 +368,10 @@ class CooperativeTask:
         return self._run(q)[3].item(1)
 
     def primitive(self, q: Any) -> Primitive:
-        """X_c(q) = ∧ P_i(q) (∧ e∞) (Eq 14), from the compiled end points."""
+        """X_c(q) = ∧ P_i(q) (∧ e∞) (Eq 14), from the compiled end points (for the least-squares kinds the
+        fitted sphere / plane, :func:`~coop_ga.cooperative.primitive.fit_primitive`)."""
+        if self.kind in FIT_KINDS:
+            return fit_primitive(self.kind, self.points(q), raise_below=self.raise_below)
         return cooperative_primitive(self.kind, [conformal_point(p) for p in self.points(q)])
 
     # ------------------------------------------------------------------ other Jacobians
@@ -450,6 +481,11 @@ class CooperativeTask:
                 "the closed forms of Appendix B are for the canonical chart; build the task "
                 "with chart_axis=None to use them"
             )
+        if self.kind in FIT_KINDS:
+            raise InvalidInputError(
+                f"the closed forms of Appendix B are for primitives spanned by their points; a {self.kind} task has "
+                "none (use jacobian() or jacobian_ad())"
+            )
         self._run(q)  # same input checks and guard as every route
         P, dP = self.tree.point_jacobians(np.asarray(q, dtype=float))
         X = cooperative_primitive(self.kind, P)
@@ -461,6 +497,18 @@ class CooperativeTask:
         """V_Sc from the numpy multivector code (no CasADi, world origin), for cross-checks."""
         qv = validation.configuration(q, self.nq, owner=f"task '{self.name}'")
         pts = self.tree.end_points_array(qv)
+        if self.kind in FIT_KINDS:
+            w = fit_well_definedness(self.kind, pts)
+            if not w > self.warn_below:
+                self.guard.degeneracy(float(w), pts)
+            bar, c, r, o = fit_parameters(self.kind, [tuple(p) for p in pts.tolist()])
+            a = np.array(bar) + np.array([float(v) for v in c])
+            if o is not None:
+                o = np.array([float(v) for v in o])
+                a = float(a @ o) * o
+            return Similarity(
+                similarity_from_parameters(self.primitive_kind, a, r, o, chart_axis=self.chart_axis), check=False
+            )
         w = well_definedness(self.kind, pts) if N_POINTS[self.kind] > 1 else 1.0
         if not w > self.warn_below:
             self.guard.degeneracy(float(w), pts)
@@ -468,6 +516,11 @@ class CooperativeTask:
             cooperative_primitive(self.kind, [conformal_point(p) for p in pts]), chart_axis=self.chart_axis
         )
         return Similarity(V, check=False)
+
+
+def _count(points: Any) -> int:
+    """How many indices ``points`` holds (0 if it is not a sequence: validation.indices then says why)."""
+    return len(points) if isinstance(points, Sequence | np.ndarray) and not isinstance(points, (str, bytes)) else 0
 
 
 def _stack_columns(cols: Sequence[Any]) -> Any:
@@ -506,11 +559,16 @@ def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None
         from .. import systems
 
         system = systems.load(system)
+    k = check_kind(kind)
     pts = (
         None
         if points is None
         else validation.indices(
-            points, N_POINTS[_check_kind(kind)], len(system.end_frames), "points", labels=tuple(system.end_frames)
+            points,
+            n_points(k, _count(points) if k in FIT_KINDS else None),
+            len(system.end_frames),
+            "points",
+            labels=tuple(system.end_frames),
         )
     )
     # array-valued options (chart_axis) become tuples so that the cache key is hashable
