@@ -67,6 +67,7 @@ FIGURES: tuple[Figure, ...] = (
     Figure("fig20_21", "fig20_21_teleop", "experiments/teleop_allegro.py", numbers=(20, 21)),
     Figure("table01", "table01_controllable_spaces", "experiments/table1.py", numbers=()),
     # our additions (not in the paper)
+    Figure("hexapod_posture", "ours_hexapod_posture", "experiments/hexapod_posture.py", addition=True),
     Figure("potential_field", "ours_potential_field", "experiments/potential_field.py", addition=True),
     Figure("linkages", "ours_linkages", "experiments/linkages.py", addition=True),
 )

@@ -34,6 +34,7 @@ N_CHAINS = {
     "three_finger_hand": 3,
     "allegro": 4,
     "hexapod": 6,
+    "hexapod_floating": 6,
 }
 CASES = [(name, kind) for name in systems.names() for kind in KINDS if N_POINTS[kind] <= N_CHAINS[name]]
 
