@@ -68,6 +68,7 @@ FIGURES: tuple[Figure, ...] = (
     Figure("table01", "table01_controllable_spaces", "experiments/table1.py", numbers=()),
     # our additions (not in the paper)
     Figure("hexapod_posture", "ours_hexapod_posture", "experiments/hexapod_posture.py", addition=True),
+    Figure("obstacles", "ours_obstacle_circle", "experiments/obstacle_circle.py", addition=True),
     Figure("potential_field", "ours_potential_field", "experiments/potential_field.py", addition=True),
     Figure("linkages", "ours_linkages", "experiments/linkages.py", addition=True),
 )

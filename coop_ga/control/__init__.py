@@ -1,7 +1,8 @@
 """Layer 6: controllers in the cooperative similarity space (§3.5–3.9, §4).
 
 Differential and Gauss–Newton IK, task-space dynamics and impedance control, nullspace
-secondary tasks, teleoperation and iLQR.  Every solver is called as
+secondary tasks, teleoperation and iLQR, and obstacle / self-collision avoidance in them
+(:mod:`coop_ga.control.avoidance`).  Every solver is called as
 ``solver(task, q_init, target, options=None, **overrides)`` with a
 :class:`~coop_ga.Similarity` target and returns a result derived from
 :class:`~coop_ga.control.base.SolverResult` (see :mod:`coop_ga.control.base` for the
@@ -9,6 +10,16 @@ shared names).
 """
 
 from ..cooperative.targets import displaced_target
+from .avoidance import (
+    AvoidanceOptions,
+    AvoidanceResult,
+    ClearanceCost,
+    ClearanceLimit,
+    avoidance_reach,
+    avoidance_velocity,
+    clearance_constraint,
+    repulsive_velocity,
+)
 from .base import SolverResult
 from .constrained import (
     LINE_PARAMETERS,
@@ -44,6 +55,10 @@ from .teleop import ScriptedInput, Teleoperator, command_to_bivector, run_intera
 __all__ = [
     "LINE_PARAMETERS",
     "PAPER_GAINS",
+    "AvoidanceOptions",
+    "AvoidanceResult",
+    "ClearanceCost",
+    "ClearanceLimit",
     "ConstrainedReachOptions",
     "ConstrainedReachResult",
     "DiffIKOptions",
@@ -65,6 +80,9 @@ __all__ = [
     "SolverResult",
     "TaskDynamics",
     "Teleoperator",
+    "avoidance_reach",
+    "avoidance_velocity",
+    "clearance_constraint",
     "command_to_bivector",
     "constrained_point_reach",
     "constrained_velocity",
@@ -87,6 +105,7 @@ __all__ = [
     "point_reaching_velocity",
     "point_task",
     "project_onto_constraints",
+    "repulsive_velocity",
     "run_interactive",
     "simulate_impedance",
     "solve_qp",

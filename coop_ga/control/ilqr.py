@@ -67,6 +67,20 @@ Solver: augmented-Lagrangian box-DDP
   joints, identical to the Riccati step); otherwise by the Riccati/box-QP pass (~15 ms).
   ``backward="riccati"`` forces the Riccati pass.
 
+Clearance cost (``clearance=``, default None: off)
+--------------------------------------------------
+With ``ILQROptions(clearance=ClearanceCost(cm, weight, activation))``
+(:class:`coop_ga.control.avoidance.ClearanceCost`) the running cost gains, at the knots
+k = 1 … n, ``w Σ_i ½ max(0, d_a − d_i(q_k))²`` over the collision model's signed clearances
+d_i (link–obstacle and link–link, [m]): a squared hinge (C¹), zero while every pair is farther
+than d_a.  Its exact gradient ``−w J_dᵀ max(0, d_a − d)`` (J_d from the model) and its
+Gauss–Newton Hessian ``w J_Aᵀ J_A`` (A: the pairs within d_a) enter the Riccati pass as full
+(not diagonal) state-cost blocks; while any pair is within d_a the Riccati pass is used (the
+closed-form step knows no state costs) with the Gauss–Newton terminal model.  The line search
+evaluates the exact cost.  It is a penalty, not a constraint: it increases the clearance
+(measured in ``tests/control/test_avoidance.py``) but does not guarantee a bound on it;
+``ILQRResult.min_clearance`` reports the smallest clearance of the returned trajectory.
+
 Feasibility of what is returned.  After the solve, the trajectory is blended with a
 strictly feasible reference (rest at q_init, or braking to rest from a moving start):
 ``u ← (1 − β) u + β u_ref`` with the smallest β that satisfies every bound (the
@@ -122,6 +136,23 @@ DEFAULT_QV = 1e2
 _CTOL = 1e-7  # bound violation [rad, rad/s] below which a trajectory counts as feasible inside the solver
 
 
+def _check_clearance(c: Any) -> Any:
+    """None or a clearance cost (``evaluate(q)`` and ``value(q)``, :class:`coop_ga.control.avoidance.ClearanceCost`)."""
+    if c is None or (callable(getattr(c, "evaluate", None)) and callable(getattr(c, "value", None))):
+        return c
+    raise InvalidInputError(
+        f"clearance must be None or a coop_ga.control.avoidance.ClearanceCost, got {type(c).__name__}"
+    )
+
+
+def _add_state_hessian(M: np.ndarray, l: np.ndarray) -> None:
+    """M += the state-cost Hessian l of one knot: diagonal (2nq,) or full (2nq, 2nq)."""
+    if l.ndim == 1:
+        M[np.diag_indices(M.shape[0])] += l
+    else:
+        M += l
+
+
 # ============================================================================ the problem
 class ReachingOCP:
     """The reaching problem of Eq 53–57 for a cooperative task (see the module docstring).
@@ -140,8 +171,11 @@ class ReachingOCP:
     Q: precision of the terminal similarity error (scalar, (7,) or (7, 7); PSD).
     Qv: terminal velocity weight (scalar, (nq,) or (nq, nq); PSD; 0 = paper's Eq 57 only).
     limits: ``"enforce"`` (default: the bounds of ``task.system.limits``) or ``"none"``.
+    clearance: a :class:`coop_ga.control.avoidance.ClearanceCost` (a running cost on the
+        clearances at the knots 1 … n, module docstring) or None (default).
 
-    The total cost is ``J(u) = Σ_k u_kᵀ R u_k + e(q_n)ᵀ Q e(q_n) + q̇_nᵀ Q_v q̇_n``.
+    The total cost is ``J(u) = Σ_k u_kᵀ R u_k + e(q_n)ᵀ Q e(q_n) + q̇_nᵀ Q_v q̇_n`` (+ ``Σ_{k≥1} c(q_k)``
+    with a clearance cost).
     """
 
     def __init__(
@@ -157,8 +191,10 @@ class ReachingOCP:
         Q: Any = DEFAULT_Q,
         Qv: Any = DEFAULT_QV,
         limits: str = "enforce",
+        clearance: Any = None,
     ):
         self.task = task
+        self.clearance = _check_clearance(clearance)
         self.nq = n = int(task.nq)
         self.q_init, self.target = check_problem(task, q_init, target, "q_init")
         self.qd_init = np.zeros(n) if qd_init is None else check_q(task, qd_init, "qd_init")
@@ -218,10 +254,30 @@ class ReachingOCP:
         return lf, e, Je
 
     def cost(self, u: Any) -> float:
-        """Total cost J(u) (Eq 53 with Eq 56–57)."""
+        """Total cost J(u) (Eq 53 with Eq 56–57, plus the clearance cost if any)."""
         u = self.check_controls(u)
         q, qd = self.rollout(u)
-        return self.running_cost(u) + self.terminal(q[-1], qd[-1])[0]
+        return self.running_cost(u) + self.terminal(q[-1], qd[-1])[0] + self.clearance_cost(q)
+
+    def clearance_cost(self, q: np.ndarray) -> float:
+        """``Σ_{k=1}^{n} c(q_k)`` of the clearance cost (0 without one); q (n+1, nq)."""
+        if self.clearance is None:
+            return 0.0
+        return float(sum(self.clearance.value(qk) for qk in q[1:]))
+
+    def clearance_terms(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Gradients (n+1, nq) and Gauss–Newton Hessians (n+1, nq, nq) of the clearance cost at the
+        knots (row 0 zero), and whether any pair is within the activation distance."""
+        T, n = self.horizon, self.nq
+        g = np.zeros((T + 1, n))
+        H = np.zeros((T + 1, n, n))
+        if self.clearance is None:
+            return g, H, False
+        for k in range(1, T + 1):
+            _, g[k], Hk, _ = self.clearance.evaluate(q[k])
+            assert Hk is not None  # hessian=True
+            H[k] = Hk
+        return g, H, bool(np.any(g))
 
     def gradient(self, u: Any) -> np.ndarray:
         """∂J/∂u (n, nq) by the adjoint recursion ``λ_n = ∇l_f``, ``λ_k = Aᵀ λ_{k+1}``,
@@ -234,7 +290,17 @@ class ReachingOCP:
         # λ_{k+1} = (A^T)^{n-1-k} λ_n: the q-part stays lq, the v-part is lv + (n-1-k) Δt lq
         m = np.arange(self.horizon - 1, -1, -1, dtype=float)[:, None]  # n-1-k
         lam_v = lv[None, :] + (m * self.dt) * lq[None, :]
-        return u @ self.R2.T + self.h * lq[None, :] + self.dt * lam_v
+        grad = u @ self.R2.T + self.h * lq[None, :] + self.dt * lam_v
+        if self.clearance is not None:
+            # ∂q_k/∂u_j = (h + (k−1−j) Δt²) I for k > j: with A_m = Σ_{k≥m} g_k and B_m = Σ_{k≥m} k g_k,
+            # Σ_{k>j} (h + (k−1−j)Δt²) g_k = h A_{j+1} + Δt² (B_{j+1} − (j+1) A_{j+1})
+            g, _, _ = self.clearance_terms(q)
+            kk = np.arange(self.horizon + 1, dtype=float)[:, None]
+            A = np.cumsum(g[::-1], axis=0)[::-1]
+            B = np.cumsum((kk * g)[::-1], axis=0)[::-1]
+            j1 = kk[1:]
+            grad = grad + self.h * A[1:] + self.dt**2 * (B[1:] - j1 * A[1:])
+        return grad
 
     # ------------------------------------------------------------------ constraints
     def constraint_values(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
@@ -332,6 +398,10 @@ class ILQROptions:
             ``max_iter``), restart once from the minimum-energy controls to the bounded Gauss–Newton IK
             solution; both solves count in ``iterations`` and the histories, and the message says so.
         warn_limits: with ``limits="none"``, warn when the trajectory leaves the joint limits.
+    Avoidance:
+        clearance: a :class:`coop_ga.control.avoidance.ClearanceCost` — a running cost on the
+            link–obstacle / link–link clearances of a collision model (module docstring) — or
+            None (default: off; results identical to the solver without it).
     """
 
     horizon: int = 250
@@ -359,8 +429,10 @@ class ILQROptions:
     al_violation: float = 1e-6
     restart: bool = True
     warn_limits: bool = True
+    clearance: Any = None
 
     def __post_init__(self) -> None:
+        _check_clearance(self.clearance)
         validation.integer(self.horizon, "horizon", minimum=2)
         validation.positive(self.dt, "dt")
         validation.choice(self.limits, ("enforce", "none"), "limits")
@@ -408,6 +480,8 @@ class ILQRResult(SolverResult):
     outer_iterations: outer iterations (AL multipliers and penalty, terminal shift).
     restoration: the β of the final feasibility blend (0: none was needed).
     dt: the time step [s].  target: V_Sd.  hessian: the terminal-Hessian option.
+    clearance_cost: ``Σ_{k≥1} c(q_k)`` of the clearance cost (included in ``cost``; 0 without one).
+    min_clearance: smallest clearance of the collision model over the knots [m] (inf without a clearance cost).
     """
 
     trajectory: np.ndarray
@@ -430,6 +504,8 @@ class ILQRResult(SolverResult):
     restoration: float = 0.0
     dt: float = 0.01
     hessian: str = "newton"
+    clearance_cost: float = 0.0
+    min_clearance: float = float("inf")
 
     @property
     def within_limits(self) -> bool:
@@ -525,8 +601,9 @@ def _backward_box(
     """Riccati recursion (box-DDP) for the double integrator with separable state costs.
 
     ``Vxx, vx``: Hessian and gradient of the terminal cost (plus the knot-n state cost).
-    ``lx, lxx``: (n+1, 2nq) gradients and *diagonal* Hessians of the state costs at the knots
-    (the augmented-Lagrangian terms; row 0 unused, row n already in Vxx, vx).
+    ``lx, lxx``: (n+1, 2nq) gradients and Hessians of the state costs at the knots, the Hessians
+    *diagonal* (n+1, 2nq) (the augmented-Lagrangian terms) or full (n+1, 2nq, 2nq) (with a
+    clearance cost); row 0 unused, row n already in Vxx, vx.
     ``box``: minimise each knot's ``Q(δu)`` over ``a_lo − u_k ≤ δu ≤ a_hi − u_k`` (:func:`_box_qp`).
 
     ``Q_x = Aᵀv``, ``Q_u = 2R u_k + Bᵀv``, ``Q_xx = AᵀVA``, ``Q_ux = BᵀVA``,
@@ -579,7 +656,7 @@ def _backward_box(
                 V = 0.5 * (V + V.T)
                 if k > 0 and lx is not None and lxx is not None:
                     v += lx[k]
-                    V[np.diag_indices(2 * n)] += lxx[k]
+                    _add_state_hessian(V, lxx[k])
                 kff[k] = kk
                 Kfb[k] = K
                 d1 += float(kk @ Qu)
@@ -605,7 +682,7 @@ def _backward_box(
         V = 0.5 * (V + V.T)
         if k > 0 and lx is not None and lxx is not None:
             v += lx[k]
-            V[np.diag_indices(2 * n)] += lxx[k]
+            _add_state_hessian(V, lxx[k])
         kff[k] = kk
         Kfb[k] = K
         d1 += float(kk @ Qu)
@@ -673,7 +750,7 @@ class _Merit:
                 e, Je = ocp.task.error_and_jacobian(q[-1], ocp.target)
         except DegeneratePrimitiveError:
             return None
-        run = ocp.running_cost(u)
+        run = ocp.running_cost(u) + ocp.clearance_cost(q)  # the clearance cost is a running (state) cost
         es = e + self.shift
         lf = float(es @ ocp.Q @ es + qd[-1] @ ocp.Qv @ qd[-1])
         cost = run + float(e @ ocp.Q @ e + qd[-1] @ ocp.Qv @ qd[-1])
@@ -706,14 +783,24 @@ class _Merit:
         lxx = np.zeros((T + 1, 2 * n))
         z = ev["z"]
         active = z > 0
-        if self.mu <= 0 or not active.any():
-            return lx, lxx, False
-        # c = [q − hi, lo − q, q̇ − v, −v − q̇]: ∂c/∂q = (+1, −1), ∂c/∂q̇ = (+1, −1)
-        lx[1:, :n] = z[:, 0] - z[:, 1]
-        lx[1:, n:] = z[:, 2] - z[:, 3]
-        lxx[1:, :n] = self.mu * (active[:, 0] | active[:, 1])
-        lxx[1:, n:] = self.mu * (active[:, 2] | active[:, 3])
-        return lx, lxx, True
+        al_active = bool(self.mu > 0 and active.any())
+        if al_active:
+            # c = [q − hi, lo − q, q̇ − v, −v − q̇]: ∂c/∂q = (+1, −1), ∂c/∂q̇ = (+1, −1)
+            lx[1:, :n] = z[:, 0] - z[:, 1]
+            lx[1:, n:] = z[:, 2] - z[:, 3]
+            lxx[1:, :n] = self.mu * (active[:, 0] | active[:, 1])
+            lxx[1:, n:] = self.mu * (active[:, 2] | active[:, 3])
+        if ocp.clearance is None:
+            return lx, lxx, al_active
+        g, H, c_active = ocp.clearance_terms(ev["q"])
+        if not c_active:
+            return lx, lxx, al_active
+        full = np.zeros((T + 1, 2 * n, 2 * n))
+        idx = np.arange(2 * n)
+        full[:, idx, idx] = lxx
+        full[:, :n, :n] += H
+        lx[:, :n] += g
+        return lx, full, True
 
 
 def _reference_controls(ocp: ReachingOCP) -> np.ndarray:
@@ -810,7 +897,17 @@ def ilqr_reach(
     """
     o = resolve_options(ILQROptions, options, overrides, "ilqr_reach")
     ocp = ReachingOCP(
-        task, q_init, target, qd_init=qd_init, horizon=o.horizon, dt=o.dt, R=o.R, Q=o.Q, Qv=o.Qv, limits=o.limits
+        task,
+        q_init,
+        target,
+        qd_init=qd_init,
+        horizon=o.horizon,
+        dt=o.dt,
+        R=o.R,
+        Q=o.Q,
+        Qv=o.Qv,
+        limits=o.limits,
+        clearance=o.clearance,
     )
     if o.limits == "enforce":
         lim = task.system.limits
@@ -980,10 +1077,10 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
                 gf, Hf = _terminal_model(ocp, ev, None)
             if bar_active and rho_x > 0:
                 # Levenberg–Marquardt on the states (a trust region on δx at every knot)
-                lxx = lxx + rho_x
+                lxx = lxx + rho_x if lxx.ndim == 2 else lxx + rho_x * eye2
             vx = gf + lx[-1]
             Hf_b = Hf.copy()
-            Hf_b[np.diag_indices(2 * n)] += lxx[-1]
+            _add_state_hessian(Hf_b, lxx[-1])
             hscale = max(float(np.linalg.norm(Hf_b, 2)), 1e-12)
             models: list[tuple[str, float]] = []
             if newton:
@@ -1157,7 +1254,11 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
     q, qd = ocp.rollout(u)
     # the reported error is re-evaluated at the re-integrated terminal state (and re-checks degeneracy)
     lf, e, _ = ocp.terminal(q[-1], qd[-1])
-    cost = ocp.running_cost(u) + lf
+    c_cost = ocp.clearance_cost(q)
+    cost = ocp.running_cost(u) + lf + c_cost
+    min_clear = (
+        float(min(ocp.clearance.evaluate(qk, hessian=False)[3] for qk in q)) if ocp.clearance is not None else np.inf
+    )
     costs[-1] = cost
     errs[-1] = float(np.linalg.norm(e))
     lim = task.system.limits
@@ -1213,6 +1314,8 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
         dt=ocp.dt,
         target=ocp.target,
         hessian=o.hessian,
+        clearance_cost=c_cost,
+        min_clearance=min_clear,
     )
 
 
@@ -1241,7 +1344,7 @@ def _gn_only(ocp: ReachingOCP, ev: dict[str, Any], lxx_n: np.ndarray) -> np.ndar
     H = np.zeros((2 * n, 2 * n))
     H[:n, :n] = 2.0 * Je.T @ (ocp.Q @ Je)
     H[n:, n:] = 2.0 * ocp.Qv
-    H[np.diag_indices(2 * n)] += lxx_n
+    _add_state_hessian(H, lxx_n)
     return H
 
 
