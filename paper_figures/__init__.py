@@ -67,6 +67,27 @@ FIGURES: tuple[Figure, ...] = (
     Figure("fig20_21", "fig20_21_teleop", "experiments/teleop_allegro.py", numbers=(20, 21)),
     Figure("table01", "table01_controllable_spaces", "experiments/table1.py", numbers=()),
     # our additions (not in the paper)
+    Figure(
+        "hexapod_walk_tripod_flat",
+        "ours_hexapod_walk_tripod_flat",
+        "experiments/hexapod_walk.py",
+        ("--gait", "tripod", "--terrain", "flat"),
+        addition=True,
+    ),
+    Figure(
+        "hexapod_walk_ripple_steps",
+        "ours_hexapod_walk_ripple_steps",
+        "experiments/hexapod_walk.py",
+        ("--gait", "ripple", "--terrain", "steps"),
+        addition=True,
+    ),
+    Figure(
+        "hexapod_walk_wave_random",
+        "ours_hexapod_walk_wave_random",
+        "experiments/hexapod_walk.py",
+        ("--gait", "wave", "--terrain", "random"),
+        addition=True,
+    ),
     Figure("hexapod_posture", "ours_hexapod_posture", "experiments/hexapod_posture.py", addition=True),
     Figure("obstacles", "ours_obstacle_circle", "experiments/obstacle_circle.py", addition=True),
     Figure("potential_field", "ours_potential_field", "experiments/potential_field.py", addition=True),

@@ -34,7 +34,7 @@ def test_scripts_found():
         [
             *("circle_reaching.py", "impedance_three_iiwa.py", "line_constraint.py", "nullspace_secondary.py"),
             *("reaching.py", "singularity.py", "table1.py", "teleop_allegro.py"),  # experiments
-            *("hexapod_posture.py", "linkages.py", "obstacle_circle.py", "potential_field.py"),  # our additions
+            *("hexapod_posture.py", "hexapod_walk.py", "linkages.py", "obstacle_circle.py", "potential_field.py"),
             "systems.py",  # paper_figures (the runner is the package's __main__)
             *("algebra.py", "cooperative.py", "kinematics.py", "ocp.py", "robustness.py"),  # benchmarks
             *("legged.py", "linkages.py", "motor_fk.py"),  # benchmarks: our additions
