@@ -9,7 +9,8 @@ plane, the signed distance): the algebra that makes avoidance a smooth constrain
 * :mod:`~coop_ga.collision.capsules` — :class:`Capsule`, :func:`fit_capsules` (a bounding capsule per
   link mesh);
 * :mod:`~coop_ga.collision.model` — :class:`CollisionModel`: every clearance of a system at q, its
-  Jacobian, and the same code as a CasADi function.
+  Jacobian, and the same code as a CasADi function;
+* :mod:`~coop_ga.collision.potential` — Coulomb potential-field paths around sphere obstacles (seed 002 §VI).
 """
 
 from .capsules import Capsule, capsule_chain, fit_capsule, fit_capsules, link_meshes
@@ -30,25 +31,31 @@ from .distance import (
     segment_segment_closest,
 )
 from .model import CollisionModel
+from .potential import PotentialPath, charges, coulomb_field, potential_path, random_scene
 
 __all__ = [
     "Capsule",
     "CollisionModel",
     "Obstacle",
     "Plane",
+    "PotentialPath",
     "Sphere",
     "as_obstacle",
     "capsule_capsule_distance",
     "capsule_chain",
     "capsule_plane_distance",
     "capsule_sphere_distance",
+    "charges",
     "conformal_point",
+    "coulomb_field",
     "fit_capsule",
     "fit_capsules",
     "link_meshes",
     "point_plane_distance",
     "point_sphere_distance",
     "point_sphere_product",
+    "potential_path",
+    "random_scene",
     "seed002_link_sphere_distance",
     "segment_point_parameter",
     "segment_segment_closest",
