@@ -36,8 +36,9 @@ The unknowns are the motors of the moving links.  At a Newton iterate each is up
 twist ξ_k = (ω, v1, v2) in the Lie algebra, ``M_k ← exp(ξ_k) M_k`` (Eq (1) of
 :mod:`~coop_ga.linkages.planar`; seed 004 §3.3).  The residuals F and their Jacobian
 J = ∂F/∂ξ at ξ = 0 come from one CasADi graph of the CGA expressions (automatic
-differentiation, compiled once per linkage).  The step solves ``J ξ = −F`` (least squares, the
-minimum-norm Gauss–Newton step when the linkage is redundant), with backtracking on ‖F‖.
+differentiation, compiled once per linkage).  The step solves ``J ξ = −F`` (exactly constrained
+linkages; damped Levenberg–Marquardt, λ = ‖F‖², when the linkage is redundant), with
+backtracking on ‖F‖.
 
 Tracking the crank (seed 004 §3.4, with what the seed lacks): from the last solution a
 *predictor* follows the tangent of the solution curve (``J ξ = −∂F/∂φ Δφ``), Newton corrects.  A
@@ -329,7 +330,15 @@ class Linkage:
             if r <= tol:
                 return m, it, r, True
             J = np.asarray(fj(m, phi)[1])
-            xi = -np.linalg.lstsq(J, F, rcond=None)[0]
+            if J.shape[0] == J.shape[1]:
+                xi = -np.linalg.lstsq(J, F, rcond=None)[0]
+            else:
+                # redundant (over- or under-constrained): Levenberg–Marquardt with λ = ‖F‖² (Yamashita &
+                # Fukushima 2001: quadratic convergence where the residual vanishes), floored for a rank-
+                # deficient JᵀJ
+                JtJ = J.T @ J
+                lam = max(float(F @ F), 1e-14 * float(np.trace(JtJ)))
+                xi = -np.linalg.solve(JtJ + lam * np.eye(J.shape[1]), J.T @ F)
             t = 1.0
             for _ in range(12):  # backtracking: never accept a step that increases ‖F‖
                 m_new = np.asarray(retract(m, t * xi)).ravel()
