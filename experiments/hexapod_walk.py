@@ -207,7 +207,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{speed_ratio:.2f} × the AX-12A no-load speed (kinematic plan; not enforced)."
         ),
         "agrees": bool(ok),
-        "figures": ["scene.png", "margin.png", "height.png"],
+        "figures": ["scene.png", "walk.gif", "margin.png", "height.png"],
     }
 
     # ------------------------------------------------------------------ trajectory.npz

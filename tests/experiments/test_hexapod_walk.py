@@ -62,7 +62,7 @@ def test_metrics(run):
     if terrain == "steps":
         assert m["terrain_rise_m"] == pytest.approx(0.03) and 0.01 < m["body_rise_m"] < 0.035
     g = m["gallery"]
-    assert g["agrees"] is True and g["figures"] == ["scene.png", "margin.png", "height.png"]
+    assert g["agrees"] is True and g["figures"] == ["scene.png", "walk.gif", "margin.png", "height.png"]
     assert "stability margin" in g["evidence"]
     for key in ("walk_s", "render_s", "gif_s", "total_runtime_s"):  # wall-clock times live in timing.json
         assert key not in m, key
