@@ -42,7 +42,9 @@ Reproducible under ``--seed``: target (system, kind, level, i) draws from its ow
 so a target does not depend on the order or the selection of systems/kinds/levels.
 ``--workers W`` gives the same records as a serial run (up to the timings).
 
-Run: ``python benchmarks/robustness.py`` (full study), ``--ci`` (small, < 1 min).
+Run: ``python benchmarks/robustness.py`` (full study), ``--ci`` (small, < 1 min).  The same jobs as a sweep
+(issue 16; the levels, draws and certificate are :mod:`coop_ga.sweep.targets`, shared):
+``python -m coop_ga.sweep robustness --executor process --workers 2`` (records streamed, resumable; Dask/Ray).
 """
 
 from __future__ import annotations
@@ -56,7 +58,6 @@ import subprocess
 import sys
 import time
 import warnings
-import zlib
 from collections.abc import Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass
@@ -70,34 +71,25 @@ from _timing import print_table
 
 import coop_ga as cg
 from coop_ga.harness import experiment_parser, positive_int, progress, write_json
+from coop_ga.sweep.targets import (
+    CERT_TOL,
+    LEVELS,
+    QD_INIT_MAX,
+    Displacement,
+    Level,
+    certify,
+    draw_displacement,
+    name_spawn_key,
+)
 
 # ============================================================================ constants
 
 SCHEMA_VERSION = 1
 
 
-@dataclass(frozen=True)
-class Level:
-    """Size of a displacement: translation norm [m], rotation angle [deg], relative scale change."""
-
-    translation_m: float
-    angle_deg: float
-    scale: float
-
-
-LEVELS: dict[str, Level] = {
-    "small": Level(0.02, 5.0, 0.05),
-    "medium": Level(0.05, 15.0, 0.15),
-    "large": Level(0.15, 35.0, 0.30),
-}
 SOLVERS: tuple[str, ...] = ("ilqr", "ilqr_moving", "gn", "diffik")
 ILQR_SOLVERS = ("ilqr", "ilqr_moving")
 
-QD_INIT_MAX = 0.2  # [rad/s] initial joint speeds of ilqr_moving ~ U(±QD_INIT_MAX)
-CERT_TOL = 1e-6  # certified iff the bounded least-squares solve reaches ‖e‖ < CERT_TOL
-# trf is slow near active bounds with a rank-deficient J_e: at 300 evaluations ~1 % of the
-# candidates stopped at ‖e‖ ~ 1e-6…1e-4 (uncertified by the budget, not by the geometry)
-CERT_MAX_NFEV = 1000
 VIOLATION_TOL = 1e-6  # [rad or m] a run is "outside the limits" above this
 DIFFIK_TOL = 1e-4  # diff IK: time to reach this error ...
 DIFFIK_HORIZON_S = 2.5  # ... is compared with the iLQR horizon
@@ -127,14 +119,11 @@ TIME_FIELDS = ("time_s", "solver_time_s")
 
 
 # ============================================================================ seeds and draws
-def _name_key(name: str) -> int:
-    # crc32 is stable across processes and Python versions (hash() is salted per process)
-    return zlib.crc32(name.encode("utf-8"))
-
-
-def spawn_key(system: str, kind: str, level: str, index: int) -> tuple[int, int, int, int]:
+# The levels, draws and the certificate live in coop_ga.sweep.targets (shared with the sweep's ready spec
+# "robustness", which reproduces this study's jobs); the names of this module are kept.
+def spawn_key(system: str, kind: str, level: str, index: int) -> tuple[int, ...]:
     """The ``SeedSequence`` spawn key of one target (module docstring)."""
-    return (_name_key(system), _name_key(kind), _name_key(level), int(index))
+    return name_spawn_key((system, kind, level, int(index)))
 
 
 def target_rng(seed: int, system: str, kind: str, level: str, index: int) -> np.random.Generator:
@@ -142,44 +131,13 @@ def target_rng(seed: int, system: str, kind: str, level: str, index: int) -> np.
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=spawn_key(system, kind, level, index)))
 
 
-@dataclass(frozen=True)
-class Draw:
-    """The random part of one target: the displacement and the initial joint velocity."""
-
-    translation: tuple[float, float, float]  # [m]
-    axis: tuple[float, float, float]  # unit
-    angle: float  # [rad]
-    scale: float  # factor
-    qd_init: tuple[float, ...]  # (nq,) [rad/s] for ilqr_moving
-
-
-def _unit(rng: np.random.Generator) -> np.ndarray:
-    v = rng.standard_normal(3)
-    n = float(np.linalg.norm(v))
-    while n < 1e-9:  # measure zero; keeps the direction well defined
-        v = rng.standard_normal(3)
-        n = float(np.linalg.norm(v))
-    return v / n
+Draw = Displacement
 
 
 def draw_target(rng: np.random.Generator, level: Level, nq: int) -> Draw:
-    """Draw a displacement of size ``level`` and an initial velocity U(±QD_INIT_MAX)^nq.
-
-    The draw order is fixed (direction, axis, scale sign, velocity) so that a stream always
-    gives the same target.
-    """
-    direction = _unit(rng)
-    axis = _unit(rng)
-    sign = 1.0 if rng.random() < 0.5 else -1.0
-    qd = rng.uniform(-QD_INIT_MAX, QD_INIT_MAX, size=nq)
-    t = level.translation_m * direction
-    return Draw(
-        translation=(float(t[0]), float(t[1]), float(t[2])),
-        axis=(float(axis[0]), float(axis[1]), float(axis[2])),
-        angle=math.radians(level.angle_deg),
-        scale=1.0 + sign * level.scale,
-        qd_init=tuple(float(x) for x in qd),
-    )
+    """Draw a displacement of size ``level`` and an initial velocity U(±QD_INIT_MAX)^nq
+    (:func:`coop_ga.sweep.targets.draw_displacement`: direction, axis, scale sign, velocity, in that order)."""
+    return draw_displacement(rng, level, nq, QD_INIT_MAX)
 
 
 # ============================================================================ per-process context
@@ -367,63 +325,7 @@ def _warm_up(system: str, kind: str, solvers: Sequence[str]) -> dict[str, Any]:
 
 
 # ============================================================================ certification
-def certify(task: Any, q0: np.ndarray, target: Any) -> dict[str, Any]:
-    """Independent bounded least-squares solve of e(q) = 0 inside the position limits.
-
-    ``scipy.optimize.least_squares(e, q0, jac=J_e, bounds=(lower, upper), method="trf")``;
-    certified iff the final ‖e‖ < CERT_TOL and the final q is within the limits.
-    """
-    from scipy.optimize import least_squares
-
-    lim = task.system.limits
-    lo, hi = np.asarray(lim.lower, dtype=float), np.asarray(lim.upper, dtype=float)
-    x0 = np.clip(np.asarray(q0, dtype=float), lo, hi)  # trf needs a feasible start
-    cache: dict[str, Any] = {}
-
-    def both(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        # least_squares asks for e and J_e at the same q: one compiled call for both
-        if cache.get("q") is None or not np.array_equal(cache["q"], q):
-            e, J = task.error_and_jacobian(q, target)
-            cache.update(q=q.copy(), e=e, J=J)
-        return cache["e"], cache["J"]
-
-    t0 = time.perf_counter()
-    out: dict[str, Any] = {
-        "certified": False,
-        "error": None,
-        "violation": None,
-        "nfev": None,
-        "status": None,
-        "reason": None,
-        "time_s": None,
-    }
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            sol = least_squares(
-                lambda q: both(q)[0],
-                x0,
-                jac=lambda q: both(q)[1],
-                bounds=(lo, hi),
-                method="trf",
-                ftol=1e-12,
-                xtol=1e-12,
-                gtol=1e-12,
-                max_nfev=CERT_MAX_NFEV,
-            )
-            err = float(np.linalg.norm(task.error(sol.x, target)))
-        viol = lim.position_violation(sol.x)
-        out.update(error=_finite(err), violation=_finite(viol), nfev=int(sol.nfev), status=int(sol.status))
-        if not (math.isfinite(err) and err < CERT_TOL):
-            out["reason"] = f"bounded solve ended at ‖e‖ = {err:.3g} ≥ {CERT_TOL:g} (status {sol.status})"
-        elif viol > 0.0:
-            out["reason"] = f"bounded solve left the limits by {viol:.3g}"
-        else:
-            out["certified"] = True
-    except Exception as exc:  # e.g. DegeneratePrimitiveError along the solve
-        out["reason"] = f"{type(exc).__name__}: {str(exc)[:MESSAGE_CHARS]}"
-    out["time_s"] = time.perf_counter() - t0
-    return out
+# certify(task, q0, target): coop_ga.sweep.targets.certify (imported above; the same solve and record)
 
 
 # ============================================================================ one target, one case

@@ -37,7 +37,7 @@ def test_scripts_found():
             *("hexapod_posture.py", "hexapod_walk.py", "linkages.py", "obstacle_circle.py", "potential_field.py"),
             "systems.py",  # paper_figures (the runner is the package's __main__)
             *("algebra.py", "cooperative.py", "kinematics.py", "ocp.py", "robustness.py"),  # benchmarks
-            *("legged.py", "linkages.py", "motor_fk.py"),  # benchmarks: our additions
+            *("legged.py", "linkages.py", "motor_fk.py", "sweep.py"),  # benchmarks: our additions
         ]
     ), names
 
