@@ -282,10 +282,10 @@ def _similarity_from_params(kind, c1, r1, o1, c2, r2, o2, reference=None) -> Mul
     Rc1 = (R * c1v * R.reverse()).grade(1)
     rc = (Rc1.get(2), Rc1.get(4), Rc1.get(8))
     if B.any_symbolic(*c2, *rc, scale):
-        return _compose_trd(tuple(c2[i] - scale * rc[i] for i in range(3)), R.coeffs, beta)
+        return _compose_trd(tuple(c2[i] - scale * rc[i] for i in range(3)), R, beta)
     with np.errstate(over="ignore", invalid="ignore"):
         t = tuple(c2[i] - scale * rc[i] for i in range(3))
-        V = _compose_trd(t, R.coeffs, beta)
+        V = _compose_trd(t, R, beta)
     for c in V.coeffs:
         if not np.all(np.isfinite(c)):
             raise InvalidInputError(
@@ -300,7 +300,9 @@ def _compose_trd(t, Rc, beta) -> Multivector:
     from .groups import DILATOR_BLADES, SIMILARITY_BLADES, TRANSLATOR_BLADES
 
     T = Multivector(TRANSLATOR_BLADES, (1.0 + 0.0 * t[0], -0.5 * t[0], -0.5 * t[1], -0.5 * t[2]))
-    R = Multivector(ROTOR_BLADES, Rc)
+    # Rc may be a Multivector's coeffs on fewer blades (a half-turn rotor built symbolically has a
+    # structurally zero scalar, which the algebra drops): lay it out on the rotor blades first
+    R = Rc.with_blades(ROTOR_BLADES) if isinstance(Rc, Multivector) else Multivector(ROTOR_BLADES, Rc)
     D = Multivector(DILATOR_BLADES, (B.cosh(0.5 * beta), B.sinh(0.5 * beta)))
     return (T * R * D).with_blades(SIMILARITY_BLADES)  # the similarity blades are closed under *
 
