@@ -23,3 +23,27 @@ def central_difference(f, x: np.ndarray, h: float = 1e-6) -> np.ndarray:
         xm[i] -= h
         J[:, i] = (np.asarray(f(xp)).ravel() - np.asarray(f(xm)).ravel()) / (2 * h)
     return J
+
+
+def script_main(script):
+    """``main`` of an experiment/benchmark script given by path (the runner's own loader, one place)."""
+    from paper_figures import load_script
+
+    return load_script(script)
+
+
+def strict_json(text: str) -> dict:
+    """JSON that refuses NaN/Infinity constants (our outputs are strict: NaN is written as null)."""
+    import json
+
+    def refuse(name: str) -> float:
+        raise AssertionError(f"non-strict JSON constant {name}")
+
+    return json.loads(text, parse_constant=refuse)
+
+
+def read_metrics(out, name: str = "metrics.json") -> dict:
+    """``out/name`` read with :func:`strict_json`."""
+    from pathlib import Path
+
+    return strict_json((Path(out) / name).read_text())

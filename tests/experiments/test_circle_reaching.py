@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -11,35 +10,21 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.helpers import read_metrics, script_main
+
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "experiments" / "circle_reaching.py"
-
-
-def _load_main(path: Path = SCRIPT):
-    name = f"test_{path.stem}_script"
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod  # the scripts' dataclasses look their module up here
-    spec.loader.exec_module(mod)
-    return mod.main
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("circle_reaching")
-    assert _load_main()(["--out", str(out), "--quiet", "--fast"]) == 0
+    assert script_main(SCRIPT)(["--out", str(out), "--quiet", "--fast"]) == 0
     return out
 
 
-def _metrics(out: Path) -> dict:
-    def bad(name):
-        raise AssertionError(f"non-strict JSON constant {name}")
-
-    return json.loads((out / "metrics.json").read_text(), parse_constant=bad)
-
-
-def test_metrics(run):
-    m = _metrics(run)
+def testread_metrics(run):
+    m = read_metrics(run)
     for key in (
         "converged",
         "terminal_error",
@@ -110,7 +95,7 @@ def test_figures(run):
 
 def test_same_as_reaching_fig08(run, tmp_path):
     """circle_reaching.py is the fig08 preset of reaching.py: the same bytes."""
-    main = _load_main(ROOT / "experiments" / "reaching.py")
+    main = script_main(ROOT / "experiments" / "reaching.py")
     assert main(["--figure", "fig08", "--fast", "--quiet", "--out", str(tmp_path)]) == 0
     for name in ("metrics.json", "trajectory.npz"):
         assert (tmp_path / name).read_bytes() == (run / name).read_bytes(), name

@@ -2,43 +2,27 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.helpers import read_metrics, script_main
+
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "experiments" / "hexapod_posture.py"
-
-
-def _load_main(path: Path = SCRIPT):
-    name = f"test_{path.stem}_script"
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod.main
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("hexapod_posture")
-    assert _load_main()(["--out", str(out), "--quiet", "--fast"]) == 0
+    assert script_main(SCRIPT)(["--out", str(out), "--quiet", "--fast"]) == 0
     return out
 
 
-def _metrics(out: Path) -> dict:
-    def bad(name):
-        raise AssertionError(f"non-strict JSON constant {name}")
-
-    return json.loads((out / "metrics.json").read_text(), parse_constant=bad)
-
-
-def test_metrics(run):
-    m = _metrics(run)
+def testread_metrics(run):
+    m = read_metrics(run)
     g = m["gallery"]
     assert g["agrees"] is True
     for f in g["figures"]:

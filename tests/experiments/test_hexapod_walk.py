@@ -2,46 +2,30 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from tests.helpers import read_metrics, script_main
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "experiments" / "hexapod_walk.py"
 RUNS = [("tripod", "flat"), ("ripple", "steps"), ("wave", "random")]
 
 
-def _load_main():
-    name = "test_hexapod_walk_script"
-    spec = importlib.util.spec_from_file_location(name, SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod.main
-
-
 @pytest.fixture(scope="module", params=RUNS, ids=[f"{g}-{t}" for g, t in RUNS])
 def run(request, tmp_path_factory):
     gait, terrain = request.param
     out = tmp_path_factory.mktemp(f"hexapod_walk_{gait}_{terrain}")
-    assert _load_main()(["--gait", gait, "--terrain", terrain, "--fast", "--quiet", "--out", str(out)]) == 0
+    assert script_main(SCRIPT)(["--gait", gait, "--terrain", terrain, "--fast", "--quiet", "--out", str(out)]) == 0
     return gait, terrain, out
 
 
-def _metrics(out: Path) -> dict:
-    def bad(name):
-        raise AssertionError(f"non-strict JSON constant {name}")
-
-    return json.loads((out / "metrics.json").read_text(), parse_constant=bad)
-
-
-def test_metrics(run):
+def testread_metrics(run):
     gait, terrain, out = run
-    m = _metrics(out)
+    m = read_metrics(out)
     assert m["gait"] == gait and m["terrain"] == terrain and m["fast"] is True
     assert m["commanded_distance_m"] == 0.3
     # the walk stops at the first knot past the distance: at most one step v Δt further

@@ -2,29 +2,20 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pytest
 
+from tests.helpers import script_main
+
 SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "linkages.py"
-
-
-def _main():
-    name = "experiment_linkages"
-    spec = importlib.util.spec_from_file_location(name, SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod.main
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("linkages")
-    assert _main()(["--fast", "--quiet", "--out", str(out)]) == 0
+    assert script_main(SCRIPT)(["--fast", "--quiet", "--out", str(out)]) == 0
     return out, json.loads((out / "metrics.json").read_text())
 
 

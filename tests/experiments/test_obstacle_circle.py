@@ -2,43 +2,26 @@
 
 from __future__ import annotations
 
-import importlib.util
-import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.helpers import read_metrics, script_main
+
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "experiments" / "obstacle_circle.py"
-
-
-def _load_main():
-    name = "test_obstacle_circle_script"
-    spec = importlib.util.spec_from_file_location(name, SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod.main
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("obstacle_circle")
-    assert _load_main()(["--fast", "--quiet", "--out", str(out)]) == 0
+    assert script_main(SCRIPT)(["--fast", "--quiet", "--out", str(out)]) == 0
     return out
 
 
-def _metrics(out: Path) -> dict:
-    def bad(name):
-        raise AssertionError(f"non-strict JSON constant {name}")
-
-    return json.loads((out / "metrics.json").read_text(), parse_constant=bad)
-
-
-def test_metrics(run):
-    m = _metrics(run)
+def testread_metrics(run):
+    m = read_metrics(run)
     assert m["dof"] == 21 and m["system"] == "three_franka"
     (ob,) = m["obstacles"]
     assert set(ob) == {"center", "radius"} and len(ob["center"]) == 3 and ob["radius"] == pytest.approx(0.04)
@@ -74,7 +57,7 @@ def test_metrics(run):
 
 
 def test_trajectories(run):
-    m = _metrics(run)
+    m = read_metrics(run)
     z = np.load(run / "trajectory.npz")
     T = m["T"]
     assert z["q"].shape == (T, 21) and z["q_no_avoidance"].shape == (T, 21)
@@ -86,5 +69,5 @@ def test_trajectories(run):
 
 
 def test_deterministic(run, tmp_path):
-    assert _load_main()(["--fast", "--quiet", "--out", str(tmp_path)]) == 0
+    assert script_main(SCRIPT)(["--fast", "--quiet", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "metrics.json").read_text() == (run / "metrics.json").read_text()

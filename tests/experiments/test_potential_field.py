@@ -2,43 +2,27 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.helpers import read_metrics, script_main
+
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "experiments" / "potential_field.py"
-
-
-def _load_main(path: Path = SCRIPT):
-    name = f"test_{path.stem}_script"
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod.main
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("potential_field")
-    assert _load_main()(["--out", str(out), "--quiet", "--fast"]) == 0
+    assert script_main(SCRIPT)(["--out", str(out), "--quiet", "--fast"]) == 0
     return out
 
 
-def _metrics(out: Path) -> dict:
-    def bad(name):
-        raise AssertionError(f"non-strict JSON constant {name}")
-
-    return json.loads((out / "metrics.json").read_text(), parse_constant=bad)
-
-
 def test_files_and_gallery(run):
-    m = _metrics(run)
+    m = read_metrics(run)
     g = m["gallery"]
     assert set(g) >= {"title", "claim", "evidence", "agrees", "figures"}
     assert g["figures"] == ["failures.png", "scene.png", "arm5_scene.png", "length_ratio.png"]
@@ -51,7 +35,7 @@ def test_files_and_gallery(run):
 
 
 def test_random_scene_numbers(run):
-    m = _metrics(run)
+    m = read_metrics(run)
     assert m["fast"] is True and m["scenes"] == 30
     rs = m["random_scenes"]
     for rule in ("seed", "equilibrium"):
@@ -69,7 +53,7 @@ def test_random_scene_numbers(run):
 
 
 def test_failure_cases(run):
-    c = _metrics(run)["failure_cases"]
+    c = read_metrics(run)["failure_cases"]
     sym = c["symmetric_obstacle"]
     assert sym["status"] == "local_minimum" and sym["off_axis_1mm_status"] == "reached"
     assert sym["equilibrium_distance_m"] == pytest.approx(0.344949, abs=1e-6)
@@ -84,14 +68,14 @@ def test_failure_cases(run):
 
 
 def test_deterministic(run, tmp_path):
-    assert _load_main()(["--out", str(tmp_path), "--quiet", "--fast"]) == 0
+    assert script_main(SCRIPT)(["--out", str(tmp_path), "--quiet", "--fast"]) == 0
     assert (tmp_path / "metrics.json").read_text() == (run / "metrics.json").read_text()
 
 
 def test_arm5_follows_the_path(run):
     """§VI-B step 5: the §V IK at every path point; Pinocchio FK on the path, inside the limits; with the 3-D
     rule a smooth joint path clear of the obstacle; Eq 23's detour forces a branch switch of joint 1."""
-    a = _metrics(run)["arm5_follow"]
+    a = read_metrics(run)["arm5_follow"]
     for rule in ("seed", "equilibrium"):
         r = a[rule]
         assert r["status"] == "reached" and r["inside_joint_limits"] is True

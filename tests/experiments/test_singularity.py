@@ -3,39 +3,22 @@ other two TCPs; the cooperative circle degenerates and the run stops one step be
 
 from __future__ import annotations
 
-import importlib.util
-import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from tests.helpers import script_main, strict_json
+
 SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "singularity.py"
 FIGURES = ("fig18_scene.png", "fig19_circle_parameters.png", "fig19_bivector.png", "fig19_manipulability.png")
-
-
-def _main():
-    name = "experiment_singularity"
-    spec = importlib.util.spec_from_file_location(name, SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    return mod.main
-
-
-def _strict(text: str) -> dict:
-    def refuse(c: str) -> float:
-        raise AssertionError(f"non-strict JSON constant {c}")
-
-    return json.loads(text, parse_constant=refuse)
 
 
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     out = tmp_path_factory.mktemp("singularity")
-    assert _main()(["--fast", "--quiet", "--out", str(out)]) == 0  # no exception although w reaches ~1e-6
-    return out, _strict((out / "metrics.json").read_text()), np.load(out / "trajectory.npz")
+    assert script_main(SCRIPT)(["--fast", "--quiet", "--out", str(out)]) == 0  # no exception although w reaches ~1e-6
+    return out, strict_json((out / "metrics.json").read_text()), np.load(out / "trajectory.npz")
 
 
 def test_files_and_gallery(run):
@@ -47,7 +30,7 @@ def test_files_and_gallery(run):
     assert g["agrees"] is True and g["figures"][0] == "fig18_scene.png" and set(g["figures"]) == set(FIGURES)
     assert "rounding noise" in g["evidence"]  # the disagreement/caveat is stated
     # wall-clock times go to timing.json only (metrics.json is committed and must not change between runs)
-    assert set(_strict((out / "timing.json").read_text())) == {"start_preparation_s", "run_s", "total_s"}
+    assert set(strict_json((out / "timing.json").read_text())) == {"start_preparation_s", "run_s", "total_s"}
     assert not [k for k in m if "runtime" in k or "wall" in k or "seconds" in k]
 
 
@@ -112,7 +95,7 @@ def test_limits_and_fixed_arms(run):
 
 def test_deterministic(run, tmp_path):
     out, _, _ = run
-    assert _main()(["--fast", "--quiet", "--out", str(tmp_path)]) == 0
+    assert script_main(SCRIPT)(["--fast", "--quiet", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "metrics.json").read_bytes() == (out / "metrics.json").read_bytes()
     assert (tmp_path / "trajectory.npz").read_bytes() == (out / "trajectory.npz").read_bytes()
 
@@ -121,11 +104,11 @@ def test_unreachable_fixed_points_are_refused(tmp_path):
     from coop_ga.errors import CoopGAError
 
     with pytest.raises(CoopGAError, match="not reachable"):
-        _main()(["--fast", "--quiet", "--out", str(tmp_path), "--half-width", "3"])
+        script_main(SCRIPT)(["--fast", "--quiet", "--out", str(tmp_path), "--half-width", "3"])
 
 
 def test_bad_option_value(capsys):
     with pytest.raises(SystemExit) as ex:
-        _main()(["--dt", "-1"])
+        script_main(SCRIPT)(["--dt", "-1"])
     assert ex.value.code == 2
     assert "argument --dt: expected a number > 0" in capsys.readouterr().err
