@@ -212,8 +212,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--list", action="store_true", help="list the figures and their scripts, then exit")
     args = p.parse_args(argv)
     if args.list:
+        kw = max(len(g.key) for g in FIGURES)
+        fw = max(len(g.folder) for g in FIGURES)
         for f in FIGURES:
-            print(f"{f.key:10s} {_numbers(f):14s} {f.folder:32s} {' '.join([f.script, *f.args])}")
+            print(f"{f.key:{kw}s}  {_numbers(f):14s} {f.folder:{fw}s}  {' '.join([f.script, *f.args])}")
         return 0
     try:
         figs = select(args.only)
@@ -232,7 +234,7 @@ def main(argv: list[str] | None = None) -> int:
     def report(i: int, r: dict[str, Any]) -> None:
         fig = next(f for f in FIGURES if f.key == r["key"])
         status = "done" if r["ok"] else "FAILED"
-        say(f"[{i}/{len(figs)}] {_numbers(fig):14s} {fig.folder:32s} {status} in {r['seconds']:.1f} s")
+        say(f"[{i}/{len(figs)}] {_numbers(fig):14s} {fig.folder:34s} {status} in {r['seconds']:.1f} s")
         for prob in r["problems"]:
             say("    " + prob.replace("\n", "\n    "))
 
@@ -241,7 +243,7 @@ def main(argv: list[str] | None = None) -> int:
 
         use_backend()
         for i, fig in enumerate(figs, 1):
-            say(f"[{i}/{len(figs)}] {_numbers(fig):14s} {fig.folder:32s} running ...")
+            say(f"[{i}/{len(figs)}] {_numbers(fig):14s} {fig.folder:34s} running ...")
             results[fig.key] = r = run_one(fig, out, extra, args.verbose)
             report(i, r)
     else:
