@@ -12,14 +12,15 @@ terrain (``Terrain.land``), and at every time step the static stability margin (
 support polygon), joint limits, foot slip and the static torques for equal load sharing against the
 servo stall torque.
 
-Defaults (WalkOptions): stride 0.08 m, cycle time 1.0 / 1.2 / 1.5 s (tripod / ripple / wave), so the
-forward speed is 0.16 / 0.10 / 0.064 m/s; lift 0.03 m above the highest terrain under the swing; ride
+Defaults (WalkOptions): stride 0.08 m, cycle time 1.6 / 2.4 / 4.0 s (tripod / ripple / wave), so the
+forward speed is 0.10 / 0.05 / 0.024 m/s and the joint speeds stay below the URDF's limit (6.18 rad/s); lift 0.03 m above the highest terrain under the swing; ride
 height 0.10 m; footholds 0.16 m out from each coxa axis; Δt ≈ 0.02 s (0.04 s with ``--fast``).
 The walk covers ``--distance`` (1 m; 0.3 m with ``--fast``).  Terrain ``steps``: 0.03 m rises every
 0.25 m from x = 0.15 m; ``random``: 0.08 m tiles of height U[0, 0.025] m (seed ``--seed``).
 
 Writes to ``--out``: ``metrics.json`` (distance walked, body tracking error, minimum stability margin,
-maximum slip, maximum torque / stall, ``max_limit_violation``, joint speeds, clearance, the stance
+maximum slip, maximum torque / stall, ``max_limit_violation``, joint speeds against the URDF's speed
+limit (``max_velocity_violation``), clearance, the stance
 primitives used, and the ``gallery`` block), ``scene.png`` (the robot at the start (light) and at a
 mid-walk instant (grey) with the stance primitive of that instant (turquoise) and of the start
 (green), the foot paths up to that instant (red) and the terrain profile), ``walk.gif`` (animation, matplotlib
@@ -139,6 +140,7 @@ def main(argv: list[str] | None = None) -> int:
     ok = (
         res.min_margin > 0
         and res.max_limit_violation == 0.0
+        and res.max_velocity_violation == 0.0
         and res.max_slip < 1e-6
         and res.max_torque_ratio < 1.0
         and abs(res.distance - distance) < 0.01
@@ -172,6 +174,8 @@ def main(argv: list[str] | None = None) -> int:
         "max_joint_speed_rad_s": res.max_joint_speed,
         "servo_no_load_speed_rad_s": SERVO_SPEED,
         "max_joint_speed_ratio": speed_ratio,
+        "max_velocity_ratio": res.max_velocity_ratio,
+        "max_velocity_violation": res.max_velocity_violation,
         "min_swing_clearance_m": float(np.min(res.swing_clearance)),
         "max_contact_error_m": float(np.max(res.contact_error)),
         "min_reach_margin_m": float(np.min(res.reach_margin)),
@@ -203,8 +207,9 @@ def main(argv: list[str] | None = None) -> int:
             f"stability margin {res.min_margin * 1000:.1f} mm (>0 throughout: {res.min_margin > 0}); max stance-foot "
             f"slip {res.max_slip:.1e} m; max joint-limit violation {res.max_limit_violation:.1e} rad; max static "
             f"torque {res.max_torque_ratio:.2f} × stall; posture tracking residual {track[0]:.1e} m / {track[1]:.1e} "
-            f"rad; stance primitives per step: {kinds_txt}. Peak joint speed {res.max_joint_speed:.1f} rad/s is "
-            f"{speed_ratio:.2f} × the AX-12A no-load speed (kinematic plan; not enforced)."
+            f"rad; stance primitives per step: {kinds_txt}. Peak joint speed {res.max_joint_speed:.1f} rad/s = "
+            f"{res.max_velocity_ratio:.2f} × the URDF speed limit (the AX-12A's no-load speed; violation "
+            f"{res.max_velocity_violation:.1e} rad/s)."
         ),
         "agrees": bool(ok),
         "figures": ["scene.png", "walk.gif", "margin.png", "height.png"],

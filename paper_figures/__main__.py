@@ -40,17 +40,20 @@ from coop_ga.harness import experiment_parser, positive_int, write_json
 from . import FIGURES, ROOT, Figure, load_script, select
 
 LOG_FILE = "log.txt"
+#: metrics keys that must be 0 in every published figure (a trajectory outside the joint limits)
+VIOLATION_KEYS = ("max_limit_violation", "max_velocity_violation")
 #: files a figure folder holds; removed before its script runs again (nothing else is touched)
 OUTPUT_SUFFIXES = (".png", ".json", ".npz", ".md", ".txt")
 
 
 def _limit_violations(obj: Any, path: str = "") -> list[tuple[str, float]]:
-    """Every ``max_limit_violation`` value > 0 in a metrics tree, with its key path."""
+    """Every ``max_limit_violation`` (position, [rad]) or ``max_velocity_violation`` ([rad/s]) value > 0 in
+    a metrics tree, with its key path."""
     out: list[tuple[str, float]] = []
     if isinstance(obj, dict):
         for k, v in obj.items():
             p = f"{path}.{k}" if path else str(k)
-            if k == "max_limit_violation" and isinstance(v, (int, float)) and v > 0:
+            if k in VIOLATION_KEYS and isinstance(v, (int, float)) and v > 0:
                 out.append((p, float(v)))
             else:
                 out += _limit_violations(v, p)

@@ -51,14 +51,14 @@ One step Δt of :func:`walk` (all positions in the world frame W unless said oth
 Gait parameters (:class:`WalkOptions` defaults), chosen for the PhantomX-size robot (feet 0.1 m below
 the body, leg reach 0.2 m): footholds 0.16 m out from the coxa axes (at the stand pose's 0.174 m the
 corner legs come within 1 cm of full extension at the ends of the stride, and closer on steps), stride
-0.08 m, cycle times 1.0 / 1.2 / 1.5 s (tripod / ripple / wave: 0.16 / 0.10 / 0.064 m/s), lift 0.03 m
+0.08 m, cycle times 1.6 / 2.4 / 4.0 s (tripod / ripple / wave: 0.10 / 0.05 / 0.024 m/s), lift 0.03 m
 (the steps rise 0.03 m, the random tiles ≤ 0.025 m).  With these, over a 1 m walk (Δt ≈ 0.02 s,
 ``experiments/hexapod_walk.py``) the minimum static stability margin is 82–88 / 110–115 / 122–123 mm
 (tripod / ripple / wave, over flat, steps and random ground), the foot targets keep ≥ 5.6 mm of
 workspace margin, the static torques stay ≤ 0.57 × stall, stance-foot slip is ≤ 4e-16 m and no joint
-leaves its limits.  The plan is kinematic: its peak joint speed (7.5–14.2 rad/s, during swings) is above
-the AX-12A's no-load speed (6.2 rad/s) — reported (``max_joint_speed``), not enforced; longer cycle
-times scale it down.
+leaves its position limits.  The plan is kinematic; its joint speeds are checked against the URDF's
+speed limit (6.18 rad/s, the AX-12A's no-load speed): the default cycle times keep the peak below it
+(``max_velocity_violation`` 0; with the earlier 1.0 / 1.2 / 1.5 s the swings reached 8.6–14.2 rad/s).
 
 Model assumptions, said once: the COM is the whole robot's (Pinocchio, base link included: 1.873 kg);
 torques treat the legs as massless with the full weight shared equally by the stance feet (the
@@ -233,7 +233,11 @@ def static_torques(state: BodyState, stance_legs: object, legs: LegModel, mass: 
 
 # ====================================================================== options and result
 #: default cycle times T [s] per gait (module docstring of :class:`WalkOptions`).
-CYCLE_TIME: dict[str, float] = {"tripod": 1.0, "ripple": 1.2, "wave": 1.5}
+#: default gait periods [s], chosen so that the plan's peak joint speed stays below the URDF's speed
+#: limit (6.18 rad/s, the AX-12A's no-load speed) on flat, steps and random ground: measured peaks over
+#: 1 m on steps 5.4 / 5.4 / 5.6 rad/s (tripod / ripple / wave); with 1.0 / 1.2 / 1.5 s they were 8.6 /
+#: 10.3 / 14.2 rad/s (the swing speed scales like 1 / period)
+CYCLE_TIME: dict[str, float] = {"tripod": 1.6, "ripple": 2.4, "wave": 4.0}
 #: the servo's no-load speed [rad/s] (AX-12A at 12 V: 59 rev/min, robot README [AX]); reported, not enforced.
 SERVO_SPEED = 59.0 * 2.0 * math.pi / 60.0
 
@@ -250,7 +254,7 @@ class WalkOptions:
         travels ``stride`` relative to the body.
     stride: stance stroke [m] of the default forward speed (0.08 m: the corner legs of the PhantomX-size
         robot reach about ±0.06 m along x from their stand foothold at 0.1 m below the body).
-    cycle_time: T [s]; ``None``: :data:`CYCLE_TIME` (tripod 1.0, ripple 1.2, wave 1.5 s).
+    cycle_time: T [s]; ``None``: :data:`CYCLE_TIME` (tripod 1.6, ripple 2.4, wave 4.0 s).
     duty: duty factor β; ``None``: the gait's (1/2, 2/3, 5/6).
     lift_height: swing apex above the highest terrain under the swing [m].
     ride_height: body origin above the support plane along its normal [m] (stand pose: 0.0993 m).
@@ -351,7 +355,9 @@ class WalkResult:
     ``fallback_steps``: knots where closed-form IK failed and the DLS fallback (clipped to the limits)
     was used; ``posture_failures``: steps where ``posture_step`` raised a
     :class:`~coop_ga.errors.CoopGAError` and the body was put at its reference pose instead (0 in every
-    run we know of); ``q_lower``, ``q_upper`` (18,) the joint limits [rad]; ``table`` the gait table,
+    run we know of); ``q_lower``, ``q_upper`` (18,) the joint limits [rad]; ``velocity_limit`` (18,) the
+    URDF's joint speed limits [rad/s] (``max_velocity_violation``, ``max_velocity_ratio`` measure the plan's
+    finite-difference joint speeds against them); ``table`` the gait table,
     ``options``, ``dt``.
     """
 
@@ -381,6 +387,7 @@ class WalkResult:
     posture: bool
     q_lower: np.ndarray
     q_upper: np.ndarray
+    velocity_limit: np.ndarray | None = None
     fallback_steps: int = 0
     posture_failures: int = 0
     notes: list[str] = field(default_factory=list)
@@ -413,6 +420,24 @@ class WalkResult:
     @property
     def max_joint_speed(self) -> float:
         return float(np.abs(np.diff(self.q, axis=0)).max() / self.dt) if len(self.t) > 1 else 0.0
+
+    def _speeds(self) -> np.ndarray:
+        """(T − 1, 18) |Δq|/Δt [rad/s] between consecutive knots."""
+        return np.abs(np.diff(self.q, axis=0)) / self.dt if len(self.t) > 1 else np.zeros((0, 18))
+
+    @property
+    def max_velocity_violation(self) -> float:
+        """Largest joint speed above its URDF limit [rad/s] (0: the plan respects the speed limits)."""
+        if self.velocity_limit is None or len(self.t) < 2:
+            return 0.0
+        return float(np.maximum(self._speeds() - self.velocity_limit, 0.0).max())
+
+    @property
+    def max_velocity_ratio(self) -> float:
+        """Largest joint speed as a fraction of its URDF limit (≤ 1 inside the limits)."""
+        if self.velocity_limit is None or len(self.t) < 2:
+            return 0.0
+        return float((self._speeds() / self.velocity_limit).max())
 
     def _violation(self) -> np.ndarray:
         """(T, 18) distance of every joint outside its limits [rad] (0 inside)."""
@@ -726,6 +751,8 @@ def walk(
     lo, hi = np.empty(18), np.empty(18)
     lo[np.asarray(lm.q_index).ravel()] = np.asarray(lm.q_lower).ravel()
     hi[np.asarray(lm.q_index).ravel()] = np.asarray(lm.q_upper).ravel()
+    vmax = np.empty(18)
+    vmax[np.asarray(lm.q_index).ravel()] = np.asarray(lm.system.limits.velocity)[np.asarray(lm.model_q_index).ravel()]
     notes = []
     if posture is None:
         notes.append("posture_step unavailable or disabled: body set to its reference pose directly")
@@ -756,6 +783,7 @@ def walk(
         posture=posture_used,
         q_lower=lo,
         q_upper=hi,
+        velocity_limit=vmax,
         fallback_steps=fallback,
         posture_failures=failures,
         notes=notes,

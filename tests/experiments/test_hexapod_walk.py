@@ -32,6 +32,7 @@ def testread_metrics(run):
     assert 0.3 - 1e-9 <= m["distance_m"] <= 0.3 + m["command"]["vx_m_s"] * m["dt_s"] + 1e-9
     assert m["min_stability_margin_m"] > 0.05
     assert m["max_limit_violation"] == 0.0
+    assert m["max_velocity_violation"] == 0.0 and m["max_velocity_ratio"] < 1.0
     assert m["max_slip_m"] < 1e-9
     assert 0.2 < m["max_torque_ratio"] < 0.8
     assert m["body_tracking_error_m"] < 1e-6 and m["body_tracking_error_rad"] < 1e-5

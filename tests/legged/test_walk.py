@@ -96,8 +96,9 @@ def test_walk_one_metre(walks, gait, kind):
     assert abs(r.body[-1, 1]) < 1e-6  # straight ahead
     # positive static stability margin at every knot (the experiment's numbers: 85–125 mm)
     assert r.min_margin > 0.05
-    # joint limits never violated; no closed-form-IK fallback was needed
+    # joint limits never violated (positions and the URDF's speed limit); no closed-form-IK fallback was needed
     assert r.max_limit_violation == 0.0
+    assert r.max_velocity_violation == 0.0 and 0.3 < r.max_velocity_ratio < 1.0
     assert r.fallback_steps == 0
     # stance feet stay where they touched down; stance feet on the terrain; swing feet never below it
     assert r.max_slip < 1e-9
@@ -198,4 +199,4 @@ def test_options_and_errors(legs):
     with pytest.raises(InvalidInputError):
         walk(Terrain.flat(), WalkOptions(), legs=legs)
     o = WalkOptions(gait="wave")
-    assert o.period == 1.5 and o.command() == pytest.approx([0.08 / (5 / 6 * 1.5), 0.0, 0.0])
+    assert o.period == 4.0 and o.command() == pytest.approx([0.08 / (5 / 6 * 4.0), 0.0, 0.0])
