@@ -516,7 +516,7 @@ def avoidance_reach(
         closest = ""
     lim = task.system.limits
     violation = lim.position_violation(traj)
-    vviol = lim.velocity_violation(np.diff(traj, axis=0) / o.dt) if k else 0.0
+    vviol = lim.trajectory_velocity_violation(traj, o.dt) if k else 0.0
     inside = o.limits == "none" or violation <= 1e-9
     converged = bool(errors[-1] < o.tol and inside and not infeasible)
     if converged:

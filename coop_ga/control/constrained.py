@@ -702,7 +702,7 @@ def constrained_point_reach(
             dev = np.zeros(len(traj))
     lim = task.system.limits
     violation = lim.position_violation(traj)
-    vviol = lim.velocity_violation(np.diff(traj, axis=0) / o.dt) if k else 0.0
+    vviol = lim.trajectory_velocity_violation(traj, o.dt) if k else 0.0
     errors = np.array(errs)
     converged = bool(
         errors[-1] < o.tol and dev[-1] <= o.constraint_tol and (not enforce or violation <= 1e-9) and not infeasible

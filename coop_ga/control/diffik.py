@@ -412,7 +412,7 @@ def diff_ik_reach(
         traj = np.array(qs)
         lim = task.system.limits
         violation = lim.position_violation(traj)
-        vviol = lim.velocity_violation(np.diff(traj, axis=0) / o.dt) if k else 0.0
+        vviol = lim.trajectory_velocity_violation(traj, o.dt) if k else 0.0
         if o.limits == "none" and lim.position_violation(q) > 0.0:
             warn(
                 f"diff_ik_reach(limits='none'): the final configuration is outside the joint limits by up to "

@@ -446,7 +446,7 @@ def nullspace_point_reach(
         projected=o.project,
         limits=o.limits,
         limit_violation=lim.position_violation(Qa),
-        velocity_violation=lim.velocity_violation(np.diff(Qa, axis=0) / o.dt) if n else 0.0,
+        velocity_violation=lim.trajectory_velocity_violation(Qa, o.dt) if n else 0.0,
         active_steps=int(active_steps),
         active_limits=active,
     )

@@ -150,6 +150,21 @@ class JointLimits:
         """Largest excess of |q̇| over the velocity limit [rad/s]; 0 inside."""
         return float(max(np.max(np.abs(np.asarray(qd, dtype=float)) - self.velocity, initial=0.0), 0.0))
 
+    def trajectory_velocity_violation(self, traj: Any, dt: float) -> float:
+        """Largest excess of the finite-difference speed ``|q_{t+1} − q_t|/Δt`` over the velocity limit
+        [rad/s] along ``traj`` (T, nq) sampled every ``dt`` [s]; 0 inside.
+
+        The difference of two floats carries a rounding error up to ``2 eps max(|q_t|, |q_{t+1}|)``, i.e.
+        ~1e-15 rad/s at Δt = 0.01 s: a step taken exactly at a velocity bound by the QP reads that much
+        above it.  That resolution is discounted, so only a real overshoot is reported.
+        """
+        Q = np.asarray(traj, dtype=float)
+        if Q.ndim != 2 or len(Q) < 2:
+            return 0.0
+        speed = np.abs(np.diff(Q, axis=0)) / dt
+        resolution = 2.0 * np.finfo(float).eps * np.maximum(np.abs(Q[1:]), np.abs(Q[:-1])) / dt
+        return float(max(np.max(speed - self.velocity - resolution, initial=0.0), 0.0))
+
     def acceleration_violation(self, qdd: Any) -> float:
         """Largest excess of |q̈| over the acceleration limit [rad/s²]; 0 inside."""
         return float(max(np.max(np.abs(np.asarray(qdd, dtype=float)) - self.acceleration, initial=0.0), 0.0))

@@ -78,3 +78,17 @@ def test_violation_measures():
     assert lim.effort_violation([11.0, 0.0]) == pytest.approx(1.0)
     np.testing.assert_array_equal(lim.clip([2.0, -1.0]), [1.0, 0.0])
     assert "a=2.0000 not in" in lim.describe([2.0, 1.0])
+
+
+def test_trajectory_velocity_violation_discounts_only_rounding():
+    lim = cg.systems.load("three_franka").limits
+    dt = 0.01
+    v = lim.velocity
+    q0 = 0.5 * (lim.lower + lim.upper) + 0.3
+    # a step of exactly the limit speed on every joint: its finite difference may read ~1e-15 above it
+    traj = np.stack([q0, q0 + v * dt, q0 + 2 * v * dt])
+    assert lim.trajectory_velocity_violation(traj, dt) == 0.0
+    # a real overshoot of 1e-6 rad/s on one joint is reported (to the rounding resolution)
+    traj[2, 3] += 1e-6 * dt
+    assert lim.trajectory_velocity_violation(traj, dt) == pytest.approx(1e-6, abs=1e-12)
+    assert lim.trajectory_velocity_violation(traj[:1], dt) == 0.0
