@@ -324,12 +324,13 @@ class Linkage:
         """Newton in the Lie algebra from ``motors`` at crank angle φ: (motors, iterations, max|F|, converged)."""
         fj, retract, _ = self._functions()
         m = np.asarray(motors, float).copy()
-        F = np.asarray(fj(m, phi)[0]).ravel()
+        out = fj(m, phi)  # F and J in one call; J of an accepted iterate is reused for the next step
+        F = np.asarray(out[0]).ravel()
+        J = np.asarray(out[1])
         r = float(np.max(np.abs(F))) if F.size else 0.0
         for it in range(max_iter):
             if r <= tol:
                 return m, it, r, True
-            J = np.asarray(fj(m, phi)[1])
             if J.shape[0] == J.shape[1]:
                 xi = -np.linalg.lstsq(J, F, rcond=None)[0]
             else:
@@ -342,13 +343,14 @@ class Linkage:
             t = 1.0
             for _ in range(12):  # backtracking: never accept a step that increases ‖F‖
                 m_new = np.asarray(retract(m, t * xi)).ravel()
-                F_new = np.asarray(fj(m_new, phi)[0]).ravel()
+                out = fj(m_new, phi)
+                F_new = np.asarray(out[0]).ravel()
                 if np.linalg.norm(F_new) < np.linalg.norm(F) or np.linalg.norm(F_new) <= tol:
                     break
                 t *= 0.5
             else:
                 return m, it + 1, r, False
-            m, F = m_new, F_new
+            m, F, J = m_new, F_new, np.asarray(out[1])
             r = float(np.max(np.abs(F)))
         return m, max_iter, r, r <= tol
 
@@ -426,8 +428,8 @@ class Linkage:
                 accept = ok
                 if accept:
                     # the corrector's size compared with the predictor's: a jump is large
-                    J2 = np.asarray(self._functions()[0](m_pred, phi + h)[1])
-                    F2 = np.asarray(self._functions()[0](m_pred, phi + h)[0]).ravel()
+                    out2 = self._functions()[0](m_pred, phi + h)
+                    J2, F2 = np.asarray(out2[1]), np.asarray(out2[0]).ravel()
                     corr = float(np.linalg.norm(np.linalg.lstsq(J2, F2, rcond=None)[0]))
                     pred = float(np.linalg.norm(xi_pred))
                     _, _, smin_new, sign_new = self._jacobian_info(m_new, phi + h)
