@@ -83,7 +83,7 @@ from ..cooperative.manipulability import damped_pinv
 from ..diagnostics import collect_warnings
 from ..errors import InvalidInputError
 from .base import check_problem, resolve_options
-from .diffik import DiffIKResult, _advance, _velocity
+from .diffik import DiffIKResult, _advance, _velocity, reach_outcome
 from .nullspace import _hierarchical_velocity
 from .qp import (
     DEFAULT_LIMIT_GAIN,
@@ -514,17 +514,9 @@ def avoidance_reach(
         closest = f"{labels[i_min] if i_min < len(labels) else i_min} at step {t_min}"
     else:
         closest = ""
-    lim = task.system.limits
-    violation = lim.position_violation(traj)
-    vviol = lim.trajectory_velocity_violation(traj, o.dt) if k else 0.0
-    inside = o.limits == "none" or violation <= 1e-9
-    converged = bool(errors[-1] < o.tol and inside and not infeasible)
-    if converged:
-        message = "converged"
-    elif not message:
-        message = f"not converged after {k} steps (‖e‖ = {errors[-1]:.3g} ≥ tol)"
-        if active:
-            message += f"; active at the last step: {', '.join(active[:6])}"
+    violation, vviol, converged, message = reach_outcome(
+        task, traj, errors, o.dt, o.tol, o.limits, infeasible, message, k, tuple(active)[:6], "active at the last step"
+    )
     return AvoidanceResult(
         converged=converged,
         error=float(errors[-1]),

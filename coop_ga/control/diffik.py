@@ -72,7 +72,7 @@ of the certified targets within 2.5 s, gains 4, 10 and 20 /s all of them.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -275,6 +275,41 @@ def diff_ik_step(
     return _advance(task, q, sol.x, dt, limits)
 
 
+def reach_outcome(
+    task: Any,
+    traj: np.ndarray,
+    errors: np.ndarray,
+    dt: float,
+    tol: float,
+    limits: str,
+    infeasible: bool,
+    message: str,
+    steps: int,
+    active: Sequence[str],
+    active_label: str,
+) -> tuple[float, float, bool, str]:
+    """The verdict of a differential-IK run (shared by :func:`diff_ik_reach` and the avoidance runner).
+
+    traj (T, nq) the configurations, errors (T,) ‖e‖ along it, dt [s], tol on ‖e‖.  Returns
+    ``(position violation [rad], finite-difference speed violation [rad/s], converged, message)``:
+    converged only if the last error is below tol, the run was not infeasible and — unless
+    ``limits == 'none'`` — the trajectory stays inside the position limits (to 1e-9); a run outside
+    them is never reported as a success.
+    """
+    lim = task.system.limits
+    violation = lim.position_violation(traj)
+    vviol = lim.trajectory_velocity_violation(traj, dt) if steps else 0.0
+    inside = limits == "none" or violation <= 1e-9
+    converged = bool(errors[-1] < tol and inside and not infeasible)
+    if converged:
+        message = "converged"
+    elif not message:
+        message = f"not converged after {steps} steps (‖e‖ = {errors[-1]:.3g} ≥ tol)"
+        if active:
+            message += f"; {active_label}: {', '.join(active)}"
+    return violation, vviol, converged, message
+
+
 @dataclass(frozen=True)
 class DiffIKOptions:
     """Settings of :func:`diff_ik_reach` (module docstring: "Tolerance, gain and time").
@@ -411,8 +446,6 @@ def diff_ik_reach(
             active += tuple(lab for lab, a in zip(labels, sol.active_rows) if a)
         traj = np.array(qs)
         lim = task.system.limits
-        violation = lim.position_violation(traj)
-        vviol = lim.trajectory_velocity_violation(traj, o.dt) if k else 0.0
         if o.limits == "none" and lim.position_violation(q) > 0.0:
             warn(
                 f"diff_ik_reach(limits='none'): the final configuration is outside the joint limits by up to "
@@ -421,14 +454,9 @@ def diff_ik_reach(
                 key=str(task.system.name),
             )
     errors = np.array(errs)
-    inside = o.limits == "none" or violation <= 1e-9
-    converged = bool(errors[-1] < o.tol and inside and not infeasible)
-    if converged:
-        message = "converged"
-    elif not message:
-        message = f"not converged after {k} steps (‖e‖ = {errors[-1]:.3g} ≥ tol)"
-        if active:
-            message += f"; bounds active at the last step: {', '.join(active)}"
+    violation, vviol, converged, message = reach_outcome(
+        task, traj, errors, o.dt, o.tol, o.limits, infeasible, message, k, active, "bounds active at the last step"
+    )
     return DiffIKResult(
         converged=converged,
         error=float(errors[-1]),
