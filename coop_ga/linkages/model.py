@@ -402,7 +402,8 @@ class Linkage:
                 s0,
                 f"cannot assemble at φ = {angles[0]:.6g} rad (max|F| = {r:.2e} m)",
             )
-        _, _, smin, sign = self._jacobian_info(m, float(angles[0]))
+        here = self._jacobian_info(m, float(angles[0]))  # J, ∂F/∂φ, σ_min, sign(det J) at the current solution
+        smin, sign = here[2], here[3]
         self._append(rows, m, float(angles[0]), r, it0, 1, smin, sign)
         phi = float(angles[0])
         for target in angles[1:]:
@@ -413,14 +414,15 @@ class Linkage:
                 if not ok:
                     stop, message = phi, f"Newton did not converge at φ = {phi:.6g} rad (max|F| = {r:.2e} m)"
                     break
-                _, _, smin, sign = self._jacobian_info(m, phi)
+                here = self._jacobian_info(m, phi)
+                smin, sign = here[2], here[3]
                 self._append(rows, m, phi, r, iters, subs, smin, sign)
                 continue
             h = float(np.clip(target - phi, -max_step, max_step))
             failed = False
             while abs(target - phi) > 1e-15:
                 h = float(np.sign(target - phi) * min(abs(h), abs(target - phi)))
-                J, Fp, _, _ = self._jacobian_info(m, phi)
+                J, Fp = here[0], here[1]  # unchanged while a step is halved: computed once per accepted point
                 xi_pred = -np.linalg.lstsq(J, Fp * h, rcond=None)[0]
                 m_pred = np.asarray(self._functions()[1](m, xi_pred)).ravel()
                 m_new, k, r, ok = self.newton(m_pred, phi + h, tol=tol, max_iter=max_iter)
@@ -432,11 +434,12 @@ class Linkage:
                     J2, F2 = np.asarray(out2[1]), np.asarray(out2[0]).ravel()
                     corr = float(np.linalg.norm(np.linalg.lstsq(J2, F2, rcond=None)[0]))
                     pred = float(np.linalg.norm(xi_pred))
-                    _, _, smin_new, sign_new = self._jacobian_info(m_new, phi + h)
-                    accept = corr <= 0.3 * pred + 1e-9 and (sign == 0 or sign_new == sign)
+                    there = self._jacobian_info(m_new, phi + h)
+                    accept = corr <= 0.3 * pred + 1e-9 and (sign == 0 or there[3] == sign)
                 if accept:
                     m, phi, subs = m_new, phi + h, subs + 1
-                    smin, sign = smin_new, sign_new
+                    here = there
+                    smin, sign = here[2], here[3]
                     h = float(np.sign(h) * min(2.0 * abs(h), max_step))
                 else:
                     h *= 0.5
@@ -444,7 +447,7 @@ class Linkage:
                         failed = True
                         break
             if failed:
-                _, _, s_stop, _ = self._jacobian_info(m, phi)
+                s_stop = here[2]
                 stop, stop_s = phi, s_stop
                 # σ_min of a fold behaves like √(distance to it): ~1e-4 at min_step = 1e-7 rad
                 kind = (
