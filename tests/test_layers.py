@@ -1,4 +1,4 @@
-"""Layers depend downward only: algebra → geometry → kinematics → linkages → systems → collision → viz → cooperative → control → legged → sweep → harness."""
+"""Layers depend downward only: algebra → geometry → kinematics → linkages → systems → collision → viz → cooperative → control → legged → sim → sweep → harness."""
 
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ ORDER = [
     "cooperative",
     "control",
     "legged",
+    "sim",
     "sweep",
     "harness",
 ]
