@@ -28,10 +28,12 @@ it) or combined from several robots (``pinocchio.appendModel``, prefixed names) 
 * **collision geometry** — the bounding capsules :func:`coop_ga.collision.fit_capsules` fits to each
   link's collision meshes (or ``capsules=`` given), as MuJoCo capsules (a sphere where a capsule
   degenerates to a ball).  A capsule of a link fixed to the world (an arm's base) goes on a static
-  body of that link's name.  Self-collision follows :class:`coop_ga.collision.CollisionModel`: a
-  pair of robot bodies collides only if every capsule pair between them is one of the model's
-  self-distance rows (so pairs on one rigid body, adjacent links, SRDF-disabled pairs and pairs
-  overlapping at ``system.q0`` are excluded with MuJoCo ``<exclude>``), see :attr:`Scene.excluded`;
+  body of that link's name.  Self-collision follows :class:`coop_ga.collision.CollisionModel`: two
+  capsules collide iff their pair is one of the model's self-distance rows (pairs on one rigid
+  body, adjacent links, SRDF-disabled pairs and pairs overlapping at ``system.q0`` do not).  MuJoCo
+  filters by body, so a body pair with any excluded capsule pair gets an ``<exclude>``
+  (:attr:`Scene.excluded`) and its allowed capsule pairs explicit ``<pair>`` elements (a Panda's
+  link 5 still touches the fingers locked on link 7's body, though link 5–link 7 is disabled);
 * **visual geometry** — the meshes and shapes of :meth:`System.visual_model` as visual-only geoms
   (``contype = conaffinity = 0``, no mass, group :data:`GROUP_VISUAL`), meshes inline (vertex and
   face arrays, decimated to ``visual_cell``; one asset per distinct mesh);
@@ -290,6 +292,11 @@ def _capsules(system: Any, capsules: Any) -> tuple[Any, ...]:
         ) from e
 
 
+def capsule_geom_name(capsule: Any, i: int) -> str:
+    """MuJoCo geom name of capsule ``i`` of a scene: ``<link>_capsule<i>``."""
+    return f"{capsule.link}_capsule{i}"
+
+
 def _add_capsules(
     spec: Any, root: Any, system: Any, att: dict[int, _Attach], caps: Sequence[Any], friction: np.ndarray
 ) -> list[Any]:
@@ -315,7 +322,7 @@ def _add_capsules(
         a = np.asarray(M.act(np.asarray(c.a, float)), float)
         b = np.asarray(M.act(np.asarray(c.b, float)), float)
         kw = dict(
-            name=f"{c.link}_capsule{i}",
+            name=capsule_geom_name(c, i),
             contype=1,
             conaffinity=1,
             group=GROUP_COLLISION,
@@ -331,29 +338,40 @@ def _add_capsules(
 
 
 def _add_excludes(
-    spec: Any, system: Any, caps: Sequence[Any], bodies: list[Any], self_collision: bool
+    spec: Any, system: Any, caps: Sequence[Any], bodies: list[Any], self_collision: bool, friction: np.ndarray
 ) -> list[tuple[str, str, str]]:
-    """``<exclude>`` every pair of robot bodies that must not collide (module docstring); returns
-    (body, body, reason) of each excluded pair."""
+    """``<exclude>`` every pair of robot bodies with a capsule pair that must not collide (module
+    docstring), and an explicit ``<pair>`` for each capsule pair of such bodies that must; returns
+    (body, body, reason) of each excluded body pair."""
     allowed: set[tuple[int, int]] = set()
     if self_collision and len(caps) > 1:
         from ..collision import CollisionModel
 
         cm = CollisionModel(system, capsules=caps)
         allowed = {(int(i), int(j)) for (i, j), k in zip(cm.pairs, cm.kinds) if k == "self"}
-    pairs: dict[tuple[str, str], str] = {}
+    excluded: dict[tuple[str, str], str] = {}
+    kept: dict[tuple[str, str], list[tuple[int, int]]] = {}
     for i in range(len(caps)):
         for j in range(i + 1, len(caps)):
             bi, bj = bodies[i], bodies[j]
-            if bi is bj or (i, j) in allowed:
+            if bi is bj:
                 continue
             key = (bi.name, bj.name) if bi.name < bj.name else (bj.name, bi.name)
-            pairs.setdefault(key, "self_collision=False" if not self_collision else f"{caps[i].link} – {caps[j].link}")
-    out = []
-    for (a, b), why in sorted(pairs.items()):
+            if (i, j) in allowed:
+                kept.setdefault(key, []).append((i, j))
+            else:
+                why = f"{caps[i].link} – {caps[j].link}" if self_collision else "self_collision=False"
+                excluded.setdefault(key, why)
+    for a, b in sorted(excluded):
         spec.add_exclude(bodyname1=a, bodyname2=b)
-        out.append((a, b, why))
-    return out
+        for i, j in kept.get((a, b), ()):  # explicit pairs are not affected by <exclude>
+            spec.add_pair(
+                geomname1=capsule_geom_name(caps[i], i),
+                geomname2=capsule_geom_name(caps[j], j),
+                condim=3,
+                friction=[friction[0], friction[0], friction[1], friction[2], friction[2]],
+            )
+    return [(a, b, why) for (a, b), why in sorted(excluded.items())]
 
 
 # ====================================================================== visuals
@@ -522,6 +540,8 @@ class Scene:
     robot_bodies: ids of every MuJoCo body of the robot (static link bodies and the base included).
     excluded: (body, body, reason) of every excluded robot body pair.
     visual_skipped: visual objects left out (their mesh vanished at ``visual_cell``).
+    capsules: the robot's :class:`~coop_ga.collision.Capsule` list (empty with ``collision=False``);
+    capsule_geoms: (len(capsules),) int — the MuJoCo geom of each capsule (geom ``<link>_capsule<i>``).
     """
 
     system: Any
@@ -532,6 +552,8 @@ class Scene:
     base_body: str | None
     excluded: list[tuple[str, str, str]]
     visual_skipped: int = 0
+    capsules: tuple[Any, ...] = ()
+    capsule_geoms: np.ndarray = field(init=False)
     qpos_index: np.ndarray = field(init=False)
     qvel_index: np.ndarray = field(init=False)
     actuator_index: np.ndarray = field(init=False)
@@ -562,6 +584,9 @@ class Scene:
         self.site_ids = np.array([self._id("site", f) for f in s.end_frames], dtype=np.int64)
         self.end_bodies = np.array([m.site_bodyid[i] for i in self.site_ids], dtype=np.int64)
         self.object_ids = {o.name: self._id("body", o.name) for o in self.objects}
+        self.capsule_geoms = np.array(
+            [self._id("geom", capsule_geom_name(c, i)) for i, c in enumerate(self.capsules)], dtype=np.int64
+        )
         self.object_qpos, self.object_qvel = {}, {}
         for o in self.objects:
             if not o.static:
@@ -622,18 +647,23 @@ class Scene:
         mj.mj_forward(self.model, d)
         return d
 
-    def penetrations(self, data: Any, tol: float = 1e-3) -> list[tuple[str, str, float]]:
-        """(body A, body B, depth [m]) of every contact in ``data`` (after ``mj_forward``) deeper than ``tol``."""
+    def contact_name(self, geom: int) -> str:
+        """What a contact touches: the name of the geom's body, or of the geom for a world geom (``floor``)."""
         mj = _mj()
         m = self.model
-        out = []
-        for c in data.contact[: data.ncon]:
-            if -c.dist > tol:
-                b1, b2 = m.geom_bodyid[c.geom1], m.geom_bodyid[c.geom2]
-                n1 = mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b1) or "world"
-                n2 = mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b2) or "world"
-                out.append((n1, n2, float(-c.dist)))
-        return out
+        b = int(m.geom_bodyid[geom])
+        if b == 0:
+            return str(mj.mj_id2name(m, mj.mjtObj.mjOBJ_GEOM, geom) or "world")
+        return str(mj.mj_id2name(m, mj.mjtObj.mjOBJ_BODY, b))
+
+    def penetrations(self, data: Any, tol: float = 1e-3) -> list[tuple[str, str, float]]:
+        """(A, B, depth [m]) of every contact in ``data`` (after ``mj_forward``) deeper than ``tol``; A and B
+        name bodies (:meth:`contact_name`)."""
+        return [
+            (self.contact_name(c.geom1), self.contact_name(c.geom2), float(-c.dist))
+            for c in data.contact[: data.ncon]
+            if -c.dist > tol
+        ]
 
     def check_state(self, data: Any, tol: float = 1e-3) -> None:
         """Raise :class:`InvalidInputError` if anything overlaps by more than ``tol`` [m] in ``data`` (an
@@ -660,6 +690,7 @@ class Scene:
             self.base_body,
             self.excluded,
             self.visual_skipped,
+            self.capsules,
         )
 
     def to_xml(self) -> str:
@@ -752,6 +783,7 @@ def build_scene(
     spec.modelname = name or system.name
     spec.compiler.inertiafromgeom = mj.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     spec.compiler.autolimits = False
+    spec.compiler.degree = False  # joint ranges in radians (MjSpec's compiler defaults to degrees)
     spec.option.timestep = float(timestep)
     spec.option.integrator = getattr(mj.mjtIntegrator, INTEGRATORS[integrator])
     spec.option.gravity = np.asarray(system.model.gravity.linear, float)
@@ -762,14 +794,15 @@ def build_scene(
     _add_sites(system.model, att, system.end_frames)
     _add_actuators(spec, system)
     excluded: list[tuple[str, str, str]] = []
+    caps: tuple[Any, ...] = ()
     if collision:
         caps = _capsules(system, capsules)
         bodies = _add_capsules(spec, root, system, att, caps, fr)
-        excluded = _add_excludes(spec, system, caps, bodies, self_collision)
+        excluded = _add_excludes(spec, system, caps, bodies, self_collision, fr)
     skipped = _add_visuals(spec, root, system, att, float(visual_cell)) if visuals else 0
     _add_world(spec, floor)
     _add_objects(spec, objects, {b.name for b in spec.bodies})
-    return Scene(system, spec, _compile(spec), objects, bool(floating_base), base_name, excluded, skipped)
+    return Scene(system, spec, _compile(spec), objects, bool(floating_base), base_name, excluded, skipped, caps)
 
 
 def _floating_root(spec: Any, system: Any) -> tuple[Any, str]:
