@@ -6,9 +6,12 @@
 * :mod:`~coop_ga.sim.simulation` — :class:`Simulation`: a torque controller in the loop, contact forces
   per end point, objects' poses, disturbances, logs;
 * :mod:`~coop_ga.sim.replay` — :func:`replay`: a saved run re-simulated with MuJoCo alone;
+* :mod:`~coop_ga.sim.render` — offscreen MuJoCo pictures (EGL/OSMesa probed), overlays of the cooperative
+  primitive and of forces, PNG/GIF/MP4;
 * :mod:`~coop_ga.sim.mjcf` — full-precision MJCF text that reloads into the same model.
 """
 
+from . import render
 from .objects import Ball, Box, Cylinder, SceneObject
 from .replay import replay
 from .scene import Scene, build_scene
@@ -25,5 +28,6 @@ __all__ = [
     "Simulation",
     "SimulationLog",
     "build_scene",
+    "render",
     "replay",
 ]

@@ -456,7 +456,7 @@ def _add_world(spec: Any, floor: float | None) -> None:
         width=256,
         height=256,
     )
-    mat = spec.add_material(name="floor_material", texrepeat=[8, 8], reflectance=0.05)
+    mat = spec.add_material(name="floor_material", texrepeat=[8, 8], reflectance=0.0)
     mat.textures[mj.mjtTextureRole.mjTEXROLE_RGB] = "floor_checker"
     spec.worldbody.add_geom(
         name="floor",
