@@ -374,13 +374,12 @@ class Simulation:
         return np.array(self.data.sensordata[a : a + n])
 
     # ------------------------------------------------------------------ stepping
-    def _control(self) -> None:
-        t = self.time
+    def _command(self, t: float) -> np.ndarray:
+        """The controller's τ at time t as a checked (nq,) float array (a new array)."""
         if self.controller is None:
-            cmd: Any = np.zeros(self.scene.nq)
-        else:
-            self.sensors._reset()
-            cmd = self.controller(t, self.q, self.qd, self.sensors)
+            return np.zeros(self.scene.nq)
+        self.sensors._reset()
+        cmd = self.controller(t, self.q, self.qd, self.sensors)
         try:
             tau = np.array(cmd, dtype=float)
         except (TypeError, ValueError) as e:
@@ -390,13 +389,20 @@ class Simulation:
                 f"the controller returned shape {tau.shape} at t = {t:.4f} s; it must return τ of shape "
                 f"({self.scene.nq},) in the order of system.joint_names"
             )
-        if not np.all(np.isfinite(tau)):
+        if not np.isfinite(tau).all():
             bad = [self.scene.system.joint_names[i] for i in np.flatnonzero(~np.isfinite(tau))]
             raise NonFiniteError(f"the controller returned NaN/inf torque at t = {t:.4f} s for joint(s) {bad}")
-        ratio = np.abs(tau) / self._effort
-        rmax = float(np.max(ratio, initial=0.0))
+        return tau
+
+    def _control(self) -> None:
+        t = self.time
+        cmd = self._command(t)
+        ratio = np.abs(cmd) / self._effort
+        rmax = float(ratio.max(initial=0.0))
         self._counts["updates"] += 1
-        self._counts["ratio"] = max(self._counts["ratio"], rmax)
+        if rmax > self._counts["ratio"]:
+            self._counts["ratio"] = rmax
+        tau = cmd
         if rmax > 1.0:
             if self.torque_limits == "error":
                 over = [self.scene.system.joint_names[i] for i in np.flatnonzero(ratio > 1.0)]
@@ -405,8 +411,8 @@ class Simulation:
                     "limit); torque_limits='saturate' clips and counts instead"
                 )
             self._counts["saturated"] += 1
-            tau = np.clip(tau, -self._effort, self._effort)
-        self._tau_cmd, self._tau = np.array(cmd, dtype=float), tau
+            tau = np.clip(cmd, -self._effort, self._effort)
+        self._tau_cmd, self._tau = cmd, tau
 
     def _apply_disturbances(self) -> None:
         if not self._disturbances:
@@ -431,7 +437,8 @@ class Simulation:
             self._log()
             mj().mj_step(m, d)
             self._steps += 1
-            if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+            # one sum per array: NaN or inf anywhere (or an overflow, a divergence too) makes it non-finite
+            if not math.isfinite(float(d.qpos.sum()) + float(d.qvel.sum())):
                 raise NonFiniteError(
                     f"the MuJoCo state became non-finite at t = {self.time:.4f} s (simulation diverged)"
                 )
