@@ -638,6 +638,26 @@ class Scene:
         """Robot velocity (nq,) in Pinocchio's order, read from ``data``."""
         return np.array(data.qvel[self.qvel_index])
 
+    def set_base_pose(self, data: Any, pos: Any, quat: Any = (1.0, 0.0, 0.0, 0.0)) -> None:
+        """Place the free base (``floating_base=True``) at ``pos`` (3,) [m] with unit quaternion ``quat``
+        (w, x, y, z) in ``data`` (its velocity is left unchanged)."""
+        a = self.base_qpos
+        if a is None:
+            raise InvalidInputError("set_base_pose needs a scene built with floating_base=True")
+        q = validation.vector(quat, 4, "quat")
+        n = float(np.linalg.norm(q))
+        if abs(n - 1.0) > 1e-6:
+            raise InvalidInputError(f"quat must be a unit quaternion (w, x, y, z), got norm {n:.6g}")
+        data.qpos[a : a + 3] = validation.vector(pos, 3, "pos")
+        data.qpos[a + 3 : a + 7] = q / n
+
+    def base_pose(self, data: Any) -> tuple[np.ndarray, np.ndarray]:
+        """(position (3,) [m], quaternion (w, x, y, z)) of the free base in ``data``."""
+        a = self.base_qpos
+        if a is None:
+            raise InvalidInputError("base_pose needs a scene built with floating_base=True")
+        return np.array(data.qpos[a : a + 3]), np.array(data.qpos[a + 3 : a + 7])
+
     def make_data(self, q: Any = None, qd: Any = None) -> Any:
         """A new ``mujoco.MjData`` with the robot at q (default ``system.q0``), q̇ (default 0), the objects at
         their poses, and ``mj_forward`` done."""

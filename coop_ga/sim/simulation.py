@@ -251,6 +251,8 @@ class Simulation:
         scene: a :class:`~coop_ga.sim.Scene`.
         controller: ``controller(t, q, q̇, sensors) -> τ`` (nq,) [N m]; None: zero torque.
         q, qd: initial robot state (nq,) (default ``system.q0``, 0).
+        dt: the physics step [s] you expect (None: the scene's ``timestep``); a different value raises —
+            the step is part of the model: ``build_scene(..., timestep=dt)``.
         control_dt: controller period [s], a multiple of Δt (default Δt: every step).
         disturbances: :class:`Disturbance` list (more with :meth:`add_disturbance`).
         torque_limits: ``"saturate"`` (clip to ±effort, counted) or ``"error"`` (raise).
@@ -268,6 +270,7 @@ class Simulation:
         *,
         q: Any = None,
         qd: Any = None,
+        dt: float | None = None,
         control_dt: float | None = None,
         disturbances: Sequence[Disturbance] = (),
         torque_limits: str = "saturate",
@@ -280,6 +283,11 @@ class Simulation:
         self.scene, self.model = scene, scene.model
         self.controller = controller
         self.dt = float(self.model.opt.timestep)
+        if dt is not None and validation.positive(dt, "dt") != self.dt:
+            raise InvalidInputError(
+                f"dt = {dt} s differs from the scene's timestep {self.dt} s; build the scene with "
+                f"build_scene(..., timestep={dt})"
+            )
         self._every = 1
         if control_dt is not None:
             k = validation.positive(control_dt, "control_dt") / self.dt

@@ -247,7 +247,7 @@ def test_floating_base_kinematics_and_fall(load_system) -> None:
         quat = rng.normal(size=4)
         quat /= np.linalg.norm(quat)
         pos = rng.uniform(-1, 1, 3)
-        d.qpos[:7] = np.concatenate([pos, quat])
+        sc.set_base_pose(d, pos, quat)
         sc.set_q(d, q)
         mujoco.mj_kinematics(m, d)
         pin.framesForwardKinematics(s.model, pd, q)
@@ -258,14 +258,18 @@ def test_floating_base_kinematics_and_fall(load_system) -> None:
             np.testing.assert_allclose(d.site_xpos[sc.site_ids[k]], want, atol=1e-12)
     # dropped from 0.2 m with its joints held by a PD: it falls onto its feet and stops
     d = sc.make_data()
-    d.qpos[2] = 0.2
+    sc.set_base_pose(d, (0.0, 0.0, 0.2))
     mujoco.mj_forward(m, d)
     for _ in range(1500):
         d.ctrl[sc.actuator_index] = 2.0 * (s.q0 - sc.q(d)) - 0.05 * sc.qd(d)
         mujoco.mj_step(m, d)
-    assert 0.0 < d.qpos[2] < 0.15 and abs(d.qvel[2]) < 0.05
+    pos, quat = sc.base_pose(d)
+    assert 0.0 < pos[2] < 0.15 and abs(d.qvel[2]) < 0.05 and abs(quat[0]) > 0.99  # upright
 
 
 def test_floating_base_needs_mass(load_system) -> None:
     with pytest.raises(InvalidInputError, match="no mass"):
         build_scene(load_system("hexapod_floating"), floating_base=True, visuals=False)
+    fixed = build_scene(load_system("hexapod"), visuals=False)
+    with pytest.raises(InvalidInputError, match="floating_base=True"):
+        fixed.set_base_pose(fixed.make_data(), (0, 0, 1))

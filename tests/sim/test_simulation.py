@@ -115,6 +115,8 @@ def test_controller_errors_name_the_time(iiwa) -> None:
         Simulation(sc, "pd")
     with pytest.raises(InvalidInputError, match="multiple of the timestep"):
         Simulation(sc, control_dt=0.0025)
+    with pytest.raises(InvalidInputError, match=r"timestep=0\.002"):
+        Simulation(sc, dt=0.002)
 
 
 def test_saturation_is_counted_or_refused(iiwa) -> None:
