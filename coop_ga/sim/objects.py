@@ -37,10 +37,21 @@ import numpy as np
 from .. import validation
 from ..errors import InvalidInputError
 
-__all__ = ["Ball", "Box", "Cylinder", "SceneObject"]
+__all__ = ["Ball", "Box", "Cylinder", "SceneObject", "friction"]
 
 #: MuJoCo's default torsional and rolling friction coefficients (used when one number is given).
 _DEFAULT_FRICTION = (1.0, 0.005, 0.0001)
+
+
+def friction(x: Any, what: str = "friction") -> np.ndarray:
+    """MuJoCo's (sliding, torsional, rolling) friction (3,) from one number (sliding; MuJoCo's default
+    torsional and rolling coefficients) or three numbers ≥ 0."""
+    fr = validation.array(x, what)
+    if fr.ndim == 0:
+        fr = np.array([float(fr), *_DEFAULT_FRICTION[1:]])
+    if fr.shape != (3,) or np.any(fr < 0.0):
+        raise InvalidInputError(f"{what} must be one number or (sliding, torsional, rolling) ≥ 0, got {x!r}")
+    return fr
 
 
 def _quat(x: Any, what: str) -> np.ndarray:
@@ -94,14 +105,7 @@ class SceneObject:
         if not isinstance(self.static, bool):
             raise InvalidInputError(f"{self.name}.static must be True or False, got {self.static!r}")
         object.__setattr__(self, "mass", validation.positive(self.mass, f"{self.name}.mass"))
-        fr = validation.array(self.friction, f"{self.name}.friction")
-        if fr.ndim == 0:
-            fr = np.array([float(fr), *_DEFAULT_FRICTION[1:]])
-        if fr.shape != (3,) or np.any(fr < 0.0):
-            raise InvalidInputError(
-                f"{self.name}.friction must be one number or (sliding, torsional, rolling) ≥ 0, got {self.friction!r}"
-            )
-        object.__setattr__(self, "friction", fr)
+        object.__setattr__(self, "friction", friction(self.friction, f"{self.name}.friction"))
         if self.condim not in (1, 3, 4, 6):
             raise InvalidInputError(f"{self.name}.condim must be 1, 3, 4 or 6, got {self.condim!r}")
         rgba = validation.vector(self.rgba, 4, f"{self.name}.rgba")

@@ -74,7 +74,7 @@ from ..errors import CoopGAError, InvalidInputError, UnknownNameError
 from ..kinematics.chains import _SUPPORTED, _joint_axis
 from ._mujoco import mj as _mj
 from .mjcf import check_reload, to_xml
-from .objects import SceneObject
+from .objects import SceneObject, friction
 
 __all__ = [
     "GROUP_COLLISION",
@@ -183,16 +183,38 @@ def _add_joint_bodies(root: Any, system: Any, dyn: dict[str, np.ndarray]) -> dic
     return att
 
 
+def _groups(att: dict[int, _Attach], model: Any) -> list[_Attach]:
+    """One :class:`_Attach` per MuJoCo body of the robot's joints (its first joint's), in joint order."""
+    seen: set[int] = set()
+    out = []
+    for j in range(1, model.njoints):
+        if id(att[j].group) not in seen:
+            seen.add(id(att[j].group))
+            out.append(att[j])
+    return out
+
+
+def _set_inertial(body: Any, mass: float, com: Any, I_c: Any, what: str) -> None:
+    """Give ``body`` an explicit inertial: ``mass`` [kg], centre of mass ``com`` (3,) and inertia ``I_c``
+    (3, 3) about it [kg m²] in the body frame, as MuJoCo's principal moments and axes."""
+    w, q = _principal(np.asarray(I_c, float))
+    if w[0] <= 0.0 or w[0] + w[1] < w[2] * (1.0 - 1e-9):
+        raise InvalidInputError(
+            f"{what} has a non-physical rotational inertia (principal moments {w.tolist()} kg m² must be > 0 "
+            "and satisfy A + B ≥ C); fix its <inertia> in the URDF"
+        )
+    body.explicitinertial = True
+    body.mass = float(mass)
+    body.ipos = np.array(com, float)
+    body.iquat = q
+    body.inertia = w
+
+
 def _set_inertias(att: dict[int, _Attach], model: Any) -> None:
     """Each body's inertia: the sum of its joints' Pinocchio inertias, moved into the body frame."""
     import pinocchio as pin
 
-    seen: set[int] = set()
-    for j in range(1, model.njoints):
-        a = att[j]
-        if id(a.group) in seen:
-            continue
-        seen.add(id(a.group))
+    for a in _groups(att, model):
         total = pin.Inertia.Zero()
         for k in a.group:
             total = total + att[k].offset.act(model.inertias[k])
@@ -203,18 +225,7 @@ def _set_inertias(att: dict[int, _Attach], model: Any) -> None:
                 "be singular); give the link an <inertial> in the URDF, or lock the joint "
                 "(from_urdf(..., locked_joints=[...]))"
             )
-        w, q = _principal(np.asarray(total.inertia, float))
-        if w[0] <= 0.0 or w[0] + w[1] < w[2] * (1.0 - 1e-9):
-            raise InvalidInputError(
-                f"the body moved by joint(s) {names} has a non-physical rotational inertia (principal moments "
-                f"{w.tolist()} kg m² must be > 0 and satisfy A + B ≥ C); fix the link's <inertia> in the URDF"
-            )
-        body = a.body
-        body.explicitinertial = True
-        body.mass = float(total.mass)
-        body.ipos = np.array(total.lever, float)
-        body.iquat = q
-        body.inertia = w
+        _set_inertial(a.body, total.mass, total.lever, total.inertia, f"the body moved by joint(s) {names}")
 
 
 def _name_bodies(att: dict[int, _Attach], model: Any) -> None:
@@ -227,12 +238,7 @@ def _name_bodies(att: dict[int, _Attach], model: Any) -> None:
         if f.type == pin.FrameType.BODY and int(f.parentJoint) not in links:
             links[int(f.parentJoint)] = f.name
     used: set[str] = {f.name for f in model.frames if int(f.parentJoint) == 0}  # static link bodies
-    seen: set[int] = set()
-    for j in range(1, model.njoints):
-        a = att[j]
-        if id(a.group) in seen:
-            continue
-        seen.add(id(a.group))
+    for a in _groups(att, model):
         cands = [links[k] for k in reversed(a.group) if k in links]
         name = cands[0] if cands else f"{model.names[a.group[0]]}_link"
         base, i = name, 1
@@ -481,12 +487,7 @@ def _add_objects(spec: Any, objects: Sequence[SceneObject], taken: set[str]) -> 
         body = spec.worldbody.add_body(name=ob.name, pos=ob.pos, quat=ob.quat)
         if not ob.static:
             body.add_freejoint(name=ob.name)
-            w, q = _principal(np.asarray(ob.inertia, float))
-            body.explicitinertial = True
-            body.mass = float(ob.mass)
-            body.ipos = [0.0, 0.0, 0.0]
-            body.iquat = q
-            body.inertia = w
+            _set_inertial(body, ob.mass, np.zeros(3), ob.inertia, f"object '{ob.name}'")
         body.add_geom(
             name=f"{ob.name}_geom",
             type=getattr(mj.mjtGeom, f"mjGEOM_{ob.geom_type}"),
@@ -786,27 +787,14 @@ def build_scene(
         InvalidInputError: a joint type MuJoCo cannot take, a massless moving body, collision geometry
             that cannot be built, duplicate object names, a bad option.
     """
-    mj = _mj()
     validation.nonnegative(visual_cell, "visual_cell")
-    validation.positive(timestep, "timestep")
-    validation.choice(integrator, tuple(INTEGRATORS), "integrator")
-    fr = validation.array(robot_friction, "robot_friction")
-    fr = np.array([float(fr), *ROBOT_FRICTION[1:]]) if fr.ndim == 0 else fr
-    if fr.shape != (3,) or np.any(fr < 0):
-        raise InvalidInputError(f"robot_friction must be one number or 3 numbers ≥ 0, got {robot_friction!r}")
+    fr = friction(robot_friction, "robot_friction")
     if floor is not None:
         floor = validation.scalar(floor, "floor")
     objects = tuple(objects)
     if not all(isinstance(o, SceneObject) for o in objects):
         raise InvalidInputError("objects must be coop_ga.sim Box, Ball or Cylinder instances")
-    spec = mj.MjSpec()
-    spec.modelname = name or system.name
-    spec.compiler.inertiafromgeom = mj.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
-    spec.compiler.autolimits = False
-    spec.compiler.degree = False  # joint ranges in radians (MjSpec's compiler defaults to degrees)
-    spec.option.timestep = float(timestep)
-    spec.option.integrator = getattr(mj.mjtIntegrator, INTEGRATORS[integrator])
-    spec.option.gravity = np.asarray(system.model.gravity.linear, float)
+    spec = _new_spec(name or system.name, timestep, integrator, system.model.gravity.linear)
     root, base_name = spec.worldbody, None
     if floating_base:
         root, base_name = _floating_root(spec, system)
@@ -825,6 +813,22 @@ def build_scene(
     return Scene(system, spec, _compile(spec), objects, bool(floating_base), base_name, excluded, skipped, caps)
 
 
+def _new_spec(name: str, timestep: float, integrator: str, gravity: Any) -> Any:
+    """An empty ``MjSpec``: SI units and radians, inertias only where given, the step and the integrator."""
+    mj = _mj()
+    spec = mj.MjSpec()
+    spec.modelname = name
+    spec.compiler.inertiafromgeom = mj.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    spec.compiler.autolimits = False
+    spec.compiler.degree = False  # joint ranges in radians (MjSpec's compiler defaults to degrees)
+    spec.option.timestep = validation.positive(timestep, "timestep")
+    spec.option.integrator = getattr(
+        mj.mjtIntegrator, INTEGRATORS[validation.choice(integrator, tuple(INTEGRATORS), "integrator")]
+    )
+    spec.option.gravity = np.asarray(gravity, float)
+    return spec
+
+
 def _floating_root(spec: Any, system: Any) -> tuple[Any, str]:
     """The free base body: carries ``model.inertias[0]`` (links fixed to the universe), named after the
     first BODY frame fixed to the world (e.g. ``base_link``)."""
@@ -841,10 +845,5 @@ def _floating_root(spec: Any, system: Any) -> tuple[Any, str]:
     name = f"{fixed[0]}_free" if fixed else "base_free"
     body = spec.worldbody.add_body(name=name)
     body.add_freejoint(name=name)
-    w, q = _principal(np.asarray(I0.inertia, float))
-    body.explicitinertial = True
-    body.mass = float(I0.mass)
-    body.ipos = np.array(I0.lever, float)
-    body.iquat = q
-    body.inertia = w
+    _set_inertial(body, I0.mass, I0.lever, I0.inertia, f"the world-fixed part of system '{system.name}'")
     return body, name
