@@ -568,6 +568,13 @@ class Scene:
     def __post_init__(self) -> None:
         self._index()
 
+    def __repr__(self) -> str:
+        m = self.model
+        return (
+            f"Scene({self.system.name!r}, nq={self.nq}, bodies={m.nbody}, geoms={m.ngeom}, "
+            f"objects={[o.name for o in self.objects]}, floating_base={self.floating_base})"
+        )
+
     # ------------------------------------------------------------------ maps
     def _id(self, kind: str, name: str) -> int:
         mj = _mj()
@@ -660,11 +667,13 @@ class Scene:
         return np.array(data.qpos[a : a + 3]), np.array(data.qpos[a + 3 : a + 7])
 
     def make_data(self, q: Any = None, qd: Any = None) -> Any:
-        """A new ``mujoco.MjData`` with the robot at q (default ``system.q0``), q̇ (default 0), the objects at
-        their poses, and ``mj_forward`` done."""
+        """A new ``mujoco.MjData`` with the robot at q (default ``system.q0``; a
+        :class:`~coop_ga.errors.JointLimitWarning` names joints outside their limits, where MuJoCo's limit
+        constraints will push at once), q̇ (default 0), the objects at their poses, and ``mj_forward`` done."""
         mj = _mj()
         d = mj.MjData(self.model)
-        self.set_q(d, self.system.q0 if q is None else q, np.zeros(self.nq) if qd is None else qd)
+        q0 = self.system.q0 if q is None else self.system.check_q(q)  # warns outside the joint limits
+        self.set_q(d, q0, np.zeros(self.nq) if qd is None else qd)
         mj.mj_forward(self.model, d)
         return d
 

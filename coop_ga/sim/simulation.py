@@ -187,6 +187,12 @@ class SimulationLog:
     effort_ratio: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        return (
+            f"SimulationLog({self.scene.system.name!r}, steps={len(self.time) - 1}, t=[{self.time[0]:g}, "
+            f"{self.time[-1]:g}] s, saturated_updates={self.saturated_updates}/{self.control_updates})"
+        )
+
     @property
     def q(self) -> np.ndarray:
         return self.qpos[:, self.scene.qpos_index]

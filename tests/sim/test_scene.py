@@ -12,7 +12,7 @@ mujoco = pytest.importorskip("mujoco")
 pin = pytest.importorskip("pinocchio")
 
 from coop_ga import systems  # noqa: E402
-from coop_ga.errors import CoopGAError, InvalidInputError, UnknownNameError  # noqa: E402
+from coop_ga.errors import CoopGAError, InvalidInputError, JointLimitWarning, UnknownNameError  # noqa: E402
 from coop_ga.sim import Ball, Box, Cylinder, Simulation, build_scene  # noqa: E402
 from coop_ga.sim import mjcf as mjcf_module  # noqa: E402
 from coop_ga.sim.mjcf import check_reload  # noqa: E402
@@ -92,6 +92,7 @@ def test_duplicate_and_clashing_object_names(iiwa) -> None:
 
 def test_unknown_names(iiwa) -> None:
     sc = build_scene(iiwa, objects=[Ball(name="ball", pos=(0, 0, 0.1))], visuals=False)
+    assert repr(sc).startswith("Scene('three_iiwa14', nq=21") and "ball" in repr(sc)
     with pytest.raises(UnknownNameError, match="ball"):
         sc.object("nope")
     sim = Simulation(sc)
@@ -201,6 +202,10 @@ def test_object_inside_robot_is_refused_before_simulating(load_system) -> None:
     with pytest.raises(InvalidInputError, match=r"box – floor|floor – box"):
         Simulation(sunk)
     Simulation(sunk, penetration_tol=None)  # the check can be turned off
+    q = s.q0.copy()
+    q[3] = s.q_upper[3] + 0.1
+    with pytest.warns(JointLimitWarning, match="arm0_panda_joint4"):
+        sc.make_data(q)
 
 
 # ---------------------------------------------------------------------- visuals and the MJCF text
