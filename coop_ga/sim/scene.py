@@ -444,13 +444,22 @@ def _add_visuals(spec: Any, root: Any, system: Any, att: dict[int, _Attach], cel
 
 # ====================================================================== world
 def _add_world(spec: Any, floor: float | None) -> None:
-    """Floor (checker plane at z = floor), lights and offscreen buffer size for :mod:`coop_ga.sim.render`."""
+    """Floor (checker plane at z = floor), lights, a sky and the offscreen buffer size for :mod:`coop_ga.sim.render`."""
     mj = _mj()
     spec.visual.global_.offwidth = 1280
     spec.visual.global_.offheight = 960
     spec.visual.headlight.ambient = [0.35, 0.35, 0.35]
     spec.visual.headlight.diffuse = [0.5, 0.5, 0.5]
     spec.worldbody.add_light(name="sun", pos=[0, 0, 4], dir=[0.3, 0.2, -1.0], diffuse=[0.6, 0.6, 0.6])
+    spec.add_texture(
+        name="sky",
+        type=mj.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mj.mjtBuiltin.mjBUILTIN_GRADIENT,
+        rgb1=[0.93, 0.95, 0.97],
+        rgb2=[0.55, 0.62, 0.7],
+        width=256,
+        height=256,
+    )
     if floor is None:
         return
     spec.add_texture(
