@@ -88,6 +88,8 @@ RELOAD_FIELDS = (
     "nmesh",
     "mesh_vertnum",
     "mesh_facenum",
+    "mesh_vert",
+    "mesh_face",
 )
 
 #: tolerance [m, or quaternion units] on the pose of a visual-only geom after a reload (:func:`check_reload`)
