@@ -218,3 +218,14 @@ def test_log_replays_bit_for_bit_with_contact(iiwa, tmp_path) -> None:
     # the replay can fail: a changed control is seen
     np.savez(out / "log.npz", **{**{k: z[k] for k in z.files}, "ctrl": z["ctrl"] * (1 + 1e-9)})
     assert replay(out) > 0.0
+
+
+def test_saved_model_with_meshes_is_self_contained(load_system, tmp_path) -> None:
+    """With visual meshes the folder still replays from model.xml alone (meshes inline, no other file)."""
+    s = load_system("allegro")
+    sc = build_scene(s, floor=None, objects=[Ball(name="ball", radius=0.02, mass=0.05, pos=(0.0, 0.0, 0.25))])
+    assert sc.model.nmesh > 0
+    log = Simulation(sc, lambda t, q, qd, sensors: np.zeros(s.nq)).run(0.05)
+    out = log.save(tmp_path / "hand")
+    assert sorted(p.name for p in out.iterdir()) == ["log.npz", "metrics.json", "model.xml"]
+    assert replay(out) == 0.0
