@@ -171,7 +171,10 @@ def _add_joint_bodies(root: Any, system: Any, dyn: dict[str, np.ndarray]) -> dic
             armature=float(dyn["armature"][v]),
             frictionloss=float(dyn["frictionloss"][v]),
         )
-        jt.damping[0] = float(dyn["damping"][v])  # (damping is a polynomial in MuJoCo 4; coefficient 0 is linear)
+        if np.ndim(jt.damping):  # MuJoCo 4: a polynomial in q̇ whose first coefficient is the linear damping
+            jt.damping[0] = float(dyn["damping"][v])
+        else:  # MuJoCo 3: one number
+            jt.damping = float(dyn["damping"][v])
         lo, hi = float(lim.lower[model.idx_qs[j]]), float(lim.upper[model.idx_qs[j]])
         if np.isfinite(lo) and np.isfinite(hi):
             jt.limited = mj.mjtLimited.mjLIMITED_TRUE
