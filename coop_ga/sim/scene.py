@@ -678,14 +678,17 @@ class Scene:
             raise InvalidInputError("base_pose needs a scene built with floating_base=True")
         return np.array(data.qpos[a : a + 3]), np.array(data.qpos[a + 3 : a + 7])
 
-    def make_data(self, q: Any = None, qd: Any = None) -> Any:
+    def make_data(self, q: Any = None, qd: Any = None, base_pose: Any = None) -> Any:
         """A new ``mujoco.MjData`` with the robot at q (default ``system.q0``; a
         :class:`~coop_ga.errors.JointLimitWarning` names joints outside their limits, where MuJoCo's limit
-        constraints will push at once), q̇ (default 0), the objects at their poses, and ``mj_forward`` done."""
+        constraints will push at once), q̇ (default 0), the free base at ``base_pose`` = (pos, quat) (default
+        the world origin; ``floating_base=True`` only), the objects at their poses, and ``mj_forward`` done."""
         mj = _mj()
         d = mj.MjData(self.model)
         q0 = self.system.q0 if q is None else self.system.check_q(q)  # warns outside the joint limits
         self.set_q(d, q0, np.zeros(self.nq) if qd is None else qd)
+        if base_pose is not None:
+            self.set_base_pose(d, *base_pose)
         mj.mj_forward(self.model, d)
         return d
 

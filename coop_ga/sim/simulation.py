@@ -257,6 +257,7 @@ class Simulation:
         scene: a :class:`~coop_ga.sim.Scene`.
         controller: ``controller(t, q, q̇, sensors) -> τ`` (nq,) [N m]; None: zero torque.
         q, qd: initial robot state (nq,) (default ``system.q0``, 0).
+        base_pose: initial (position (3,), quaternion (w, x, y, z)) of a free base (``floating_base=True``).
         dt: the physics step [s] you expect (None: the scene's ``timestep``); a different value raises —
             the step is part of the model: ``build_scene(..., timestep=dt)``.
         control_dt: controller period [s], a multiple of Δt (default Δt: every step).
@@ -276,6 +277,7 @@ class Simulation:
         *,
         q: Any = None,
         qd: Any = None,
+        base_pose: Any = None,
         dt: float | None = None,
         control_dt: float | None = None,
         disturbances: Sequence[Disturbance] = (),
@@ -301,7 +303,7 @@ class Simulation:
                 raise InvalidInputError(f"control_dt = {control_dt} s must be a multiple of the timestep {self.dt} s")
             self._every = round(k)
         self.torque_limits = validation.choice(torque_limits, ("saturate", "error"), "torque_limits")
-        self.data = scene.make_data(q, qd)
+        self.data = scene.make_data(q, qd, base_pose)
         if penetration_tol is not None:
             scene.check_state(self.data, validation.nonnegative(penetration_tol, "penetration_tol"))
         self.sensors = Sensors(self)

@@ -262,9 +262,9 @@ def test_floating_base_kinematics_and_fall(load_system) -> None:
             want = R.reshape(3, 3) @ pd.oMf[s.model.getFrameId(f)].translation + pos
             np.testing.assert_allclose(d.site_xpos[sc.site_ids[k]], want, atol=1e-12)
     # dropped from 0.2 m with its joints held by a PD: it falls onto its feet and stops
-    d = sc.make_data()
-    sc.set_base_pose(d, (0.0, 0.0, 0.2))
-    mujoco.mj_forward(m, d)
+    with pytest.raises(InvalidInputError, match="floor"):
+        Simulation(sc)  # at the origin its feet are 0.1 m in the floor
+    d = Simulation(sc, base_pose=((0.0, 0.0, 0.2), (1.0, 0.0, 0.0, 0.0))).data
     for _ in range(1500):
         d.ctrl[sc.actuator_index] = 2.0 * (s.q0 - sc.q(d)) - 0.05 * sc.qd(d)
         mujoco.mj_step(m, d)
