@@ -306,6 +306,8 @@ class Simulation:
         self.data = scene.make_data(q, qd, base_pose)
         if penetration_tol is not None:
             scene.check_state(self.data, validation.nonnegative(penetration_tol, "penetration_tol"))
+        # views into the MjData buffers (fixed for its lifetime): no attribute lookup per step
+        self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
         self.sensors = Sensors(self)
         self._effort = np.asarray(scene.system.limits.effort, float)
         self._disturbances: list[tuple[Disturbance, int]] = []
@@ -395,7 +397,7 @@ class Simulation:
         if self.controller is None:
             return np.zeros(self.scene.nq)
         self.sensors._reset()
-        cmd = self.controller(t, self.q, self.qd, self.sensors)
+        cmd = self.controller(t, self._qpos[self.scene.qpos_index], self._qvel[self.scene.qvel_index], self.sensors)
         try:
             tau = np.array(cmd, dtype=float)
         except (TypeError, ValueError) as e:
@@ -448,13 +450,13 @@ class Simulation:
         for _ in range(validation.integer(n, "n", minimum=0)):
             if self._steps % self._every == 0:
                 self._control()
-            d.ctrl[act] = self._tau
+            self._ctrl[act] = self._tau
             self._apply_disturbances()
             self._log()
             mj().mj_step(m, d)
             self._steps += 1
             # one sum per array: NaN or inf anywhere (or an overflow, a divergence too) makes it non-finite
-            if not math.isfinite(float(d.qpos.sum()) + float(d.qvel.sum())):
+            if not math.isfinite(float(self._qpos.sum()) + float(self._qvel.sum())):
                 raise NonFiniteError(
                     f"the MuJoCo state became non-finite at t = {self.time:.4f} s (simulation diverged)"
                 )
@@ -462,7 +464,9 @@ class Simulation:
     def _log(self) -> None:
         d = self.data
         x = d.xfrc_applied[self._xfrc_bodies] if len(self._xfrc_bodies) else _NO_XFRC
-        self._rows.append((np.float64(d.time), d.qpos.copy(), d.qvel.copy(), d.ctrl.copy(), self._tau_cmd, x))
+        self._rows.append(
+            (np.float64(d.time), self._qpos.copy(), self._qvel.copy(), self._ctrl.copy(), self._tau_cmd, x)
+        )
 
     def run(self, duration: float, *, progress: bool = False) -> SimulationLog:
         """Simulate ``duration`` [s] more (rounded to whole steps) and return the log of the whole run so far."""
