@@ -588,29 +588,37 @@ class Scene:
         )
 
     # ------------------------------------------------------------------ maps
-    def _id(self, kind: str, name: str) -> int:
+    def id_of(self, kind: str, name: str) -> int:
+        """MuJoCo id of the ``kind`` (``"body"``, ``"joint"``, ``"geom"``, ``"site"``, ``"actuator"``,
+        ``"sensor"``, …) called ``name`` — e.g. an end frame's site: ``id_of("site", frame)``; raises
+        :class:`UnknownNameError` naming the model if there is none."""
         mj = _mj()
-        i = int(mj.mj_name2id(self.model, getattr(mj.mjtObj, f"mjOBJ_{kind.upper()}"), name))
+        obj = getattr(mj.mjtObj, f"mjOBJ_{kind.upper()}", None)
+        if obj is None:
+            raise InvalidInputError(
+                f"unknown MuJoCo object kind {kind!r} (body, joint, geom, site, actuator, sensor, …)"
+            )
+        i = int(mj.mj_name2id(self.model, obj, name))
         if i < 0:
             raise UnknownNameError(f"no {kind} named '{name}' in the MuJoCo model of '{self.system.name}'")
         return i
 
     def _index(self) -> None:
         m, s = self.model, self.system
-        jids = [self._id("joint", n) for n in s.joint_names]
+        jids = [self.id_of("joint", n) for n in s.joint_names]
         self.qpos_index = np.array([m.jnt_qposadr[j] for j in jids], dtype=np.int64)
         self.qvel_index = np.array([m.jnt_dofadr[j] for j in jids], dtype=np.int64)
-        self.actuator_index = np.array([self._id("actuator", f"{n}_motor") for n in s.joint_names], dtype=np.int64)
-        self.site_ids = np.array([self._id("site", f) for f in s.end_frames], dtype=np.int64)
+        self.actuator_index = np.array([self.id_of("actuator", f"{n}_motor") for n in s.joint_names], dtype=np.int64)
+        self.site_ids = np.array([self.id_of("site", f) for f in s.end_frames], dtype=np.int64)
         self.end_bodies = np.array([m.site_bodyid[i] for i in self.site_ids], dtype=np.int64)
-        self.object_ids = {o.name: self._id("body", o.name) for o in self.objects}
+        self.object_ids = {o.name: self.id_of("body", o.name) for o in self.objects}
         self.capsule_geoms = np.array(
-            [self._id("geom", capsule_geom_name(c, i)) for i, c in enumerate(self.capsules)], dtype=np.int64
+            [self.id_of("geom", capsule_geom_name(c, i)) for i, c in enumerate(self.capsules)], dtype=np.int64
         )
         self.object_qpos, self.object_qvel = {}, {}
         for o in self.objects:
             if not o.static:
-                j = self._id("joint", o.name)
+                j = self.id_of("joint", o.name)
                 self.object_qpos[o.name] = int(m.jnt_qposadr[j])
                 self.object_qvel[o.name] = int(m.jnt_dofadr[j])
         scene_bodies = set(self.object_ids.values()) | {0}
@@ -626,14 +634,14 @@ class Scene:
         """qpos address of the floating base's freejoint (7 entries), or None for a fixed base."""
         if self.base_body is None:
             return None
-        return int(self.model.jnt_qposadr[self._id("joint", self.base_body)])
+        return int(self.model.jnt_qposadr[self.id_of("joint", self.base_body)])
 
     @property
     def base_qvel(self) -> int | None:
         """qvel address of the floating base's freejoint (6 entries), or None for a fixed base."""
         if self.base_body is None:
             return None
-        return int(self.model.jnt_dofadr[self._id("joint", self.base_body)])
+        return int(self.model.jnt_dofadr[self.id_of("joint", self.base_body)])
 
     def object(self, name: str) -> SceneObject:
         """The scene object called ``name``."""

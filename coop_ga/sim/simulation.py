@@ -346,7 +346,7 @@ class Simulation:
                 f"add_disturbance after the simulation started (t = {self.time:.4f} s); schedule it before the "
                 "first step with Disturbance(..., start=t0)"
             )
-        self._disturbances.append((disturbance, self.scene._id("body", disturbance.body)))
+        self._disturbances.append((disturbance, self.scene.id_of("body", disturbance.body)))
         self._xfrc_bodies = np.array(sorted({b for _, b in self._disturbances}), dtype=np.int64)
 
     def object_pose(self, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -387,7 +387,7 @@ class Simulation:
 
     def sensor(self, name: str) -> np.ndarray:
         """Values of the MuJoCo sensor ``name`` (``data.sensordata``) of the last physics step."""
-        i = self.scene._id("sensor", name)
+        i = self.scene.id_of("sensor", name)
         a, n = int(self.model.sensor_adr[i]), int(self.model.sensor_dim[i])
         return np.array(self.data.sensordata[a : a + n])
 
