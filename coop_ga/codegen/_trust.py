@@ -123,8 +123,10 @@ def _component_problem(p: Path, st: os.stat_result, euid: int, leaf: bool) -> st
         return f"{p} is owned by uid {st.st_uid}, not by you (uid {euid}) or root (mode {mode:04o})"
     # a sticky directory lets others create names but not rename or delete yours: fine above the
     # cache directory (its next component is checked to be yours), not as the cache directory itself
+    if not leaf and mode & stat.S_ISVTX:
+        return None
     who = _writable_by_others(st)
-    if who is not None and (leaf or not mode & stat.S_ISVTX):
+    if who is not None:
         return f"{p} is writable by {who} (mode {mode:04o}, owner uid {st.st_uid}, group {st.st_gid})"
     return None
 
