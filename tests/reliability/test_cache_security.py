@@ -73,16 +73,6 @@ def base() -> Iterator[Path]:
         shutil.rmtree(d, ignore_errors=True)
 
 
-@pytest.fixture(scope="module")
-def populated(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A cache holding the victim's entry of ``f0`` (its name is what the attacker plants under)."""
-    d = tmp_path_factory.mktemp("populated")
-    (d / "tmp").mkdir()
-    run = run_worker({"functions": ["f0"]}, worker_env(d / "cache", d / "tmp"))
-    _assert_right_answer(run)
-    return d / "cache"
-
-
 @pytest.fixture
 def entry(populated: Path) -> str:
     return entries(populated)["so"][0].name

@@ -77,17 +77,6 @@ def tmpdir_(tmp_path: Path) -> Path:
     return d
 
 
-@pytest.fixture(scope="module")
-def populated(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A cache holding the entry of ``f0``, built by a worker (the tests damage copies of it)."""
-    base = tmp_path_factory.mktemp("populated")
-    (base / "tmp").mkdir()
-    run = run_worker({"functions": ["f0"]}, worker_env(base / "cache", base / "tmp"))
-    _assert_compiled_ok(run)
-    assert run.result["stats"]["compiled"] == 1
-    return base / "cache"
-
-
 @pytest.fixture
 def shm_tmpdir() -> Iterator[Path]:
     """A TMPDIR on another filesystem (tmpfs) than pytest's tmp_path: the setting that crashed."""
