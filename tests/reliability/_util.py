@@ -33,8 +33,9 @@ class Run:
 
 
 def worker_env(cache: Path | str, tmpdir: Path | str, **extra: str) -> dict[str, str]:
-    """The test process's environment with the cache and TMPDIR set and coop_ga switches removed."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith("COOP_GA_")}
+    """The test process's environment with the cache and TMPDIR set and coop_ga switches removed
+    (but ``COOP_GA_CODEGEN_IMPL``, set by hand to run the tests against another implementation)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("COOP_GA_") or k == "COOP_GA_CODEGEN_IMPL"}
     env.update(COOP_GA_CACHE=str(cache), TMPDIR=str(tmpdir), PYTHONDONTWRITEBYTECODE="1")
     env.update(extra)
     return env

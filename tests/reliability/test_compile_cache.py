@@ -77,17 +77,6 @@ def tmpdir_(tmp_path: Path) -> Path:
     return d
 
 
-@pytest.fixture(scope="module")
-def populated(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A cache holding the entry of ``f0``, built by a worker (the tests damage copies of it)."""
-    base = tmp_path_factory.mktemp("populated")
-    (base / "tmp").mkdir()
-    run = run_worker({"functions": ["f0"]}, worker_env(base / "cache", base / "tmp"))
-    _assert_compiled_ok(run)
-    assert run.result["stats"]["compiled"] == 1
-    return base / "cache"
-
-
 @pytest.fixture
 def shm_tmpdir() -> Iterator[Path]:
     """A TMPDIR on another filesystem (tmpfs) than pytest's tmp_path: the setting that crashed."""
@@ -246,8 +235,12 @@ def test_defect3_non_writable_directory_falls_back() -> None:
         assert list(cache.iterdir()) == []
         assert len(entries(tmpdir / "coop_ga-65534")["so"]) == 2
 
-        # the same directory, populated by its owner: used as it is, read-only, without a warning
+        # the same directory, populated by its owner (files 0600: private) and then shared read-only by
+        # an administrator (chmod a+r): used as it is, read-only, without a warning
         _assert_compiled_ok(run_worker({"functions": ["f0", "f1"]}, env), n=2)
+        assert {p.stat().st_mode & 0o777 for p in cache.iterdir()} == {0o600}
+        for p in cache.iterdir():
+            p.chmod(0o644)
         ro = run_worker({"functions": ["f0", "f1"]}, env, prefix=prefix, worker=worker)
         _assert_compiled_ok(ro, n=2)
         assert ro.cache_warnings == []
@@ -293,7 +286,8 @@ def test_defect3_full_cache_falls_back(full_fs: Path, tmpdir_: Path) -> None:
 
 
 @pytest.mark.parametrize("fallback", ["is_a_file", "owned_by_another_user"])
-def test_defect3_unusable_fallback_uses_vm(tmp_path: Path, tmpdir_: Path, fallback: str) -> None:
+def test_defect3_unusable_fallback_builds_privately(tmp_path: Path, tmpdir_: Path, fallback: str) -> None:
+    """The per-user fallback taken by another user (or a file): a fresh private directory, removed at exit."""
     (tmp_path / "file").write_text("not a directory")
     cache = tmp_path / "file" / "cache"
     fb = tmpdir_ / f"coop_ga-{UID}"
@@ -305,13 +299,30 @@ def test_defect3_unusable_fallback_uses_vm(tmp_path: Path, tmpdir_: Path, fallba
         fb.mkdir(mode=0o700)
         os.chown(fb, 65534, 65534)
     run = run_worker({"functions": ["f0", "f1"]}, worker_env(cache, tmpdir_))
+    _assert_compiled_ok(run, n=2)
+    assert len(run.cache_warnings) == 1
+    msg = run.cache_warnings[0]
+    assert "COOP_GA_CACHE" in msg and str(cache) in msg and str(fb) in msg and "private" in msg
+    assert run.result["stats"]["compiled"] == 2
+    if fb.is_dir():
+        assert list(fb.iterdir()) == []  # nothing loaded from, or written to, another user's directory
+    assert sorted(p.name for p in tmpdir_.iterdir()) == [fb.name]  # the private directory was removed at exit
+
+
+def test_defect3_no_trusted_directory_uses_vm(tmp_path: Path) -> None:
+    """TMPDIR writable by everyone and not sticky, the cache unusable: nothing is trusted, the VM is used."""
+    (tmp_path / "file").write_text("not a directory")
+    cache = tmp_path / "file" / "cache"
+    tmpdir = tmp_path / "open_tmp"
+    tmpdir.mkdir()
+    tmpdir.chmod(0o777)
+    run = run_worker({"functions": ["f0", "f1"]}, worker_env(cache, tmpdir))
     _assert_vm_ok(run)
     assert len(run.cache_warnings) == 1
     msg = run.cache_warnings[0]
-    assert "COOP_GA_CACHE" in msg and str(cache) in msg and str(fb) in msg
+    assert "COOP_GA_CACHE" in msg and str(cache) in msg and f"{tmpdir} is writable by" in msg and "0777" in msg
     assert {f["fallback_reason"] for f in run.result["functions"]} == {"no_cache"}
-    if fb.is_dir():
-        assert list(fb.iterdir()) == []  # nothing loaded from, or written to, another user's directory
+    assert list(tmpdir.iterdir()) == []  # nothing written into the open directory
 
 
 def test_defect3_failing_gcc_falls_back_to_vm(tmp_path: Path, tmpdir_: Path) -> None:
@@ -372,8 +383,7 @@ def test_defect3_cache_dir_reports_the_fallback(tmp_path: Path, monkeypatch: pyt
     monkeypatch.setenv("COOP_GA_CACHE", str(tmp_path / "file" / "cache"))
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     monkeypatch.setattr(tempfile, "tempdir", None)  # gettempdir() caches its answer
-    monkeypatch.setattr(codegen, "_warned", set())
-    monkeypatch.setattr(codegen, "_dir_errors", {})
+    _fresh_codegen_state(monkeypatch)
     with pytest.warns(CacheWarning, match="COOP_GA_CACHE") as rec:
         assert codegen.cache_dir() == tmp_path / f"coop_ga-{UID}"
     assert len(rec) == 1
@@ -382,9 +392,24 @@ def test_defect3_cache_dir_reports_the_fallback(tmp_path: Path, monkeypatch: pyt
         assert codegen.cache_dir() == tmp_path / f"coop_ga-{UID}"  # once per process
     (tmp_path / f"coop_ga-{UID}").rmdir()
     (tmp_path / f"coop_ga-{UID}").write_text("x")
-    monkeypatch.setattr(codegen, "_dir_errors", {})
-    with pytest.raises(CompilationError, match="no writable compile cache"):
+    _fresh_codegen_state(monkeypatch)
+    with pytest.warns(CacheWarning, match="private directory of this process") as rec:
+        private = codegen.cache_dir()  # then a fresh private directory
+    assert len(rec) == 1 and str(tmp_path / f"coop_ga-{UID}") in str(rec[0].message)
+    assert private.parent == tmp_path and private.name.startswith(f"coop_ga-{UID}-private-")
+    assert private.stat().st_mode & 0o777 == 0o700 and private.stat().st_uid == os.geteuid()
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "file"))  # no usable temporary directory left
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "file"))
+    _fresh_codegen_state(monkeypatch)
+    with pytest.raises(CompilationError, match="no usable compile cache"):
         codegen.cache_dir()
+
+
+def _fresh_codegen_state(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Forget this process's checks of cache directories and its warnings (as in a new process)."""
+    monkeypatch.setattr(codegen._cache, "_warned", set())
+    monkeypatch.setattr(codegen._trust, "_checked", {})
+    monkeypatch.setattr(codegen._trust, "_private", {})
 
 
 def test_worker_runs_without_the_package_init() -> None:
@@ -394,4 +419,4 @@ def test_worker_runs_without_the_package_init() -> None:
         "print(cg.__file__, 'coop_ga.cooperative' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
-    assert out == [str(ROOT / "coop_ga" / "codegen.py"), "False"]
+    assert out == [str(ROOT / "coop_ga" / "codegen" / "__init__.py"), "False"]
