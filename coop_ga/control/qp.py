@@ -126,6 +126,22 @@ class LinearConstraint:
     h: np.ndarray
     name: str = ""
 
+    #: a user constraint is never dropped by a step (only the acceleration limit may be)
+    relaxable = False
+
+    def inequalities(self, configuration: Any, dt: float) -> Any:
+        """The rows as :class:`~coop_ga.control.limits.Inequalities` (the :class:`~coop_ga.control.limits.Limit`
+        protocol; they do not depend on the configuration or Δt)."""
+        from .limits.base import Inequalities
+
+        if self.G.shape[1] != configuration.nq:
+            raise InvalidInputError(
+                f"constraint {self.name or 'unnamed'}: G must have {configuration.nq} columns (one per joint), "
+                f"got shape {self.G.shape}"
+            )
+        name = self.name or "constraint"
+        return Inequalities(None, None, self.G, self.h, tuple(f"{name}[{r}]" for r in range(self.G.shape[0])))
+
     def __post_init__(self) -> None:
         G = validation.array(self.G, "constraint matrix G")
         if G.ndim == 1:
