@@ -208,6 +208,14 @@ def _unconstrained(x: np.ndarray, m: int) -> QPSolution:
     return QPSolution(x, False, np.zeros(n, bool), np.zeros(n, bool), np.zeros(m, bool), "unconstrained")
 
 
+def _clipped(x: np.ndarray, lb: np.ndarray | None, ub: np.ndarray | None) -> QPSolution:
+    n = x.shape[0]
+    lo = np.full(n, -np.inf) if lb is None else lb
+    hi = np.full(n, np.inf) if ub is None else ub
+    xc = np.clip(x, lo, hi)
+    return QPSolution(xc, bool(np.any(xc != x)), xc <= lo, xc >= hi, np.zeros(0, bool), "clip")
+
+
 def _rowspace(A: np.ndarray) -> np.ndarray:
     """An orthonormal basis (r, n) of the row space of A (singular values > ROWSPACE_RCOND σ_max)."""
     _, sv, Vt = np.linalg.svd(A, full_matrices=False)
@@ -233,15 +241,18 @@ class _Problem:
     def free(self, f: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """``(level-1 minimiser, minimiser through every level)`` without bounds (module docstring)."""
         A1 = self.first()
+        P = None
         if self.A is None and self.E is None:
             x1 = self.b / (1.0 + self.lam * self.lam)  # ½‖x − b‖² + ½λ²‖x‖²
         elif self.E is None:
-            x1 = _pinv(A1, self.lam) @ self.b
+            P = _pinv(A1, self.lam)
+            x1 = P @ self.b
         else:
             assert f is not None  # E comes with f
             x1 = equality_minimiser(A1, self.b, self.lam, self.E, f)
         x, held = x1, A1
-        P = _pinv(A1, self.lam) if self.levels else None
+        if self.levels and P is None:
+            P = _pinv(A1, self.lam)
         for k, (A2, b2) in enumerate(self.levels):
             assert P is not None  # computed when there are levels
             if A2 is None:  # Eq 60: q̇₁ + N q̇₂ with N = I − A₁⁺A₁
@@ -262,6 +273,8 @@ def _solve_levels(pb: _Problem, bd: _Bounds, f: np.ndarray | None) -> tuple[QPSo
     x1, x = pb.free(f)
     if _feasible(x, bd.lower, bd.upper, G, h):
         return _unconstrained(x, m), ""
+    if pb.A is None and pb.E is None and G is None and not pb.levels:
+        return _clipped(x, bd.lower, bd.upper), ""  # ½‖x − b‖² + ½λ²‖x‖² in a box: separable, the clip is exact
     labels = tuple(bd.labels)
     A1 = pb.first()
     sol = solve_qp(A1, pb.b, pb.lam, bd.lower, bd.upper, G, h, E=pb.E, f=f, x_free=x1, labels=labels, what="step")
@@ -487,17 +500,17 @@ def run_ik(
     last: tuple[StepSolution, Any] | None = None
     infeasible, message = False, ""
     while k < steps and not (hk.error is not None and errs[-1] < tol):
+        q = configuration.q.copy()
         try:
             st = hk.step(configuration) if hk.step else solve_step(configuration, tasks, limits, dt, **step_options)
+            q_next = advance(q, st.velocity, dt)
+            if hk.clip:
+                np.clip(q_next, lim.lower, lim.upper, out=q_next)
+            if hk.after is not None:
+                q_next = hk.after(configuration, st, q_next)
         except InfeasibleConstraintsError as exc:
             infeasible, message = True, f"stopped at step {k}: {exc}"
             break
-        q = configuration.q.copy()
-        q_next = advance(q, st.velocity, dt)
-        if hk.clip:
-            np.clip(q_next, lim.lower, lim.upper, out=q_next)
-        if hk.after is not None:
-            q_next = hk.after(configuration, st, q_next)
         if hk.record is not None:
             hk.record(configuration, st)
         active += st.used_qp
