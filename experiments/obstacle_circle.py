@@ -151,7 +151,7 @@ def run(exp: Experiment, fast: bool) -> int:
     for mode in MODES:
         with exp.stage(f"differential IK, avoidance '{mode}'"):
             t0 = time.perf_counter()
-            res[mode] = avoidance_reach(task, q0, Vd, cm, opts, mode=mode)
+            res[mode] = avoidance_reach(task, q0, Vd, opts, collision_model=cm, mode=mode)
             times[f"{mode}_s"] = time.perf_counter() - t0
     av, na = res["both"], res["none"]
     groups = _groups(cm)

@@ -292,8 +292,9 @@ class _AvoidanceStep:
     def __call__(self, cfg: Any) -> StepSolution:
         o = self.o
         try:
-            if o.mode in ("soft", "both"):
-                levels = [[JointVelocityTask(self.repulsion(cfg), name="repulsion")]]
+            qd2 = self.repulsion(cfg) if o.mode in ("soft", "both") else None
+            if qd2 is not None and np.any(qd2):  # far from every obstacle the step is the differential-IK step
+                levels = [[JointVelocityTask(qd2, name="repulsion")]]
                 return solve_step(cfg, [self.primary], self.limits, o.dt, damping=o.damping, levels=levels)
             return solve_step(cfg, [self.primary], self.limits, o.dt, damping=o.damping)
         except InfeasibleConstraintsError:

@@ -94,7 +94,7 @@ from ..diagnostics import collect_warnings, warn
 from ..errors import InvalidInputError, JointLimitWarning
 from .base import SolverResult, check_problem, check_q, resolve_options
 from .configuration import Configuration
-from .limits import UserConstraints, default_limits
+from .limits import Limit, UserConstraints, default_limits
 from .qp import DEFAULT_LIMIT_GAIN, LinearConstraint, QPSolution, project_into_limits
 from .solve import IKRun, RunHooks, advance, run_ik, solve_step
 from .tasks import SimilarityTask
@@ -139,11 +139,15 @@ def step_limits(
     task: Any, mode: str, limit_gain: float, acceleration: bool, constraints: Any = None
 ) -> list[Any]:
     """The limits of a differential-IK step: :func:`~coop_ga.control.limits.default_limits` for ``'enforce'``
-    (none for ``'clamp'``/``'none'``), then the user ``constraints`` (rows, or a function of q)."""
+    (none for ``'clamp'``/``'none'``), then the user ``constraints``: rows, a function of q giving rows, or
+    :class:`~coop_ga.control.limits.Limit` objects (e.g. a :class:`~coop_ga.control.limits.ClearanceLimit`)."""
     lims: list[Any] = default_limits(task.system.limits, limit_gain, acceleration) if mode == "enforce" else []
-    if constraints is not None:
-        lims.append(UserConstraints(constraints, task.nq))
-    return lims
+    if constraints is None:
+        return lims
+    items = constraints if isinstance(constraints, list) else [constraints]
+    if all(isinstance(c, Limit) and not isinstance(c, LinearConstraint) for c in items):
+        return lims + list(items)  # limits (e.g. a ClearanceLimit): evaluated on the step's configuration and Δt
+    return lims + [UserConstraints(constraints, task.nq)]
 
 
 def _step(

@@ -28,6 +28,7 @@ position, velocity and acceleration violations of the trajectory).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -266,6 +267,16 @@ class _Problem:
         return x1, x
 
 
+def _refine(sol: QPSolution, Vr: np.ndarray, f: np.ndarray, bd: _Bounds, G: Any, h: Any) -> QPSolution:
+    """The solver keeps ``Vr x = f`` to its tolerance (DAQP: 1e-6 of the scaled step); the orthogonal
+    correction ``x + Vrᵀ(f − Vr x)`` (Vr orthonormal) restores the higher levels' task velocity to rounding
+    whenever it keeps the point feasible."""
+    x = sol.x + Vr.T @ (f - Vr @ sol.x)
+    if _feasible(x, bd.lower, bd.upper, G, h):
+        return dataclasses.replace(sol, x=x)
+    return sol
+
+
 def _solve_levels(pb: _Problem, bd: _Bounds, f: np.ndarray | None) -> tuple[QPSolution, str]:
     """The lexicographic QPs of the levels (module docstring); returns the last solution and a note."""
     G, h = bd.rows(pb.n)
@@ -290,6 +301,7 @@ def _solve_levels(pb: _Problem, bd: _Bounds, f: np.ndarray | None) -> tuple[QPSo
             # not in exact arithmetic (the higher level's q̇ is feasible): a numerical failure of the solver;
             # the step keeps the higher levels' solution — feasible — and says so
             return sol, f"level {k + 2} dropped at this step (QP solver failure)"
+        sol = _refine(sol, Vr, fk[: Vr.shape[0]], bd, G, h)
         held = np.vstack([held, A2m])
     return sol, ""
 
@@ -304,6 +316,40 @@ def _attempt(pb: _Problem, bd: _Bounds) -> tuple[QPSolution, str, bool]:
             raise
     sol, note = _solve_levels(pb, bd, np.zeros(pb.E.shape[0]))
     return sol, note, True
+
+
+#: the dampings tried, in turn, when the QP solver fails on a problem that has a feasible point
+RETRY_DAMPINGS = (1e-2, 1e-1)
+
+
+def _has_point(pb: _Problem, bd: _Bounds) -> bool:
+    """Whether the limits and equalities have a common point (the minimum-norm one, by a QP)."""
+    G, h = bd.rows(pb.n)
+    try:
+        solve_qp(np.eye(pb.n), np.zeros(pb.n), 0.0, bd.lower, bd.upper, G, h, E=pb.E, f=pb.f, what="feasibility")
+        return True
+    except InfeasibleConstraintsError:
+        return False
+
+
+def _robust(pb: _Problem, bd: _Bounds) -> tuple[QPSolution, str, bool]:
+    """:func:`_attempt`; when the solver fails on a problem that has a feasible point (a numerical failure:
+    DAQP returning a point outside the box, measured on clearance rows near an obstacle), the step is
+    solved again with the first-level damping raised to :data:`RETRY_DAMPINGS` (the note says so)."""
+    try:
+        return _attempt(pb, bd)
+    except InfeasibleConstraintsError:
+        if not _has_point(pb, bd):
+            raise
+    for lam in RETRY_DAMPINGS:
+        if lam <= pb.lam:
+            continue
+        try:
+            sol, note, dropped = _attempt(dataclasses.replace(pb, lam=lam), bd)
+            return sol, (note + "; " if note else "") + f"damping raised to {lam:g} after a QP solver failure", dropped
+        except InfeasibleConstraintsError:
+            continue
+    raise InfeasibleConstraintsError("the QP solver failed on a feasible step at every damping tried")
 
 
 def solve_step(
@@ -353,14 +399,14 @@ def solve_step(
     pb = _Problem(A, b, float(np.sqrt(damping * damping + lm)), lower_levels, level_damping, E, f, configuration.nq)
     bd, relaxed = _bounds(configuration, limits, dt)
     try:
-        sol, note, dropped = _attempt(pb, bd)
+        sol, note, dropped = _robust(pb, bd)
     except InfeasibleConstraintsError:
         if relaxed or not any(getattr(lim, "relaxable", False) for lim in limits):
             raise
         bd, relaxed = _stack_limits(configuration, limits, dt, True), True
         if bd.empty_box():
             raise
-        sol, note, dropped = _attempt(pb, bd)
+        sol, note, dropped = _robust(pb, bd)
     G, h = bd.rows(pb.n)
     names = tuple(lim.name for lim in limits if getattr(lim, "relaxable", False)) if relaxed else ()
     return StepSolution(
@@ -525,7 +571,7 @@ def run_ik(
     traj = np.array(qs)
     labels = active_labels(last[0], configuration) if last is not None and last[0].used_qp else ()
     return _verdict(
-        configuration, limits, traj, np.array(vs).reshape(k, -1), np.array(errs), dt, tol, hk, v0, k, infeasible,
+        configuration, limits, traj, np.array(vs) if vs else np.zeros((0, traj.shape[1])), np.array(errs), dt, tol, hk, v0, k, infeasible,
         message, active, labels, relaxed, dropped,
     )  # fmt: skip
 

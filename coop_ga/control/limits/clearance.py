@@ -8,7 +8,16 @@ clearances of its pairs; for every pair closer than the influence distance d_i t
 
 (d_s = ``d_safe``, ξ = ``damper_gain`` ∈ (0, 1]; a pair at or below d_s gets h = 0: its clearance may
 not decrease) — mink's ``CollisionAvoidanceLimit`` on q̇ with exact capsule Jacobians.  Every h ≥ 0,
-so q̇ = 0 satisfies (A1).  The distances are computed once per configuration (cached under the model's
+so q̇ = 0 satisfies (A1).
+
+With acceleration limits (``braking=True`` and a system that bounds joint accelerations) the damper
+alone asks for more than the joints can do: it lets a pair approach at ``ξ (d − d_s)/Δt`` (4.5 m/s at
+d = 10 cm) and then halves that speed at every step, so the first step on which the row binds needs the
+whole approach speed gone in one step (measured: 25× the Franka's acceleration limits).  The row's bound
+is then also capped by the discrete braking speed of :func:`~coop_ga.control.limits.braking_speed` over
+the distance ``d − d_s`` with the deceleration ``a_n = κ Σ_j |J_{d,kj}| a_j`` [m/s²] (κ =
+``braking_fraction``: the share of the largest rate of change of ḋ_k that the acceleration box allows),
+so a pair slows down early enough to stop at d_s within the acceleration limits.  The distances are computed once per configuration (cached under the model's
 identity, so a runner that records them reuses them).  See :mod:`coop_ga.control.avoidance`.
 """
 
@@ -21,6 +30,7 @@ import numpy as np
 from ... import validation
 from ...errors import InvalidInputError
 from .base import Inequalities
+from .joints import braking_speed
 
 __all__ = ["ClearanceLimit", "check_collision_model", "clearance_constraint", "distances"]
 
@@ -81,6 +91,8 @@ class ClearanceLimit:
     Args:
         model: the collision model.  d_safe: d_s [m].  d_influence: d_i [m] (> d_safe).
         damper_gain: ξ ∈ (0, 1].
+        braking: cap the rows by the braking speed when the system has acceleration limits (module docstring).
+        braking_fraction: κ ∈ (0, 1] of the braking deceleration.
         dt: Δt [s] used when the limit is called as a function ``q → LinearConstraint`` (the form
             :func:`~coop_ga.control.diff_ik_reach`'s ``constraints=`` also accepts); a step passes its own Δt.
     """
@@ -95,22 +107,34 @@ class ClearanceLimit:
         d_safe: float = 0.01,
         d_influence: float = 0.10,
         damper_gain: float = 0.5,
+        *,
+        braking: bool = True,
+        braking_fraction: float = 0.5,
     ):
         self.model = check_collision_model(model)
         self.dt = validation.positive(dt, "dt")
         self.d_safe, self.d_influence = check_distances(d_safe, d_influence)
         self.damper_gain = _check_gain(damper_gain)
+        self.braking = bool(braking)
+        self.braking_fraction = validation.scalar(braking_fraction, "braking_fraction", low=0.0, high=1.0, low_open=True)
 
-    def rows(self, d: np.ndarray, Jd: np.ndarray, dt: float) -> Inequalities:
-        """(A1) from the distances d (n,) and their Jacobian (n, nq)."""
+    def rows(self, d: np.ndarray, Jd: np.ndarray, dt: float, acceleration: np.ndarray | None = None) -> Inequalities:
+        """(A1) from the distances d (n,) and their Jacobian (n, nq); with the joint accelerations (nq,)
+        [rad/s²], capped by the braking speed (module docstring)."""
         G, h, idx = damper_rows(d, Jd, dt, self.d_safe, self.d_influence, self.damper_gain)
+        if acceleration is not None and idx.size:
+            aG = np.abs(G) * acceleration  # (m, nq); 0 · inf (a joint that does not move the pair) counts 0
+            aG[np.abs(G) == 0.0] = 0.0
+            a_n = self.braking_fraction * aG.sum(axis=1)
+            h = np.minimum(h, braking_speed(d[idx] - self.d_safe, a_n, dt))
         labels = tuple(self.model.labels)
         names = tuple(f"clearance of {labels[k] if k < len(labels) else k}" for k in idx)
         return Inequalities(None, None, G, h, names)
 
     def inequalities(self, configuration: Any, dt: float) -> Inequalities:
         d, Jd = distances(self.model, configuration)
-        return self.rows(d, Jd, dt)
+        a = configuration.limits.acceleration
+        return self.rows(d, Jd, dt, a if self.braking and np.any(np.isfinite(a)) else None)
 
     def __call__(self, q: Any) -> Any:
         """The rows at q for a step of ``self.dt`` as a :class:`~coop_ga.control.LinearConstraint`."""
