@@ -29,6 +29,7 @@ position, velocity and acceleration violations of the trajectory).
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -48,7 +49,7 @@ ROWSPACE_RCOND = 1e-10
 RANK_TOL = 1e-10
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class StepSolution:
     """The joint velocity of one step and what shaped it.
 
@@ -87,9 +88,15 @@ class _Bounds:
     def add(self, limit: Any, ineq: Any) -> None:
         self.parts.append((limit, ineq))
         if ineq.lower is not None:
-            self.lower = ineq.lower.copy() if self.lower is None else np.maximum(self.lower, ineq.lower)
+            if self.lower is None:
+                self.lower = ineq.lower.copy()
+            else:
+                np.maximum(self.lower, ineq.lower, out=self.lower)
         if ineq.upper is not None:
-            self.upper = ineq.upper.copy() if self.upper is None else np.minimum(self.upper, ineq.upper)
+            if self.upper is None:
+                self.upper = ineq.upper.copy()
+            else:
+                np.minimum(self.upper, ineq.upper, out=self.upper)
         if ineq.G is not None and ineq.G.shape[0]:
             self.G.append(ineq.G)
             self.h.append(ineq.h)
@@ -97,11 +104,9 @@ class _Bounds:
 
     def empty_box(self) -> bool:
         """Whether some joint's box is empty (beyond rounding, which is closed onto the upper bound)."""
-        if self.lower is None or self.upper is None:
+        if self.lower is None or self.upper is None or not (self.lower > self.upper).any():
             return False
         gap = self.lower - self.upper
-        if not np.any(gap > 0.0):
-            return False
         if np.any(gap > 1e-12 * (1.0 + np.abs(self.upper))):
             return True
         np.minimum(self.lower, self.upper, out=self.lower)
@@ -144,10 +149,12 @@ def _bounds(configuration: Any, limits: Sequence[Any], dt: float) -> tuple[_Boun
 # ----------------------------------------------------------------------------- tasks
 def _task_rows(configuration: Any, tasks: Sequence[Any]) -> tuple[np.ndarray | None, np.ndarray, float]:
     """``(A or None (identity), b, Σ μ‖W e‖²)`` of a list of tasks (stacked)."""
+    if len(tasks) == 1:
+        t = tasks[0]
+        A, b = t.qp_rows(configuration)
+        return A, b, (t.lm_term(configuration) if t.lm_damping else 0.0)
     rows = [t.qp_rows(configuration) for t in tasks]
-    lm = sum(t.lm_term(configuration) for t in tasks if getattr(t, "lm_damping", 0.0))
-    if len(rows) == 1:
-        return rows[0][0], rows[0][1], lm
+    lm = sum(t.lm_term(configuration) for t in tasks if t.lm_damping)
     n = configuration.nq
     A = np.vstack([np.eye(n) if a is None else a for a, _ in rows])
     return A, np.concatenate([b for _, b in rows]), lm
@@ -396,7 +403,8 @@ def solve_step(
     A, b, lm = _task_rows(configuration, tasks)
     E, f = _equalities(configuration, equality, equality_gain) if equality else (None, None)
     lower_levels = [_task_rows(configuration, lv)[:2] for lv in levels]
-    pb = _Problem(A, b, float(np.sqrt(damping * damping + lm)), lower_levels, level_damping, E, f, configuration.nq)
+    lam = math.sqrt(damping * damping + lm) if lm else float(damping)
+    pb = _Problem(A, b, lam, lower_levels, level_damping, E, f, configuration.nq)
     bd, relaxed = _bounds(configuration, limits, dt)
     try:
         sol, note, dropped = _robust(pb, bd)

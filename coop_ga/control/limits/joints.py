@@ -69,22 +69,40 @@ class VelocityLimit:
     name = "velocity"
     relaxable = False
 
+    def __init__(self) -> None:
+        self._box: tuple[Any, Inequalities] | None = None
+
     def inequalities(self, configuration: Any, dt: float) -> Inequalities:
-        v = configuration.limits.velocity
-        return Inequalities(-v, v)
+        lim = configuration.limits
+        box = self._box
+        if box is None or box[0] is not lim:  # constant per system: built once
+            v = lim.velocity
+            box = self._box = (lim, Inequalities(-v, v))
+        return box[1]
 
     def describe(self, limits: Any, i: int, upper: bool) -> str:
         return f"{limits.joint_names[i]} (velocity limit {limits.velocity[i]:.4g})"
 
 
 def braking_speed(distance: np.ndarray, acceleration: np.ndarray, dt: float) -> np.ndarray:
-    """``v_b(x)`` (module docstring) [rad/s] for distances x ≥ 0 [rad] and accelerations a > 0 [rad/s²] (arrays)."""
-    u = acceleration * dt  # the speed lost per step at full deceleration
-    X = np.maximum(distance, 0.0) / dt  # S(v)/Δt ≤ X
-    with np.errstate(invalid="ignore", over="ignore"):
-        K = np.floor((np.sqrt(1.0 + 8.0 * X / u) - 1.0) / 2.0)
-        v = X / (K + 1.0) + 0.5 * K * u
-    return np.where(np.isfinite(v), v, np.inf)
+    """``v_b(x)`` (module docstring) [rad/s] for distances x ≥ 0 [rad] and accelerations a > 0 [rad/s²] (arrays;
+    an infinite x or a gives an infinite bound)."""
+    x = np.asarray(distance, dtype=float)
+    a = np.asarray(acceleration, dtype=float)
+    bad = ~(np.isfinite(x) & np.isfinite(a))
+    if np.any(bad):
+        v = _braking(np.where(bad, 0.0, x), np.where(bad, 1.0, a), dt)
+        v[np.broadcast_to(bad, v.shape)] = np.inf
+        return v
+    return _braking(x, a, dt)
+
+
+def _braking(x: np.ndarray, a: np.ndarray, dt: float) -> np.ndarray:
+    """:func:`braking_speed` for finite x and a > 0 (no checks: the hot path)."""
+    u = a * dt  # the speed lost per step at full deceleration
+    X = np.maximum(x, 0.0) / dt  # S(v)/Δt ≤ X
+    K = np.floor((np.sqrt(1.0 + 8.0 * X / u) - 1.0) * 0.5)
+    return X / (K + 1.0) + 0.5 * K * u
 
 
 class AccelerationLimit:
@@ -102,27 +120,43 @@ class AccelerationLimit:
     def __init__(self, gain: float = DEFAULT_LIMIT_GAIN, braking: bool = True):
         self.gain = _gain(gain)
         self.braking = bool(braking)
+        self._data: tuple[Any, ...] | None = None
 
     @staticmethod
     def active(limits: Any) -> bool:
         """Whether ``limits`` bounds the acceleration of any joint."""
         return bool(np.any(np.isfinite(limits.acceleration)))
 
+    def _constants(self, lim: Any) -> tuple[Any, ...]:
+        """Per-system constants (cached for the last limits object): ``(limits, a, a for braking (2, n),
+        bounded (2, n) mask of the joints with a finite acceleration and position bound, any bounded)``."""
+        d = self._data
+        if d is None or d[0] is not lim:
+            a = lim.acceleration
+            fa = np.isfinite(a)
+            bounded = np.vstack([fa & np.isfinite(lim.upper), fa & np.isfinite(lim.lower)])
+            a2 = np.where(bounded, np.vstack([a, a]), 1.0)
+            d = self._data = (lim, a, a2, bounded, bool(bounded.all()), bool(fa.any()))
+        return d
+
     def inequalities(self, configuration: Any, dt: float) -> Inequalities:
         lim = configuration.limits
-        a = lim.acceleration
-        if not np.any(np.isfinite(a)):
+        _, a, a2, bounded, all_bounded, any_finite = self._constants(lim)
+        if not any_finite:
             return Inequalities()
         v = configuration.velocity
         lb = v - a * dt  # −inf for unbounded joints
         ub = v + a * dt
         if self.braking:
             q = configuration.q
-            finite = np.isfinite(a)
-            up = np.where(finite & np.isfinite(lim.upper), braking_speed(self.gain * (lim.upper - q), a, dt), np.inf)
-            lo = np.where(finite & np.isfinite(lim.lower), braking_speed(self.gain * (q - lim.lower), a, dt), np.inf)
-            np.minimum(ub, up, out=ub)
-            np.maximum(lb, -lo, out=lb)
+            dist = self.gain * np.vstack([lim.upper - q, q - lim.lower])
+            if not all_bounded:
+                dist[~bounded] = 0.0
+            vb = _braking(dist, a2, dt)
+            if not all_bounded:
+                vb[~bounded] = np.inf
+            np.minimum(ub, vb[0], out=ub)
+            np.maximum(lb, -vb[1], out=lb)
         return Inequalities(lb, ub)
 
     def describe(self, limits: Any, i: int, upper: bool) -> str:
