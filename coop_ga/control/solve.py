@@ -275,12 +275,19 @@ class _Problem:
 
 
 def _refine(sol: QPSolution, Vr: np.ndarray, f: np.ndarray, bd: _Bounds, G: Any, h: Any) -> QPSolution:
-    """The solver keeps ``Vr x = f`` to its tolerance (DAQP: 1e-6 of the scaled step); the orthogonal
-    correction ``x + Vrᵀ(f − Vr x)`` (Vr orthonormal) restores the higher levels' task velocity to rounding
-    whenever it keeps the point feasible."""
-    x = sol.x + Vr.T @ (f - Vr @ sol.x)
+    """The solver keeps ``Vr x = f`` to its tolerance (DAQP: 1e-6 of the scaled step); a correction restores
+    the higher levels' task velocity to rounding whenever it keeps the point feasible: ``x + Vrᵀ(f − Vr x)``
+    (Vr orthonormal), or, with joints on their bounds, the least-norm correction of the other joints."""
+    r = f - Vr @ sol.x
+    x = sol.x + Vr.T @ r
     if _feasible(x, bd.lower, bd.upper, G, h):
         return dataclasses.replace(sol, x=x)
+    free = ~(sol.active_lower | sol.active_upper)
+    if free.any():
+        x = sol.x.copy()
+        x[free] += np.linalg.lstsq(Vr[:, free], r, rcond=None)[0]
+        if _feasible(x, bd.lower, bd.upper, G, h) and np.linalg.norm(f - Vr @ x) < np.linalg.norm(r):
+            return dataclasses.replace(sol, x=x)
     return sol
 
 
