@@ -46,7 +46,6 @@ sys.path.insert(0, os.path.dirname(__file__))
 from _timing import print_table
 
 import coop_ga as cg
-from coop_ga.cooperative.manipulability import damped_pinv
 from coop_ga.control import Configuration, SimilarityTask, default_limits, displaced_target, solve_step
 from coop_ga.control.qp import (
     DEFAULT_LIMIT_GAIN,
@@ -57,6 +56,7 @@ from coop_ga.control.qp import (
     stack_constraints,
     velocity_bounds,
 )
+from coop_ga.cooperative.manipulability import damped_pinv
 from coop_ga.harness import Experiment, int_at_least
 from coop_ga.validation import choice, nonnegative, positive, vector
 

@@ -87,8 +87,6 @@ from coop_ga.sweep.targets import (
 SCHEMA_VERSION = 1
 
 
-
-
 def _short(entry: Any) -> str:
     """A solver's job name: its shortest alias (``gn``, ``diffik``, ``ilqr``, ``impedance``)."""
     return min((entry.name, *entry.aliases), key=len)

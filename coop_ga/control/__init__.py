@@ -47,14 +47,6 @@ from .dynamics import TaskDynamics, joint_dynamics, task_inertia, task_space_dyn
 from .gauss_newton import GaussNewtonOptions, IKResult, gauss_newton_ik
 from .ilqr import ILQRIteration, ILQROptions, ILQRResult, ReachingOCP, ilqr_reach
 from .impedance import PAPER_GAINS, ImpedanceOptions, ImpedanceResult, impedance_torque, simulate_impedance
-from .nullspace import (
-    NullspaceOptions,
-    NullspaceResult,
-    nullspace_point_reach,
-    nullspace_step,
-    point_on_circle,
-    point_reaching_velocity,
-)
 from .limits import (
     AccelerationLimit,
     ConfigurationLimit,
@@ -63,6 +55,14 @@ from .limits import (
     UserConstraints,
     VelocityLimit,
     default_limits,
+)
+from .nullspace import (
+    NullspaceOptions,
+    NullspaceResult,
+    nullspace_point_reach,
+    nullspace_step,
+    point_on_circle,
+    point_reaching_velocity,
 )
 from .qp import LinearConstraint, solve_qp
 from .reference_ocp import ReferenceProblem, solve_reference
@@ -86,8 +86,8 @@ __all__ = [
     "AccelerationLimit",
     "AvoidanceOptions",
     "AvoidanceResult",
-    "ClearanceCost",
     "BodyVelocityTask",
+    "ClearanceCost",
     "ClearanceLimit",
     "Configuration",
     "ConfigurationLimit",

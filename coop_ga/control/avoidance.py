@@ -113,6 +113,7 @@ __all__ = [
 #: ``'none'`` (plain differential IK), ``'soft'`` (nullspace repulsion), ``'hard'`` (QP rows), ``'both'``
 AVOIDANCE_MODES = ("none", "soft", "hard", "both")
 
+
 def _rates(d: np.ndarray, d_safe: float, d_influence: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
     """``(indices of the pairs with d < d_influence, their desired clearance rates (A2) [m/s])``."""
     idx = np.flatnonzero(d < d_influence)
@@ -276,7 +277,8 @@ class _AvoidanceStep:
         self.cm, self.o, self.primary = cm, o, primary
         self.base = step_limits(task, o.limits, o.limit_gain, o.acceleration_limit)
         self.hard = o.mode in ("hard", "both")
-        self.clearance = ClearanceLimit(cm, o.dt, o.d_safe, o.d_influence, o.damper_gain)
+        braking = o.acceleration_limit and o.limits == "enforce"  # the dampers' braking bound goes with them
+        self.clearance = ClearanceLimit(cm, o.dt, o.d_safe, o.d_influence, o.damper_gain, braking=braking)
         self.limits = self.base + [self.clearance] if self.hard else self.base
         self.fallbacks = 0
 

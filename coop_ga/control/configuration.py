@@ -135,7 +135,15 @@ class Configuration:
         self._qb, self._vb = b.flat_inputs[0], b.flat_inputs[1]
         out = b.outputs
         self._kin = Kinematics(
-            out[0][:, 0], out[1][:, 0], out[2], out[4].reshape(-1, 3), out[5], out[3][:, 0], self._vb, out[6][:, 0], out[7]
+            out[0][:, 0],
+            out[1][:, 0],
+            out[2],
+            out[4].reshape(-1, 3),
+            out[5],
+            out[3][:, 0],
+            self._vb,
+            out[6][:, 0],
+            out[7],
         )
         self.q = np.zeros(model.nq)
         self.velocity = np.zeros(model.nq)

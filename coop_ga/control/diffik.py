@@ -135,9 +135,7 @@ def joint_velocity(J: Any, command_bivector: Any, damping: float = 1e-3) -> np.n
     return damped_pinv(J, validation.nonnegative(damping, "damping")) @ _check_bivector(command_bivector)
 
 
-def step_limits(
-    task: Any, mode: str, limit_gain: float, acceleration: bool, constraints: Any = None
-) -> list[Any]:
+def step_limits(task: Any, mode: str, limit_gain: float, acceleration: bool, constraints: Any = None) -> list[Any]:
     """The limits of a differential-IK step: :func:`~coop_ga.control.limits.default_limits` for ``'enforce'``
     (none for ``'clamp'``/``'none'``), then the user ``constraints``: rows, a function of q giving rows, or
     :class:`~coop_ga.control.limits.Limit` objects (e.g. a :class:`~coop_ga.control.limits.ClearanceLimit`)."""

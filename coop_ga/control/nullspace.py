@@ -290,7 +290,9 @@ def nullspace_point_reach(
     p_star = validation.vector(target_point, 3, "target_point [m]")
     n = round(o.duration / o.dt)
     secondary = PositionTask(index, p_star, gain=o.secondary_gain, max_speed=o.max_speed, form="joint")
-    lims = step_limits(task, "none" if o.limits == "clamp" else o.limits, o.limit_gain, o.acceleration_limit, constraints)
+    lims = step_limits(
+        task, "none" if o.limits == "clamp" else o.limits, o.limit_gain, o.acceleration_limit, constraints
+    )
     with collect_warnings() as caught:
         if o.limits != "none":
             q = project_into_limits(task, q, "q_init")

@@ -92,7 +92,9 @@ def register_solver(
             raise InvalidInputError(f"solver name {n!r} is already registered for {owner!r}")
     if name in SOLVERS and not replace:
         raise InvalidInputError(f"solver {name!r} is already registered (pass replace=True to replace it)")
-    entry = SolverEntry(name, fn, options_cls, signature, tuple(aliases), tuple(problem), tuple(required), dict(quick or {}))
+    entry = SolverEntry(
+        name, fn, options_cls, signature, tuple(aliases), tuple(problem), tuple(required), dict(quick or {})
+    )
     SOLVERS[name] = entry
     for n in (name, *aliases):
         _ALIASES[n] = name

@@ -36,11 +36,18 @@ from typing import Any
 
 import numpy as np
 
-from ..cooperative.manipulability import damped_pinv
 from ..errors import InfeasibleConstraintsError, InvalidInputError
 from .qp import QPSolution, solve_qp
 
-__all__ = ["IKRun", "RunHooks", "StepSolution", "active_labels", "run_ik", "solve_step", "trajectory_acceleration_violation"]
+__all__ = [
+    "IKRun",
+    "RunHooks",
+    "StepSolution",
+    "active_labels",
+    "run_ik",
+    "solve_step",
+    "trajectory_acceleration_violation",
+]
 
 #: singular values below this fraction of the largest span no direction of a higher level's row space
 ROWSPACE_RCOND = 1e-10

@@ -19,7 +19,12 @@ from coop_ga.control import DiffIKOptions, diff_ik_reach, displaced_target, null
 from coop_ga.control.qp import solve_qp, velocity_bounds
 from coop_ga.cooperative.manipulability import damped_pinv
 
-CASES = [("three_franka", "circle"), ("three_franka", "point_pair"), ("franka_and_g1", "circle"), ("franka_and_g1", "line")]
+CASES = [
+    ("three_franka", "circle"),
+    ("three_franka", "point_pair"),
+    ("franka_and_g1", "circle"),
+    ("franka_and_g1", "line"),
+]
 TARGETS = 4
 
 

@@ -19,9 +19,7 @@ from coop_ga.control import (
     gauss_newton_ik,
     ilqr_reach,
     impedance_torque,
-    nullspace_point_reach,
     nullspace_step,
-    simulate_impedance,
 )
 from coop_ga.control.gauss_newton import gauss_newton_step
 
@@ -180,7 +178,7 @@ def test_registry_resolves_aliases_and_refuses_unknown_names():
 
     assert get_solver("gn") is SOLVERS["gauss_newton_ik"] and get_solver("diffik") is SOLVERS["diff_ik_reach"]
     assert get_solver("ilqr").initial_velocity and not get_solver("gn").initial_velocity
-    with pytest.raises(cg.UnknownNameError, match="registered: .*diff_ik_reach"):
+    with pytest.raises(cg.UnknownNameError, match=r"registered: .*diff_ik_reach"):
         get_solver("newton")
     with pytest.raises(cg.InvalidInputError, match="already registered"):
         register_solver("gn", gauss_newton_ik, ILQROptions)

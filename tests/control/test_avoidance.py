@@ -49,7 +49,10 @@ def scene():
 @pytest.fixture(scope="module")
 def runs(scene):
     _, task, q0, Vd, cm = scene
-    return {m: avoidance_reach(task, q0, Vd, collision_model=cm, mode=m, d_safe=D_SAFE, **KW) for m in ("none", "soft", "hard", "both")}
+    return {
+        m: avoidance_reach(task, q0, Vd, collision_model=cm, mode=m, d_safe=D_SAFE, **KW)
+        for m in ("none", "soft", "hard", "both")
+    }
 
 
 def test_plain_diff_ik_collides(scene, runs):
@@ -133,7 +136,9 @@ def test_nullspace_repulsion_does_not_disturb_the_task(scene, runs):
 def test_far_from_obstacles_soft_equals_diff_ik(scene):
     s, task, q0, Vd, _ = scene
     cm_far = CollisionModel(s, obstacles=[Sphere([0.0, 0.0, 3.0], 0.1)], self_collision=True)
-    r = avoidance_reach(task, q0, Vd, collision_model=cm_far, mode="both", d_influence=0.05, **KW)  # same-arm pairs stay > 9 cm
+    r = avoidance_reach(
+        task, q0, Vd, collision_model=cm_far, mode="both", d_influence=0.05, **KW
+    )  # same-arm pairs stay > 9 cm
     assert r.clearance.min() > 0.05
     dik = diff_ik_reach(task, q0, Vd, **KW)
     np.testing.assert_allclose(r.trajectory, dik.trajectory, atol=1e-12)

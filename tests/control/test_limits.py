@@ -175,7 +175,12 @@ def test_priority_levels_keep_the_higher_task_velocity(franka):
     # without acceleration bounds the lower level moves the arms in the nullspace (Eq 60); from rest under
     # them the first level already uses the whole box (a Δt per joint), so there is no room left for it
     free = default_limits(s.limits, acceleration=False)
-    assert np.linalg.norm(solve_step(cfg, [sim], free, DT, levels=[[low]]).velocity - solve_step(cfg, [sim], free, DT).velocity) > 1e-3
+    assert (
+        np.linalg.norm(
+            solve_step(cfg, [sim], free, DT, levels=[[low]]).velocity - solve_step(cfg, [sim], free, DT).velocity
+        )
+        > 1e-3
+    )
     assert np.all(np.abs(both.velocity) <= s.limits.acceleration * DT + 1e-12)
 
 

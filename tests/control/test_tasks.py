@@ -91,7 +91,7 @@ def test_position_task_jacobian(circle, index):
     np.testing.assert_allclose(t.error(cfg), task.points(q)[index] - p, atol=1e-14)
     np.testing.assert_allclose(J, _fd(task, q, t.error), atol=1e-7)
     np.testing.assert_allclose(J, task.tree.euclidean_point_jacobians(q)[index], atol=1e-12)
-    A, b = t.qp_rows(cfg)
+    _A, b = t.qp_rows(cfg)
     np.testing.assert_allclose(b, -5.0 * t.error(cfg), atol=1e-15)
     # the capped velocity and the joint-space form (Eq 60's secondary velocity)
     capped = PositionTask(index, p, gain=5.0, max_speed=0.2)
@@ -146,6 +146,7 @@ def test_one_compiled_evaluation_per_step(circle, monkeypatch):
     monkeypatch.setattr(Configuration, "kinematics", counted)
     for name in ("evaluate_views", "error_and_jacobian", "_run"):
         f = getattr(task, name)
+
         def call(*a, _f=f, **k):
             counts["task"] += 1
             return _f(*a, **k)

@@ -116,7 +116,9 @@ class ClearanceLimit:
         self.d_safe, self.d_influence = check_distances(d_safe, d_influence)
         self.damper_gain = _check_gain(damper_gain)
         self.braking = bool(braking)
-        self.braking_fraction = validation.scalar(braking_fraction, "braking_fraction", low=0.0, high=1.0, low_open=True)
+        self.braking_fraction = validation.scalar(
+            braking_fraction, "braking_fraction", low=0.0, high=1.0, low_open=True
+        )
 
     def rows(self, d: np.ndarray, Jd: np.ndarray, dt: float, acceleration: np.ndarray | None = None) -> Inequalities:
         """(A1) from the distances d (n,) and their Jacobian (n, nq); with the joint accelerations (nq,)

@@ -35,6 +35,7 @@ from .base import Inequalities
 
 __all__ = ["DEFAULT_LIMIT_GAIN", "AccelerationLimit", "ConfigurationLimit", "VelocityLimit", "braking_speed"]
 
+
 def _gain(gain: Any) -> float:
     return validation.scalar(gain, "limit_gain", low=0.0, high=1.0, low_open=True)
 
