@@ -87,8 +87,39 @@ from coop_ga.sweep.targets import (
 SCHEMA_VERSION = 1
 
 
+def _short(entry: Any) -> str:
+    """A solver's job name: its shortest alias (``gn``, ``diffik``, ``ilqr``, ``impedance``)."""
+    return min((entry.name, *entry.aliases), key=len)
+
+
+def job_solver(job: str) -> tuple[Any, bool]:
+    """``(registry entry, moving start)`` of a job name: a registered solver's name or alias
+    (:data:`coop_ga.control.SOLVERS`), or ``<that>_moving`` for a solver that starts from a joint velocity."""
+    from coop_ga.control import get_solver
+
+    moving = job.endswith("_moving")
+    entry = get_solver(job.removesuffix("_moving") if moving else job)
+    if moving and not entry.initial_velocity:
+        raise ValueError(f"job {job!r}: solver {entry.name} takes no initial velocity")
+    return entry, moving
+
+
+def job_names() -> tuple[str, ...]:
+    """Every job the registry offers: each 'reach' solver that needs no other problem data, from rest and
+    (if it takes one) from a moving start."""
+    from coop_ga.control import SOLVERS
+
+    out: list[str] = []
+    for e in SOLVERS.values():
+        if e.signature == "reach" and not e.required:
+            out += [_short(e), *([f"{_short(e)}_moving"] if e.initial_velocity else [])]
+    return tuple(out)
+
+
+#: the jobs run by default (a selection of :func:`job_names`: the impedance simulation is left out, its
+#: time per target is that of a rigid-body simulation)
 SOLVERS: tuple[str, ...] = ("ilqr", "ilqr_moving", "gn", "diffik")
-ILQR_SOLVERS = ("ilqr", "ilqr_moving")
+ILQR_SOLVERS = tuple(j for j in job_names() if job_solver(j)[0].name == "ilqr_reach")
 
 VIOLATION_TOL = 1e-6  # [rad or m] a run is "outside the limits" above this
 DIFFIK_TOL = 1e-4  # diff IK: time to reach this error ...
@@ -169,18 +200,9 @@ def _init_worker(cases: Sequence[tuple[str, str]]) -> None:
 
 # ============================================================================ solvers
 def _call_solver(name: str, task: Any, q0: np.ndarray, target: Any, qd_init: np.ndarray | None) -> Any:
-    """Run solver ``name`` with its defaults (the point of the benchmark)."""
-    from coop_ga.control import diff_ik_reach, gauss_newton_ik, ilqr_reach
-
-    if name == "ilqr":
-        return ilqr_reach(task, q0, target)
-    if name == "ilqr_moving":
-        return ilqr_reach(task, q0, target, qd_init=qd_init)
-    if name == "gn":
-        return gauss_newton_ik(task, q0, target)
-    if name == "diffik":
-        return diff_ik_reach(task, q0, target)
-    raise ValueError(f"unknown solver {name!r}")
+    """Run job ``name`` (:func:`job_solver`) with the solver's defaults (the point of the benchmark)."""
+    entry, moving = job_solver(name)
+    return entry.solve(task, q0, target, **({"qd_init": qd_init} if moving else {}))
 
 
 def _finite(x: Any) -> float | None:
@@ -852,11 +874,11 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument(
         "--solvers",
         nargs="+",
-        choices=list(SOLVERS),
+        choices=list(job_names()),
         default=list(SOLVERS),
         metavar="SOLVER",
-        help="ilqr (from rest), ilqr_moving (initial joint velocity ~ U(±0.2 rad/s)), gn (Gauss–Newton "
-        "IK), diffik (differential IK); each with its default options",
+        help="registered solvers (coop_ga.control.SOLVERS) by short name, from rest, and <name>_moving from an "
+        "initial joint velocity ~ U(±0.2 rad/s) for those that take one; each with its default options",
     )
     ap.add_argument(
         "--ci",
@@ -889,7 +911,7 @@ def config_from_args(args: argparse.Namespace) -> Config:
         systems=_dedup(systems, cg.systems.names()),
         kinds=_dedup(kinds, cg.KINDS),
         levels=_dedup(levels, list(LEVELS)),
-        solvers=_dedup(args.solvers, SOLVERS),
+        solvers=_dedup(args.solvers, SOLVERS + tuple(j for j in job_names() if j not in SOLVERS)),
         targets=targets,
         seed=args.seed,
         workers=args.workers,

@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
         ("scenario2_linearised", [horizontal], False),
     ):
         with exp.stage(f"{key}: constrained differential IK") as st:
-            runs[key] = constrained_point_reach(task, q0, 0, target, cons, project=project, **opts)
+            runs[key] = constrained_point_reach(task, q0, 0, target, constraints=cons, project=project, **opts)
         timing[f"{key}_s"] = st.seconds
 
     # ------------------------------------------------------------------ read-outs along the trajectories

@@ -10,12 +10,12 @@ Obstacle: a sphere of radius 4 cm centred at (0.014, −0.346, 0.478) m.  How it
 run *without* avoidance (plain differential IK) was computed first; the centre is the point of
 arm 0's left-finger capsule path at half its path length, moved 3 cm down (below the TCP path,
 so that the links above the gripper, which follow the same path, do not end on it); 4 cm
-leaves the start and the goal configurations ≥ 4 cm clear while the straight motion passes
-through it.  The metrics verify all three facts (``clearance_start``, ``clearance_goal``,
+leaves the start and the goal configurations clear (8.5 and 3.6 cm; the goal was 4.7 cm before the
+acceleration limits changed where the redundant arms end) while the straight motion passes through it.  The metrics verify all three facts (``clearance_start``, ``clearance_goal``,
 ``min_clearance_no_avoidance`` < 0).
 
 Controllers (``coop_ga.control.avoidance``): differential IK (Eq 44, 48, 61) with the joint
-limits as a QP, commanded body velocity ``B = gain · log(Ṽ_Sc V_Sd)``, gain 3 /s, Δt = 0.01 s,
+position, velocity and acceleration limits (the Franka's, from rest) as a QP, commanded body velocity ``B = gain · log(Ṽ_Sc V_Sd)``, gain 3 /s, Δt = 0.01 s,
 300 steps (3 s); clearances from ``coop_ga.collision.model.CollisionModel`` (the Franka's
 capsules, the sphere, and every arm–arm and non-adjacent same-arm capsule pair):
 
@@ -23,7 +23,8 @@ capsules, the sphere, and every arm–arm and non-adjacent same-arm capsule pair
 * ``soft``: repulsive clearance rates (A2) for the pairs closer than 10 cm, realised in the
   nullspace of the cooperative Jacobian J^G (Eq 58, 60): the circle's motion is unchanged;
 * ``hard``: velocity dampers (A1) ``d + Δt J_d q̇ ≥ d_s + (1 − ξ)(d − d_s)`` (d_s = 1 cm,
-  ξ = 0.5) as rows of the QP, next to the joint limits;
+  ξ = 0.5) as rows of the QP, next to the joint limits, capped by the braking speed that the
+  acceleration limits allow (:class:`coop_ga.control.limits.ClearanceLimit`);
 * ``both`` (the avoidance run of the figure): soft and hard together.
 
 iLQR (Eq 53–57, ``coop_ga.control.ilqr_reach``, its defaults; 100 knots × 0.03 s = 3 s) with and without
@@ -36,6 +37,7 @@ of the exact piecewise-constant-acceleration motion, not only at the knots.
 Writes to ``--out``: ``metrics.json`` (``obstacles`` [{"center", "radius"}], ``min_clearance`` and
 ``min_clearance_no_avoidance`` [m] over every pair and step, their obstacle / arm–arm / same-arm
 parts, terminal task errors of both runs, ``max_limit_violation`` [rad] (all published trajectories),
+``max_acceleration_violation`` [rad/s²] (the differential-IK runs),
 every mode's numbers, the ``ilqr`` block and the ``gallery`` block), ``trajectory.npz`` (``q`` (T, 21) with avoidance, ``q_no_avoidance`` (T, 21),
 ``t`` (T,), ``clearance``/``clearance_no_avoidance`` (T,)), ``timing.json``, ``scene.png`` (with
 avoidance), ``scene_no_avoidance.png`` (each: initial configuration light, the configuration of
@@ -151,7 +153,7 @@ def run(exp: Experiment, fast: bool) -> int:
     for mode in MODES:
         with exp.stage(f"differential IK, avoidance '{mode}'"):
             t0 = time.perf_counter()
-            res[mode] = avoidance_reach(task, q0, Vd, cm, opts, mode=mode)
+            res[mode] = avoidance_reach(task, q0, Vd, opts, collision_model=cm, mode=mode)
             times[f"{mode}_s"] = time.perf_counter() - t0
     av, na = res["both"], res["none"]
     groups = _groups(cm)
@@ -195,6 +197,8 @@ def run(exp: Experiment, fast: bool) -> int:
             "active_steps": r.active_steps,
             "max_limit_violation": r.limit_violation,
             "max_velocity_violation": r.velocity_violation,
+            "max_acceleration_violation": r.max_acceleration_violation,
+            "relaxed_steps": r.relaxed_steps,
             "fallback_steps": r.fallback_steps,
         }
         for m, r in res.items()
@@ -237,6 +241,8 @@ def run(exp: Experiment, fast: bool) -> int:
         "max_task_velocity_deviation": modes["both"]["max_task_velocity_deviation"],
         "max_damper_residual": av.constraint_residual,
         "max_limit_violation": max_violation,
+        # the Franka's acceleration limits (from rest), imposed by every differential-IK run and measured on it
+        "max_acceleration_violation": max(r.max_acceleration_violation for r in res.values()),
         "modes": modes,
         "ilqr": {
             "horizon": horizon,
@@ -341,6 +347,7 @@ def run(exp: Experiment, fast: bool) -> int:
         and na.min_clearance < 0.0
         and av.converged
         and max_violation == 0.0
+        and metrics["max_acceleration_violation"] == 0.0
         and metrics["ilqr"]["min_clearance"] > metrics["ilqr"]["min_clearance_no_clearance_cost"]
     )
     evidence = (
@@ -349,12 +356,13 @@ def run(exp: Experiment, fast: bool) -> int:
         f"{metrics['min_arm_arm_clearance'] * 100:.1f} cm) and the circle reaches its target (‖e‖ = {av.error:.1e}, "
         f"task velocity disturbed by at most {metrics['max_task_velocity_deviation']:.1e}); without avoidance "
         f"the gripper enters the sphere by {-na.min_clearance * 100:.1f} cm (min clearance "
-        f"{na.min_clearance * 100:.2f} cm, {na.closest}). Nullspace repulsion alone keeps "
-        f"{res['soft'].min_clearance * 100:.2f} cm; dampers alone keep {res['hard'].min_clearance * 100:.2f} cm "
+        f"{na.min_clearance * 100:.2f} cm, {na.closest}). Nullspace repulsion alone: min clearance "
+        f"{res['soft'].min_clearance * 100:.2f} cm; dampers alone: {res['hard'].min_clearance * 100:.2f} cm "
         f"but disturb the task velocity by up to {modes['hard']['max_task_velocity_deviation']:.2f}. iLQR with the "
         f"clearance cost: min clearance {metrics['ilqr']['min_clearance'] * 100:.2f} cm (without it "
         f"{metrics['ilqr']['min_clearance_no_clearance_cost'] * 100:.2f} cm), ‖e‖ = {ilqr['clearance'].error:.1e}. "
-        f"Joint-limit violation {max_violation:.3g} rad."
+        f"Joint-limit violation {max_violation:.3g} rad; acceleration-limit violation of the differential-IK runs "
+        f"{metrics['max_acceleration_violation']:.3g} rad/s² (from rest)."
     )
     metrics["gallery"] = {
         "title": "Obstacle avoidance: three Frankas carry a circle past a sphere (issue 14, our addition)",

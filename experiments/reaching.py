@@ -623,6 +623,14 @@ def build_metrics(
             diffik_steps=dik.iterations,
             diffik_gain_per_s=args.diffik_gain,
             diffik_error_at_horizon=float(dik.errors[min(len(dik.errors) - 1, setup.horizon)]),
+            # the limits differential IK imposes (position, velocity and, on the Franka systems, acceleration
+            # from rest), measured on its trajectory
+            diffik_limits={
+                "max_limit_violation": dik.limit_violation,
+                "max_velocity_violation": dik.velocity_violation,
+                "max_acceleration_violation": dik.max_acceleration_violation,
+                "relaxed_steps": dik.relaxed_steps,
+            },
         )
     m["gallery"] = gallery(setup, s, res, m)
     return m
@@ -661,7 +669,10 @@ def gallery(setup: Setup, s: Any, res: Any, m: dict[str, Any]) -> dict[str, Any]
         if p.figure == "fig08":
             agrees = agrees and m["max_abs_dilation_command"] > 0.0
     if "diffik_final_error" in m:
-        ev += f" Differential IK (gain {m['diffik_gain_per_s']:g}/s): final error {m['diffik_final_error']:.1e}."
+        ev += (
+            f" Differential IK (gain {m['diffik_gain_per_s']:g}/s, within the position, velocity and acceleration "
+            f"limits): final error {m['diffik_final_error']:.1e} after {m['diffik_steps']} steps."
+        )
     if s.nq != p.paper_dof:
         ev += f" DOF {s.nq} differs from the paper's {p.paper_dof}."
         agrees = False

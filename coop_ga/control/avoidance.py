@@ -1,4 +1,4 @@
-"""Obstacle and self-collision avoidance in the cooperative controllers (issue 14, item 3).
+"""Obstacle and self-collision avoidance in the cooperative controllers.
 
 Every method here uses the *same* distances: a collision model ``cm``
 (:class:`coop_ga.collision.model.CollisionModel`, or any object with the same three members)
@@ -28,8 +28,8 @@ below d_min; gain 0.85 there), written on the joint velocity q̇ and with our ex
 Jacobians.  Since every h ≥ 0, q̇ = 0 always satisfies (A1) and the joint-limit box, so the QP
 is never infeasible.  The rows enter :func:`coop_ga.control.qp.solve_qp` as user constraints
 ``G q̇ ≤ h`` next to the position/velocity box; :func:`clearance_constraint` builds them, and
-:class:`ClearanceLimit` is the callable ``q → LinearConstraint`` that
-:func:`coop_ga.control.diff_ik_reach` accepts as ``constraints=``.  (A1) is first order: the
+:class:`~coop_ga.control.limits.ClearanceLimit` is the :class:`~coop_ga.control.limits.Limit` (and the
+callable ``q → LinearConstraint`` that :func:`coop_ga.control.diff_ik_reach` accepts as ``constraints=``).  (A1) is first order: the
 true clearance after the step differs from its linearisation by O(Δt² |q̇|² · curvature); the
 tests measure it.
 
@@ -81,18 +81,22 @@ import numpy as np
 from .. import validation
 from ..cooperative.manipulability import damped_pinv
 from ..diagnostics import collect_warnings
-from ..errors import InvalidInputError
+from ..errors import InfeasibleConstraintsError, InvalidInputError
 from .base import check_problem, resolve_options
-from .diffik import DiffIKResult, _advance, _velocity, reach_outcome
-from .nullspace import _hierarchical_velocity
-from .qp import (
-    DEFAULT_LIMIT_GAIN,
-    InfeasibleConstraintsError,
-    LinearConstraint,
-    limit_arrays,
-    project_into_limits,
-    velocity_bounds,
+from .configuration import Configuration
+from .diffik import DiffIKResult, run_result, similarity_error_norm, step_limits
+from .limits.clearance import (
+    ClearanceLimit,
+    check_collision_model,
+    check_distances,
+    clearance_constraint,
+    distances,
+    model_distances,
 )
+from .qp import DEFAULT_LIMIT_GAIN, QPSolution, project_into_limits
+from .solve import RunHooks, StepSolution, _stack_limits, run_ik, solve_step
+from .tasks import JointVelocityTask, SimilarityTask
+from .tasks.similarity import BodyVelocityTask
 
 __all__ = [
     "AVOIDANCE_MODES",
@@ -108,106 +112,6 @@ __all__ = [
 
 #: ``'none'`` (plain differential IK), ``'soft'`` (nullspace repulsion), ``'hard'`` (QP rows), ``'both'``
 AVOIDANCE_MODES = ("none", "soft", "hard", "both")
-
-
-def check_collision_model(cm: Any, nq: int | None = None) -> Any:
-    """``cm`` if it has ``distances_and_jacobian`` and ``labels`` (a collision model), else
-    :class:`~coop_ga.errors.InvalidInputError`; with ``nq``, its system must have nq joints."""
-    if not (callable(getattr(cm, "distances_and_jacobian", None)) and hasattr(cm, "labels")):
-        raise InvalidInputError(
-            "a collision model is needed (coop_ga.collision.model.CollisionModel: distances_and_jacobian(q), "
-            f"labels), got {type(cm).__name__}"
-        )
-    sys_ = getattr(cm, "system", None)
-    if nq is not None and sys_ is not None and int(sys_.nq) != nq:
-        raise InvalidInputError(f"the collision model is for {sys_.nq} joints, the task has {nq}")
-    return cm
-
-
-def _distances(cm: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    d, J = cm.distances_and_jacobian(q)
-    d = np.asarray(d, dtype=float).reshape(-1)
-    J = np.asarray(J, dtype=float).reshape(d.shape[0], q.shape[0])
-    return d, J
-
-
-def _check_distances(d_safe: Any, d_influence: Any) -> tuple[float, float]:
-    ds = validation.scalar(d_safe, "d_safe [m]")
-    di = validation.scalar(d_influence, "d_influence [m]")
-    if not di > ds:
-        raise InvalidInputError(f"d_influence ({di:g} m) must be larger than d_safe ({ds:g} m)")
-    return ds, di
-
-
-def _damper_rows(
-    d: np.ndarray, Jd: np.ndarray, dt: float, d_safe: float, d_influence: float, gain: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(A1) for the pairs with d < d_influence: ``(G, h, indices)``."""
-    idx = np.flatnonzero(d < d_influence)
-    G = -Jd[idx]
-    h = np.maximum(gain * (d[idx] - d_safe) / dt, 0.0)
-    return G, h, idx
-
-
-def clearance_constraint(
-    cm: Any,
-    q: Any,
-    *,
-    dt: float = 0.01,
-    d_safe: float = 0.01,
-    d_influence: float = 0.10,
-    damper_gain: float = 0.5,
-) -> LinearConstraint:
-    """The velocity-damper rows (A1) at ``q`` as a :class:`~coop_ga.control.qp.LinearConstraint` on q̇.
-
-    Parameters
-    ----------
-    cm: the collision model (``distances_and_jacobian(q) → d (n,) [m], J_d (n, nq) [m/rad]``).
-    q: (nq,) configuration [rad].  dt: Δt [s] of the controller.
-    d_safe: clearance d_s [m] that is kept.  d_influence: pairs with d ≥ d_influence [m] give no row.
-    damper_gain: ξ ∈ (0, 1].
-
-    Returns ``G (m, nq)``, ``h (m,)`` [m/s] with ``G q̇ ≤ h`` ⇔ (A1), one row per pair with
-    d < d_influence in the model's order (``name`` ``"clearance"``: messages name row r ``clearance[r]``;
-    m may be 0).
-    """
-    cm = check_collision_model(cm)
-    dt = validation.positive(dt, "dt")
-    ds, di = _check_distances(d_safe, d_influence)
-    gain = validation.scalar(damper_gain, "damper_gain", low=0.0, high=1.0, low_open=True)
-    qv = validation.array(q, "q").reshape(-1)
-    d, Jd = _distances(cm, qv)
-    G, h, _ = _damper_rows(d, Jd, dt, ds, di, gain)
-    return LinearConstraint(G, h, "clearance")
-
-
-@dataclass(frozen=True)
-class ClearanceLimit:
-    """The callable ``q → LinearConstraint`` of (A1) for :func:`coop_ga.control.diff_ik_reach`'s
-    ``constraints=`` (evaluated at every step): ``diff_ik_reach(task, q0, V, constraints=ClearanceLimit(cm, dt=0.01))``.
-    ``dt`` must be the controller's Δt [s]; the other fields as :func:`clearance_constraint`."""
-
-    model: Any
-    dt: float = 0.01
-    d_safe: float = 0.01
-    d_influence: float = 0.10
-    damper_gain: float = 0.5
-
-    def __post_init__(self) -> None:
-        check_collision_model(self.model)
-        validation.positive(self.dt, "dt")
-        _check_distances(self.d_safe, self.d_influence)
-        validation.scalar(self.damper_gain, "damper_gain", low=0.0, high=1.0, low_open=True)
-
-    def __call__(self, q: Any) -> LinearConstraint:
-        return clearance_constraint(
-            self.model,
-            q,
-            dt=self.dt,
-            d_safe=self.d_safe,
-            d_influence=self.d_influence,
-            damper_gain=self.damper_gain,
-        )
 
 
 def _rates(d: np.ndarray, d_safe: float, d_influence: float, speed: float) -> tuple[np.ndarray, np.ndarray]:
@@ -254,11 +158,11 @@ def repulsive_velocity(
     """The secondary joint velocity q̇₂ (nq,) [rad/s] of (A2): the damped least-norm velocity giving the
     active pairs (d < d_influence) the clearance rates ``v_r s²`` [m/s] (module docstring)."""
     cm = check_collision_model(cm)
-    ds, di = _check_distances(d_safe, d_influence)
+    ds, di = check_distances(d_safe, d_influence)
     v = validation.nonnegative(repulsive_speed, "repulsive_speed [m/s]")
     lam = validation.nonnegative(repulsive_damping, "repulsive_damping")
     qv = validation.array(q, "q").reshape(-1)
-    d, Jd = _distances(cm, qv)
+    d, Jd = model_distances(cm, qv)
     return _repulsion(d, Jd, ds, di, v, lam)
 
 
@@ -274,8 +178,8 @@ class AvoidanceOptions:
     damper_gain: ξ ∈ (0, 1] of (A1).
     repulsive_speed: v_r [m/s] of (A2) (0 disables the repulsion).
     repulsive_damping: λ_r [m/rad] of the least-norm repulsive velocity.
-    gain [1/s], dt [s], steps, damping, tol, limits (``'enforce'`` or ``'none'``), limit_gain: as
-        :class:`~coop_ga.control.DiffIKOptions`.
+    gain [1/s], dt [s], steps, damping, tol, limits (``'enforce'`` or ``'none'``), limit_gain,
+        acceleration_limit: as :class:`~coop_ga.control.DiffIKOptions`.
     """
 
     mode: str = "both"
@@ -291,10 +195,13 @@ class AvoidanceOptions:
     tol: float = 1e-4
     limits: str = "enforce"
     limit_gain: float = DEFAULT_LIMIT_GAIN
+    acceleration_limit: bool = True
 
     def __post_init__(self) -> None:
         validation.choice(self.mode, AVOIDANCE_MODES, "mode")
-        _check_distances(self.d_safe, self.d_influence)
+        if not isinstance(self.acceleration_limit, bool):
+            raise InvalidInputError(f"acceleration_limit must be True or False, got {self.acceleration_limit!r}")
+        check_distances(self.d_safe, self.d_influence)
         validation.scalar(self.damper_gain, "damper_gain", low=0.0, high=1.0, low_open=True)
         validation.nonnegative(self.repulsive_speed, "repulsive_speed")
         validation.nonnegative(self.repulsive_damping, "repulsive_damping")
@@ -339,34 +246,12 @@ class AvoidanceResult(DiffIKResult):
     fallback_steps: int = 0
 
 
-def avoidance_velocity(
-    task: Any,
-    q: Any,
-    command_bivector: Any,
-    cm: Any,
-    options: AvoidanceOptions | None = None,
-    **overrides: Any,
-) -> np.ndarray:
-    """The joint velocity q̇ (nq,) [rad/s] of one avoidance step for the body velocity command B_S (7,)
-    (module docstring: (A1) rows in the QP for ``'hard'``/``'both'``, (A2) in the nullspace for
-    ``'soft'``/``'both'``); ``q`` inside the limits (projected otherwise, with a warning)."""
-    o = resolve_options(AvoidanceOptions, options, overrides, "avoidance_velocity")
-    cm = check_collision_model(cm, task.nq)
-    qv = validation.configuration(q, task.nq, "q")
-    b = validation.vector(command_bivector, 7, "command_bivector")
-    if o.limits != "none":
-        qv = project_into_limits(task, qv)
-    J = task.evaluate_views(qv)[2]
-    d, Jd = _distances(cm, qv)
-    return _step(task, qv, J, b, d, Jd, o, tuple(str(x) for x in cm.labels))[0]  # never infeasible: q̇ = 0 is
-
-
 #: damping of the retry when the QP solver fails numerically on a step (q̇ = 0 is always feasible)
 FALLBACK_DAMPING = 1e-2
 
 
 def _feasible_fraction(
-    x: np.ndarray, lb: np.ndarray | None, ub: np.ndarray | None, G: np.ndarray, h: np.ndarray
+    x: np.ndarray, lb: np.ndarray | None, ub: np.ndarray | None, G: np.ndarray | None, h: np.ndarray | None
 ) -> float:
     """The largest α ∈ [0, 1] with α x in the box and ``G (α x) ≤ h`` (0 is feasible: lb ≤ 0 ≤ ub, h ≥ 0)."""
     alpha = 1.0
@@ -377,171 +262,183 @@ def _feasible_fraction(
         if lb is not None:
             under = x < lb
             alpha = min(alpha, float(np.min(np.minimum(lb[under], 0.0) / x[under], initial=1.0)))
-        if G.shape[0]:
+        if G is not None and G.shape[0]:
+            assert h is not None  # rows come with h
             gx = G @ x
             bad = gx > h
             alpha = min(alpha, float(np.min(np.maximum(h[bad], 0.0) / gx[bad], initial=1.0)))
     return max(0.0, alpha * (1.0 - 1e-12))
 
 
-def _step(
-    task: Any,
-    q: np.ndarray,
-    J: np.ndarray,
-    b: np.ndarray,
-    d: np.ndarray,
-    Jd: np.ndarray,
-    o: AvoidanceOptions,
-    labels: tuple[str, ...] = (),
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[str, ...], bool, tuple[str, ...], int]:
-    """``(q̇, G, h, row labels, a bound/row was active, active labels, fallback)`` of one step (labels: the
-    model's).  ``fallback``: 0, or 1 when the QP solver failed numerically and the step was re-solved
-    without the repulsion and with damping :data:`FALLBACK_DAMPING`, or 2 when that failed too and the
-    step is the unconstrained one scaled into the feasible set (the largest α ∈ [0, 1]; q̇ = 0 is feasible)."""
-    if o.mode in ("hard", "both"):
-        G, h, idx = _damper_rows(d, Jd, o.dt, o.d_safe, o.d_influence, o.damper_gain)
-    else:
-        G, h, idx = np.zeros((0, q.shape[0])), np.zeros(0), np.zeros(0, int)
-    row_labels = tuple(f"clearance of {labels[k] if k < len(labels) else k}" for k in idx)
-    try:
-        if o.mode in ("soft", "both"):
-            x1 = damped_pinv(J, o.damping) @ b
-            qd2 = _repulsion(d, Jd, o.d_safe, o.d_influence, o.repulsive_speed, o.repulsive_damping, J, x1)
-            qd, was_active, act = _hierarchical_velocity(
-                task, q, b / o.gain, J, qd2, o.dt, o.gain, o.damping, True, o.limits, o.limit_gain, G, h, row_labels
-            )
-            return qd, G, h, row_labels, was_active, act, 0
-        sol = _velocity(task, q, J, b, o.dt, o.damping, o.limits, o.limit_gain, G, h, row_labels)
-    except InfeasibleConstraintsError:
-        # a numerical failure of the solver (every h ≥ 0 and the box contains 0, so q̇ = 0 is feasible)
-        lam = max(o.damping, FALLBACK_DAMPING)
+class _AvoidanceStep:
+    """One avoidance step from a configuration (module docstring), with the solver-failure fallbacks."""
+
+    def __init__(self, task: Any, cm: Any, o: AvoidanceOptions, primary: Any):
+        self.cm, self.o, self.primary = cm, o, primary
+        self.base = step_limits(task, o.limits, o.limit_gain, o.acceleration_limit)
+        self.hard = o.mode in ("hard", "both")
+        braking = o.acceleration_limit and o.limits == "enforce"  # the dampers' braking bound goes with them
+        self.clearance = ClearanceLimit(cm, o.dt, o.d_safe, o.d_influence, o.damper_gain, braking=braking)
+        self.limits = self.base + [self.clearance] if self.hard else self.base
+        self.fallbacks = 0
+
+    def repulsion(self, cfg: Any) -> np.ndarray:
+        """(A3): the repulsive velocity in the nullspace of J^G, given the primary velocity."""
+        o = self.o
+        J = cfg.kinematics().jacobian
+        b = self.primary.qp_rows(cfg)[1]
+        d, Jd = distances(self.cm, cfg)
+        x1 = damped_pinv(J, o.damping) @ b
+        return _repulsion(d, Jd, o.d_safe, o.d_influence, o.repulsive_speed, o.repulsive_damping, J, x1)
+
+    def __call__(self, cfg: Any) -> StepSolution:
+        o = self.o
         try:
-            sol = _velocity(task, q, J, b, o.dt, lam, o.limits, o.limit_gain, G, h, row_labels)
+            qd2 = self.repulsion(cfg) if o.mode in ("soft", "both") else None
+            if qd2 is not None and np.any(qd2):  # far from every obstacle the step is the differential-IK step
+                levels = [[JointVelocityTask(qd2, name="repulsion")]]
+                return solve_step(cfg, [self.primary], self.limits, o.dt, damping=o.damping, levels=levels)
+            return solve_step(cfg, [self.primary], self.limits, o.dt, damping=o.damping)
         except InfeasibleConstraintsError:
-            x = damped_pinv(J, lam) @ b
-            lb: np.ndarray | None
-            ub: np.ndarray | None
-            if o.limits == "enforce":
-                lower, upper, vel = limit_arrays(task)
-                lb, ub = velocity_bounds(q, lower, upper, vel, o.dt, o.limit_gain)
-            else:
-                lb = ub = None
-            a = _feasible_fraction(x, lb, ub, G, h)
-            return a * x, G, h, row_labels, True, (f"QP failed: unconstrained step scaled by {a:.3g}",), 2
-        act = tuple(lab for lab, a in zip(row_labels, sol.active_rows) if a)
-        return sol.x, G, h, row_labels, True, act, 1
-    act = tuple(lab for lab, a in zip(row_labels, sol.active_rows) if a)
-    return sol.x, G, h, row_labels, bool(sol.used_qp), act, 0
+            # a numerical failure of the solver (every h ≥ 0 and the joint box contains 0: q̇ = 0 is feasible)
+            self.fallbacks += 1
+            lam = max(o.damping, FALLBACK_DAMPING)
+            try:
+                return solve_step(cfg, [self.primary], self.limits, o.dt, damping=lam)
+            except InfeasibleConstraintsError:
+                return self.scaled(cfg, lam)
+
+    def scaled(self, cfg: Any, lam: float) -> StepSolution:
+        """The unconstrained step scaled into the feasible set of the non-relaxable limits."""
+        A, b = self.primary.qp_rows(cfg)
+        x = damped_pinv(A, lam) @ b
+        bd = _stack_limits(cfg, self.limits, self.o.dt, True)
+        G, h = bd.rows(cfg.nq)
+        a = _feasible_fraction(x, bd.lower, bd.upper, G, h)
+        n, m = x.shape[0], 0 if G is None else G.shape[0]
+        sol = QPSolution(a * x, True, np.zeros(n, bool), np.zeros(n, bool), np.zeros(m, bool), "scaled")
+        relaxed = tuple(lim.name for lim in self.limits if getattr(lim, "relaxable", False))
+        note = f"QP failed: unconstrained step scaled by {a:.3g}"
+        return StepSolution(a * x, True, sol, bd.lower, bd.upper, G, h, tuple(bd.labels), (), relaxed, False, note)
+
+
+def avoidance_velocity(
+    task: Any,
+    q: Any,
+    command_bivector: Any,
+    options: AvoidanceOptions | None = None,
+    *,
+    collision_model: Any,
+    velocity: Any = None,
+    **overrides: Any,
+) -> np.ndarray:
+    """The joint velocity q̇ (nq,) [rad/s] of one avoidance step for the body velocity command B_S (7,)
+    (module docstring: (A1) rows in the QP for ``'hard'``/``'both'``, (A2) in the nullspace for
+    ``'soft'``/``'both'``); ``q`` inside the limits (projected otherwise, with a warning); ``velocity``: the
+    previous step's q̇ for the acceleration limit (None: at rest); ``collision_model``: the model of the pairs."""
+    o = resolve_options(AvoidanceOptions, options, overrides, "avoidance_velocity")
+    cm = check_collision_model(collision_model, task.nq)
+    qv = validation.configuration(q, task.nq, "q")
+    b = validation.vector(command_bivector, 7, "command_bivector")
+    if o.limits != "none":
+        qv = project_into_limits(task, qv)
+    cfg = Configuration(task, qv, velocity)
+    return _AvoidanceStep(task, cm, o, BodyVelocityTask(b))(cfg).velocity
+
+
+class _Recorder:
+    """Per-step records of an avoidance run: clearances, row residuals, task-velocity deviation."""
+
+    def __init__(self, step: _AvoidanceStep):
+        self.step = step
+        self.D: list[np.ndarray] = []
+        self.residual = 0.0
+        self.devs: list[float] = []
+        self.rows: list[int] = []
+
+    def clearances(self, cfg: Any) -> None:
+        self.D.append(distances(self.step.cm, cfg)[0].copy())
+
+    def __call__(self, cfg: Any, st: StepSolution) -> None:
+        o, G = self.step.o, st.G
+        m = 0 if G is None else G.shape[0]
+        if m:
+            assert G is not None and st.h is not None  # m > 0
+            self.residual = max(self.residual, float(np.max(G @ st.velocity - st.h)))
+        self.rows.append(m)
+        if o.mode == "none" or not (st.used_qp or np.any(st.velocity)):
+            self.devs.append(0.0)
+        else:
+            ref = solve_step(cfg, [self.step.primary], self.step.base, o.dt, damping=o.damping).velocity
+            J = cfg.kinematics().jacobian
+            self.devs.append(float(np.linalg.norm(J @ (st.velocity - ref))))
+
+
+def _closest(Dm: np.ndarray, labels: tuple[str, ...]) -> str:
+    if not Dm.size:
+        return ""
+    t_min, i_min = np.unravel_index(int(np.argmin(Dm)), Dm.shape)
+    return f"{labels[i_min] if i_min < len(labels) else i_min} at step {t_min}"
 
 
 def avoidance_reach(
     task: Any,
-    q0: Any,
+    q_init: Any,
     target: Any,
-    cm: Any,
     options: AvoidanceOptions | None = None,
+    *,
+    collision_model: Any,
     **overrides: Any,
 ) -> AvoidanceResult:
     """Differential IK to ``target`` (Eq 44, 48, 61) with obstacle and self-collision avoidance (module docstring).
 
-    Each step commands ``B_S = gain · log(Ṽ_Sc(q) V_Sd)`` as :func:`coop_ga.control.diff_ik_reach` does and
-    takes the step of :func:`avoidance_velocity`; stops when ‖e‖ < ``tol`` or after ``steps`` steps.
+    A :class:`~coop_ga.control.tasks.SimilarityTask` with the joint limits, the
+    :class:`~coop_ga.control.limits.ClearanceLimit` rows (``'hard'``/``'both'``) and a repulsion level in the
+    nullspace (``'soft'``/``'both'``), iterated by :func:`~coop_ga.control.run_ik`; stops when ‖e‖ < ``tol``
+    or after ``steps`` steps.
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask`.  q0: (nq,) start [rad] (projected onto the limits
-        with a warning if outside).  target: V_Sd, a :class:`~coop_ga.Similarity`.
-    cm: the collision model of the task's system (pairs, d (n,) [m], J_d (n, nq)).
-    options: :class:`AvoidanceOptions` (keyword ``overrides`` replace its fields).
+    Args:
+        task: a :class:`coop_ga.CooperativeTask`.  q_init: (nq,) start [rad] (at rest; projected onto the
+            limits with a warning if outside).  target: V_Sd, a :class:`~coop_ga.Similarity`.
+        options: :class:`AvoidanceOptions` (keyword ``overrides`` replace its fields).
+        collision_model: the collision model of the task's system (pairs, d (n,) [m], J_d (n, nq)).
 
-    Returns an :class:`AvoidanceResult`; ``converged`` as for differential IK (‖e‖ < tol inside the
-    limits) — clearance is reported, not part of ``converged``.
+    Returns:
+        An :class:`AvoidanceResult`; ``converged`` as for differential IK (‖e‖ < tol inside the limits) —
+        clearance is reported, not part of ``converged``.
     """
     o = resolve_options(AvoidanceOptions, options, overrides, "avoidance_reach")
-    cm = check_collision_model(cm, task.nq)
-    q, Vd = check_problem(task, q0, target, "q0")
+    cm = check_collision_model(collision_model, task.nq)
+    q, Vd = check_problem(task, q_init, target, "q_init")
     labels = tuple(str(s) for s in cm.labels)
-    residual = 0.0
-    active_steps = 0
-    active: tuple[str, ...] = ()
-    infeasible = False
-    message = ""
-    devs: list[float] = []
-    n_rows: list[int] = []
-    fallbacks = 0
+    sim = SimilarityTask(Vd, gain=o.gain)
+    step = _AvoidanceStep(task, cm, o, sim)
+    rec = _Recorder(step)
+    err = similarity_error_norm(sim)
+
+    def error(cfg: Any) -> float:
+        rec.clearances(cfg)  # every configuration of the run passes here once
+        return err(cfg)
+
+    hooks = RunHooks(error=error, step=step, record=rec, clip=o.limits != "none")
     with collect_warnings() as caught:
         if o.limits != "none":
-            q = project_into_limits(task, q, "q0")
-        qs = [q.copy()]
-        e = task.error(q, Vd)
-        errs = [float(np.linalg.norm(e))]
-        d, Jd = _distances(cm, q)
-        D = [d.copy()]
-        k = 0
-        while k < o.steps and errs[-1] >= o.tol:
-            J = task.evaluate_views(q)[2]
-            b = o.gain * e
-            try:
-                qd, G, h, _, was_active, act, fb = _step(task, q, J, b, d, Jd, o, labels)
-            except InfeasibleConstraintsError as exc:  # not expected: _step falls back (q̇ = 0 is feasible)
-                infeasible = True
-                message = f"stopped at step {k}: {exc}"
-                break
-            fallbacks += fb > 0
-            if G.shape[0]:
-                residual = max(residual, float(np.max(G @ qd - h)))
-            n_rows.append(int(G.shape[0]))
-            if o.mode == "none" or not (was_active or np.any(qd)):
-                devs.append(0.0)
-            else:
-                ref = _velocity(task, q, J, b, o.dt, o.damping, o.limits, o.limit_gain, G[:0], h[:0], ()).x
-                devs.append(float(np.linalg.norm(J @ (qd - ref))))
-            active_steps += bool(was_active)
-            active = act
-            q = _advance(task, q, qd, o.dt, o.limits)
-            e = task.error(q, Vd)
-            d, Jd = _distances(cm, q)
-            qs.append(q.copy())
-            errs.append(float(np.linalg.norm(e)))
-            D.append(d.copy())
-            k += 1
-    traj = np.array(qs)
-    errors = np.array(errs)
-    Dm = np.array(D)
-    clearance = Dm.min(axis=1) if Dm.shape[1] else np.full(len(D), np.inf)
-    if Dm.size:
-        t_min, i_min = np.unravel_index(int(np.argmin(Dm)), Dm.shape)
-        closest = f"{labels[i_min] if i_min < len(labels) else i_min} at step {t_min}"
-    else:
-        closest = ""
-    violation, vviol, converged, message = reach_outcome(
-        task, traj, errors, o.dt, o.tol, o.limits, infeasible, message, k, tuple(active)[:6], "active at the last step"
-    )
+            q = project_into_limits(task, q, "q_init")
+        run = run_ik(Configuration(task, q), [sim], step.limits, dt=o.dt, steps=o.steps, tol=o.tol, hooks=hooks)
+    Dm = np.array(rec.D)
+    clearance = Dm.min(axis=1) if Dm.shape[1] else np.full(len(rec.D), np.inf)
     return AvoidanceResult(
-        converged=converged,
-        error=float(errors[-1]),
-        iterations=k,
-        message=message,
-        q=q.copy(),
-        warnings=dict(caught.counts),
-        trajectory=traj,
-        errors=errors,
-        limits=o.limits,
-        limit_violation=violation,
-        velocity_violation=vviol,
-        active_steps=active_steps,
-        active_limits=active,
-        infeasible=infeasible,
+        **run_result(task, run, o.limits, caught),
         mode=o.mode,
         clearance=clearance,
         clearances=Dm,
         labels=labels,
         min_clearance=float(np.min(clearance)),
-        closest=closest,
-        constraint_residual=residual,
-        task_velocity_deviation=np.array(devs),
-        active_rows=np.array(n_rows, int),
-        fallback_steps=fallbacks,
+        closest=_closest(Dm, labels),
+        constraint_residual=rec.residual,
+        task_velocity_deviation=np.array(rec.devs),
+        active_rows=np.array(rec.rows, int),
+        fallback_steps=step.fallbacks,
     )
 
 
@@ -566,7 +463,7 @@ class ClearanceCost:
 
     def evaluate(self, q: np.ndarray, hessian: bool = True) -> tuple[float, np.ndarray, np.ndarray | None, float]:
         """``(c, ∇c (nq,), GN Hessian (nq, nq) or None, min clearance [m])`` at one configuration."""
-        d, Jd = _distances(self.model, np.asarray(q, float))
+        d, Jd = model_distances(self.model, np.asarray(q, float))
         viol = np.maximum(0.0, self.activation - d)
         c = 0.5 * self.weight * float(viol @ viol)
         g = -self.weight * (Jd.T @ viol)
@@ -581,6 +478,6 @@ class ClearanceCost:
         """c(q) at one configuration."""
         qv = np.asarray(q, float)
         dist = getattr(self.model, "distances", None)
-        d = np.asarray(dist(qv), float).reshape(-1) if callable(dist) else _distances(self.model, qv)[0]
+        d = np.asarray(dist(qv), float).reshape(-1) if callable(dist) else model_distances(self.model, qv)[0]
         viol = np.maximum(0.0, self.activation - d)
         return 0.5 * self.weight * float(viol @ viol)

@@ -34,8 +34,12 @@ Jacobians ``C = ∂c/∂q``, each step solves (:func:`~coop_ga.control.qp.solve_
     s.t.   C q̇ = −k_c r                                          (the constraints, linearised; Eq 48 form)
            max(−v, γ (lower − q)/Δt) ≤ q̇ ≤ min(v, γ (upper − q)/Δt)   (Eq 53: position ∩ velocity limits)
 
-and ``q_{t+1} = q_t + Δt q̇`` (Eq 61).  When the equality-constrained minimiser (closed form, by
-the nullspace of C) lies inside the box it is used as is, otherwise the QP is solved.
+and ``q_{t+1} = q_t + Δt q̇`` (Eq 61) — one :func:`~coop_ga.control.solve_step` with a
+:class:`~coop_ga.control.tasks.PositionTask` objective, the constraints as ``equality`` tasks
+(:class:`~coop_ga.control.tasks.PositionTask`, :class:`~coop_ga.control.tasks.LineParameterTask`, or a user
+:class:`EqualityConstraint`) and the limits of :func:`~coop_ga.control.limits.default_limits` (with the
+system's acceleration limits, ``acceleration_limit=True``).  When the equality-constrained minimiser
+(closed form, by the nullspace of C) lies inside the box it is used as is, otherwise the QP is solved.
 
 Projection onto the constraints (``project=True``, default)
 -----------------------------------------------------------
@@ -46,6 +50,7 @@ at Δt = 0.01 s, 1.1e-4 at Δt = 0.02 s.  To keep the constraint to round-off, e
 (Hairer, Lubich & Wanner, *Geometric Numerical Integration*, §IV.4): Gauss–Newton iterations
 
     Δq = argmin ‖Δq‖²  s.t.  C Δq = −r,  q + Δq inside the position limits and within v·Δt of q_t
+                                       (and within Δt (q̇_{t−1} ± a Δt) of q_t with acceleration limits)
 
 until ``‖r‖_∞ ≤ projection_tol`` (quadratic convergence: one or two iterations).  The velocity and
 position limits still hold after the projection (its box is what the step left of them).  The
@@ -60,7 +65,6 @@ correction), the step is solved again with ``C q̇ = 0`` (q̇ = 0 is then feasib
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -68,11 +72,16 @@ from typing import Any
 import numpy as np
 
 from .. import validation
-from ..codegen import CompiledFunction
 from ..diagnostics import collect_warnings
-from ..errors import DegeneratePrimitiveError, InfeasibleConstraintsError, InvalidInputError
+from ..errors import InfeasibleConstraintsError, InvalidInputError
 from .base import SolverResult, check_q, resolve_options
-from .qp import DEFAULT_LIMIT_GAIN, QPSolution, limit_arrays, project_into_limits, solve_qp, velocity_bounds
+from .configuration import Configuration
+from .diffik import step_limits
+from .limits import AccelerationLimit
+from .qp import DEFAULT_LIMIT_GAIN, QPSolution, project_into_limits, solve_qp
+from .solve import RunHooks, StepSolution, _check_rank, equality_minimiser, run_ik, solve_step
+from .tasks import LINE_PARAMETERS, LineParameterTask, PositionTask
+from .tasks.points import check_line_model, end_index, line_from_points
 
 __all__ = [
     "LINE_PARAMETERS",
@@ -89,55 +98,24 @@ __all__ = [
     "project_onto_constraints",
 ]
 
-#: names of the six unit line parameters of :func:`line_parameters`: direction d, moment m = p_1 × d
-LINE_PARAMETERS = ("d_x", "d_y", "d_z", "m_x", "m_y", "m_z")
-
 #: the CGA blade of each line parameter (the coefficient of X_c = P_1∧P_2∧e∞ divided by ℓ, sign included)
 LINE_PARAMETER_BLADES = ("e01∞", "e02∞", "e03∞", "e23∞", "−e13∞", "e12∞")
 
-#: constraint rows whose singular values fall below this fraction of the largest are dependent
-RANK_TOL = 1e-10
-
-#: ``'enforce'`` (position and velocity limits in every QP, default) or ``'none'``
+#: ``'enforce'`` (position, velocity and acceleration limits in every QP, default) or ``'none'``
 LIMIT_MODES = ("enforce", "none")
 
 
 # ============================================================================ kinematics
-@functools.cache
-def _points_function(task: Any) -> CompiledFunction:
-    """``q → (p (3n,), J_p (3n, nq))`` of the task's end points (CasADi VM, ≈ 6 µs for g1_arms)."""
-    import casadi as ca
-
-    q = ca.SX.sym("q", task.nq)
-    p, Jp = task.graph.points(q)
-    f = ca.Function(f"points_{task.name}", [q], [p, ca.densify(Jp)], ["q"], ["p", "Jp"])
-    return CompiledFunction(f, codegen=False, check_finite=False)
-
-
 def end_point_jacobians(task: Any, q: Any) -> tuple[np.ndarray, np.ndarray]:
     """End points ``p`` (n, 3) [m] and their world-frame Jacobians ``J`` (n, 3, nq) [m/rad] at q (nq,).
 
     The motor kinematics of the task (Eq 7, 16–17; the Euclidean part of ``∂P_i/∂q``), the same
-    numbers as ``task.points(q)`` and ``task.tree.euclidean_point_jacobians(q)``, in one call.
+    numbers as ``task.points(q)`` and ``task.tree.euclidean_point_jacobians(q)``, from one compiled
+    evaluation (:class:`~coop_ga.control.configuration.Configuration`).
     """
-    qv = check_q(task, q)
-    b = _points_function(task).binding()
-    b.flat_inputs[0][...] = qv
-    b.eval()
-    n = len(task.end_frames)
-    return b.outputs[0].reshape(n, 3).copy(), b.outputs[1].reshape(n, 3, task.nq).copy()
-
-
-def _cross_matrix(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def _check_line_task(task: Any) -> None:
-    if task.kind not in ("line", "point_pair"):
-        raise InvalidInputError(
-            f"line parameters are defined for tasks of kind 'line' or 'point_pair', got a '{task.kind}' task "
-            f"({task.name})"
-        )
+    k = Configuration(task, check_q(task, q)).kinematics()
+    n = k.points.shape[0]
+    return k.points.copy(), k.point_jacobians.reshape(n, 3, task.nq).copy()
 
 
 def line_parameters(task: Any, q: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -148,39 +126,37 @@ def line_parameters(task: Any, q: Any) -> tuple[np.ndarray, np.ndarray]:
     line), with ``ℓ = ‖p_2 − p_1‖`` (module docstring).  They are X_c = P_1 ∧ P_2 ∧ e∞ (Eq 14) / ℓ
     on ``e01∞, e02∞, e03∞, e23∞, −e13∞, e12∞`` (:data:`LINE_PARAMETER_BLADES`).  Rows of the
     Jacobian: ``∂d/∂q = (I − d dᵀ)(J_2 − J_1)/ℓ`` [1/rad], ``∂m/∂q = −[d]_× J_1 + [p_1]_× ∂d/∂q``
-    [m/rad].  For a ``'line'`` or ``'point_pair'`` task; coincident end points (ℓ ≤ 1e-9 m) raise
-    :class:`~coop_ga.errors.DegeneratePrimitiveError`.
+    [m/rad] (:func:`~coop_ga.control.tasks.line_from_points`).  For a ``'line'`` or ``'point_pair'`` task;
+    coincident end points (ℓ ≤ 1e-9 m) raise :class:`~coop_ga.errors.DegeneratePrimitiveError`.
     """
-    _check_line_task(task)
+    check_line_model(task)
     P, J = end_point_jacobians(task, q)
-    delta = P[1] - P[0]
-    ell = float(np.linalg.norm(delta))
-    if not ell > 1e-9:
-        raise DegeneratePrimitiveError(
-            f"the end points {task.end_frames[0]} and {task.end_frames[1]} of task '{task.name}' coincide "
-            f"(distance {ell:.3g} m): the line has no direction"
-        )
-    d = delta / ell
-    m = np.cross(P[0], d)
-    Jd = (np.eye(3) - np.outer(d, d)) @ (J[1] - J[0]) / ell
-    Jm = -_cross_matrix(d) @ J[0] + _cross_matrix(P[0]) @ Jd
-    return np.concatenate([d, m]), np.vstack([Jd, Jm])
+    return line_from_points(P, J, task.end_frames, task.name)
 
 
 # ============================================================================ constraints
 @dataclass(frozen=True)
 class EqualityConstraint:
-    """The constraint ``c(q) = target`` (module docstring).
+    """The constraint ``c(q) = target`` (module docstring), usable as an ``equality`` task of
+    :func:`~coop_ga.control.solve_step` (error ``c(q) − target``, Jacobian ``∂c/∂q``, gain k_c).
 
     function: ``q (nq,) → (c (m,), ∂c/∂q (m, nq))`` in the units of ``target`` (per rad).
     target: (m,) the value to keep.
     name: for messages and labels; labels: (m,) one name per row (default ``name[k]``).
+    gain: k_c [1/s] of ``∂c/∂q q̇ = −k_c (c − target)`` (a runner's ``constraint_gain`` overrides it).
+    task: a task computing the same c from a step's configuration (``value``/``jacobian``), so that it
+        shares the step's one evaluation (:func:`point_constraint`, :func:`line_parameter_constraint`);
+        None: ``function`` is called once per configuration.
     """
 
     function: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
     target: np.ndarray
     name: str = "constraint"
     labels: tuple[str, ...] = ()
+    gain: float = 10.0
+    task: Any = None
+
+    lm_damping = 0.0
 
     def __post_init__(self) -> None:
         if not callable(self.function):
@@ -196,6 +172,7 @@ class EqualityConstraint:
         if len(labels) != t.size:
             raise InvalidInputError(f"constraint '{self.name}' needs {t.size} labels, got {len(labels)}")
         object.__setattr__(self, "labels", labels)
+        validation.nonnegative(self.gain, "gain")
 
     @property
     def size(self) -> int:
@@ -221,21 +198,28 @@ class EqualityConstraint:
         c, C = self.evaluate(q)
         return c - self.target, C
 
+    def _at(self, configuration: Any) -> tuple[np.ndarray, np.ndarray]:
+        if self.task is not None:
+            return self.task.value(configuration), self.task.jacobian(configuration)
+        return configuration.cached(id(self), lambda cfg: self.evaluate(cfg.q.copy()))
 
-def _end_index(task: Any, index: Any) -> int:
-    n = len(task.end_frames)
-    i = validation.integer(index, "index")
-    if not 0 <= i < n:
-        raise InvalidInputError(
-            f"index must be an end point of the task, 0 ≤ index < {n} ({', '.join(task.end_frames)}); got {index!r}"
-        )
-    return i
+    def value(self, configuration: Any) -> np.ndarray:
+        """c (m,) at the configuration."""
+        return self._at(configuration)[0]
+
+    def error(self, configuration: Any) -> np.ndarray:
+        """``c − target`` (m,) at the configuration."""
+        return self._at(configuration)[0] - self.target
+
+    def jacobian(self, configuration: Any) -> np.ndarray:
+        """∂c/∂q (m, nq) at the configuration."""
+        return self._at(configuration)[1]
 
 
 def point_constraint(task: Any, index: int, point: Any, name: str | None = None) -> EqualityConstraint:
     """End point ``index`` of ``task`` held at ``point`` (3,) [m], world frame: ``p_i(q) = p*``
-    (3 rows, Jacobian ``J_{p,i}`` (3, nq) [m/rad] of Eq 17)."""
-    i = _end_index(task, index)
+    (3 rows, Jacobian ``J_{p,i}`` (3, nq) [m/rad] of Eq 17; a :class:`~coop_ga.control.tasks.PositionTask`)."""
+    i = end_index(task, index)
     target = validation.vector(point, 3, "point [m]")
     label = name or f"{task.end_frames[i]} position"
 
@@ -243,30 +227,8 @@ def point_constraint(task: Any, index: int, point: Any, name: str | None = None)
         P, J = end_point_jacobians(task, q)
         return P[i], J[i]
 
-    return EqualityConstraint(f, target, label, tuple(f"{label} {a}" for a in "xyz"))
-
-
-def _components(components: Any) -> tuple[int, ...]:
-    if isinstance(components, (str, int, np.integer)):
-        components = (components,)
-    if not isinstance(components, Sequence) or not components:
-        raise InvalidInputError(f"components must be a non-empty sequence of {LINE_PARAMETERS} names or indices")
-    out: list[int] = []
-    for c in components:
-        if isinstance(c, str):
-            if c not in LINE_PARAMETERS:
-                raise InvalidInputError(f"unknown line parameter {c!r}; the names are {', '.join(LINE_PARAMETERS)}")
-            out.append(LINE_PARAMETERS.index(c))
-        else:
-            k = validation.integer(c, "component")
-            if not 0 <= k < 6:
-                raise InvalidInputError(
-                    f"a line parameter index must be in 0..5 ({', '.join(LINE_PARAMETERS)}), got {k}"
-                )
-            out.append(k)
-    if len(set(out)) != len(out):
-        raise InvalidInputError(f"components must be distinct, got {list(components)}")
-    return tuple(out)
+    pt = PositionTask(i, target, gain=10.0, max_speed=None)
+    return EqualityConstraint(f, target, label, tuple(f"{label} {a}" for a in "xyz"), task=pt)
 
 
 def line_parameter_constraint(task: Any, components: Any, value: Any, name: str | None = None) -> EqualityConstraint:
@@ -275,22 +237,17 @@ def line_parameter_constraint(task: Any, components: Any, value: Any, name: str 
     ``components``: names from :data:`LINE_PARAMETERS` (``"d_z"`` is the vertical component of the
     direction, the paper's e_{03∞}: ``d_z = 0`` keeps the line horizontal) or indices 0..5;
     ``value``: (k,) (or a scalar for one component) [1 for d, m for m].  Note that the direction is
-    a unit vector: holding all of d_x, d_y, d_z gives dependent rows (rank 2).
+    a unit vector: holding all of d_x, d_y, d_z gives dependent rows (rank 2).  A
+    :class:`~coop_ga.control.tasks.LineParameterTask` as an :class:`EqualityConstraint`.
     """
-    _check_line_task(task)
-    idx = _components(components)
-    target = np.atleast_1d(validation.array(value, "value"))
-    if target.shape != (len(idx),):
-        raise InvalidInputError(f"value must have one entry per component ({len(idx)}), got shape {target.shape}")
-    names = tuple(LINE_PARAMETERS[k] for k in idx)
-    label = name or f"line {', '.join(names)}"
-    rows = list(idx)
+    lt = LineParameterTask(task, components, value, name=name)
+    rows = lt.rows
 
     def f(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x, J = line_parameters(task, q)
         return x[rows], J[rows]
 
-    return EqualityConstraint(f, target, label, names)
+    return EqualityConstraint(f, lt.target, lt.name, lt.labels, task=lt)
 
 
 def _check_constraints(constraints: Any) -> tuple[EqualityConstraint, ...]:
@@ -307,12 +264,11 @@ def _check_constraints(constraints: Any) -> tuple[EqualityConstraint, ...]:
     return out
 
 
-def _stack(constraints: Sequence[EqualityConstraint], q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(r (m,), C (m, nq))`` of all constraints at q."""
+def _stack(constraints: Sequence[EqualityConstraint], cfg: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``(r (m,), C (m, nq))`` of all constraints at the configuration."""
     if not constraints:
-        return np.zeros(0), np.zeros((0, q.shape[0]))
-    rs, Cs = zip(*(c.residual(q) for c in constraints))
-    return np.concatenate(rs), np.vstack(Cs)
+        return np.zeros(0), np.zeros((0, cfg.nq))
+    return np.concatenate([c.error(cfg) for c in constraints]), np.vstack([c.jacobian(cfg) for c in constraints])
 
 
 def _labels(constraints: Sequence[EqualityConstraint]) -> tuple[str, ...]:
@@ -326,52 +282,36 @@ def point_task(
     """Objective rows of "end point ``index`` reaches ``target_point``": ``(A (3, nq), b (3,), error)``.
 
     ``A = J_{p,i}`` [m/rad] (world frame), ``b = gain · (p* − p_i(q))`` [m/s] capped at ``max_speed``
-    [m/s] (None: no cap), ``error = ‖p* − p_i(q)‖`` [m].  As :func:`~coop_ga.control.nullspace.point_reaching_velocity`,
-    but as QP rows (so the velocity can be shared with constraints and limits).
+    [m/s] (None: no cap), ``error = ‖p* − p_i(q)‖`` [m]: the rows of a
+    :class:`~coop_ga.control.tasks.PositionTask` (so the velocity can be shared with constraints and limits).
     """
-    i = _end_index(task, index)
-    p_star = validation.vector(target_point, 3, "target_point [m]")
-    gain = validation.nonnegative(gain, "gain")
-    if max_speed is not None:
-        max_speed = validation.positive(max_speed, "max_speed", allow_inf=True)
-    P, J = end_point_jacobians(task, q)
-    err = p_star - P[i]
-    v = gain * err
-    s = float(np.linalg.norm(v))
-    if max_speed is not None and s > max_speed:
-        v *= max_speed / s
-    return J[i], v, float(np.linalg.norm(err))
+    i = end_index(task, index)
+    pt = PositionTask(i, target_point, gain=gain, max_speed=max_speed)
+    cfg = Configuration(task, check_q(task, q))
+    A, b = pt.qp_rows(cfg)
+    assert A is not None  # the 'task' form
+    return A.copy(), b, float(np.linalg.norm(pt.error(cfg)))
 
 
-# ============================================================================ one step
-def _equality_minimiser(A: np.ndarray, b: np.ndarray, damping: float, E: np.ndarray, f: np.ndarray) -> np.ndarray:
-    """``argmin ½‖A x − b‖² + ½λ²‖x‖²`` s.t. ``E x = f`` (E full row rank), by the nullspace of E."""
-    if E.shape[0] == 0:
-        from .qp import damped_lstsq
+class _Rows:
+    """Fixed objective rows ``(A, b)`` as a task (for :func:`constrained_velocity`)."""
 
-        return damped_lstsq(A, b, damping)
-    U, s, Vt = np.linalg.svd(E, full_matrices=True)
-    r = E.shape[0]
-    xp = Vt[:r].T @ ((U.T @ f) / s)  # minimum-norm particular solution
-    Z = Vt[r:].T  # (n, n − r) basis of the nullspace of E
-    if Z.shape[1] == 0:
-        return xp
-    AZ = A @ Z
-    H = AZ.T @ AZ + damping * damping * np.eye(Z.shape[1])
-    g = AZ.T @ (b - A @ xp) - damping * damping * (Z.T @ xp)
-    return xp + Z @ np.linalg.lstsq(H, g, rcond=None)[0]
+    gain = 1.0
+    lm_damping = 0.0
+
+    def __init__(self, A: np.ndarray, b: np.ndarray):
+        self.A, self.b = A, b
+
+    def qp_rows(self, configuration: Any) -> tuple[np.ndarray, np.ndarray]:
+        return self.A, self.b
 
 
-def _check_rank(C: np.ndarray, labels: Sequence[str], what: str) -> None:
-    if C.shape[0] == 0:
-        return
-    s = np.linalg.svd(C, compute_uv=False)
-    if C.shape[0] > C.shape[1] or not (s[0] > 0 and s[-1] > RANK_TOL * s[0]):
-        raise InfeasibleConstraintsError(
-            f"{what}: the {C.shape[0]} equality constraint rows ({', '.join(labels)}) are linearly dependent at this "
-            f"configuration (singular values {np.array2string(s, precision=3)}); drop a redundant row (e.g. of a "
-            "unit direction only two components are independent) or move away from the singularity"
-        )
+def _check_rows(task: Any, A: Any, b: Any) -> tuple[np.ndarray, np.ndarray]:
+    Am = validation.array(A, "A")
+    bv = validation.array(b, "b")
+    if Am.ndim != 2 or Am.shape[1] != task.nq or bv.shape != (Am.shape[0],):
+        raise InvalidInputError(f"A must be (k, {task.nq}) and b (k,), got {Am.shape} and {bv.shape}")
+    return Am, bv
 
 
 def constrained_velocity(
@@ -386,24 +326,30 @@ def constrained_velocity(
     constraint_gain: float = 10.0,
     limits: str = "enforce",
     limit_gain: float = DEFAULT_LIMIT_GAIN,
+    velocity: Any = None,
+    acceleration_limit: bool = True,
 ) -> tuple[QPSolution, bool]:
     """The joint velocity q̇ (nq,) [rad/s] of one constrained step (module docstring).
 
     ``min ½‖A q̇ − b‖² + ½λ²‖q̇‖²`` s.t. ``C q̇ = −k_c (c(q) − c*)`` for every constraint and the
-    joint box of :func:`~coop_ga.control.qp.velocity_bounds` (``limits='enforce'``).
+    joint limits of :func:`~coop_ga.control.limits.default_limits` (``limits='enforce'``).
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask`.  q: (nq,) [rad or m], inside the limits.
-    A: (k, nq) objective Jacobian; b: (k,) objective velocity (e.g. :func:`point_task`).
-    constraints: :class:`EqualityConstraint` or a sequence of them (their rows must be independent).
-    dt: Δt [s] over which the position limits become velocity bounds.  damping: λ ≥ 0.
-    constraint_gain: k_c [1/s] ≥ 0, feedback on the constraint residual.
-    limits: ``'enforce'`` or ``'none'``.  limit_gain: γ ∈ (0, 1].
+    Args:
+        task: a :class:`coop_ga.CooperativeTask`.  q: (nq,) [rad or m], inside the limits.
+        A: (k, nq) objective Jacobian; b: (k,) objective velocity (e.g. :func:`point_task`).
+        constraints: :class:`EqualityConstraint` or a sequence of them (their rows must be independent).
+        dt: Δt [s] over which the position limits become velocity bounds.  damping: λ ≥ 0.
+        constraint_gain: k_c [1/s] ≥ 0, feedback on the constraint residual.
+        limits: ``'enforce'`` or ``'none'``.  limit_gain: γ ∈ (0, 1].
+        velocity: (nq,) the previous step's q̇ [rad/s] for the acceleration limit (None: at rest).
+        acceleration_limit: impose the system's acceleration limits (``'enforce'`` only).
 
-    Returns ``(solution, feedback_dropped)``: the :class:`~coop_ga.control.qp.QPSolution` and whether
-    the residual feedback had to be dropped (``C q̇ = 0``) because the box made it infeasible.
-    Raises :class:`~coop_ga.errors.InfeasibleConstraintsError` for dependent constraint rows.
+    Returns:
+        ``(solution, feedback_dropped)``: the :class:`~coop_ga.control.qp.QPSolution` and whether the
+        residual feedback had to be dropped (``C q̇ = 0``) because the box made it infeasible.
+
+    Raises:
+        InfeasibleConstraintsError: dependent constraint rows.
     """
     qv = check_q(task, q)
     validation.choice(limits, LIMIT_MODES, "limits")
@@ -411,54 +357,12 @@ def constrained_velocity(
     damping = validation.nonnegative(damping, "damping")
     constraint_gain = validation.nonnegative(constraint_gain, "constraint_gain")
     limit_gain = validation.scalar(limit_gain, "limit_gain", low=0.0, high=1.0, low_open=True)
-    Am = validation.array(A, "A")
-    bv = validation.array(b, "b")
-    if Am.ndim != 2 or Am.shape[1] != task.nq or bv.shape != (Am.shape[0],):
-        raise InvalidInputError(f"A must be (k, {task.nq}) and b (k,), got {Am.shape} and {bv.shape}")
+    Am, bv = _check_rows(task, A, b)
     cons = _check_constraints(constraints)
-    r, C = _stack(cons, qv)
-    return _velocity(task, qv, Am, bv, r, C, _labels(cons), dt, damping, constraint_gain, limits, limit_gain)
-
-
-def _velocity(
-    task: Any,
-    q: np.ndarray,
-    A: np.ndarray,
-    b: np.ndarray,
-    r: np.ndarray,
-    C: np.ndarray,
-    labels: tuple[str, ...],
-    dt: float,
-    damping: float,
-    constraint_gain: float,
-    limits: str,
-    limit_gain: float,
-) -> tuple[QPSolution, bool]:
-    _check_rank(C, labels, "constrained differential-IK step")
-    lb = ub = None
-    if limits == "enforce":
-        lower, upper, vel = limit_arrays(task)
-        lb, ub = velocity_bounds(q, lower, upper, vel, dt, limit_gain)
-    p = C.shape[0]
-    for f, dropped in ((-constraint_gain * r, False), (np.zeros(p), True)):
-        x_free = _equality_minimiser(A, b, damping, C, f)
-        try:
-            sol = solve_qp(
-                A,
-                b,
-                damping,
-                lb,
-                ub,
-                E=C if p else None,
-                f=f if p else None,
-                x_free=x_free,
-                what="constrained differential-IK step",
-            )
-            return sol, dropped
-        except InfeasibleConstraintsError:
-            if dropped or not p:
-                raise
-    raise AssertionError("unreachable")  # pragma: no cover
+    cfg = Configuration(task, qv, velocity)
+    lims = step_limits(task, limits, limit_gain, acceleration_limit)
+    st = solve_step(cfg, [_Rows(Am, bv)], lims, dt, damping=damping, equality=cons, equality_gain=constraint_gain)
+    return st.solution, st.feedback_dropped
 
 
 # ============================================================================ projection
@@ -483,46 +387,40 @@ def project_onto_constraints(
     cons = _check_constraints(constraints)
     tol = validation.nonnegative(tol, "tol")
     max_iter = validation.integer(max_iter, "max_iter", minimum=0)
-    return _project(qv, cons, lower, upper, tol, max_iter)
+    return _project(Configuration(task, qv), cons, lower, upper, tol, max_iter)
 
 
 def _project(
-    q: np.ndarray,
+    cfg: Any,
     cons: Sequence[EqualityConstraint],
     lower: np.ndarray | None,
     upper: np.ndarray | None,
     tol: float,
     max_iter: int,
 ) -> tuple[np.ndarray, int, float]:
+    """The projection from the configuration's q (the configuration is moved along the iterates)."""
+    q = cfg.q.copy()
     n = q.shape[0]
     if not cons:
         return q, 0, 0.0
-    r, C = _stack(cons, q)
+    r, C = _stack(cons, cfg)
     res = float(np.max(np.abs(r)))
     it = 0
     eye = np.eye(n)
     while res > tol and it < max_iter:
-        _check_rank(C, _labels(cons), "projection onto the constraints")
+        _check_rank(C, _labels(cons))
         lb = None if lower is None else np.minimum(lower - q, 0.0)
         ub = None if upper is None else np.maximum(upper - q, 0.0)
+        x_free = equality_minimiser(eye, np.zeros(n), 0.0, C, -r)
         try:
-            dq = solve_qp(
-                eye,
-                np.zeros(n),
-                0.0,
-                lb,
-                ub,
-                E=C,
-                f=-r,
-                x_free=_equality_minimiser(eye, np.zeros(n), 0.0, C, -r),
-                what="projection onto the constraints",
-            ).x
+            dq = solve_qp(eye, np.zeros(n), 0.0, lb, ub, E=C, f=-r, x_free=x_free, what="projection").x
         except InfeasibleConstraintsError:
             break
         q_new = q + dq
         if lower is not None and upper is not None:
             np.clip(q_new, lower, upper, out=q_new)
-        r_new, C_new = _stack(cons, q_new)
+        cfg.update(q_new)
+        r_new, C_new = _stack(cons, cfg)
         it += 1
         res_new = float(np.max(np.abs(r_new)))
         if not res_new < res:  # no progress (round-off floor or a blocking bound): keep the better point
@@ -546,6 +444,7 @@ class ConstrainedReachOptions:
     projection_tol: its stopping threshold on ‖r‖_∞ [units of c]; projection_iterations: its maximum.
     limits: ``'enforce'`` (position and velocity limits, default) or ``'none'``.
     limit_gain: safety gain γ ∈ (0, 1] of the position bounds.
+    acceleration_limit: with ``'enforce'``, the system's acceleration limits too (from rest).
     """
 
     dt: float = 0.01
@@ -561,8 +460,11 @@ class ConstrainedReachOptions:
     projection_iterations: int = 5
     limits: str = "enforce"
     limit_gain: float = DEFAULT_LIMIT_GAIN
+    acceleration_limit: bool = True
 
     def __post_init__(self) -> None:
+        if not isinstance(self.acceleration_limit, bool):
+            raise InvalidInputError(f"acceleration_limit must be True or False, got {self.acceleration_limit!r}")
         validation.positive(self.dt, "dt")
         validation.integer(self.steps, "steps", minimum=0)
         validation.nonnegative(self.gain, "gain")
@@ -597,7 +499,9 @@ class ConstrainedReachResult(SolverResult):
     feedback_dropped: steps whose residual feedback was dropped (module docstring);
     projection_iterations: (T − 1,) Gauss–Newton iterations of each step's projection;
     projection_failures: steps after which the projection left ‖r‖_∞ > projection_tol;
-    infeasible: the loop stopped on rank-deficient constraint rows (``message`` says where).
+    infeasible: the loop stopped on rank-deficient constraint rows (``message`` says where);
+    max_acceleration_violation: largest excess of the finite-difference acceleration (from rest) over the
+    acceleration limits [rad/s²]; relaxed_steps: steps on which the acceleration bounds had to be dropped.
     """
 
     t: np.ndarray
@@ -617,99 +521,101 @@ class ConstrainedReachResult(SolverResult):
     projection_iterations: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
     projection_failures: int = 0
     infeasible: bool = False
+    max_acceleration_violation: float = 0.0
+    relaxed_steps: int = 0
+
+
+class _Projection:
+    """The after-step hook of :func:`constrained_point_reach`: the Gauss–Newton projection onto the
+    constraints within what the step left of the limits (module docstring)."""
+
+    def __init__(self, task: Any, cons: tuple[EqualityConstraint, ...], o: ConstrainedReachOptions, accel: bool):
+        self.cons, self.o, self.accel = cons, o, accel
+        self.cfg = Configuration(task, task.system.limits.clip(task.system.q0))
+        self.iterations: list[int] = []
+        self.failures = 0
+
+    def box(self, cfg: Any, st: StepSolution) -> tuple[np.ndarray | None, np.ndarray | None]:
+        if self.o.limits != "enforce":
+            return None, None
+        lim, q, dt = cfg.limits, cfg.q, self.o.dt
+        if self.accel and st.lower is not None and st.upper is not None:  # velocity, acceleration and braking
+            return np.maximum(lim.lower, q + dt * st.lower), np.minimum(lim.upper, q + dt * st.upper)
+        return np.maximum(lim.lower, q - lim.velocity * dt), np.minimum(lim.upper, q + lim.velocity * dt)
+
+    def __call__(self, cfg: Any, st: StepSolution, q_next: np.ndarray) -> np.ndarray:
+        if not (self.o.project and self.cons):
+            self.iterations.append(0)
+            return q_next
+        lo, hi = self.box(cfg, st)
+        self.cfg.update(q_next)
+        q_next, its, res = _project(self.cfg, self.cons, lo, hi, self.o.projection_tol, self.o.projection_iterations)
+        self.iterations.append(its)
+        self.failures += res > self.o.projection_tol
+        return q_next
+
+
+def _trajectory_values(
+    task: Any, traj: np.ndarray, cons: tuple[EqualityConstraint, ...]
+) -> tuple[np.ndarray, np.ndarray]:
+    """End points (T, n, 3) and constraint values (T, m) along a trajectory (one evaluation per q)."""
+    cfg = Configuration(task, traj[0])
+    pts, vals = [], []
+    for qk in traj:
+        cfg.update(qk)
+        pts.append(cfg.kinematics().points.copy())
+        vals.append(np.concatenate([c.value(cfg) for c in cons]) if cons else np.zeros(0))
+    return np.array(pts), np.array(vals).reshape(len(traj), -1)
 
 
 def constrained_point_reach(
     task: Any,
-    q0: Any,
+    q_init: Any,
     index: int,
     target_point: Any,
-    constraints: Any = None,
     options: ConstrainedReachOptions | None = None,
+    *,
+    constraints: Any = None,
     **overrides: Any,
 ) -> ConstrainedReachResult:
     """End point ``index`` reaches ``target_point`` (3,) [m, world] while ``constraints`` hold (§4.2.5, Figs. 14–15).
 
-    Every step is :func:`constrained_velocity` with the objective :func:`point_task`, then
-    ``q ← q + Δt q̇`` (Eq 61) and, with ``project=True``, :func:`project_onto_constraints` within
-    what the step left of the position and velocity limits.  Stops when the point error < ``tol`` or
-    after ``steps`` steps.  ``constraints``: :class:`EqualityConstraint` s (e.g.
-    :func:`point_constraint`, :func:`line_parameter_constraint`), problem data and not an option;
-    ``options``: :class:`ConstrainedReachOptions` (keyword ``overrides`` replace its fields).
+    Every step is a :func:`~coop_ga.control.solve_step` with a :class:`~coop_ga.control.tasks.PositionTask`
+    objective and the constraints as equalities (:func:`constrained_velocity`), then ``q ← q + Δt q̇``
+    (Eq 61) and, with ``project=True``, :func:`project_onto_constraints` within what the step left of the
+    limits; iterated by :func:`~coop_ga.control.run_ik`.  Stops when the point error < ``tol`` or after
+    ``steps`` steps.  ``constraints``: :class:`EqualityConstraint` s (e.g. :func:`point_constraint`,
+    :func:`line_parameter_constraint`), problem data and not an option; ``options``:
+    :class:`ConstrainedReachOptions` (keyword ``overrides`` replace its fields).
     """
     o = resolve_options(ConstrainedReachOptions, options, overrides, "constrained_point_reach")
-    q = check_q(task, q0, "q0")
-    i = _end_index(task, index)
+    q = check_q(task, q_init, "q_init")
+    i = end_index(task, index)
     p_star = validation.vector(target_point, 3, "target_point [m]")
     cons = _check_constraints(constraints)
-    labels = _labels(cons)
     targets = np.concatenate([c.target for c in cons]) if cons else np.zeros(0)
-    lower, upper, vel = limit_arrays(task)
-    enforce = o.limits == "enforce"
-    active_steps = dropped = failures = 0
-    proj_its: list[int] = []
-    infeasible = False
-    message = ""
+    goal = PositionTask(i, p_star, gain=o.gain, max_speed=o.max_speed)
+    lims = step_limits(task, o.limits, o.limit_gain, o.acceleration_limit)
+    proj = _Projection(task, cons, o, any(isinstance(lim, AccelerationLimit) for lim in lims))
+    hooks = RunHooks(error=lambda c: float(np.linalg.norm(goal.error(c))), after=proj, clip=o.limits == "enforce")
     with collect_warnings() as caught:
-        if enforce:
-            q = project_into_limits(task, q, "q0")
-        Q = [q.copy()]
-        A, b, err = point_task(task, q, i, p_star, gain=o.gain, max_speed=o.max_speed)
-        errs = [err]
-        k = 0
-        while k < o.steps and errs[-1] >= o.tol:
-            r, C = _stack(cons, q)
-            try:
-                sol, drop = _velocity(
-                    task, q, A, b, r, C, labels, o.dt, o.damping, o.constraint_gain, o.limits, o.limit_gain
-                )
-            except InfeasibleConstraintsError as exc:
-                infeasible = True
-                message = f"stopped at step {k}: {exc}"
-                break
-            active_steps += bool(sol.used_qp)
-            dropped += drop
-            q_next = q + o.dt * sol.x
-            if enforce:
-                np.clip(q_next, lower, upper, out=q_next)  # rounding only: the box keeps q̇ inside
-            if o.project and cons:
-                lo = hi = None
-                if enforce:  # what the step left of the position and velocity limits
-                    lo = np.maximum(lower, q - vel * o.dt)
-                    hi = np.minimum(upper, q + vel * o.dt)
-                try:
-                    q_next, its, res = _project(q_next, cons, lo, hi, o.projection_tol, o.projection_iterations)
-                except InfeasibleConstraintsError as exc:
-                    infeasible = True
-                    message = f"stopped at step {k} (projection): {exc}"
-                    break
-                proj_its.append(its)
-                failures += res > o.projection_tol
-            else:
-                proj_its.append(0)
-            q = q_next
-            Q.append(q.copy())
-            A, b, err = point_task(task, q, i, p_star, gain=o.gain, max_speed=o.max_speed)
-            errs.append(err)
-            k += 1
-        traj = np.array(Q)
-        pts = np.array([end_point_jacobians(task, qk)[0] for qk in traj])
-        if cons:
-            vals = np.array([np.concatenate([c.evaluate(qk)[0] for c in cons]) for qk in traj])
-            dev = np.max(np.abs(vals - targets), axis=1)
-        else:
-            vals = np.zeros((len(traj), 0))
-            dev = np.zeros(len(traj))
-    lim = task.system.limits
-    violation = lim.position_violation(traj)
-    vviol = lim.trajectory_velocity_violation(traj, o.dt) if k else 0.0
-    errors = np.array(errs)
-    converged = bool(
-        errors[-1] < o.tol and dev[-1] <= o.constraint_tol and (not enforce or violation <= 1e-9) and not infeasible
-    )
+        if o.limits == "enforce":
+            q = project_into_limits(task, q, "q_init")
+        run = run_ik(
+            Configuration(task, q), [goal], lims, dt=o.dt, steps=o.steps, tol=o.tol, hooks=hooks,
+            damping=o.damping, equality=cons, equality_gain=o.constraint_gain,
+        )  # fmt: skip
+        traj = run.trajectory
+        pts, vals = _trajectory_values(task, traj, cons)
+    dev = np.max(np.abs(vals - targets), axis=1) if cons else np.zeros(len(traj))
+    errors = run.errors
+    converged = bool(run.converged and dev[-1] <= o.constraint_tol)
+    k = run.iterations
     if converged:
         message = f"converged: end point {i} within {errors[-1]:.3g} m of the target after {k} steps"
-    elif not message:
+    elif run.infeasible or (errors[-1] < o.tol and dev[-1] <= o.constraint_tol):
+        message = run.message
+    else:
         message = (
             f"not converged after {k} steps: end point {i} is {errors[-1]:.3g} m from the target "
             f"(tol {o.tol:g}), constraint deviation {dev[-1]:.3g} (tol {o.constraint_tol:g})"
@@ -719,7 +625,7 @@ def constrained_point_reach(
         error=float(errors[-1]),
         iterations=k,
         message=message,
-        q=q.copy(),
+        q=traj[-1].copy(),
         warnings=dict(caught.counts),
         t=np.arange(len(traj)) * o.dt,
         trajectory=traj,
@@ -727,15 +633,17 @@ def constrained_point_reach(
         point_error=errors,
         target_point=p_star,
         index=i,
-        constraint_labels=labels,
+        constraint_labels=_labels(cons),
         constraint_targets=targets,
         constraint_values=vals,
         constraint_deviation=dev,
-        limit_violation=violation,
-        velocity_violation=vviol,
-        active_steps=int(active_steps),
-        feedback_dropped=int(dropped),
-        projection_iterations=np.array(proj_its, dtype=int),
-        projection_failures=int(failures),
-        infeasible=infeasible,
+        limit_violation=run.max_position_violation,
+        velocity_violation=run.max_velocity_violation,
+        active_steps=run.active_steps,
+        feedback_dropped=run.feedback_dropped,
+        projection_iterations=np.array(proj.iterations[:k], dtype=int),
+        projection_failures=int(proj.failures),
+        infeasible=run.infeasible,
+        max_acceleration_violation=run.max_acceleration_violation,
+        relaxed_steps=run.relaxed_steps,
     )

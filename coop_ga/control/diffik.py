@@ -27,8 +27,10 @@ state and control constraints of Eq 53 (𝒳: position limits, 𝒰: velocity li
     s.t.   max(−v, γ (lower − q)/Δt) ≤ q̇ ≤ min(v, γ (upper − q)/Δt)     (position over Δt ∩ velocity)
            G q̇ ≤ h                                                      (optional user constraints)
 
-(:func:`coop_ga.control.qp.solve_qp`, DAQP; γ = ``limit_gain``, the safety gain of
-pink/mink's ``ConfigurationLimit``).  So ``q_{t+1} = q_t + Δt q̇`` stays within the
+(one :func:`~coop_ga.control.solve_step` with a :class:`~coop_ga.control.tasks.SimilarityTask` and the
+limits of :func:`~coop_ga.control.limits.default_limits`: DAQP through
+:func:`coop_ga.control.qp.solve_qp`; γ = ``limit_gain``, the safety gain of pink/mink's
+``ConfigurationLimit``).  So ``q_{t+1} = q_t + Δt q̇`` stays within the
 position limits, ``|q̇| ≤ v``, and the task motion a blocked joint cannot make is
 redistributed over the other joints (the nullspace of J^G) instead of being lost.  When the
 unconstrained Eq 48 velocity already satisfies every bound it is used as is (no QP is
@@ -37,6 +39,15 @@ default, kept as an ablation) takes the Eq 48 step and clips q to the limits aft
 blocked joint simply stops; no velocity limit); ``limits='none'`` imposes nothing.
 A start outside the position limits is projected onto them first, with a
 :class:`~coop_ga.errors.JointLimitWarning`.
+
+Acceleration limits (on by default when the system has them)
+-------------------------------------------------------------
+With ``acceleration_limit=True`` (default) and a system that bounds joint accelerations (the Franka
+systems: :data:`~coop_ga.systems.library.PANDA_ACCELERATION_LIMITS`), the box also holds
+``|q̇ − q̇_prev| ≤ a Δt`` and the braking bounds of :class:`~coop_ga.control.limits.AccelerationLimit`
+(the robot starts at rest).  Without them the velocity of the first step jumped from 0 to its
+limit within one 10 ms step (up to 58× the Franka's acceleration limits); the result reports
+``max_acceleration_violation`` either way.
 
 User constraints (``constraints=``) are rows ``G q̇ ≤ h`` on the joint velocity
 [rad/s] — see :class:`~coop_ga.control.qp.LinearConstraint` for units and frames (e.g. a
@@ -62,7 +73,8 @@ The defaults (gain 10 1/s, Δt 0.01 s, 250 steps = 2.5 s, tol 1e-4) give T ≈ 0
 for the slow-down where velocity limits saturate (the decay is then linear, not
 geometric, until they release) and for bound-active steps.  ``gain · Δt`` must stay
 well below 1 (``= 1`` is one damped Gauss–Newton step per Δt; larger overshoots).
-Measured with these defaults on 2160 realisable targets (9 systems × every primitive kind
+Measured with these defaults, before the acceleration limits (they slow the first steps from rest
+on the Franka systems), on 2160 realisable targets (9 systems × every primitive kind
 × 2/5/15 cm, 5/15/35°, 5/15/30 % displacements from q0): of the 1637 targets that some
 solver reached inside the limits, ``'enforce'`` reaches 1e-4 within 2.5 s on all (median
 73 steps, at most 181), ``'clamp'`` on 97.4 % (worst system/kind: 79 %).  In a smaller run
@@ -72,7 +84,6 @@ of the certified targets within 2.5 s, gains 4, 10 and 20 /s all of them.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -83,19 +94,12 @@ from ..cooperative.manipulability import damped_pinv
 from ..diagnostics import collect_warnings, warn
 from ..errors import InvalidInputError, JointLimitWarning
 from .base import SolverResult, check_problem, check_q, resolve_options
-from .qp import (
-    DEFAULT_LIMIT_GAIN,
-    InfeasibleConstraintsError,
-    LinearConstraint,
-    QPSolution,
-    classify_velocity_box,
-    describe_active,
-    limit_arrays,
-    project_into_limits,
-    solve_qp,
-    stack_constraints,
-    velocity_bounds,
-)
+from .configuration import Configuration
+from .limits import Limit, UserConstraints, default_limits
+from .qp import DEFAULT_LIMIT_GAIN, LinearConstraint, QPSolution, project_into_limits
+from .solve import IKRun, RunHooks, advance, run_ik, solve_step
+from .tasks import SimilarityTask
+from .tasks.similarity import BodyVelocityTask
 
 __all__ = [
     "DiffIKOptions",
@@ -105,6 +109,7 @@ __all__ = [
     "diff_ik_step",
     "diff_ik_velocity",
     "joint_velocity",
+    "step_limits",
 ]
 
 #: ``'enforce'`` (QP with position and velocity limits, default), ``'clamp'`` (ablation), ``'none'``
@@ -131,55 +136,34 @@ def joint_velocity(J: Any, command_bivector: Any, damping: float = 1e-3) -> np.n
     return damped_pinv(J, validation.nonnegative(damping, "damping")) @ _check_bivector(command_bivector)
 
 
-def _velocity(
-    task: Any,
-    q: np.ndarray,
-    J: np.ndarray,
-    b: np.ndarray,
-    dt: float,
-    damping: float,
-    limits: str,
-    limit_gain: float,
-    G: np.ndarray,
-    h: np.ndarray,
-    labels: tuple[str, ...],
-) -> QPSolution:
-    """The joint velocity of one step (q inside the limits when ``limits='enforce'``)."""
-    m = G.shape[0]
-    x_free = damped_pinv(J, damping) @ b  # Eq 48: the QP's solution whenever no bound or row is active
-    if limits == "enforce":
-        lower, upper, vel = limit_arrays(task)
-        lb, ub = velocity_bounds(q, lower, upper, vel, dt, limit_gain)
-        return solve_qp(
-            J,
-            b,
-            damping,
-            lb,
-            ub,
-            G if m else None,
-            h if m else None,
-            x_free=x_free,
-            labels=labels,
-            what="differential IK step",
-        )
-    if m:  # constraints without limits
-        return solve_qp(J, b, damping, None, None, G, h, x_free=x_free, labels=labels, what="differential IK step")
-    n = J.shape[1]
-    return QPSolution(x_free, False, np.zeros(n, bool), np.zeros(n, bool), np.zeros(0, bool), "unconstrained")
+def step_limits(task: Any, mode: str, limit_gain: float, acceleration: bool, constraints: Any = None) -> list[Any]:
+    """The limits of a differential-IK step: :func:`~coop_ga.control.limits.default_limits` for ``'enforce'``
+    (none for ``'clamp'``/``'none'``), then the user ``constraints``: rows, a function of q giving rows, or
+    :class:`~coop_ga.control.limits.Limit` objects (e.g. a :class:`~coop_ga.control.limits.ClearanceLimit`)."""
+    lims: list[Any] = default_limits(task.system.limits, limit_gain, acceleration) if mode == "enforce" else []
+    if constraints is None:
+        return lims
+    items = constraints if isinstance(constraints, list) else [constraints]
+    if all(isinstance(c, Limit) and not isinstance(c, LinearConstraint) for c in items):
+        return lims + list(items)  # limits (e.g. a ClearanceLimit): evaluated on the step's configuration and Δt
+    return lims + [UserConstraints(constraints, task.nq)]
 
 
-def _advance(task: Any, q: np.ndarray, qd: np.ndarray, dt: float, limits: str) -> np.ndarray:
-    with np.errstate(over="ignore", invalid="ignore"):
-        q_next = q + dt * qd
-    if not np.all(np.isfinite(q_next)):  # never a NaN: a step of dt·q̇ beyond the float range is refused
-        raise InvalidInputError(
-            f"the differential-IK step is not finite (dt = {dt:.3g} s, max |q̇| = {float(np.max(np.abs(qd))):.3g}); "
-            "use a time step of a control loop (e.g. 0.01 s) and a command of a sensible size"
-        )
-    if limits != "none":  # 'enforce': only rounding (γ(bound − q) reaches the bound at most); 'clamp': the ablation
-        lower, upper, _ = limit_arrays(task)
-        np.clip(q_next, lower, upper, out=q_next)
-    return q_next
+def _step(
+    task: Any, q: Any, command_bivector: Any, dt: Any, damping: Any, limits: Any, limit_gain: Any, constraints: Any,
+    velocity: Any, acceleration_limit: bool,
+) -> tuple[np.ndarray, QPSolution]:  # fmt: skip
+    validation.choice(limits, LIMIT_MODES, "limits")
+    dt = validation.positive(dt, "dt")
+    damping = validation.nonnegative(damping, "damping")
+    gain = _check_gain(limit_gain)
+    qv = check_q(task, q)
+    b = _check_bivector(command_bivector)
+    if limits != "none":
+        qv = project_into_limits(task, qv)
+    cfg = Configuration(task, qv, None if velocity is None else check_q(task, velocity, "velocity"))
+    lims = step_limits(task, limits, gain, acceleration_limit, constraints)
+    return qv, solve_step(cfg, [BodyVelocityTask(b)], lims, dt, damping=damping).solution
 
 
 def diff_ik_velocity(
@@ -192,39 +176,35 @@ def diff_ik_velocity(
     limits: str = "enforce",
     limit_gain: float = DEFAULT_LIMIT_GAIN,
     constraints: Any = None,
+    velocity: Any = None,
+    acceleration_limit: bool = True,
 ) -> QPSolution:
     """The joint velocity of one differential-IK step (Eq 48 as a QP, module docstring).
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask`.
-    q: (nq,) joint configuration [rad or m] (inside the position limits for ``'enforce'``;
-        otherwise it is projected onto them with a :class:`~coop_ga.errors.JointLimitWarning`).
-    command_bivector: (7,) body-frame similarity velocity B_S [rad/s, 1/s, body length/s].
-    dt: Δt [s] (> 0), over which the position limits are turned into velocity bounds.
-    damping: λ (≥ 0).  limits: ``'enforce'``, ``'clamp'`` or ``'none'`` (for ``'clamp'`` the
-        velocity is the unconstrained one: clipping happens on q).
-    limit_gain: γ ∈ (0, 1], the fraction of the remaining range a joint may cover per step.
-    constraints: user rows ``G q̇ ≤ h`` (:class:`~coop_ga.control.qp.LinearConstraint`, a
-        ``(G, h)`` pair or a list of them), or None.
+    Args:
+        task: a :class:`coop_ga.CooperativeTask`.
+        q: (nq,) joint configuration [rad or m] (inside the position limits for ``'enforce'``;
+            otherwise it is projected onto them with a :class:`~coop_ga.errors.JointLimitWarning`).
+        command_bivector: (7,) body-frame similarity velocity B_S [rad/s, 1/s, body length/s].
+        dt: Δt [s] (> 0), over which the position limits are turned into velocity bounds.
+        damping: λ (≥ 0).
+        limits: ``'enforce'``, ``'clamp'`` or ``'none'`` (for ``'clamp'`` the velocity is the
+            unconstrained one: clipping happens on q).
+        limit_gain: γ ∈ (0, 1], the fraction of the remaining range a joint may cover per step.
+        constraints: user rows ``G q̇ ≤ h`` (:class:`~coop_ga.control.qp.LinearConstraint`, a
+            ``(G, h)`` pair or a list of them), or None.
+        velocity: (nq,) the previous step's q̇ [rad/s] for the acceleration limit (None: at rest).
+        acceleration_limit: impose the system's acceleration limits (``'enforce'`` only).
 
-    Returns
-    -------
-    A :class:`~coop_ga.control.qp.QPSolution`: ``x`` is q̇ (nq,) [rad/s]; ``used_qp`` whether a
-    bound or constraint was active.  Raises :class:`~coop_ga.errors.InfeasibleConstraintsError`
-    when the constraints and limits have no common point.
+    Returns:
+        A :class:`~coop_ga.control.qp.QPSolution`: ``x`` is q̇ (nq,) [rad/s]; ``used_qp`` whether a
+        bound or constraint was active.
+
+    Raises:
+        InfeasibleConstraintsError: the constraints and limits have no common point.
     """
-    validation.choice(limits, LIMIT_MODES, "limits")
-    dt = validation.positive(dt, "dt")
-    damping = validation.nonnegative(damping, "damping")
-    limit_gain = _check_gain(limit_gain)
-    q = check_q(task, q)
-    b = _check_bivector(command_bivector)
-    G, h, labels = stack_constraints(constraints, task.nq)
-    if limits == "enforce":
-        q = project_into_limits(task, q)
-    J = task.evaluate_views(q)[2]
-    return _velocity(task, q, J, b, dt, damping, "none" if limits == "clamp" else limits, limit_gain, G, h, labels)
+    mode = "none" if limits == "clamp" else limits
+    return _step(task, q, command_bivector, dt, damping, mode, limit_gain, constraints, velocity, acceleration_limit)[1]
 
 
 def diff_ik_step(
@@ -237,77 +217,38 @@ def diff_ik_step(
     *,
     limit_gain: float = DEFAULT_LIMIT_GAIN,
     constraints: Any = None,
+    velocity: Any = None,
+    acceleration_limit: bool = True,
 ) -> np.ndarray:
     """One differential-IK step (Eq 48, 61): ``q_next = q + Δt q̇`` with q̇ from :func:`diff_ik_velocity`.
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask`.
-    q: (nq,) joint configuration [rad or m].
-    command_bivector: (7,) body-frame similarity velocity B_S on
-        ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]`` [rad/s, 1/s, body length/s], expressed in the
-        current cooperative frame V_Sc(q) (``V(q_next) ≈ V(q) exp(Δt B_S)``).
-    dt: time step Δt [s] (> 0).
-    damping: λ of the damped least squares (≥ 0; 0 = Moore–Penrose).
-    limits: ``'enforce'`` (default: QP with the position and velocity limits of
-        ``task.system.limits``, q_next inside the position limits), ``'clamp'`` (ablation:
-        unconstrained step, then q_next clipped) or ``'none'``.
-    limit_gain: γ ∈ (0, 1] of the position bounds (module docstring).
-    constraints: user rows ``G q̇ ≤ h`` on the joint velocity [rad/s] (see
-        :class:`~coop_ga.control.qp.LinearConstraint`), or None.
+    Args:
+        task: a :class:`coop_ga.CooperativeTask`.
+        q: (nq,) joint configuration [rad or m].
+        command_bivector: (7,) body-frame similarity velocity B_S on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``
+            [rad/s, 1/s, body length/s], in the current cooperative frame (``V(q_next) ≈ V(q) exp(Δt B_S)``).
+        dt: time step Δt [s] (> 0).  damping: λ of the damped least squares (≥ 0; 0 = Moore–Penrose).
+        limits: ``'enforce'`` (default: QP with the limits of ``task.system.limits``, q_next inside the
+            position limits), ``'clamp'`` (ablation: unconstrained step, then q_next clipped) or ``'none'``.
+        limit_gain: γ ∈ (0, 1] of the position bounds (module docstring).
+        constraints: user rows ``G q̇ ≤ h`` on the joint velocity [rad/s], or None.
+        velocity: (nq,) the previous step's q̇ [rad/s] (None: at rest), for the acceleration limit: pass the
+            last step's ``(q_next − q)/dt`` when stepping in a loop.
+        acceleration_limit: impose the system's acceleration limits (``'enforce'`` only).
 
-    Returns
-    -------
-    q_next: (nq,) new configuration (a new array).  Raises
-    :class:`~coop_ga.errors.InfeasibleConstraintsError` for incompatible constraints.
+    Returns:
+        q_next: (nq,) new configuration (a new array).
+
+    Raises:
+        InfeasibleConstraintsError: incompatible constraints.
     """
-    validation.choice(limits, LIMIT_MODES, "limits")
-    dt = validation.positive(dt, "dt")
-    damping = validation.nonnegative(damping, "damping")
-    limit_gain = _check_gain(limit_gain)
-    q = check_q(task, q)
-    b = _check_bivector(command_bivector)
-    G, h, labels = stack_constraints(constraints, task.nq)
-    if limits != "none":
-        q = project_into_limits(task, q)
-    J = task.evaluate_views(q)[2]
-    sol = _velocity(task, q, J, b, dt, damping, "none" if limits == "clamp" else limits, limit_gain, G, h, labels)
-    return _advance(task, q, sol.x, dt, limits)
-
-
-def reach_outcome(
-    task: Any,
-    traj: np.ndarray,
-    errors: np.ndarray,
-    dt: float,
-    tol: float,
-    limits: str,
-    infeasible: bool,
-    message: str,
-    steps: int,
-    active: Sequence[str],
-    active_label: str,
-) -> tuple[float, float, bool, str]:
-    """The verdict of a differential-IK run (shared by :func:`diff_ik_reach` and the avoidance runner).
-
-    traj (T, nq) the configurations, errors (T,) ‖e‖ along it, dt [s], tol on ‖e‖.  Returns
-    ``(position violation [rad], finite-difference speed violation [rad/s], converged, message)``:
-    converged only if the last error is below tol, the run was not infeasible and — unless
-    ``limits == 'none'`` — the trajectory stays inside the position limits (to 1e-9); a run outside
-    them is never reported as a success.
-    """
-    lim = task.system.limits
-    violation = lim.position_violation(traj)
-    vviol = lim.trajectory_velocity_violation(traj, dt) if steps else 0.0
-    inside = limits == "none" or violation <= 1e-9
-    converged = bool(errors[-1] < tol and inside and not infeasible)
-    if converged:
-        message = "converged"
-    elif not message:
-        message = f"not converged after {steps} steps (‖e‖ = {errors[-1]:.3g} ≥ tol)"
-        if active:
-            message += f"; {active_label}: {', '.join(active)}"
-    return violation, vviol, converged, message
+    mode = "none" if limits == "clamp" else limits
+    qv, sol = _step(task, q, command_bivector, dt, damping, mode, limit_gain, constraints, velocity, acceleration_limit)
+    q_next = advance(qv, sol.x, dt)
+    if limits != "none":  # 'enforce': only rounding (γ(bound − q) reaches the bound at most); 'clamp': the ablation
+        lim = task.system.limits
+        np.clip(q_next, lim.lower, lim.upper, out=q_next)
+    return q_next
 
 
 @dataclass(frozen=True)
@@ -319,9 +260,11 @@ class DiffIKOptions:
     steps: maximum number of steps (≥ 0); ``steps · dt`` is the time budget (default 2.5 s).
     damping: λ of the damped least squares (≥ 0).
     tol: converged when ‖e‖ < tol (≥ 0).
-    limits: ``'enforce'`` (QP with position and velocity limits), ``'clamp'`` (ablation:
+    limits: ``'enforce'`` (QP with position, velocity and acceleration limits), ``'clamp'`` (ablation:
         clip q after an unconstrained step) or ``'none'``.
     limit_gain: safety gain γ ∈ (0, 1] of the position bounds (``'enforce'``).
+    acceleration_limit: with ``'enforce'``, also the system's acceleration limits (if it has any; the
+        robot starts at rest).
     """
 
     gain: float = 10.0
@@ -331,6 +274,7 @@ class DiffIKOptions:
     tol: float = 1e-4
     limits: str = "enforce"
     limit_gain: float = DEFAULT_LIMIT_GAIN
+    acceleration_limit: bool = True
 
     def __post_init__(self) -> None:
         validation.positive(self.gain, "gain")
@@ -340,13 +284,15 @@ class DiffIKOptions:
         validation.nonnegative(self.tol, "tol")
         validation.choice(self.limits, LIMIT_MODES, "limits")
         _check_gain(self.limit_gain)
+        if not isinstance(self.acceleration_limit, bool):
+            raise InvalidInputError(f"acceleration_limit must be True or False, got {self.acceleration_limit!r}")
 
 
 @dataclass(frozen=True, kw_only=True)
 class DiffIKResult(SolverResult):
     """Result of :func:`diff_ik_reach` (fields of :class:`~coop_ga.control.base.SolverResult` plus):
 
-    trajectory: (T, nq) configurations, ``trajectory[0] = q0`` (projected onto the limits
+    trajectory: (T, nq) configurations, ``trajectory[0] = q_init`` (projected onto the limits
         unless ``limits='none'``), T = iterations + 1.
     errors: (T,) ``‖log(Ṽ_Sc(q_t) V_Sd)‖`` at each configuration (mixed units: rad, log
         scale, m — the plain Euclidean norm of the 7-vector).
@@ -355,6 +301,11 @@ class DiffIKResult(SolverResult):
         position limits [rad or m] (0 with ``'enforce'`` and ``'clamp'``).
     velocity_violation: largest excess of ``|q_{t+1} − q_t|/Δt`` over the velocity limits
         [rad/s] (0 with ``'enforce'``).
+    max_acceleration_violation: largest excess of the finite-difference acceleration (from rest) over the
+        acceleration limits [rad/s²] (0 with ``'enforce'`` and ``acceleration_limit``, unless
+        ``relaxed_steps`` > 0).
+    relaxed_steps: steps on which user rows left no room for the acceleration bounds, which were dropped
+        (``converged`` is then False if the acceleration limits were exceeded).
     active_steps: number of steps at which a bound or user constraint was active (a QP
         was solved because the unconstrained Eq 48 velocity violated it; for ``'clamp'``: the
         steps whose q was clipped).
@@ -369,107 +320,109 @@ class DiffIKResult(SolverResult):
     limits: str = "enforce"
     limit_violation: float = 0.0
     velocity_violation: float = 0.0
+    max_acceleration_violation: float = 0.0
+    relaxed_steps: int = 0
     active_steps: int = 0
     active_limits: tuple[str, ...] = ()
     infeasible: bool = False
 
 
+def similarity_error_norm(task: SimilarityTask) -> Any:
+    """The stop criterion ``configuration → ‖log(Ṽ_Sc V_Sd)‖`` of a similarity task."""
+
+    def f(c: Any) -> float:
+        e = task.log_error(c)
+        return float(np.sqrt(e @ e))
+
+    return f
+
+
+def clamp_hooks(dt: float, counter: list[int]) -> RunHooks:
+    """The hooks of the ``'clamp'`` ablation: count the steps whose q the clip changed."""
+
+    def after(c: Any, st: Any, q_next: np.ndarray) -> np.ndarray:
+        counter[0] += bool(not st.used_qp and np.any(q_next != c.q + dt * st.velocity))
+        return q_next
+
+    return RunHooks(after=after, clip=True)
+
+
+def run_result(task: Any, run: IKRun, mode: str, caught: Any, extra: int = 0) -> dict[str, Any]:
+    """The fields of a :class:`DiffIKResult` from a run (``extra``: active steps counted by a hook)."""
+    return dict(
+        converged=run.converged,
+        error=float(run.errors[-1]),
+        iterations=run.iterations,
+        message=run.message,
+        q=run.trajectory[-1].copy(),
+        warnings=dict(caught.counts),
+        trajectory=run.trajectory,
+        errors=run.errors,
+        limits=mode,
+        limit_violation=run.max_position_violation,
+        velocity_violation=run.max_velocity_violation,
+        max_acceleration_violation=run.max_acceleration_violation,
+        relaxed_steps=run.relaxed_steps,
+        active_steps=run.active_steps + extra,
+        active_limits=run.active_limits,
+        infeasible=run.infeasible,
+    )
+
+
+def _warn_outside(task: Any, q: np.ndarray) -> None:
+    lim = task.system.limits
+    if lim.position_violation(q) > 0.0:
+        warn(
+            f"diff_ik_reach(limits='none'): the final configuration is outside the joint limits by up to "
+            f"{lim.position_violation(q):.3g} ({lim.describe(q)})",
+            JointLimitWarning,
+            key=str(task.system.name),
+        )
+
+
 def diff_ik_reach(
-    task: Any, q0: Any, target: Any, options: DiffIKOptions | None = None, *, constraints: Any = None, **overrides: Any
+    task: Any,
+    q_init: Any,
+    target: Any,
+    options: DiffIKOptions | None = None,
+    *,
+    constraints: Any = None,
+    **overrides: Any,
 ) -> DiffIKResult:
     """Drive V_Sc(q) to ``target`` (a :class:`~coop_ga.Similarity`) by differential IK (Eq 44, 48, 61).
 
-    Each step commands the body velocity ``B_S = gain · log(Ṽ_Sc(q) V_Sd)`` (the error
-    bivector in the current frame, 1/s × error units) and takes the step of
-    :func:`diff_ik_step` (a QP with the joint limits by default).  Stops when ‖e‖ < ``tol``
-    or after ``steps`` steps.  Non-convergence (unreachable target, joint limits,
-    singularity) is reported as ``converged=False``; ``converged`` also requires every
-    configuration inside the position limits unless ``limits='none'`` (then a final
-    configuration outside them is reported by a :class:`~coop_ga.errors.JointLimitWarning`
-    and ``limit_violation``).
+    A :class:`~coop_ga.control.tasks.SimilarityTask` (``B_S = gain · log(Ṽ_Sc(q) V_Sd)``) with the limits of
+    :func:`step_limits`, iterated by :func:`~coop_ga.control.run_ik` (one compiled evaluation per step).
+    Stops when ‖e‖ < ``tol`` or after ``steps`` steps.  Non-convergence (unreachable target, joint
+    limits, singularity) is reported as ``converged=False``; ``converged`` also requires every
+    configuration inside the position limits unless ``limits='none'`` (then a final configuration outside
+    them is reported by a :class:`~coop_ga.errors.JointLimitWarning` and ``limit_violation``), and within
+    the acceleration limits when they were imposed.
 
-    ``options``: :class:`DiffIKOptions` (keyword ``overrides`` replace its fields).
-    ``constraints``: user rows ``G q̇ ≤ h`` on the joint velocity [rad/s]
-    (:class:`~coop_ga.control.qp.LinearConstraint`, ``(G, h)`` pairs or a list), or a callable
-    ``constraints(q) -> such rows`` evaluated at every step (e.g. obstacle half-spaces that
-    depend on q).  Problem data, so an argument and not an option.
+    Args:
+        task: a :class:`coop_ga.CooperativeTask`.  q_init: (nq,) start [rad or m] (at rest).
+        target: V_Sd, a :class:`~coop_ga.Similarity`.
+        options: :class:`DiffIKOptions` (keyword ``overrides`` replace its fields).
+        constraints: user rows ``G q̇ ≤ h`` on the joint velocity [rad/s]
+            (:class:`~coop_ga.control.qp.LinearConstraint`, ``(G, h)`` pairs or a list), or a callable
+            ``constraints(q) -> such rows`` evaluated at every step (e.g. obstacle half-spaces).
+
+    Returns:
+        A :class:`DiffIKResult`.
     """
     o = resolve_options(DiffIKOptions, options, overrides, "diff_ik_reach")
-    q, Vd = check_problem(task, q0, target, "q0")
-    dynamic = callable(constraints) and not isinstance(constraints, LinearConstraint)
-    const_rows = None if dynamic else stack_constraints(constraints, task.nq)
-    cfun: Callable[[np.ndarray], Any] | None = constraints if dynamic else None
-    lower, upper, vel = limit_arrays(task)
-    qp_mode = "none" if o.limits == "clamp" else o.limits
-    active_steps = 0
-    active: tuple[str, ...] = ()
-    last: tuple[QPSolution, np.ndarray, tuple[str, ...]] | None = None
-    infeasible = False
-    message = ""
+    q, Vd = check_problem(task, q_init, target, "q_init")
+    sim = SimilarityTask(Vd, gain=o.gain)
+    mode = "none" if o.limits == "clamp" else o.limits
+    lims = step_limits(task, mode, o.limit_gain, o.acceleration_limit, constraints)
+    clipped = [0]
+    hooks = clamp_hooks(o.dt, clipped) if o.limits == "clamp" else RunHooks(clip=o.limits == "enforce")
+    hooks.error = similarity_error_norm(sim)
     with collect_warnings() as caught:
         if o.limits != "none":
-            q = project_into_limits(task, q, "q0")
-        qs = [q.copy()]
-        e = task.error(q, Vd)
-        errs = [float(np.linalg.norm(e))]
-        k = 0
-        while k < o.steps and errs[-1] >= o.tol:
-            J = task.evaluate_views(q)[2]
-            if cfun is None:
-                assert const_rows is not None  # static constraints: stacked once, above
-                G, h, labels = const_rows
-            else:
-                G, h, labels = stack_constraints(cfun(q.copy()), task.nq)
-            try:
-                sol = _velocity(task, q, J, o.gain * e, o.dt, o.damping, qp_mode, o.limit_gain, G, h, labels)
-            except InfeasibleConstraintsError as exc:
-                infeasible = True
-                message = f"stopped at step {k}: {exc}"
-                break
-            last = (sol, q, labels)
-            if o.limits == "clamp":  # the ablation: count the steps the clip changed q
-                q_free = q + o.dt * sol.x
-                q = _advance(task, q, sol.x, o.dt, o.limits)
-                active_steps += bool(sol.used_qp or np.any(q != q_free))
-            else:
-                active_steps += sol.used_qp
-                q = _advance(task, q, sol.x, o.dt, o.limits)
-            e = task.error(q, Vd)
-            qs.append(q.copy())
-            errs.append(float(np.linalg.norm(e)))
-            k += 1
-        if last is not None and last[0].used_qp:  # the bounds active at the last step, labelled once
-            sol, q_last, labels = last
-            if qp_mode == "enforce":
-                lo_i, hi_i, v_i = classify_velocity_box(sol, q_last, lower, upper, vel, o.dt, o.limit_gain)
-                active = describe_active(task, q_last, lo_i, hi_i, v_i)
-            active += tuple(lab for lab, a in zip(labels, sol.active_rows) if a)
-        traj = np.array(qs)
-        lim = task.system.limits
-        if o.limits == "none" and lim.position_violation(q) > 0.0:
-            warn(
-                f"diff_ik_reach(limits='none'): the final configuration is outside the joint limits by up to "
-                f"{lim.position_violation(q):.3g} ({lim.describe(q)})",
-                JointLimitWarning,
-                key=str(task.system.name),
-            )
-    errors = np.array(errs)
-    violation, vviol, converged, message = reach_outcome(
-        task, traj, errors, o.dt, o.tol, o.limits, infeasible, message, k, active, "bounds active at the last step"
-    )
-    return DiffIKResult(
-        converged=converged,
-        error=float(errors[-1]),
-        iterations=k,
-        message=message,
-        q=q.copy(),
-        warnings=dict(caught.counts),
-        trajectory=traj,
-        errors=errors,
-        limits=o.limits,
-        limit_violation=violation,
-        velocity_violation=vviol,
-        active_steps=active_steps,
-        active_limits=active,
-        infeasible=infeasible,
-    )
+            q = project_into_limits(task, q, "q_init")
+        cfg = Configuration(task, q)
+        run = run_ik(cfg, [sim], lims, dt=o.dt, steps=o.steps, tol=o.tol, hooks=hooks, damping=o.damping)
+        if o.limits == "none":
+            _warn_outside(task, run.trajectory[-1])
+    return DiffIKResult(**run_result(task, run, o.limits, caught, clipped[0]))

@@ -186,126 +186,156 @@ def gauss_newton_ik(
     """
     o = resolve_options(GaussNewtonOptions, options, overrides, "gauss_newton_ik")
     q, Vd = check_problem(task, q_init, target, "q_init")
-    lo, hi = bounds(task)
-    enforce = o.limits == "enforce"
-    active_iters = 0
-
     with collect_warnings() as caught:
         if o.limits != "none":
             q = project_into_limits(task, q, "q_init")
-        e, Je = task.error_and_jacobian(q, Vd)
-        f = 0.5 * float(e @ e)
-        hist = [float(np.sqrt(2 * f))]
-        alphas: list[float] = []
-        message = "max_iter reached"
-        it = 0
-        while hist[-1] >= o.tol:
-            if it >= o.max_iter:
+        run = _Run(task, Vd, o, q)
+        run.iterate()
+        if run.it:
+            task.error_and_jacobian(run.q, Vd)  # re-check the final configuration (reported once)
+        violation = task.system.limits.position_violation(run.q)
+        if o.limits == "none" and violation > 0.0:
+            warn(
+                f"gauss_newton_ik(limits='none'): the solution is outside the joint limits by up to {violation:.3g} "
+                f"({task.system.limits.describe(run.q)})",
+                JointLimitWarning,
+                key=str(task.system.name),
+            )
+    return run.result(violation, dict(caught.counts))
+
+
+class _Run:
+    """The iterations of :func:`gauss_newton_ik` (state: q, e, J_e, f = ½‖e‖², the history)."""
+
+    def __init__(self, task: Any, Vd: Any, o: GaussNewtonOptions, q: np.ndarray):
+        self.task, self.Vd, self.o = task, Vd, o
+        self.lo, self.hi = bounds(task)
+        self.enforce = o.limits == "enforce"
+        self.q = q
+        self.e, self.Je = task.error_and_jacobian(q, Vd)
+        self.f = 0.5 * float(self.e @ self.e)
+        self.hist = [float(np.sqrt(2 * self.f))]
+        self.alphas: list[float] = []
+        self.message = "max_iter reached"
+        self.it = 0
+        self.active_iters = 0
+
+    def iterate(self) -> None:
+        o = self.o
+        while self.hist[-1] >= o.tol and self.it < o.max_iter:
+            if self._stationary():
                 break
-            grad = Je.T @ e
-            if enforce:
-                at_lo, at_hi = _at_bounds(q, lo, hi, grad)
-                gproj = np.where(at_lo | at_hi, 0.0, grad)
-            else:
-                gproj = grad
-            if float(np.linalg.norm(gproj)) <= o.gtol * float(np.linalg.norm(Je)) * hist[-1]:
-                message = (
-                    "stationary point of ‖e‖² with e ≠ 0 (‖J_eᵀ e‖ ≤ gtol): a local minimum, "
-                    "the target is not reachable from here"
-                )
-                if enforce and np.any(at_lo | at_hi):
-                    message = (
-                        "stationary point of ‖e‖² within the joint limits with e ≠ 0 (projected gradient "
-                        "≤ gtol): the target is not reachable inside the limits from here"
-                    )
+            dq = self._direction()
+            if dq is None:
                 break
-            dq = gauss_newton_step(e, Je, o.damping)
-            big = float(np.max(np.abs(dq)))
-            if enforce:
-                dqs = dq * (o.max_step / big) if big > o.max_step else dq
-                qs = q + dqs
-                if np.all(qs >= lo) and np.all(qs <= hi):
-                    dq = dqs
-                else:
-                    sol = solve_qp(
-                        Je,
-                        -e,
-                        o.damping,
-                        np.maximum(lo - q, -o.max_step),
-                        np.minimum(hi - q, o.max_step),
-                        x_free=dq,
-                        what="gauss_newton_ik step",
-                    )
-                    dq = sol.x
-                    active_iters += 1
-            if float(np.max(np.abs(dq), initial=0.0)) <= o.xtol * (1.0 + float(np.max(np.abs(q)))):
-                message = "step below xtol: no further progress (local minimum or unreachable target)"
+            if not self._line_search(dq):
                 break
-            if not enforce and big > o.max_step:
-                dq *= o.max_step / big
-            slope = float(e @ (Je @ dq))  # d/dα ½‖e(q + α Δq)‖² at α = 0
-            alpha = 1.0
-            qt: np.ndarray | None
-            while True:
-                qt = q + alpha * dq
-                if o.limits != "none":  # 'clamp': the ablation; 'enforce': rounding only (q + Δq is feasible)
-                    np.clip(qt, lo, hi, out=qt)
-                try:
-                    with collect_warnings(silent=True):  # trial points: degeneracy is a rejection, not news
-                        et, Jt = task.error_and_jacobian(qt, Vd)
-                    ft = 0.5 * float(et @ et)
-                except DegeneratePrimitiveError:
-                    ft = np.inf
-                if ft < np.inf and (not o.line_search or ft <= f + o.armijo * alpha * min(slope, 0.0)):
-                    break
-                alpha *= 0.5
-                if alpha < o.min_step:
-                    qt = None
-                    break
-            if qt is None:
-                message = "line search failed: no descent direction (local minimum of ‖e‖ or unreachable target)"
-                break
-            it += 1
-            q, e, Je, f = qt, et, Jt, ft
-            hist.append(float(np.sqrt(2 * f)))
-            alphas.append(alpha)
-            if it >= o.stall_window and hist[-1] >= o.tol and hist[-1 - o.stall_window] - hist[-1] <= o.ftol * hist[-1]:
-                message = (
+            h = self.hist
+            if self.it >= o.stall_window and h[-1] >= o.tol and h[-1 - o.stall_window] - h[-1] <= o.ftol * h[-1]:
+                self.message = (
                     f"stalled: ‖e‖ decreased by less than ftol·‖e‖ over {o.stall_window} iterations "
                     "(local minimum, singular configuration or unreachable target)"
                 )
                 break
-        if it:
-            task.error_and_jacobian(q, Vd)  # re-check the final configuration (reported once)
-        lim = task.system.limits
-        violation = lim.position_violation(q)
-        if o.limits == "none" and violation > 0.0:
-            warn(
-                f"gauss_newton_ik(limits='none'): the solution is outside the joint limits by up to {violation:.3g} "
-                f"({lim.describe(q)})",
-                JointLimitWarning,
-                key=str(task.system.name),
+
+    def _stationary(self) -> bool:
+        """The (projected) gradient test of a local minimum with e ≠ 0 (sets the message)."""
+        grad = self.Je.T @ self.e
+        at = np.zeros(grad.shape[0], bool)
+        if self.enforce:
+            at_lo, at_hi = _at_bounds(self.q, self.lo, self.hi, grad)
+            at = at_lo | at_hi
+            grad = np.where(at, 0.0, grad)
+        if float(np.linalg.norm(grad)) > self.o.gtol * float(np.linalg.norm(self.Je)) * self.hist[-1]:
+            return False
+        self.message = (
+            "stationary point of ‖e‖² with e ≠ 0 (‖J_eᵀ e‖ ≤ gtol): a local minimum, "
+            "the target is not reachable from here"
+        )
+        if self.enforce and np.any(at):
+            self.message = (
+                "stationary point of ‖e‖² within the joint limits with e ≠ 0 (projected gradient "
+                "≤ gtol): the target is not reachable inside the limits from here"
             )
-    active: tuple[str, ...] = ()
-    if o.limits != "none":
-        at_lo, at_hi = _at_bounds(q, lo, hi, Je.T @ e)
-        active = describe_active(task, q, np.flatnonzero(at_lo), np.flatnonzero(at_hi))
-    converged = hist[-1] < o.tol and (o.limits == "none" or violation <= 1e-9)
-    if converged:
-        message = "converged"
-    elif active:
-        message += f"; joint limits active at the final configuration: {', '.join(active)}"
-    return IKResult(
-        converged=bool(converged),
-        error=hist[-1],
-        iterations=it,
-        message=message,
-        q=q,
-        warnings=dict(caught.counts),
-        history=np.array(hist),
-        step_sizes=np.array(alphas),
-        limits=o.limits,
-        limit_violation=violation,
-        active_iterations=active_iters,
-        active_limits=active,
-    )
+        return True
+
+    def _direction(self) -> np.ndarray | None:
+        """The Gauss–Newton step (Eq 45–46), scaled to the trust bound, as a bounded QP when it leaves the
+        limits (``'enforce'``); None when it is below xtol (sets the message)."""
+        o, q = self.o, self.q
+        dq = gauss_newton_step(self.e, self.Je, o.damping)
+        big = float(np.max(np.abs(dq)))
+        if self.enforce:
+            dqs = dq * (o.max_step / big) if big > o.max_step else dq
+            qs = q + dqs
+            if np.all(qs >= self.lo) and np.all(qs <= self.hi):
+                dq = dqs
+            else:
+                lb, ub = np.maximum(self.lo - q, -o.max_step), np.minimum(self.hi - q, o.max_step)
+                dq = solve_qp(self.Je, -self.e, o.damping, lb, ub, x_free=dq, what="gauss_newton_ik step").x
+                self.active_iters += 1
+        if float(np.max(np.abs(dq), initial=0.0)) <= o.xtol * (1.0 + float(np.max(np.abs(q)))):
+            self.message = "step below xtol: no further progress (local minimum or unreachable target)"
+            return None
+        if not self.enforce and big > o.max_step:
+            dq *= o.max_step / big
+        return dq
+
+    def _trial(self, qt: np.ndarray) -> tuple[float, np.ndarray | None, np.ndarray | None]:
+        """``(f, e, J_e)`` at a trial point; a degenerate primitive there is a rejection (f = inf)."""
+        try:
+            with collect_warnings(silent=True):  # trial points: degeneracy is a rejection, not news
+                et, Jt = self.task.error_and_jacobian(qt, self.Vd)
+            return 0.5 * float(et @ et), et, Jt
+        except DegeneratePrimitiveError:
+            return np.inf, None, None
+
+    def _line_search(self, dq: np.ndarray) -> bool:
+        """Armijo backtracking along dq (α ∈ {1, ½, …}); takes the step and returns True, or sets the message."""
+        o = self.o
+        slope = float(self.e @ (self.Je @ dq))  # d/dα ½‖e(q + α Δq)‖² at α = 0
+        alpha = 1.0
+        while True:
+            qt = self.q + alpha * dq
+            if o.limits != "none":  # 'clamp': the ablation; 'enforce': rounding only (q + Δq is feasible)
+                np.clip(qt, self.lo, self.hi, out=qt)
+            ft, et, Jt = self._trial(qt)
+            if ft < np.inf and (not o.line_search or ft <= self.f + o.armijo * alpha * min(slope, 0.0)):
+                assert et is not None and Jt is not None  # a finite f comes with e and J_e
+                self.it += 1
+                self.q, self.e, self.Je, self.f = qt, et, Jt, ft
+                self.hist.append(float(np.sqrt(2 * ft)))
+                self.alphas.append(alpha)
+                return True
+            alpha *= 0.5
+            if alpha < o.min_step:
+                break
+        self.message = "line search failed: no descent direction (local minimum of ‖e‖ or unreachable target)"
+        return False
+
+    def result(self, violation: float, warnings: dict[str, int]) -> IKResult:
+        o, q = self.o, self.q
+        active: tuple[str, ...] = ()
+        if o.limits != "none":
+            at_lo, at_hi = _at_bounds(q, self.lo, self.hi, self.Je.T @ self.e)
+            active = describe_active(self.task, q, np.flatnonzero(at_lo), np.flatnonzero(at_hi))
+        converged = self.hist[-1] < o.tol and (o.limits == "none" or violation <= 1e-9)
+        message = self.message
+        if converged:
+            message = "converged"
+        elif active:
+            message += f"; joint limits active at the final configuration: {', '.join(active)}"
+        return IKResult(
+            converged=bool(converged),
+            error=self.hist[-1],
+            iterations=self.it,
+            message=message,
+            q=q,
+            warnings=warnings,
+            history=np.array(self.hist),
+            step_sizes=np.array(self.alphas),
+            limits=o.limits,
+            limit_violation=violation,
+            active_iterations=self.active_iters,
+            active_limits=active,
+        )

@@ -288,6 +288,59 @@ def impedance_torque(
     return tau
 
 
+def _simulate(
+    task: Any, ctl: Any, q: np.ndarray, qd: np.ndarray, o: ImpedanceOptions, n: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(Q, Q̇, τ, τ_cmd, e)`` of n steps of the plant (semi-implicit Euler on Pinocchio's ABA, module docstring)."""
+    import pinocchio as pin
+
+    dt = o.dt
+    model = task.system.model
+    plant = model.createData()
+    T = n + 1
+    Q = np.empty((T, task.nq))
+    QD = np.empty((T, task.nq))
+    TAU = np.empty((T, task.nq))
+    TAU_CMD = np.empty((T, task.nq))
+    E = np.empty((T, 7))
+    effort = task.system.limits.effort
+    saturate = o.torque_limits == "saturate" and bool(np.any(np.isfinite(effort)))
+    for k in range(T):
+        try:
+            tau_cmd, e = ctl(q, qd)
+        except CoopGAError as ex:  # the state left the task's domain (degenerate primitive, overflow)
+            raise NonFiniteError(f"impedance simulation diverged at t = {k * dt:.4f} s: {ex}") from ex
+        tau = np.clip(tau_cmd, -effort, effort) if saturate else tau_cmd
+        Q[k], QD[k], TAU[k], TAU_CMD[k], E[k] = q, qd, tau, tau_cmd, e
+        if k == n:
+            break
+        qdd = pin.aba(model, plant, q, qd, tau)
+        qd = qd + dt * qdd
+        q = q + dt * qd
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))) or float(np.max(np.abs(q))) > 1e3:
+            raise NonFiniteError(f"impedance simulation diverged at t = {(k + 1) * dt:.4f} s")
+    return Q, QD, TAU, TAU_CMD, E
+
+
+def _message(En: np.ndarray, small: bool, o: ImpedanceOptions, stats: dict[str, Any], n: int, T: int) -> str:
+    msg = (
+        f"‖B_e‖ = {En[-1]:.3g} after {o.duration:g} s ({'<' if small else '≥'} tol = {o.tol:g}; "
+        f"ratio to the start {En[-1] / En[0] if En[0] > 0 else 0.0:.3g})"
+    )
+    if stats["saturated_steps"]:
+        msg += (
+            f"; torque {'saturated' if o.torque_limits == 'saturate' else 'above the effort limit'} in "
+            f"{stats['saturated_steps']} of {n} steps (max |τ|/effort = {stats['effort_ratio']:.3g})"
+        )
+    if stats["limit_violation_steps"]:
+        msg += (
+            f"; joint limits violated in {stats['limit_violation_steps']} of {T} states (position by up to "
+            f"{stats['position_violation']:.3g} rad, max |q̇|/limit = {stats['velocity_ratio']:.3g})"
+            + " — not converged"
+        )
+    return msg
+
+
 def simulate_impedance(
     task: Any,
     q_init: Any,
@@ -316,60 +369,23 @@ def simulate_impedance(
     -------
     :class:`ImpedanceResult`.  Raises :class:`NonFiniteError` if the state diverges.
     """
-    pin = __import__("pinocchio")
     o = resolve_options(ImpedanceOptions, options, overrides, "simulate_impedance")
     dt, duration = o.dt, o.duration
     q = check_q(task, q_init, "q_init")
     qd = np.zeros(task.nq) if qd_init is None else check_q(task, qd_init, "qd_init")
     ctl = _Controller(task, target, o)
-    model = task.system.model
-    plant = model.createData()
     n = round(duration / dt)
     T = n + 1
-    Q = np.empty((T, task.nq))
-    QD = np.empty((T, task.nq))
-    TAU = np.empty((T, task.nq))
-    TAU_CMD = np.empty((T, task.nq))
-    E = np.empty((T, 7))
     lim = task.system.limits
-    effort = lim.effort
-    saturate = o.torque_limits == "saturate" and bool(np.any(np.isfinite(effort)))
     with collect_warnings() as caught:
-        for k in range(T):
-            try:
-                tau_cmd, e = ctl(q, qd)
-            except CoopGAError as ex:  # the state left the task's domain (degenerate primitive, overflow)
-                raise NonFiniteError(f"impedance simulation diverged at t = {k * dt:.4f} s: {ex}") from ex
-            tau = np.clip(tau_cmd, -effort, effort) if saturate else tau_cmd
-            Q[k], QD[k], TAU[k], TAU_CMD[k], E[k] = q, qd, tau, tau_cmd, e
-            if k == n:
-                break
-            qdd = pin.aba(model, plant, q, qd, tau)
-            qd = qd + dt * qdd
-            q = q + dt * qd
-            if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))) or float(np.max(np.abs(q))) > 1e3:
-                raise NonFiniteError(f"impedance simulation diverged at t = {(k + 1) * dt:.4f} s")
+        Q, QD, TAU, TAU_CMD, E = _simulate(task, ctl, q, qd, o, n)
         stats = _limit_statistics(lim, Q, QD, TAU_CMD[:n])
         if o.warn_limits:
             _warn_limits(task.name, stats, o.torque_limits, T)
     En = np.linalg.norm(E, axis=1)
     small = bool(En[-1] < o.tol)
     converged = small and stats["limit_violation_steps"] == 0
-    msg = (
-        f"‖B_e‖ = {En[-1]:.3g} after {duration:g} s ({'<' if small else '≥'} tol = {o.tol:g}; "
-        f"ratio to the start {En[-1] / En[0] if En[0] > 0 else 0.0:.3g})"
-    )
-    if stats["saturated_steps"]:
-        msg += (
-            f"; torque {'saturated' if o.torque_limits == 'saturate' else 'above the effort limit'} in "
-            f"{stats['saturated_steps']} of {n} steps (max |τ|/effort = {stats['effort_ratio']:.3g})"
-        )
-    if stats["limit_violation_steps"]:
-        msg += (
-            f"; joint limits violated in {stats['limit_violation_steps']} of {T} states (position by up to "
-            f"{stats['position_violation']:.3g} rad, max |q̇|/limit = {stats['velocity_ratio']:.3g})"
-            + " — not converged"
-        )
+    msg = _message(En, small, o, stats, n, T)
     return ImpedanceResult(
         converged=converged,
         error=float(En[-1]),

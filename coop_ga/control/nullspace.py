@@ -32,6 +32,12 @@ stops there while V_Sc stays held.  ``limits='clamp'`` (Eq 60, then q clipped) a
 ``'none'`` remain for comparison; ``project=False`` applies q̇₂ alone (clipped into the
 velocity box with ``'enforce'``).
 
+The step is one :func:`~coop_ga.control.solve_step`: the primary
+:class:`~coop_ga.control.tasks.SimilarityTask` (hold V_hold, gain k_p, Jacobian J^G) at level 1, the
+secondary task at level 2 (``levels=[[...]]``), the limits of
+:func:`~coop_ga.control.limits.default_limits` — with the system's acceleration limits
+(``acceleration_limit=True``, default; the robot starts at rest) — and the user rows.
+
 Secondary task provided here (Eq 60): end point ``i`` of the task reaches a Euclidean
 target ``p*`` [m] by ``q̇_{i,d} = J_{p,i}⁺ k_s (p* − p_i(q))`` with the 3×nq world-frame
 point Jacobian of that chain only (its other columns are zero), i.e. ``[q̇_{0,d}; 0; 0]``.
@@ -45,25 +51,18 @@ from typing import Any
 import numpy as np
 
 from .. import validation
-from ..cooperative.manipulability import damped_pinv
 from ..diagnostics import collect_warnings
 from ..errors import InvalidInputError
 from ..geometry.primitives import center, normal
-from .base import SolverResult, bounds, check_q, resolve_options
-from .qp import (
-    DEFAULT_LIMIT_GAIN,
-    InfeasibleConstraintsError,
-    QPSolution,
-    classify_velocity_box,
-    describe_active,
-    limit_arrays,
-    project_into_limits,
-    solve_qp,
-    stack_constraints,
-    velocity_bounds,
-)
+from .base import SolverResult, check_q, resolve_options
+from .configuration import Configuration
+from .diffik import step_limits
+from .qp import DEFAULT_LIMIT_GAIN, project_into_limits
+from .solve import RunHooks, StepSolution, advance, run_ik, solve_step
+from .tasks import JointVelocityTask, PositionTask, SimilarityTask
+from .tasks.points import end_index
 
-#: ``'enforce'`` (two-level QP with position and velocity limits, default), ``'clamp'``, ``'none'``
+#: ``'enforce'`` (two-level QP with position, velocity and acceleration limits, default), ``'clamp'``, ``'none'``
 LIMIT_MODES = ("enforce", "clamp", "none")
 
 __all__ = [
@@ -75,15 +74,7 @@ __all__ = [
     "point_reaching_velocity",
 ]
 
-
-def _index(task: Any, index: Any) -> int:
-    n = len(task.end_frames)
-    i = validation.integer(index, "index")
-    if not 0 <= i < n:
-        raise InvalidInputError(
-            f"index must be an end point of the task, 0 ≤ index < {n} ({', '.join(task.end_frames)}); got {index!r}"
-        )
-    return i
+_index = end_index
 
 
 def point_reaching_velocity(
@@ -100,114 +91,24 @@ def point_reaching_velocity(
 
     ``q̇ = J_p⁺ v`` with ``v = gain · (p* − p_i(q))`` [m/s] (capped at ``max_speed`` m/s),
     ``J_p`` the 3×nq world point Jacobian of end point ``index`` of ``task`` (only its own
-    chain's columns are non-zero), damped pseudo-inverse with ``damping`` λ.
+    chain's columns are non-zero), damped pseudo-inverse with ``damping`` λ: the joint-space rows of a
+    :class:`~coop_ga.control.tasks.PositionTask` with ``form='joint'``.
     """
     q = check_q(task, q)
     index = _index(task, index)
-    p_star = validation.vector(target_point, 3, "target_point [m]")
-    gain = validation.nonnegative(gain, "gain")
-    damping = validation.nonnegative(damping, "damping")
-    if max_speed is not None:
-        max_speed = validation.positive(max_speed, "max_speed", allow_inf=True)
-    p = task.tree.end_points_array(q)[index]
-    Jp = task.tree.euclidean_point_jacobians(q)[index]
-    v = gain * (p_star - p)
-    if max_speed is not None:
-        s = float(np.linalg.norm(v))
-        if s > max_speed:
-            v *= max_speed / s
-    return damped_pinv(Jp, damping) @ v
+    pt = PositionTask(index, target_point, gain=gain, max_speed=max_speed, form="joint", damping=damping)
+    return pt.qp_rows(Configuration(task, q))[1]
 
 
-def _hierarchical_velocity(
-    task: Any,
-    q: np.ndarray,
-    e: np.ndarray | None,
-    J: np.ndarray | None,
-    qd2: np.ndarray,
-    dt: float,
-    primary_gain: float,
-    damping: float,
-    project: bool,
-    limits: str,
-    limit_gain: float,
-    G: np.ndarray,
-    h: np.ndarray,
-    labels: tuple[str, ...],
-) -> tuple[np.ndarray, bool, tuple[str, ...]]:
-    """``(q̇, a bound or constraint was active, labels of the active bounds)`` of one step (module docstring)."""
-    n = qd2.shape[0]
-    m = G.shape[0]
-    Gm, hm = (G, h) if m else (None, None)
-    lb: np.ndarray | None
-    ub: np.ndarray | None
-    if limits == "enforce":
-        lower, upper, vel = limit_arrays(task)
-        lb, ub = velocity_bounds(q, lower, upper, vel, dt, limit_gain)
-    else:
-        lb = ub = None
-    eye = np.eye(n)
+def _step(
+    cfg: Any, hold: Any, secondary: Any, dt: float, primary_gain: float, damping: float, project: bool, lims: list
+) -> StepSolution:
+    """One step (module docstring): the primary task held at level 1 and the secondary one below it, or
+    (``project=False``) the secondary velocity alone."""
     if not project:
-        if m == 0:
-            qd = qd2 if lb is None else np.clip(qd2, lb, ub)
-            sol = QPSolution(
-                qd,
-                bool(np.any(qd != qd2)),
-                qd <= lb if lb is not None else np.zeros(n, bool),
-                qd >= ub if ub is not None else np.zeros(n, bool),
-                np.zeros(0, bool),
-                "clip",
-            )
-        else:
-            sol = solve_qp(eye, qd2, 0.0, lb, ub, Gm, hm, x_free=qd2, labels=labels, what="nullspace step")
-    else:
-        assert e is not None and J is not None
-        Jp = damped_pinv(J, damping)
-        x1_free = Jp @ (primary_gain * e)
-        x_free = x1_free + (qd2 - Jp @ (J @ qd2))  # Eq 58 + 60
-        if (lb is None or (np.all(x_free >= lb) and np.all(x_free <= ub))) and (m == 0 or np.all(G @ x_free <= h)):
-            return x_free, False, ()
-        level1 = solve_qp(
-            J,
-            primary_gain * e,
-            damping,
-            lb,
-            ub,
-            Gm,
-            hm,
-            x_free=x1_free,
-            labels=labels,
-            what="nullspace step (primary task)",
-        )
-        x1 = level1.x
-        _, sv, Vt = np.linalg.svd(J, full_matrices=False)
-        Vr = Vt[sv > 1e-10 * sv[0]] if sv.size and sv[0] > 0 else Vt[:0]
-        try:
-            sol = solve_qp(
-                eye,
-                qd2,
-                0.0,
-                lb,
-                ub,
-                Gm,
-                hm,
-                E=Vr,
-                f=Vr @ x1,
-                x_free=None,
-                labels=labels,
-                what="nullspace step (secondary task)",
-            )
-        except InfeasibleConstraintsError:
-            # cannot happen in exact arithmetic (q̇₁ is feasible); if the solver fails numerically the
-            # step falls back to the primary solution q̇₁ — feasible, V_Sc held — and says so
-            return x1, True, ("secondary task dropped at this step (QP solver failure)",)
-    active: tuple[str, ...] = ()
-    if lb is not None:
-        lower, upper, vel = limit_arrays(task)
-        lo_i, hi_i, v_i = classify_velocity_box(sol, q, lower, upper, vel, dt, limit_gain)
-        active = describe_active(task, q, lo_i, hi_i, v_i)
-    active += tuple(lab for lab, a in zip(labels, sol.active_rows) if a)
-    return sol.x, bool(sol.used_qp or sol.n_active), active
+        return solve_step(cfg, [secondary], lims, dt, damping=0.0)
+    primary = SimilarityTask(hold, gain=primary_gain)
+    return solve_step(cfg, [primary], lims, dt, damping=damping, levels=[[secondary]])
 
 
 def nullspace_step(
@@ -223,25 +124,30 @@ def nullspace_step(
     limits: str = "enforce",
     limit_gain: float = DEFAULT_LIMIT_GAIN,
     constraints: Any = None,
+    velocity: Any = None,
+    acceleration_limit: bool = True,
 ) -> np.ndarray:
     """One step ``q + Δt q̇`` with ``q̇ = J⁺ k_p log(Ṽ_Sc V_hold) + N q̇_2`` (Eq 58, 60, 61), within
     the joint limits by the two-level QP of the module docstring; returns q_next (nq,).
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask`.   q: (nq,) [rad or m] (projected onto the
-        limits, with a :class:`~coop_ga.errors.JointLimitWarning`, if outside and limits ≠ 'none').
-    V_hold: the similarity versor to keep (primary task).
-    qd_secondary: (nq,) secondary joint velocity q̇_2 [rad/s].
-    dt: step [s].  primary_gain: k_p [1/s] of the primary error feedback (0 disables it).
-    damping: λ of the pseudo-inverse in J⁺ and N (0 = exact projector, ``J N = 0``).
-    project: False applies q̇_2 directly, without projection and without primary term.
-    limits: ``'enforce'`` (default: position and velocity limits, two-level QP), ``'clamp'``
-        (Eq 60, then clip q; may break ``J N = 0``) or ``'none'``.
-    limit_gain: safety gain γ ∈ (0, 1] of the position bounds.
-    constraints: user rows ``G q̇ ≤ h`` on the joint velocity [rad/s]
-        (:class:`~coop_ga.control.qp.LinearConstraint`), imposed on both levels; an
-        incompatible set raises :class:`~coop_ga.errors.InfeasibleConstraintsError`.
+    Args:
+        task: a :class:`coop_ga.CooperativeTask`.
+        q: (nq,) [rad or m] (projected onto the limits, with a :class:`~coop_ga.errors.JointLimitWarning`,
+            if outside and limits ≠ 'none').
+        V_hold: the similarity versor to keep (primary task).
+        qd_secondary: (nq,) secondary joint velocity q̇_2 [rad/s].
+        dt: step [s].  primary_gain: k_p [1/s] of the primary error feedback (0 disables it).
+        damping: λ of the pseudo-inverse in J⁺ and N (0 = exact projector, ``J N = 0``).
+        project: False applies q̇_2 directly, without projection and without primary term.
+        limits: ``'enforce'`` (default: position, velocity and acceleration limits, two-level QP),
+            ``'clamp'`` (Eq 60, then clip q; may break ``J N = 0``) or ``'none'``.
+        limit_gain: safety gain γ ∈ (0, 1] of the position bounds.
+        constraints: user rows ``G q̇ ≤ h`` on the joint velocity [rad/s], imposed on both levels.
+        velocity: (nq,) the previous step's q̇ [rad/s] for the acceleration limit (None: at rest).
+        acceleration_limit: impose the system's acceleration limits (``'enforce'`` only).
+
+    Raises:
+        InfeasibleConstraintsError: the constraints cannot be met with the limits.
     """
     validation.choice(limits, LIMIT_MODES, "limits")
     dt = validation.positive(dt, "dt")
@@ -253,44 +159,15 @@ def nullspace_step(
     q = check_q(task, q)
     qd2 = check_q(task, qd_secondary, "qd_secondary")
     hold = validation.target(V_hold, "V_hold")
-    G, h, labels = stack_constraints(constraints, task.nq)
     if limits != "none":
         q = project_into_limits(task, q)
-    qd = _step_velocity(task, q, hold, qd2, dt, primary_gain, damping, project, limits, limit_gain, G, h, labels)[0]
-    return _advance(task, q, qd, dt, limits)
-
-
-def _step_velocity(
-    task: Any,
-    q: np.ndarray,
-    hold: Any,
-    qd2: np.ndarray,
-    dt: float,
-    primary_gain: float,
-    damping: float,
-    project: bool,
-    limits: str,
-    limit_gain: float,
-    G: np.ndarray,
-    h: np.ndarray,
-    labels: tuple[str, ...],
-) -> tuple[np.ndarray, bool, tuple[str, ...]]:
-    if project:
-        e = task.error(q, hold)
-        J = task.evaluate_views(q)[2]
-    else:
-        e = J = None
-    mode = "none" if limits == "clamp" else limits
-    return _hierarchical_velocity(
-        task, q, e, J, qd2, dt, primary_gain, damping, project, mode, limit_gain, G, h, labels
-    )
-
-
-def _advance(task: Any, q: np.ndarray, qd: np.ndarray, dt: float, limits: str) -> np.ndarray:
-    q_next = q + dt * qd
+    cfg = Configuration(task, q, None if velocity is None else check_q(task, velocity, "velocity"))
+    lims = step_limits(task, "none" if limits == "clamp" else limits, limit_gain, acceleration_limit, constraints)
+    st = _step(cfg, hold, JointVelocityTask(qd2), dt, primary_gain, damping, project, lims)
+    q_next = advance(q, st.velocity, dt)
     if limits != "none":  # 'enforce': rounding only; 'clamp': the ablation
-        lo, hi = bounds(task)
-        np.clip(q_next, lo, hi, out=q_next)
+        lim = task.system.limits
+        np.clip(q_next, lim.lower, lim.upper, out=q_next)
     return q_next
 
 
@@ -321,6 +198,7 @@ class NullspaceOptions:
     tol: the result is ``converged`` when the final point error < tol [m].
     limits: ``'enforce'`` (default, two-level QP with the joint limits), ``'clamp'`` or ``'none'``.
     limit_gain: safety gain γ ∈ (0, 1] of the position bounds.
+    acceleration_limit: with ``'enforce'``, the system's acceleration limits too (from rest).
     """
 
     duration: float = 4.0
@@ -333,8 +211,11 @@ class NullspaceOptions:
     tol: float = 1e-3
     limits: str = "enforce"
     limit_gain: float = DEFAULT_LIMIT_GAIN
+    acceleration_limit: bool = True
 
     def __post_init__(self) -> None:
+        if not isinstance(self.acceleration_limit, bool):
+            raise InvalidInputError(f"acceleration_limit must be True or False, got {self.acceleration_limit!r}")
         validation.nonnegative(self.duration, "duration")
         validation.positive(self.dt, "dt")
         validation.nonnegative(self.secondary_gain, "secondary_gain")
@@ -360,7 +241,10 @@ class NullspaceResult(SolverResult):
     limits: the limit mode; limit_violation: largest excursion of the trajectory outside the
     position limits [rad or m]; velocity_violation: largest excess of |Δq/Δt| over the velocity
     limits [rad/s]; active_steps: steps at which a bound or constraint was active (the QP of
-    the module docstring was solved); active_limits: bounds active at the last step.
+    the module docstring was solved); active_limits: bounds active at the last step;
+    max_acceleration_violation: largest excess of the finite-difference acceleration (from rest) over the
+    acceleration limits [rad/s²]; relaxed_steps: steps on which the acceleration bounds had to be dropped.
+    ``converged`` also requires the imposed limits to hold (position; acceleration when imposed).
     """
 
     t: np.ndarray
@@ -375,11 +259,13 @@ class NullspaceResult(SolverResult):
     velocity_violation: float = 0.0
     active_steps: int = 0
     active_limits: tuple[str, ...] = ()
+    max_acceleration_violation: float = 0.0
+    relaxed_steps: int = 0
 
 
 def nullspace_point_reach(
     task: Any,
-    q0: Any,
+    q_init: Any,
     index: int,
     target_point: Any,
     options: NullspaceOptions | None = None,
@@ -390,54 +276,55 @@ def nullspace_point_reach(
 ) -> NullspaceResult:
     """§4.3 experiment: end point ``index`` reaches ``target_point`` [m] while V_Sc is held (Eq 60).
 
-    The primary task holds ``V_hold`` (a :class:`~coop_ga.Similarity`; default V_Sc(q0)); the
-    secondary task is :func:`point_reaching_velocity`; every step is :func:`nullspace_step`
-    (the two-level QP with the joint limits by default).  ``options``:
-    :class:`NullspaceOptions` (keyword ``overrides`` replace its fields); ``project=False``
-    reproduces Fig. 16.  ``constraints``: user rows ``G q̇ ≤ h`` [rad/s] imposed at every
-    step (an incompatible set raises :class:`~coop_ga.errors.InfeasibleConstraintsError`).
+    The primary task holds ``V_hold`` (a :class:`~coop_ga.Similarity`; default V_Sc(q_init)); the
+    secondary task is a :class:`~coop_ga.control.tasks.PositionTask` in joint-space form
+    (:func:`point_reaching_velocity`); every step is the two-level :func:`~coop_ga.control.solve_step`
+    of :func:`nullspace_step`, iterated by :func:`~coop_ga.control.run_ik` for ``duration``.
+    ``options``: :class:`NullspaceOptions` (keyword ``overrides`` replace its fields); ``project=False``
+    reproduces Fig. 16.  ``constraints``: user rows ``G q̇ ≤ h`` [rad/s] imposed at every step (an
+    incompatible set stops the run, ``message`` says where).
     """
     o = resolve_options(NullspaceOptions, options, overrides, "nullspace_point_reach")
-    q = check_q(task, q0, "q0")
+    q = check_q(task, q_init, "q_init")
     index = _index(task, index)
     p_star = validation.vector(target_point, 3, "target_point [m]")
     n = round(o.duration / o.dt)
-    G, h, labels = stack_constraints(constraints, task.nq)
-    active_steps = 0
-    active: tuple[str, ...] = ()
+    secondary = PositionTask(index, p_star, gain=o.secondary_gain, max_speed=o.max_speed, form="joint")
+    lims = step_limits(
+        task, "none" if o.limits == "clamp" else o.limits, o.limit_gain, o.acceleration_limit, constraints
+    )
     with collect_warnings() as caught:
         if o.limits != "none":
-            q = project_into_limits(task, q, "q0")
+            q = project_into_limits(task, q, "q_init")
         hold = task.similarity(q) if V_hold is None else validation.target(V_hold, "V_hold")
         V0 = task.similarity(q)
-        Q = [q.copy()]
-        for _ in range(n):
-            qd2 = point_reaching_velocity(task, q, index, p_star, gain=o.secondary_gain, max_speed=o.max_speed)
-            qd, was_active, act = _step_velocity(
-                task, q, hold, qd2, o.dt, o.primary_gain, o.damping, o.project, o.limits, o.limit_gain, G, h, labels
-            )
-            active_steps += was_active
-            active = act
-            q = _advance(task, q, qd, o.dt, o.limits)
-            Q.append(q.copy())
-        Qa = np.array(Q)
+
+        def step(cfg: Any) -> StepSolution:
+            return _step(cfg, hold, secondary, o.dt, o.primary_gain, o.damping, o.project, lims)
+
+        hooks = RunHooks(step=step, clip=o.limits != "none")
+        run = run_ik(Configuration(task, q), [secondary], lims, dt=o.dt, steps=n, hooks=hooks)
+        Qa = run.trajectory
         P = np.array([task.points(qk)[index] for qk in Qa])
         V0i = V0.inverse()
         dist = np.array([np.linalg.norm((V0i @ task.similarity(qk)).log()) for qk in Qa])
-    lim = task.system.limits
     err = np.linalg.norm(P - p_star, axis=1)
-    converged = bool(err[-1] < o.tol)
+    converged = bool(err[-1] < o.tol and (run.converged or o.limits == "none"))
     msg = f"end point {index} is {err[-1]:.3g} m from the target after {o.duration:g} s"
-    if not converged and active:
-        msg += f"; bounds active at the last step: {', '.join(active)}"
+    if run.infeasible:
+        msg += f"; {run.message}"
+    elif not run.converged and o.limits != "none":
+        msg += f"; {run.message}"
+    if not converged and run.active_limits:
+        msg += f"; bounds active at the last step: {', '.join(run.active_limits)}"
     return NullspaceResult(
         converged=converged,
         error=float(err[-1]),
-        iterations=n,
+        iterations=run.iterations,
         message=msg,
         q=Qa[-1].copy(),
         warnings=dict(caught.counts),
-        t=np.arange(n + 1) * o.dt,
+        t=np.arange(len(Qa)) * o.dt,
         trajectory=Qa,
         points=P,
         point_error=err,
@@ -445,8 +332,10 @@ def nullspace_point_reach(
         target_point=p_star,
         projected=o.project,
         limits=o.limits,
-        limit_violation=lim.position_violation(Qa),
-        velocity_violation=lim.trajectory_velocity_violation(Qa, o.dt) if n else 0.0,
-        active_steps=int(active_steps),
-        active_limits=active,
+        limit_violation=run.max_position_violation,
+        velocity_violation=run.max_velocity_violation,
+        active_steps=run.active_steps,
+        active_limits=run.active_limits,
+        max_acceleration_violation=run.max_acceleration_violation,
+        relaxed_steps=run.relaxed_steps,
     )

@@ -126,6 +126,22 @@ class LinearConstraint:
     h: np.ndarray
     name: str = ""
 
+    #: a user constraint is never dropped by a step (only the acceleration limit may be)
+    relaxable = False
+
+    def inequalities(self, configuration: Any, dt: float) -> Any:
+        """The rows as :class:`~coop_ga.control.limits.Inequalities` (the :class:`~coop_ga.control.limits.Limit`
+        protocol; they do not depend on the configuration or Δt)."""
+        from .limits.base import Inequalities
+
+        if self.G.shape[1] != configuration.nq:
+            raise InvalidInputError(
+                f"constraint {self.name or 'unnamed'}: G must have {configuration.nq} columns (one per joint), "
+                f"got shape {self.G.shape}"
+            )
+        name = self.name or "constraint"
+        return Inequalities(None, None, self.G, self.h, tuple(f"{name}[{r}]" for r in range(self.G.shape[0])))
+
     def __post_init__(self) -> None:
         G = validation.array(self.G, "constraint matrix G")
         if G.ndim == 1:
@@ -372,15 +388,7 @@ def solve_qp(
     n = A.shape[1]
     m = 0 if G is None else G.shape[0]
     p = 0 if E is None else E.shape[0]
-    for name, arr in (("A", A), ("b", b), ("lb", lb), ("ub", ub), ("G", G), ("h", h), ("E", E), ("f", f)):
-        # ±inf bounds mean "no bound"; anything else must be finite and leave room for the scaling below
-        if arr is not None and (
-            np.any(np.isnan(arr)) or (name not in ("lb", "ub", "h") and not np.all(np.abs(arr) < 1e150))
-        ):
-            raise InvalidInputError(
-                f"the QP data {name} is not finite or beyond 1e150 in magnitude; check the "
-                "command, dt and the constraints passed to the controller"
-            )
+    _check_data(A=A, b=b, lb=lb, ub=ub, G=G, h=h, E=E, f=f)
     if x_free is None and p == 0:
         x_free = damped_lstsq(A, b, damping)
     if x_free is not None and (
@@ -389,45 +397,105 @@ def solve_qp(
         and (m == 0 or np.all(G @ x_free <= h))
     ):
         return QPSolution(x_free, False, *_no_active(n, m), "unconstrained")
-
     smax = float(np.linalg.norm(A)) if A.size else 1.0  # ‖A‖_F ≥ σ_max: a cheap scale (no SVD)
     lam0 = max(float(damping), MIN_RELATIVE_DAMPING * max(smax, 1e-300))
     attempts = [(lam0, "")] + ([(max(lam0, 1e-4 * smax), " (regularised)")] if m + p else [])
-    # The solver's tolerances are absolute (DAQP: primal 1e-6), so the QP is solved for y = x/σ with σ the
-    # size of the answer (the unconstrained step): near convergence a Gauss–Newton step is 1e-9, not 1.
+    sigma = _scale(b, lb, ub, G, h, f, x_free)
+    sc = _Scaled(b / sigma, _div(lb, sigma), _div(ub, sigma), _div(h, sigma), _div(f, sigma))
+    found = _daqp(A, sc, G, E, attempts, labels, what)
+    if found is None:
+        y, status = _bvls(A, sc.b, float(damping), sc.lb, sc.ub), "optimal (bvls)"
+    else:
+        y, status = found
+    return _finish(y, sigma, sc, lb, ub, G, status)
+
+
+def _check_data(**arrays: np.ndarray | None) -> None:
+    """±inf bounds mean "no bound"; anything else must be finite and leave room for the scaling of the step."""
+    for name, arr in arrays.items():
+        if arr is not None and (
+            np.any(np.isnan(arr)) or (name not in ("lb", "ub", "h") and not np.all(np.abs(arr) < 1e150))
+        ):
+            raise InvalidInputError(
+                f"the QP data {name} is not finite or beyond 1e150 in magnitude; check the "
+                "command, dt and the constraints passed to the controller"
+            )
+
+
+def _div(v: np.ndarray | None, sigma: float) -> np.ndarray | None:
+    return None if v is None else v / sigma
+
+
+def _scale(
+    b: np.ndarray,
+    lb: np.ndarray | None,
+    ub: np.ndarray | None,
+    G: np.ndarray | None,
+    h: np.ndarray | None,
+    f: np.ndarray | None,
+    x_free: np.ndarray | None,
+) -> float:
+    """σ, the size of the answer: the solver's tolerances are absolute (DAQP: primal 1e-6), so the QP is solved
+    for y = x/σ (the unconstrained step's size, capped by the box): near convergence a Gauss–Newton step is 1e-9."""
     sigma = float(np.max(np.abs(x_free), initial=0.0)) if x_free is not None else float(np.max(np.abs(b), initial=0.0))
-    if m:
-        assert G is not None and h is not None  # m > 0: the rows G x ≤ h were given
+    if G is not None and G.shape[0]:
+        assert h is not None  # the rows G x ≤ h were given
         sigma = max(sigma, float(np.max(-h / np.maximum(np.linalg.norm(G, axis=1), 1e-300), initial=0.0)))
-    if p:
-        assert f is not None  # p > 0: the rows E x = f were given
+    if f is not None and f.shape[0]:
         sigma = max(sigma, float(np.max(np.abs(f), initial=0.0)))
     box = [float(np.max(np.abs(v[np.isfinite(v)]), initial=0.0)) for v in (lb, ub) if v is not None]
     if box and max(box) > 0.0:
         sigma = min(sigma, max(box))  # the answer lies in the box even when the free step is huge
     if not (np.isfinite(sigma) and sigma > 1e-300):
         sigma = 1.0
-    bs = b / sigma
-    lbs = None if lb is None else lb / sigma
-    ubs = None if ub is None else ub / sigma
-    hs = None if h is None else h / sigma
-    fs = None if f is None else f / sigma
-    s = _conic(n, m + p)
-    HtH = A.T @ A
-    s.g[:] = -(bs @ A)
-    s.lbx[:] = -np.inf if lbs is None else lbs
-    s.ubx[:] = np.inf if ubs is None else ubs
+    return sigma
+
+
+@dataclass(frozen=True)
+class _Scaled:
+    """The QP data divided by σ."""
+
+    b: np.ndarray
+    lb: np.ndarray | None
+    ub: np.ndarray | None
+    h: np.ndarray | None
+    f: np.ndarray | None
+
+
+def _load(s: _Conic, A: np.ndarray, sc: _Scaled, G: np.ndarray | None, E: np.ndarray | None) -> None:
+    p = 0 if E is None else E.shape[0]
+    s.g[:] = -(sc.b @ A)
+    s.lbx[:] = -np.inf if sc.lb is None else sc.lb
+    s.ubx[:] = np.inf if sc.ub is None else sc.ub
     if p:
         s.a[:p] = E
-        s.lba[:p] = fs
-        s.uba[:p] = fs
-    if m:
+        s.lba[:p] = sc.f
+        s.uba[:p] = sc.f
+    if G is not None and G.shape[0]:
         s.a[p:] = G
         s.lba[p:] = -np.inf
-        s.uba[p:] = hs
-    y: np.ndarray | None = None
-    report = ""
+        s.uba[p:] = sc.h
+
+
+def _daqp(
+    A: np.ndarray,
+    sc: _Scaled,
+    G: np.ndarray | None,
+    E: np.ndarray | None,
+    attempts: list[tuple[float, str]],
+    labels: Sequence[str],
+    what: str,
+) -> tuple[np.ndarray, str] | None:
+    """``(y, status)`` of the first attempt whose answer DAQP calls optimal and that verifies; None when none
+    does and the problem is box-only (BVLS then); :class:`InfeasibleConstraintsError` otherwise."""
+    n = A.shape[1]
+    m = 0 if G is None else G.shape[0]
+    p = 0 if E is None else E.shape[0]
+    s = _conic(n, m + p)
+    _load(s, A, sc, G, E)
+    HtH = A.T @ A
     diag = HtH.diagonal().copy()
+    report = ""
     for lam, tag in attempts:
         HtH.flat[:: n + 1] = diag + lam * lam
         s.h[...] = HtH
@@ -435,16 +503,15 @@ def solve_qp(
         code = s.stats().get("return_status")
         status = _DAQP_STATUS.get(code, str(code)) if isinstance(code, int) else str(code)
         yt = s.x.copy()
-        viol_box, viol_g, viol_e = _violations(yt, lbs, ubs, G, hs, E, fs)
+        viol_box, viol_g, viol_e = _violations(yt, sc.lb, sc.ub, G, sc.h, E, sc.f)
         tol = 1e-7 * (1.0 + float(np.max(np.abs(yt), initial=0.0)))
         if code in (1, 2) and np.all(np.isfinite(yt)) and max(viol_box, viol_g, viol_e) <= tol:
-            y, status = yt, status + tag
-            break
+            return yt, status + tag
         if code == -1 and m + p:
             worst = ""
             if m and labels:
-                assert G is not None and hs is not None  # m > 0: the rows G x ≤ h were given
-                worst = f"; most violated: {labels[int(np.argmax(G @ yt - hs))]}"
+                assert G is not None and sc.h is not None  # m > 0: the rows G x ≤ h were given
+                worst = f"; most violated: {labels[int(np.argmax(G @ yt - sc.h))]}"
             raise InfeasibleConstraintsError(
                 f"{what}: the joint limits and the {m} user constraint row(s) G q̇ ≤ h have no common point "
                 f"(QP solver {SOLVER}: infeasible{worst}). Relax h (h ≥ 0 always keeps q̇ = 0 feasible) or remove "
@@ -454,20 +521,33 @@ def solve_qp(
             f"{SOLVER}: {status}; relative violation of the bounds {viol_box:.3g}, of G x ≤ h {viol_g:.3g}, "
             f"of E x = f {viol_e:.3g}"
         )
-    if y is None:
-        if m + p:
-            raise InfeasibleConstraintsError(
-                f"{what}: the QP solver returned no point satisfying the joint limits and the {m} user constraint "
-                f"row(s) ({report}): they are (numerically) incompatible. Relax h (h ≥ 0 always keeps q̇ = 0 "
-                "feasible) or remove conflicting rows."
-            )
-        y, status = _bvls(A, bs, float(damping), lbs, ubs), "optimal (bvls)"
+    if m + p:
+        raise InfeasibleConstraintsError(
+            f"{what}: the QP solver returned no point satisfying the joint limits and the {m} user constraint "
+            f"row(s) ({report}): they are (numerically) incompatible. Relax h (h ≥ 0 always keeps q̇ = 0 "
+            "feasible) or remove conflicting rows."
+        )
+    return None
+
+
+def _finish(
+    y: np.ndarray,
+    sigma: float,
+    sc: _Scaled,
+    lb: np.ndarray | None,
+    ub: np.ndarray | None,
+    G: np.ndarray | None,
+    status: str,
+) -> QPSolution:
+    """The answer y clipped into the scaled box, its active bounds and rows, and x = σ y."""
+    n = y.shape[0]
+    lbs, ubs, hs = sc.lb, sc.ub, sc.h
     if lbs is not None or ubs is not None:
         np.clip(y, -np.inf if lbs is None else lbs, np.inf if ubs is None else ubs, out=y)
     al = np.zeros(n, bool) if lbs is None else (y <= lbs + FEAS_TOL * (1.0 + np.abs(lbs)))
     au = np.zeros(n, bool) if ubs is None else (y >= ubs - FEAS_TOL * (1.0 + np.abs(ubs)))
-    if m:
-        assert G is not None and hs is not None  # m > 0: the rows G x ≤ h were given
+    if G is not None and G.shape[0]:
+        assert hs is not None  # the rows G x ≤ h were given
         ar = G @ y >= hs - FEAS_TOL * (1.0 + np.abs(hs))
     else:
         ar = np.zeros(0, bool)

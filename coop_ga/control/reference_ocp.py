@@ -72,6 +72,7 @@ FATROP's structure detection — which :attr:`~ReferenceSolution.wall_time_s` in
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -181,22 +182,7 @@ class ReferenceProblem:
         t0 = time.perf_counter()
         self.ocp = ocp
         self.terminal = validation.choice(terminal, ("soft", "constraint"), "terminal")
-        if limits is None:
-            limits = "none" if getattr(ocp, "limits", "enforce") == "none" else ocp.task.system.limits
-        if isinstance(limits, str):
-            validation.choice(limits, ("none",), "limits")
-            self.limits: JointLimits | None = None
-        elif isinstance(limits, JointLimits):
-            own = tuple(ocp.task.system.limits.joint_names)
-            if limits.nq != ocp.nq or tuple(limits.joint_names) != own:
-                raise InvalidInputError(
-                    f"limits are for the joints {list(limits.joint_names)[:3]}… ({limits.nq}), "
-                    f"the OCP's task has {list(own)[:3]}… ({ocp.nq}): they must match in order"
-                )
-            self.limits = limits
-        else:
-            raise InvalidInputError(f"limits must be a JointLimits, 'none' or None, got {type(limits).__name__}")
-
+        self.limits: JointLimits | None = _resolve_limits(ocp, limits)
         n, N, dt = ocp.nq, ocp.horizon, ocp.dt
         h = 0.5 * dt * dt
         opti = ca.Opti()
@@ -207,40 +193,9 @@ class ReferenceProblem:
             U.append(opti.variable(n))
         X.append(opti.variable(2 * n))
         x0 = np.concatenate([ocp.q_init, ocp.qd_init])
-        lim = self.limits
         # The bound values are Opti parameters (set per solve: FATROP gets them pre-tightened, see solve()).
         self._bounds: list[tuple[Any, np.ndarray, float]] = []  # (parameter, nominal value, sign: +1 upper / −1 lower)
-
-        def param(values: np.ndarray, sign: float) -> Any:
-            par = opti.parameter(len(values))
-            self._bounds.append((par, np.asarray(values, dtype=float), sign))
-            return par
-
-        if lim is not None:
-            both, lo_only, hi_only = _bound_rows(lim.lower, lim.upper)
-            v_rows = np.flatnonzero(np.isfinite(lim.velocity))
-            a_rows = np.flatnonzero(np.isfinite(lim.acceleration))
-            p_lo, p_hi = param(lim.lower[both], -1.0), param(lim.upper[both], 1.0)
-            p_lo1, p_hi1 = param(lim.lower[lo_only], -1.0), param(lim.upper[hi_only], 1.0)
-            p_v, p_a = param(lim.velocity[v_rows], 1.0), param(lim.acceleration[a_rows], 1.0)
-
-        def state_bounds(x: Any) -> None:
-            if lim is None:
-                return
-            q, qd = x[:n], x[n:]
-            if both.size:
-                opti.subject_to(opti.bounded(p_lo, q[both.tolist()], p_hi))
-            if lo_only.size:
-                opti.subject_to(q[lo_only.tolist()] >= p_lo1)
-            if hi_only.size:
-                opti.subject_to(q[hi_only.tolist()] <= p_hi1)
-            if v_rows.size:
-                opti.subject_to(opti.bounded(-p_v, qd[v_rows.tolist()], p_v))
-
-        def control_bounds(u: Any) -> None:
-            if lim is not None and a_rows.size:
-                opti.subject_to(opti.bounded(-p_a, u[a_rows.tolist()], p_a))
-
+        state_bounds, control_bounds = self._path_constraints(opti, n)
         for k in range(N):
             xk, uk = X[k], U[k]
             # gap-closing dynamics (Eq 54, exact ZOH), then the path constraints of stage k
@@ -263,6 +218,42 @@ class ReferenceProblem:
         self.opti, self.X, self.U, self.e, self.J = opti, X, U, e, J
         self._Xall, self._Uall = ca.horzcat(*X), ca.horzcat(*U)
         self.build_time_s = time.perf_counter() - t0
+
+    def _path_constraints(self, opti: Any, n: int) -> tuple[Callable[[Any], None], Callable[[Any], None]]:
+        """``(state_bounds(x), control_bounds(u))``: add the bounds of one knot (none without limits); their
+        values are Opti parameters recorded in ``self._bounds``."""
+        lim = self.limits
+        if lim is None:
+            return (lambda x: None), (lambda u: None)
+
+        def param(values: np.ndarray, sign: float) -> Any:
+            par = opti.parameter(len(values))
+            self._bounds.append((par, np.asarray(values, dtype=float), sign))
+            return par
+
+        both, lo_only, hi_only = _bound_rows(lim.lower, lim.upper)
+        v_rows = np.flatnonzero(np.isfinite(lim.velocity))
+        a_rows = np.flatnonzero(np.isfinite(lim.acceleration))
+        p_lo, p_hi = param(lim.lower[both], -1.0), param(lim.upper[both], 1.0)
+        p_lo1, p_hi1 = param(lim.lower[lo_only], -1.0), param(lim.upper[hi_only], 1.0)
+        p_v, p_a = param(lim.velocity[v_rows], 1.0), param(lim.acceleration[a_rows], 1.0)
+
+        def state_bounds(x: Any) -> None:
+            q, qd = x[:n], x[n:]
+            if both.size:
+                opti.subject_to(opti.bounded(p_lo, q[both.tolist()], p_hi))
+            if lo_only.size:
+                opti.subject_to(q[lo_only.tolist()] >= p_lo1)
+            if hi_only.size:
+                opti.subject_to(q[hi_only.tolist()] <= p_hi1)
+            if v_rows.size:
+                opti.subject_to(opti.bounded(-p_v, qd[v_rows.tolist()], p_v))
+
+        def control_bounds(u: Any) -> None:
+            if a_rows.size:
+                opti.subject_to(opti.bounded(-p_a, u[a_rows.tolist()], p_a))
+
+        return state_bounds, control_bounds
 
     # ------------------------------------------------------------------ solve
     def solve(
@@ -299,16 +290,6 @@ class ReferenceProblem:
         q0, qd0 = ocp.rollout(u0)
         opti.set_initial(self._Xall, np.vstack([q0.T, qd0.T]))
         opti.set_initial(self._Uall, u0.T)
-
-        # FATROP relaxes every inequality by FATROP_BOUND_RELAX · max(1, |b|) and CasADi's interface does
-        # not expose the factor: give it bounds tightened by that amount, so that both solvers solve the
-        # same problem (IPOPT's own relaxation is switched off) and FATROP's solution satisfies the bounds.
-        for par, value, sign in self._bounds:
-            if solver == "fatrop":
-                value = value - sign * FATROP_BOUND_RELAX * np.maximum(1.0, np.abs(value))
-            opti.set_value(par, value)
-        extra = dict(solver_options or {})
-        base = {"expand": True, "print_time": False, "record_time": True}
         common = {
             "print_level": 5 if verbose else 0,
             "tol": tol,
@@ -316,13 +297,7 @@ class ReferenceProblem:
             "constr_viol_tol": constr_viol_tol,
             "max_iter": max_iter,
         }
-        if solver == "ipopt":
-            opti.solver("ipopt", {**base, "ipopt.sb": "yes"}, {**common, "bound_relax_factor": 0.0, **extra})
-        else:
-            opti.solver(
-                "fatrop", {**base, "structure_detection": "auto", "debug": False, "fatrop": {**common, **extra}}
-            )
-
+        self._configure(solver, common, dict(solver_options or {}))
         t0 = time.perf_counter()
         sol: Any
         try:
@@ -335,7 +310,30 @@ class ReferenceProblem:
                 opti.stats()
             except RuntimeError:  # the solver never ran (unknown option, plugin error): that is not a result
                 raise InvalidInputError(f"{solver} could not be started: {ex}") from ex
-        wall = time.perf_counter() - t0
+        return self._solution(solver, sol, ok, time.perf_counter() - t0)
+
+    def _configure(self, solver: str, common: dict[str, Any], extra: dict[str, Any]) -> None:
+        """Set the bound parameters and the solver (module docstring)."""
+        opti = self.opti
+        # FATROP relaxes every inequality by FATROP_BOUND_RELAX · max(1, |b|) and CasADi's interface does
+        # not expose the factor: give it bounds tightened by that amount, so that both solvers solve the
+        # same problem (IPOPT's own relaxation is switched off) and FATROP's solution satisfies the bounds.
+        for par, value, sign in self._bounds:
+            if solver == "fatrop":
+                value = value - sign * FATROP_BOUND_RELAX * np.maximum(1.0, np.abs(value))
+            opti.set_value(par, value)
+        base = {"expand": True, "print_time": False, "record_time": True}
+        if solver == "ipopt":
+            opti.solver("ipopt", {**base, "ipopt.sb": "yes"}, {**common, "bound_relax_factor": 0.0, **extra})
+        else:
+            opti.solver(
+                "fatrop", {**base, "structure_detection": "auto", "debug": False, "fatrop": {**common, **extra}}
+            )
+
+    def _solution(self, solver: str, sol: Any, ok: bool, wall: float) -> ReferenceSolution:
+        """The :class:`ReferenceSolution` of a finished solve (``sol``: the Opti solution or its debug view)."""
+        ocp, opti = self.ocp, self.opti
+        n, N = ocp.nq, ocp.horizon
         raw = opti.stats()
         stats = {k: v for k, v in raw.items() if isinstance(v, (bool, int, float, str))}
         for k, v in raw.get("fatrop", {}).items() if isinstance(raw.get("fatrop"), dict) else ():
@@ -368,6 +366,24 @@ class ReferenceProblem:
             limits=self.limits,
             stats=stats,
         )
+
+
+def _resolve_limits(ocp: Any, limits: JointLimits | str | None) -> JointLimits | None:
+    """The bounds of the problem: ``limits`` checked against the OCP's joints (None: the OCP's choice)."""
+    if limits is None:
+        limits = "none" if getattr(ocp, "limits", "enforce") == "none" else ocp.task.system.limits
+    if isinstance(limits, str):
+        validation.choice(limits, ("none",), "limits")
+        return None
+    if isinstance(limits, JointLimits):
+        own = tuple(ocp.task.system.limits.joint_names)
+        if limits.nq != ocp.nq or tuple(limits.joint_names) != own:
+            raise InvalidInputError(
+                f"limits are for the joints {list(limits.joint_names)[:3]}… ({limits.nq}), "
+                f"the OCP's task has {list(own)[:3]}… ({ocp.nq}): they must match in order"
+            )
+        return limits
+    raise InvalidInputError(f"limits must be a JointLimits, 'none' or None, got {type(limits).__name__}")
 
 
 def check_trajectory(ocp: Any, lim: JointLimits | None, q: np.ndarray, qd: np.ndarray, u: np.ndarray) -> dict[str, Any]:

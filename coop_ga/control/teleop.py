@@ -1,8 +1,9 @@
 """Teleoperation in the cooperative similarity space (§4.5, Fig. 20–21, Eq 48, 61).
 
 A 6-axis input (a CAD "space mouse": three translations, three rotations) is mapped to a
-similarity bivector, which drives differential IK (:func:`coop_ga.control.diff_ik_step`,
-Eq 48) in a first-order kinematic simulation ``q_{t+1} = q_t + Δt q̇`` (Eq 61, Δt = 0.01 s).
+similarity bivector, which drives differential IK (Eq 48: a
+:class:`~coop_ga.control.tasks.BodyVelocityTask` in :func:`~coop_ga.control.solve_step`, with the
+position, velocity and — where the system has them — acceleration limits) in a first-order kinematic simulation ``q_{t+1} = q_t + Δt q̇`` (Eq 61, Δt = 0.01 s).
 
 Axis mapping (Fig. 20), command ``u = (tx, ty, tz, rx, ry, rz)`` (dimensionless, typically
 in [−1, 1]) → ``b = [θ12, θ13, θ23, β, t1, t2, t3]`` (body frame of V_Sc)::
@@ -56,7 +57,11 @@ from .. import validation
 from ..errors import InvalidInputError
 from ..geometry.groups import Similarity
 from .base import check_q
-from .diffik import LIMIT_MODES, diff_ik_step
+from .configuration import Configuration
+from .diffik import LIMIT_MODES, step_limits
+from .qp import DEFAULT_LIMIT_GAIN, project_into_limits
+from .solve import advance, solve_step
+from .tasks.similarity import BodyVelocityTask
 
 __all__ = [
     "KEY_BINDINGS",
@@ -176,9 +181,11 @@ class Teleoperator:
     q0: (nq,) initial configuration.
     dt: Δt [s] (Eq 61; 0.01 s in §4.5).  damping: λ of the damped least squares.
     limits: ``'enforce'`` (default: each step is the QP of :func:`coop_ga.control.diff_ik_step`,
-        within the position and velocity limits of ``task.system.limits``), ``'clamp'``
+        within the position, velocity and acceleration limits of ``task.system.limits``), ``'clamp'``
         (ablation: clip q after an unconstrained step) or ``'none'``.
     gains / rz_mode: see :func:`command_to_bivector`.
+    acceleration_limit: with ``'enforce'``, the system's acceleration limits too (the hand starts at rest;
+        ``velocity`` is the last step's q̇).
     """
 
     def __init__(
@@ -193,6 +200,7 @@ class Teleoperator:
         rotation_gain: float = 0.5,
         dilation_gain: float = 1.0,
         rz_mode: str = "dilation",
+        acceleration_limit: bool = True,
     ):
         self.task = task
         self.q = check_q(task, q0, "q0")
@@ -205,6 +213,14 @@ class Teleoperator:
         command_to_bivector(np.zeros(6), **self.gains)  # validate the gains now, not at the first step
         self.t = 0.0
         self.log = TeleopLog(t=[0.0], q=[self.q.copy()])
+        mode = "none" if self.limits == "clamp" else self.limits
+        self._limits = step_limits(task, mode, DEFAULT_LIMIT_GAIN, bool(acceleration_limit))
+        self._configuration = Configuration(task, self.q)
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """The joint velocity q̇ (nq,) [rad/s] of the last step (zeros at the start)."""
+        return self._configuration.velocity.copy()
 
     @property
     def pose(self) -> Similarity:
@@ -218,7 +234,17 @@ class Teleoperator:
         """Apply one 6-axis command for Δt: ``q ← q + Δt q̇`` with q̇ the (limit-aware) differential-IK
         velocity for ``b(command)`` (Eq 48, 61); returns the new q."""
         b = self.bivector(command)
-        self.q = diff_ik_step(self.task, self.q, b, dt=self.dt, damping=self.damping, limits=self.limits)
+        cfg = self._configuration
+        q = self.q if self.limits == "none" else project_into_limits(self.task, self.q)
+        if q is not self.q or not np.array_equal(cfg.q, q):
+            cfg.update(q, cfg.velocity.copy())  # q set from outside (or projected): keep the last velocity
+        st = solve_step(cfg, [BodyVelocityTask(b)], self._limits, self.dt, damping=self.damping)
+        q_next = advance(q, st.velocity, self.dt)
+        if self.limits != "none":  # 'enforce': rounding only; 'clamp': the ablation
+            lim = self.task.system.limits
+            np.clip(q_next, lim.lower, lim.upper, out=q_next)
+        cfg.update(q_next, (q_next - q) / self.dt)
+        self.q = q_next
         self.t += self.dt
         self.log.t.append(self.t)
         self.log.q.append(self.q.copy())

@@ -11,20 +11,15 @@ import pytest
 
 import coop_ga as cg
 from coop_ga.control import (
-    DiffIKOptions,
-    GaussNewtonOptions,
+    SOLVERS,
     ILQROptions,
-    ImpedanceOptions,
-    NullspaceOptions,
     SolverResult,
     diff_ik_reach,
     displaced_target,
     gauss_newton_ik,
     ilqr_reach,
     impedance_torque,
-    nullspace_point_reach,
     nullspace_step,
-    simulate_impedance,
 )
 from coop_ga.control.gauss_newton import gauss_newton_step
 
@@ -38,20 +33,45 @@ def franka(load_system):
     return task, q0, target
 
 
+#: the registered runners (coop_ga.control.SOLVERS): no hand-kept list
+REACH_SOLVERS = [n for n, e in SOLVERS.items() if e.signature == "reach"]
+#: the point runners that take a similarity (the one to hold)
+HOLD_SOLVERS = [n for n, e in SOLVERS.items() if e.signature == "point" and "V_hold" in e.problem]
+#: functions other than the registered runners that take a similarity
+SIMILARITY_FUNCTIONS = ["error_and_jacobian", "error_hessian", "impedance_torque", "nullspace_step"]
+
+
+def _problem(entry, task):
+    """The problem data a runner cannot run without (a collision model of the task's system)."""
+    from coop_ga.collision.model import CollisionModel
+
+    out = {}
+    if "collision_model" in entry.required:
+        out["collision_model"] = CollisionModel(task.system, obstacles=[], self_collision=False)
+    return out
+
+
+def _solver_call(name, task, q0):
+    """A registered runner as f(target), with its quick options."""
+    e = SOLVERS[name]
+    if e.signature == "reach":
+        extra = _problem(e, task)
+        return lambda V: e.solve(task, q0, V, **extra, **e.quick)
+    return lambda V: e.solve(task, q0, 0, [0.3, 0, 0.5], V_hold=V, **e.quick)
+
+
 def _controllers(task, q0):
     """Every public function that takes a similarity, as f(target)."""
     z = np.zeros(task.nq)
-    return {
+    out = {
         "error_and_jacobian": lambda V: task.error_and_jacobian(q0, V),
         "error_hessian": lambda V: task.error_hessian(q0, V, np.ones(7)),
-        "gauss_newton_ik": lambda V: gauss_newton_ik(task, q0, V, max_iter=2),
-        "diff_ik_reach": lambda V: diff_ik_reach(task, q0, V, steps=2),
-        "ilqr_reach": lambda V: ilqr_reach(task, q0, V, max_iter=1, horizon=5),
         "impedance_torque": lambda V: impedance_torque(task, q0, z, V),
-        "simulate_impedance": lambda V: simulate_impedance(task, q0, V, duration=0.002),
         "nullspace_step": lambda V: nullspace_step(task, q0, V, z),
-        "nullspace_point_reach": lambda V: nullspace_point_reach(task, q0, 0, [0.3, 0, 0.5], V_hold=V, duration=0.02),
     }
+    for name in REACH_SOLVERS + HOLD_SOLVERS:
+        out[name] = _solver_call(name, task, q0)
+    return out
 
 
 def _bad_targets(task, q0, target):
@@ -70,32 +90,19 @@ def _bad_targets(task, q0, target):
     }
 
 
-@pytest.mark.parametrize(
-    "controller",
-    [
-        "error_and_jacobian",
-        "error_hessian",
-        "gauss_newton_ik",
-        "diff_ik_reach",
-        "ilqr_reach",
-        "impedance_torque",
-        "simulate_impedance",
-        "nullspace_step",
-        "nullspace_point_reach",
-    ],
-)
+@pytest.mark.parametrize("controller", SIMILARITY_FUNCTIONS + REACH_SOLVERS + HOLD_SOLVERS)
 def test_bad_targets_raise_invalid_input_naming_the_problem(franka, controller):
     task, q0, target = franka
     f = _controllers(task, q0)[controller]
     for label, (bad, match) in _bad_targets(task, q0, target).items():
-        if label == "none" and controller == "nullspace_point_reach":
+        if label == "none" and controller in HOLD_SOLVERS:
             continue  # V_hold=None means "hold V_Sc(q0)"
         with pytest.raises(cg.InvalidInputError, match=match):
             f(bad)
         assert label  # every case raised
 
 
-@pytest.mark.parametrize("controller", ["gauss_newton_ik", "diff_ik_reach", "ilqr_reach", "nullspace_step"])
+@pytest.mark.parametrize("controller", [*REACH_SOLVERS, "nullspace_step"])
 def test_targets_accept_similarity_multivector_and_subgroups(franka, controller):
     task, q0, target = franka
     f = _controllers(task, q0)[controller]
@@ -129,11 +136,13 @@ def test_results_share_the_base_fields(franka):
     task, q0, target = franka
     results = {
         "gn": gauss_newton_ik(task, q0, target),
-        "diffik": diff_ik_reach(task, q0, target, steps=5),
         "ilqr": ilqr_reach(task, q0, target, horizon=20, max_iter=2),
-        "impedance": simulate_impedance(task, q0, target, duration=0.005),
-        "nullspace": nullspace_point_reach(task, q0, 0, [0.3, 0.0, 0.5], duration=0.03),
     }
+    for name, e in SOLVERS.items():
+        if e.signature == "reach":
+            results[name] = e.solve(task, q0, target, **_problem(e, task), **e.quick)
+        else:
+            results[name] = e.solve(task, q0, 0, [0.3, 0.0, 0.5], **e.quick)
     for name, r in results.items():
         assert isinstance(r, SolverResult), name
         assert r.q.shape == (task.nq,), name
@@ -146,8 +155,38 @@ def test_results_share_the_base_fields(franka):
     assert results["ilqr"].error == pytest.approx(np.linalg.norm(task.error(results["ilqr"].q, target)), rel=1e-12)
 
 
-@pytest.mark.parametrize("cls", [DiffIKOptions, GaussNewtonOptions, ILQROptions, ImpedanceOptions, NullspaceOptions])
-def test_options_validate_every_numeric_field(cls):
+@pytest.mark.parametrize("name", list(SOLVERS))
+def test_registered_runners_share_one_signature(name):
+    """``fn(task, q_init, target | index, target_point, options=None, *, <problem data>, **overrides)``."""
+    import inspect
+
+    e = SOLVERS[name]
+    params = list(inspect.signature(e.function).parameters.values())
+    head = ["task", "q_init", "target"] if e.signature == "reach" else ["task", "q_init", "index", "target_point"]
+    assert [p.name for p in params[: len(head) + 1]] == [*head, "options"], name
+    assert all(p.kind is p.POSITIONAL_OR_KEYWORD for p in params[: len(head) + 1])
+    rest = params[len(head) + 1 :]
+    assert rest[-1].kind is inspect.Parameter.VAR_KEYWORD  # option overrides
+    assert all(p.kind is p.KEYWORD_ONLY for p in rest[:-1]), name  # problem data: keywords, never positional
+    assert {p.name for p in rest[:-1]} == set(e.problem), name
+    assert dataclasses.is_dataclass(e.options)
+    assert set(e.quick) <= {f.name for f in dataclasses.fields(e.options)}
+
+
+def test_registry_resolves_aliases_and_refuses_unknown_names():
+    from coop_ga.control import get_solver, register_solver
+
+    assert get_solver("gn") is SOLVERS["gauss_newton_ik"] and get_solver("diffik") is SOLVERS["diff_ik_reach"]
+    assert get_solver("ilqr").initial_velocity and not get_solver("gn").initial_velocity
+    with pytest.raises(cg.UnknownNameError, match=r"registered: .*diff_ik_reach"):
+        get_solver("newton")
+    with pytest.raises(cg.InvalidInputError, match="already registered"):
+        register_solver("gn", gauss_newton_ik, ILQROptions)
+
+
+@pytest.mark.parametrize("name", list(SOLVERS))
+def test_options_validate_every_numeric_field(name):
+    cls = SOLVERS[name].options
     cls()  # the defaults are valid
     for f in dataclasses.fields(cls):
         default = getattr(cls(), f.name)

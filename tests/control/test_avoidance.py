@@ -32,7 +32,8 @@ CENTER, RADIUS = np.array([0.014, -0.346, 0.478]), 0.04
 D_SAFE = 0.01
 #: the dampers are first order: the true clearance may undershoot d_s by the step's curvature term [m]
 LINEARISATION_TOL = 2e-3
-KW = dict(gain=3.0, steps=300, dt=0.01)
+#: 4 s: from rest, under the Franka's acceleration limits (on by default), the hard dampers need 3.02 s here
+KW = dict(gain=3.0, steps=400, dt=0.01)
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +49,10 @@ def scene():
 @pytest.fixture(scope="module")
 def runs(scene):
     _, task, q0, Vd, cm = scene
-    return {m: avoidance_reach(task, q0, Vd, cm, mode=m, d_safe=D_SAFE, **KW) for m in ("none", "soft", "hard", "both")}
+    return {
+        m: avoidance_reach(task, q0, Vd, collision_model=cm, mode=m, d_safe=D_SAFE, **KW)
+        for m in ("none", "soft", "hard", "both")
+    }
 
 
 def test_plain_diff_ik_collides(scene, runs):
@@ -59,16 +63,27 @@ def test_plain_diff_ik_collides(scene, runs):
     # mode 'none' is plain differential IK
     dik = diff_ik_reach(task, q0, Vd, **KW)
     np.testing.assert_allclose(r.trajectory, dik.trajectory, atol=1e-12)
-    # start and goal are clear: the collision is on the way
-    assert r.clearance[0] > 0.04 and r.clearance[-1] > 0.04
+    # start and goal are clear: the collision is on the way (the redundant arms end 3.6 cm from the sphere)
+    assert r.clearance[0] > 0.04 and r.clearance[-1] > 0.03
+    assert r.max_acceleration_violation == 0.0 and r.relaxed_steps == 0
 
 
-@pytest.mark.parametrize("mode", ["hard", "both", "soft"])
+@pytest.mark.parametrize("mode", ["hard", "both"])
 def test_avoidance_keeps_clearance(runs, mode):
     r = runs[mode]
     assert r.converged and r.error < 1e-4, r.message
     assert r.min_clearance >= D_SAFE - LINEARISATION_TOL, (mode, r.min_clearance, r.closest)
     assert r.limit_violation == 0.0 and r.velocity_violation < 1e-9
+    # the dampers' braking bound keeps the acceleration limits: no step had to drop them
+    assert r.max_acceleration_violation == 0.0 and r.relaxed_steps == 0
+
+
+def test_soft_avoidance_alone_gives_no_guarantee(runs):
+    """The repulsion lives in the nullspace and under the acceleration limits it builds up too slowly for
+    this sphere: it reduces the penetration (4.2 → 1.3 cm) but does not prevent it; 'both' adds the dampers."""
+    soft, none = runs["soft"], runs["none"]
+    assert soft.converged and soft.max_acceleration_violation == 0.0
+    assert none.min_clearance + 0.02 < soft.min_clearance < 0.0
 
 
 def test_hard_constraint_holds_at_every_step(scene, runs):
@@ -109,9 +124,10 @@ def test_clearance_limit_plugs_into_diff_ik_reach(scene, runs):
 
 
 def test_nullspace_repulsion_does_not_disturb_the_task(scene, runs):
-    """Near the obstacle (soft mode active) J^G q̇ equals plain differential IK's task velocity to 1e-10."""
+    """Near the obstacle (soft mode active) J^G q̇ equals plain differential IK's task velocity (to the QP
+    solver's tolerance where the acceleration bounds are active: measured 9.5e-7 for |J^G q̇| ~ 1)."""
     r = runs["soft"]
-    assert r.task_velocity_deviation.max() < 1e-10
+    assert r.task_velocity_deviation.max() < 1e-5
     # the nullspace motion is substantial (the gripper slid around the sphere): joints moved differently
     T = min(r.trajectory.shape[0], runs["none"].trajectory.shape[0])
     assert np.max(np.abs(r.trajectory[:T] - runs["none"].trajectory[:T])) > 0.05
@@ -120,7 +136,9 @@ def test_nullspace_repulsion_does_not_disturb_the_task(scene, runs):
 def test_far_from_obstacles_soft_equals_diff_ik(scene):
     s, task, q0, Vd, _ = scene
     cm_far = CollisionModel(s, obstacles=[Sphere([0.0, 0.0, 3.0], 0.1)], self_collision=True)
-    r = avoidance_reach(task, q0, Vd, cm_far, mode="both", d_influence=0.05, **KW)  # same-arm pairs stay > 9 cm
+    r = avoidance_reach(
+        task, q0, Vd, collision_model=cm_far, mode="both", d_influence=0.05, **KW
+    )  # same-arm pairs stay > 9 cm
     assert r.clearance.min() > 0.05
     dik = diff_ik_reach(task, q0, Vd, **KW)
     np.testing.assert_allclose(r.trajectory, dik.trajectory, atol=1e-12)
@@ -129,14 +147,15 @@ def test_far_from_obstacles_soft_equals_diff_ik(scene):
 
 def test_arm_arm_collision_avoided(scene):
     """Shrinking the circle to 8 % (radius 3.9 cm) drives the three hands into each other: plain differential
-    IK ends with two hands interpenetrating; dampers and repulsion on the arm–arm pairs keep them apart."""
+    IK ends with two hands interpenetrating (by 4.9 mm, measured);
+    dampers and repulsion on the arm–arm pairs keep them apart."""
     s, task, q0, _, _ = scene
     cm = CollisionModel(s, obstacles=[], self_collision=True)
     Vd = displaced_target(task, q0, scale=0.08)
-    plain = avoidance_reach(task, q0, Vd, cm, mode="none", **KW)
-    assert plain.min_clearance < -0.01 and " – arm" in plain.closest and "hand" in plain.closest
+    plain = avoidance_reach(task, q0, Vd, collision_model=cm, mode="none", **KW)
+    assert plain.min_clearance < -0.004 and " – arm" in plain.closest and "hand" in plain.closest
     for mode in ("hard", "both"):
-        r = avoidance_reach(task, q0, Vd, cm, mode=mode, d_safe=D_SAFE, **KW)
+        r = avoidance_reach(task, q0, Vd, collision_model=cm, mode=mode, d_safe=D_SAFE, **KW)
         assert not r.infeasible and r.constraint_residual <= 1e-9, r.message
         assert r.min_clearance >= D_SAFE - LINEARISATION_TOL, (mode, r.min_clearance, r.closest)
         assert r.limit_violation == 0.0
@@ -163,10 +182,10 @@ def test_step_functions(scene):
     # one avoidance step: J^G q̇ is the differential-IK task velocity (soft), the rows hold (hard)
     b = 3.0 * task.error(qk, Vd)
     J = task.evaluate_views(qk)[2]
-    qd_soft = avoidance_velocity(task, qk, b, cm, mode="soft", d_safe=D_SAFE, gain=3.0)
-    qd_none = avoidance_velocity(task, qk, b, cm, mode="none", gain=3.0)
+    qd_soft = avoidance_velocity(task, qk, b, collision_model=cm, mode="soft", d_safe=D_SAFE, gain=3.0)
+    qd_none = avoidance_velocity(task, qk, b, collision_model=cm, mode="none", gain=3.0)
     assert np.linalg.norm(J @ (qd_soft - qd_none)) < 1e-10
-    qd_hard = avoidance_velocity(task, qk, b, cm, mode="hard", d_safe=D_SAFE, gain=3.0)
+    qd_hard = avoidance_velocity(task, qk, b, collision_model=cm, mode="hard", d_safe=D_SAFE, gain=3.0)
     assert np.all(c.G @ qd_hard <= c.h + 1e-9)
 
 
@@ -179,7 +198,7 @@ def test_bad_input(scene):
     with pytest.raises(InvalidInputError):
         AvoidanceOptions(damper_gain=1.5)
     with pytest.raises(InvalidInputError):
-        avoidance_reach(task, q0, Vd, object())
+        avoidance_reach(task, q0, Vd, collision_model=object())
     with pytest.raises(InvalidInputError):
         ClearanceLimit(cm, dt=-1.0)
     with pytest.raises(InvalidInputError):

@@ -144,7 +144,7 @@ def test_dependent_rows_are_refused(g1):
     A, b, _ = point_task(t, s.q0, 0, t.points(s.q0)[0] + OFFSET)
     with pytest.raises(InfeasibleConstraintsError, match="linearly dependent"):
         constrained_velocity(t, s.q0, A, b, unit)
-    r = constrained_point_reach(t, s.q0, 0, t.points(s.q0)[0] + OFFSET, unit, steps=5)
+    r = constrained_point_reach(t, s.q0, 0, t.points(s.q0)[0] + OFFSET, constraints=unit, steps=5)
     assert r.infeasible and not r.converged and "linearly dependent" in r.message and r.iterations == 0
 
 
@@ -177,9 +177,9 @@ def reaches(g1):
     target = P0[0] + OFFSET
     horiz = line_parameter_constraint(t, "d_z", line_parameters(t, q0)[0][2])
     return {
-        "hold": constrained_point_reach(t, q0, 0, target, point_constraint(t, 1, P0[1])),
-        "horizontal": constrained_point_reach(t, q0, 0, target, horiz),
-        "linearised": constrained_point_reach(t, q0, 0, target, horiz, project=False),
+        "hold": constrained_point_reach(t, q0, 0, target, constraints=point_constraint(t, 1, P0[1])),
+        "horizontal": constrained_point_reach(t, q0, 0, target, constraints=horiz),
+        "linearised": constrained_point_reach(t, q0, 0, target, constraints=horiz, project=False),
         "free": constrained_point_reach(t, q0, 0, target),
     }
 
@@ -254,7 +254,7 @@ def test_bad_input_raises_coop_ga_errors(g1):
     with pytest.raises(InvalidInputError):
         ConstrainedReachOptions(dt=-1.0)
     with pytest.raises(InvalidInputError, match="EqualityConstraint"):
-        constrained_point_reach(t, q0, 0, [0.3, 0, 0.2], [(np.zeros((1, 17)), np.zeros(1))])
+        constrained_point_reach(t, q0, 0, [0.3, 0, 0.2], constraints=[(np.zeros((1, 17)), np.zeros(1))])
     bad = EqualityConstraint(lambda q: (np.zeros(2), np.zeros((2, 17))), np.zeros(1), "bad")
     with pytest.raises(InvalidInputError, match="returned c of shape"):
         bad.evaluate(q0)

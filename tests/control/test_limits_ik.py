@@ -67,6 +67,11 @@ def _inside(limits, Q, tol=0.0):
     return bool(np.all(Q >= limits.lower - tol) and np.all(Q <= limits.upper + tol))
 
 
+#: the tests of position/velocity limits and user rows below hold with the acceleration limits off: a step from
+#: rest under the Franka's acceleration limits moves at most a·Δt (tests/control/test_acceleration_limits.py)
+NO_ACC = dict(acceleration_limit=False)
+
+
 # ----------------------------------------------------------------------------- bounds on random targets
 @pytest.mark.parametrize("name,kind", BOUND_CASES)
 def test_positions_and_velocities_stay_within_limits(load_system, name, kind):
@@ -107,12 +112,12 @@ def test_velocity_limit_is_respected_by_a_single_step(load_system):
     lim = s.limits
     q = np.array(s.q0)
     b = np.array([0, 0, 0, 50.0, 0, 0, 0])
-    sol = diff_ik_velocity(task, q, b, dt=0.01)
+    sol = diff_ik_velocity(task, q, b, dt=0.01, **NO_ACC)
     assert sol.used_qp and sol.n_active >= 6
     assert np.all(np.abs(sol.x) <= lim.velocity + 1e-12)
-    free = diff_ik_velocity(task, q, b, dt=0.01, limits="none")
+    free = diff_ik_velocity(task, q, b, dt=0.01, limits="none", **NO_ACC)
     assert not free.used_qp and np.max(np.abs(free.x) / lim.velocity) > 5.0
-    q1 = diff_ik_step(task, q, b, dt=0.01)
+    q1 = diff_ik_step(task, q, b, dt=0.01, **NO_ACC)
     np.testing.assert_allclose(q1, q + 0.01 * sol.x, atol=1e-15)
     # the QP realises the command better than the Eq 48 velocity scaled down uniformly into the limits
     J = task.jacobian(q)
@@ -137,8 +142,8 @@ def test_qp_redistributes_motion_where_clamping_fails(load_system):
     q_out = q.copy()
     q_out[j] -= 0.3
     V = task.similarity(q_out)
-    clamp = diff_ik_reach(task, q, V, limits="clamp")
-    qp = diff_ik_reach(task, q, V)
+    clamp = diff_ik_reach(task, q, V, limits="clamp", **NO_ACC)
+    qp = diff_ik_reach(task, q, V, **NO_ACC)
     print(
         f"clamp: ‖e‖ = {clamp.error:.3g} after {clamp.iterations} steps; QP: ‖e‖ = {qp.error:.3g} after "
         f"{qp.iterations} steps, {qp.active_steps} with an active bound"
@@ -150,7 +155,7 @@ def test_qp_redistributes_motion_where_clamping_fails(load_system):
     assert abs(qp.q[j] - lim.lower[j]) < 1e-9  # the elbow stays on its limit throughout
     # the QP does the work, not the final rounding clip: every unclipped step already lies inside
     for qt in qp.trajectory[:-1]:
-        nxt = qt + 0.01 * diff_ik_velocity(task, qt, 10.0 * task.error(qt, V)).x
+        nxt = qt + 0.01 * diff_ik_velocity(task, qt, 10.0 * task.error(qt, V), **NO_ACC).x
         assert _inside(lim, nxt, tol=1e-12)
     g = gauss_newton_ik(task, q, V)
     assert g.converged and _inside(lim, g.q)
@@ -169,19 +174,19 @@ def franka(load_system):
 def test_joint_velocity_constraint_is_respected(franka):
     s, task, q0, V = franka
     b = 2.0 * task.error(q0, V)  # slow enough for no limit to be active
-    free = diff_ik_velocity(task, q0, b)
+    free = diff_ik_velocity(task, q0, b, **NO_ACC)
     assert not free.used_qp
     j = int(np.argmax(np.abs(free.x)))
     sign = np.sign(free.x[j])
     cap = 0.1 * abs(free.x[j])
     row = LinearConstraint(sign * np.eye(s.nq)[j], [cap], name="joint cap")
-    sol = diff_ik_velocity(task, q0, b, constraints=[row])
+    sol = diff_ik_velocity(task, q0, b, constraints=[row], **NO_ACC)
     assert sign * sol.x[j] <= cap + 1e-9 and sol.active_rows.tolist() == [True]
     J = task.jacobian(q0)
     # the other 20 joints make up for it: the task velocity is still realised (9.4e-6 relative, 4.2e-6 without the cap)
     assert np.linalg.norm(J @ sol.x - b) < 2e-5 * np.linalg.norm(b)
     # over a whole run the joint never moves faster than the cap in that direction, the target is reached
-    r = diff_ik_reach(task, q0, V, constraints=row)
+    r = diff_ik_reach(task, q0, V, constraints=row, **NO_ACC)
     assert r.converged and r.active_steps > 0
     assert np.all(sign * np.diff(r.trajectory[:, j]) / 0.01 <= cap + 1e-9)
 
@@ -191,10 +196,10 @@ def test_end_point_half_space_constraint(franka):
     _, task, q0, V = franka
     b = 10.0 * task.error(q0, V)
     Jp = task.tree.euclidean_point_jacobians(q0)[0]
-    free = diff_ik_velocity(task, q0, b)
+    free = diff_ik_velocity(task, q0, b, **NO_ACC)
     n = Jp @ free.x
     n /= np.linalg.norm(n)  # the direction end point 0 would move in
-    sol = diff_ik_velocity(task, q0, b, constraints=(n @ Jp, [0.0]))
+    sol = diff_ik_velocity(task, q0, b, constraints=(n @ Jp, [0.0]), **NO_ACC)
     assert n @ (Jp @ free.x) > 0.01
     assert n @ (Jp @ sol.x) <= 1e-9
 
@@ -205,9 +210,9 @@ def test_end_point_half_space_constraint(franka):
             )
         ]
 
-    r = diff_ik_reach(task, q0, V, constraints=no_descent, steps=60)
+    r = diff_ik_reach(task, q0, V, constraints=no_descent, steps=60, **NO_ACC)
     z = np.array([task.points(q)[0][2] for q in r.trajectory])
-    free_run = diff_ik_reach(task, q0, V, steps=60)
+    free_run = diff_ik_reach(task, q0, V, steps=60, **NO_ACC)
     z_free = np.array([task.points(q)[0][2] for q in free_run.trajectory])
     print(
         f"end point 0 descends by {z[0] - z.min():.2e} m with the constraint, {z_free[0] - z_free.min():.2e} m without"

@@ -48,8 +48,10 @@ def test_projected_secondary_task_keeps_the_circle(runs):
     assert r.point_error[0] > 0.2
     assert r.point_error[-1] < 0.01  # the arm reaches the new point on the circle (< 1 cm)
     assert r.similarity_distance.max() < 1e-3  # … while the cooperative similarity is held
-    # the default limits='enforce' never had to act here: the numbers are those of Eq 60 itself
-    assert r.limits == "enforce" and r.active_steps == 0 and r.limit_violation == 0.0 and r.velocity_violation == 0.0
+    # the default limits='enforce' acted only on the first steps from rest (the acceleration bounds, measured 2);
+    # after them the numbers are those of Eq 60 itself
+    assert r.limits == "enforce" and r.active_steps <= 3 and r.limit_violation == 0.0 and r.velocity_violation == 0.0
+    assert r.max_acceleration_violation == 0.0 and r.relaxed_steps == 0
 
 
 def test_unprojected_secondary_task_breaks_the_circle(runs):

@@ -24,6 +24,7 @@ def runs():
     out = {}
     for name, ff in (("feedforward", 1.0), ("feedback_only", 0.0)):
         q = q0.copy()
+        qd = np.zeros_like(q)  # the last step's velocity, for the acceleration limits (from rest)
         errors, radii, worst_limit = [], [], 0.0
         for k in range(len(t)):
             e = task.error(q, poses[k])
@@ -33,7 +34,9 @@ def runs():
                 worst_limit, float(np.max(task.system.q_lower - q)), float(np.max(q - task.system.q_upper))
             )
             if k < len(t) - 1:
-                q = diff_ik_step(task, q, ff * twists[k] + 5.0 * e, dt=float(t[1] - t[0]))
+                dt = float(t[1] - t[0])
+                q_next = diff_ik_step(task, q, ff * twists[k] + 5.0 * e, dt=dt, velocity=qd)
+                q, qd = q_next, (q_next - q) / dt
         out[name] = (np.array(errors), np.array(radii), worst_limit)
     return t, poses, out
 

@@ -65,6 +65,10 @@ def testread_metrics(run):
     assert m["integrated_dilation_command"] == pytest.approx(np.log(1.25), abs=1e-4)
     # differential IK ran over the same horizon and made real progress
     assert m["diffik_steps"] > 0 and m["diffik_final_error"] < 0.01 * m["initial_error"]
+    # … inside the position, velocity and acceleration limits of the Franka arms (from rest)
+    lims = m["diffik_limits"]
+    assert lims["max_limit_violation"] == 0.0 and lims["max_velocity_violation"] == 0.0
+    assert lims["max_acceleration_violation"] == 0.0 and lims["relaxed_steps"] == 0
     hist = m["terminal_error_history"]
     assert len(hist) == m["ilqr_iterations"] + 1 and hist[-1] == pytest.approx(m["terminal_error"])
     assert np.all(np.diff(m["cost_history"]) < 0)

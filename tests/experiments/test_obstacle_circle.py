@@ -33,11 +33,17 @@ def testread_metrics(run):
     # without avoidance: the gripper enters the sphere (on the way: start and goal are clear)
     assert m["min_clearance_no_avoidance"] < -0.03
     assert "sphere" in m["closest_pair_no_avoidance"]
-    assert m["clearance_start"] > 0.04 and m["clearance_goal"] > 0.04
+    # (the goal: 3.6 cm, where the redundant arms end under the acceleration limits)
+    assert m["clearance_start"] > 0.04 and m["clearance_goal"] > 0.03
     assert m["converged_no_avoidance"] and m["terminal_error_no_avoidance"] < 1e-4
     assert m["max_limit_violation"] == 0.0
-    # the nullspace repulsion leaves the cooperative task velocity as it is; dampers alone do not
-    assert m["max_task_velocity_deviation"] < 1e-9
+    # every differential-IK run inside the Franka's acceleration limits (from rest), none had to drop them
+    assert m["max_acceleration_violation"] == 0.0
+    assert all(v["max_acceleration_violation"] == 0.0 and v["relaxed_steps"] == 0 for v in m["modes"].values())
+    # the nullspace repulsion leaves the cooperative task velocity as it is (to the QP solver's tolerance where
+    # the acceleration bounds are active); dampers alone do not, and together with the repulsion less so
+    assert m["modes"]["soft"]["max_task_velocity_deviation"] < 1e-5
+    assert m["max_task_velocity_deviation"] < m["modes"]["hard"]["max_task_velocity_deviation"]
     assert m["modes"]["hard"]["min_clearance"] >= m["d_safe"] - 2e-3
     assert m["modes"]["hard"]["max_task_velocity_deviation"] > 0.1
     assert m["modes"]["hard"]["max_damper_residual"] <= 1e-9

@@ -121,6 +121,8 @@ def test_nullspace_holds_the_circle(nullspace):
     for v in (ns, direct):  # both reach the point (2 s: within 5 % of the 25.5 cm)
         assert v["final_point_error_m"] < 0.05 * v["initial_point_error_m"]
         assert v["limit_violation_rad"] == 0.0 and v["velocity_violation_rad_s"] == 0.0
+        assert v["acceleration_violation_rad_s2"] == 0.0  # the Franka's acceleration limits, from rest
+    assert m["max_acceleration_violation"] == 0.0 and m["max_velocity_violation"] == 0.0
     # Fig. 17: V_Sc held (similarity distance ≈ 0) and the TCP on the circle
     assert ns["max_similarity_distance"] < 1e-3
     assert ns["max_distance_from_circle_m"] < 1e-3
