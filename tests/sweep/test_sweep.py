@@ -1,4 +1,4 @@
-"""coop_ga.sweep (issue 16): executors agree, resume, failures are data, specs, store, summary.
+"""coop_ga.sweep: executors agree, resume, failures are data, specs, store, summary.
 
 Sweeps are tiny (a few jobs on ``three_finger_hand``, 12 joints) so that the file runs in well under a minute;
 records are compared exactly, timing fields (``coop_ga.sweep.TIME_FIELDS``) excepted.
@@ -175,7 +175,7 @@ def test_process_pool_equals_serial_with_a_cold_shared_cache(
 ) -> None:
     """2 spawned workers build the same tasks for the first time, in one empty cache, at once.
 
-    coop_ga.codegen makes that safe (flock per entry + atomic os.replace, issue 10; the compile-once and
+    coop_ga.codegen makes that safe (flock per entry + atomic os.replace; the compile-once and
     no-crash properties under 12 concurrent processes are tests/reliability/test_compile_cache.py::
     test_defect1_concurrent_first_compiles_do_not_crash).  Here: the records equal the serial ones and the
     cache holds exactly one verified library per entry, no temporaries.
@@ -184,7 +184,7 @@ def test_process_pool_equals_serial_with_a_cold_shared_cache(
 
     cache = tmp_path / "cache"
     monkeypatch.setenv("COOP_GA_CACHE", str(cache))
-    recs = sw.run(_jobs() + _failing(), executor="process", workers=2, chunksize=1)
+    recs = sw.run(_jobs() + _failing(), executor="process", workers=2)
     _same(serial, recs)
     so = sorted(cache.glob("*.so"))
     assert so, "the workers compiled nothing into the shared cache"
