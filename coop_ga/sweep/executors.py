@@ -277,12 +277,25 @@ _RUNNERS = {"serial": _serial, "process": _process, "dask": _dask, "ray": _ray}
 
 
 def strip_timing(rec: Mapping[str, Any]) -> dict[str, Any]:
-    """A record without its timing fields (:data:`TIME_FIELDS`): what must agree between runs."""
+    """A record without its timing fields (:data:`TIME_FIELDS`): what must agree between runs.
+
+    Raises:
+        InvalidInputError: ``rec`` is not a mapping.
+    """
+    if not isinstance(rec, Mapping):
+        raise InvalidInputError(f"a record is a dict, got {type(rec).__name__}")
     return {k: v for k, v in rec.items() if k not in TIME_FIELDS}
 
 
 def records_equal(a: Sequence[Mapping[str, Any]], b: Sequence[Mapping[str, Any]]) -> bool:
-    """Whether two sweeps' records agree exactly, timing fields excepted."""
+    """Whether two sweeps' records agree exactly, timing fields excepted.
+
+    Raises:
+        InvalidInputError: ``a`` or ``b`` is not a sequence of record dicts.
+    """
+    for name, x in (("a", a), ("b", b)):
+        if isinstance(x, (str, bytes, Mapping)) or not isinstance(x, Sequence):
+            raise InvalidInputError(f"{name} must be a list of records, got {type(x).__name__}")
     return len(a) == len(b) and all(strip_timing(x) == strip_timing(y) for x, y in zip(a, b))
 
 

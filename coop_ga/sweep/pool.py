@@ -174,8 +174,20 @@ class _Proc:
     conn: Any
 
 
+def _context() -> Any:
+    """The *forkserver* context, its server preloading coop_ga (started with BLAS pinned to one thread): a worker is
+    a fork of it, so starting one (also a replacement) costs its initialisation, not an import of coop_ga and
+    its libraries (seconds).  *spawn* where there is no forkserver."""
+    if "forkserver" not in mp.get_all_start_methods():
+        return mp.get_context("spawn")
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(["coop_ga.sweep.worker"])
+    return ctx
+
+
 class ProcessSlots:
-    """Spawned worker processes, one pipe each (:func:`coop_ga.sweep.worker.serve` runs in them).
+    """Worker processes, one pipe each (:func:`coop_ga.sweep.worker.serve` runs in them), forked from a server that
+    has imported coop_ga (:func:`_context`); each gets this process's current environment (``os.environ``).
 
     ``wait`` returns ``(slot, "ready", pid)`` when a worker has started, ``(slot, "done", record)`` for a result,
     ``(slot, "died", message)`` when a worker ended (its pipe closed, or its process sentinel fired).
@@ -184,13 +196,16 @@ class ProcessSlots:
     def __init__(self, setup: Sequence[Mapping[str, Any]], warmup: bool):
         self.setup = list(setup)
         self.warmup = bool(warmup)
-        self.ctx = mp.get_context("spawn")
+        self.ctx = _context()
         self.live: set[_Proc] = set()
 
     def start(self) -> _Proc:
         parent, child = self.ctx.Pipe(duplex=True)
-        p = self.ctx.Process(target=serve, args=(child, self.setup, self.warmup), daemon=True, name="coop_ga-sweep")
-        with pinned_env():
+        with pinned_env():  # the server (started by the first start) and the workers' environment
+            env = dict(os.environ)
+            p = self.ctx.Process(
+                target=serve, args=(child, self.setup, self.warmup, env), daemon=True, name="coop_ga-sweep"
+            )
             p.start()
         child.close()  # the parent keeps one end: EOF on it when the worker dies
         s = _Proc(p, parent)

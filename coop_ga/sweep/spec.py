@@ -161,14 +161,14 @@ class Job:
 def _plain(x: Any, what: str, depth: int = 0) -> Any:
     """Deep-copy ``x`` into JSON-able plain data (tuples → lists, numpy scalars/arrays → Python)."""
     if depth > MAX_SPEC_DEPTH:
-        raise InvalidJobError(f"{what}: nested deeper than {MAX_SPEC_DEPTH} levels (or contains itself)"[:300])
+        raise InvalidJobError(f"nested deeper than {MAX_SPEC_DEPTH} levels (or contains itself): {what[:150]}…")
     if x is None or isinstance(x, (bool, str)):
         return x
     if isinstance(x, int):
         return int(x)
     if isinstance(x, float):
         if not math.isfinite(x):
-            raise InvalidJobError(f"{what}: non-finite number {x!r}")
+            raise InvalidJobError(f"{what}: non-finite number {x!r}; jobs and specs hold finite numbers only")
         return float(x)
     if hasattr(x, "tolist") and callable(x.tolist):  # numpy scalar or array
         return _plain(x.tolist(), what, depth)
@@ -324,8 +324,17 @@ def _canonical(x: Any) -> str:
 
 
 def job_hash(job: Mapping[str, Any]) -> str:
-    """A short hash of a normalized job (16 hex digits; same job → same hash in every process)."""
-    return hashlib.sha256(_canonical(job).encode()).hexdigest()[:16]
+    """A short hash of a normalized job (16 hex digits; same job → same hash in every process).
+
+    Raises:
+        InvalidJobError: ``job`` is not a mapping of plain, finite data.
+    """
+    if not isinstance(job, Mapping):
+        raise InvalidJobError(f"job_hash takes a (normalized) job dict, got {type(job).__name__}")
+    try:
+        return hashlib.sha256(_canonical(job).encode()).hexdigest()[:16]
+    except (TypeError, ValueError) as exc:
+        raise InvalidJobError(f"job_hash: the job is not plain finite data ({exc}); use normalize_job(job)") from None
 
 
 def sweep_hash(jobs: Iterable[Mapping[str, Any]]) -> str:

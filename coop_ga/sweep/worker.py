@@ -397,7 +397,20 @@ def base_record(index: int, job: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def run_job(index: int, job: Mapping[str, Any]) -> dict[str, Any]:
-    """Run one normalized job → its record (module docstring).  Never raises for a failing job."""
+    """Run one job → its record (module docstring).  A job that fails is a record, never an exception.
+
+    Args:
+        index: the job's index in its sweep (an integer ≥ 0; the record's ``job``).
+        job: a job dict (:func:`coop_ga.sweep.normalize_job` is applied; a normalized job is unchanged by it).
+
+    Raises:
+        InvalidInputError: a bad ``index``.  InvalidJobError: a malformed job (nothing ran).
+    """
+    from .. import validation
+    from .spec import normalize_job
+
+    index = validation.integer(index, "index (the job's index in the sweep)", minimum=0)
+    job = normalize_job(job)
     try:
         rec = base_record(index, job)
     except Exception as exc:  # pragma: no cover - normalize_job checked the structure
@@ -495,13 +508,17 @@ def _test_fault(job: Mapping[str, Any]) -> None:
     raise RuntimeError(f"test fault {fault!r} (one of {_FAULTS})")
 
 
-def serve(conn: Any, setup: Sequence[Mapping[str, Any]], warmup: bool) -> None:
-    """A process-pool worker: initialise (:func:`init_worker`), say ``("ready", pid)``, then for every
-    ``(index, job)`` received send ``("done", record)``; return on ``None`` or when the parent has gone.
+def serve(conn: Any, setup: Sequence[Mapping[str, Any]], warmup: bool, env: Mapping[str, str] | None = None) -> None:
+    """A process-pool worker: take the parent's environment ``env`` (a forked worker has the fork server's),
+    initialise (:func:`init_worker`), say ``("ready", pid)``, then for every ``(index, job)`` received send
+    ``("done", record)``; return on ``None`` or when the parent has gone.
 
     Ctrl-C is ignored here: the parent decides when workers stop.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if env is not None:
+        os.environ.clear()
+        os.environ.update(env)
     init_worker(setup, warmup)
     try:
         conn.send(("ready", os.getpid()))
