@@ -137,7 +137,7 @@ def _dask_cluster(stack: contextlib.ExitStack, dd: Any, dask: Any, ctx: _Ctx) ->
     stack.enter_context(dask.config.set(cfg))
     cluster = stack.enter_context(
         dd.LocalCluster(
-            n_workers=ctx.workers, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=50
+            n_workers=ctx.workers, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40
         )
     )
     return stack.enter_context(dd.Client(cluster))

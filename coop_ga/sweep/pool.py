@@ -5,8 +5,9 @@ busy slot, the job and the time it was sent (the slot had finished starting, so 
 Hence it always knows which job a dead worker was running and how long a job has run:
 
 * a **worker that dies** (``os._exit``, a signal, a segfault, the OOM killer) fails only its job: the job is
-  run again on a fresh worker, up to ``retries`` more times (default once), then recorded with
-  ``status="failed"``, ``exception_type="WorkerDied"`` and the exit code; the other jobs never notice;
+  run again on another worker process (the dead one is replaced by a new one), up to ``retries`` more times
+  (default once), then recorded with ``status="failed"``, ``exception_type="WorkerDied"`` and the exit code;
+  the other jobs never notice;
 * a job running longer than the **timeout** (:class:`TimeoutPolicy`: a fixed number of seconds, or ``"auto"``,
   10× the median wall time of the jobs completed so far) has its worker killed and is recorded with
   ``status="timeout"``; it is not retried (it would most likely hang again).
@@ -292,7 +293,7 @@ def _on_death(st: _State, slot: Any, message: str, retries: int) -> dict[str, An
     item, t0 = st.busy.pop(slot)
     n = st.attempts[item[0]] = st.attempts.get(item[0], 0) + 1
     if n <= retries:
-        st.queue.appendleft(item)  # on the next free (fresh) worker
+        st.queue.appendleft(item)  # on the next free worker: another process (the dead one is replaced)
         return None
     return fault_record(item, "failed", WORKER_DIED, f"{message}, on each of {n} attempts", time.monotonic() - t0)
 
