@@ -26,8 +26,16 @@ FIELDS = ("iterations", "seconds")
 
 
 def _group_value(v: Any) -> Any:
+    """A hashable group key: lists and dicts as canonical JSON (``repr`` if they hold anything else)."""
     if isinstance(v, (list, dict)):
-        return json.dumps(v, sort_keys=True)
+        try:
+            return json.dumps(v, sort_keys=True)
+        except (TypeError, ValueError):
+            return repr(v)
+    try:
+        hash(v)
+    except TypeError:
+        return repr(v)
     return v
 
 
@@ -43,7 +51,13 @@ def _names(x: Any, what: str) -> list[str]:
 
 
 def _q(xs: Sequence[float], q: float) -> float | None:
-    return float(np.quantile(np.asarray(xs, dtype=float), q)) if len(xs) else None
+    """The q-quantile (linear interpolation) of finite values; the nearest value where interpolating overflows."""
+    if not len(xs):
+        return None
+    a = np.asarray(xs, dtype=float)
+    with np.errstate(over="ignore", invalid="ignore"):
+        v = float(np.quantile(a, q))
+    return v if math.isfinite(v) else float(np.quantile(a, q, method="nearest"))
 
 
 def summarize(

@@ -480,6 +480,10 @@ def test_summary_never_reports_nan() -> None:
     ]
     (row,) = sw.summarize(recs)
     assert row["iterations_q50"] == 2.0 and row["iterations_q100"] == 3.0  # over the finite values only
+    huge = [{**recs[0], "iterations": x} for x in (-1.7e308, 1.7e308)]  # interpolating overflows: the nearest
+    assert sw.summarize(huge)[0]["iterations_q50"] == -1.7e308
+    odd = [{**recs[0], "controller": {"k": object()}}, {**recs[0], "controller": {1, 2}}]
+    assert len(sw.summarize(odd)) == 2  # unhashable or non-JSON group values are grouped by their repr
 
 
 def test_record_writer_refuses_bad_records(tmp_path: Path) -> None:

@@ -21,8 +21,13 @@ numbers = st.one_of(
     st.integers(-(2**70), 2**70),
     st.sampled_from([0, -1, 1, 0.5, 1e300, -0.0, True, False]),
 )
-junk = st.one_of(
-    st.none(), numbers, st.text(max_size=4), st.lists(numbers, max_size=4), st.just({"a": 1}), st.just(object())
+junk = st.one_of(  # fresh containers per example (a shared one would carry edits from one example to the next)
+    st.none(),
+    numbers,
+    st.text(max_size=4),
+    st.lists(numbers, max_size=4),
+    st.builds(dict, a=st.just(1)),
+    st.builds(object),
 )
 VALID = {
     "system": "three_finger_hand",
@@ -73,7 +78,7 @@ def test_normalize_job_on_corrupted_jobs(edits: list[tuple[tuple[str, ...], Any]
             if not isinstance(d.get(k), dict):
                 d[k] = {}
             d = d[k]
-        d[path[-1]] = value
+        d[path[-1]] = copy.deepcopy(value)
     before = repr(job)
     try:
         out = sw.normalize_job(job)
