@@ -5,7 +5,10 @@ A sweep's output directory holds ``sweep.json`` (the sweep's hash, job count, fo
 * ``records.jsonl`` — JSON-lines, one record per line, flushed after every record (the default; an interrupted
   run leaves at most one partial last line, which the reader ignores and the writer cuts off before appending);
 * ``records/part-NNNNN.parquet`` — Parquet (pyarrow), one file per batch of records, each written to a
-  temporary name and renamed into place (an interrupted run loses at most the unwritten batch).
+  temporary name and renamed into place (an interrupted run loses at most the unwritten batch);
+
+and ``.sweep.lock``, which a running sweep holds (:func:`directory_lock`: ``flock``, released by the kernel when
+the process ends, however it ends), so that two sweeps never write one directory.
 
 :func:`read_records` reads either (the last record of a job wins) and returns plain dicts equal to the ones
 :func:`coop_ga.sweep.run` returned.
@@ -13,26 +16,74 @@ A sweep's output directory holds ``sweep.json`` (the sweep's hash, job count, fo
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
 import math
 import os
+import socket
+import sys
+import time
 import uuid
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
 from ..errors import CoopGAError
 
-__all__ = ["FORMATS", "RecordWriter", "SweepError", "read_meta", "read_records"]
+__all__ = ["FORMATS", "RecordWriter", "SweepError", "SweepLockedError", "directory_lock", "read_meta", "read_records"]
 
 FORMATS = ("jsonl", "parquet")
 META = "sweep.json"
 JSONL = "records.jsonl"
 PARTS = "records"
+LOCK = ".sweep.lock"
 
 
 class SweepError(CoopGAError):
     """A sweep cannot run as asked (an output directory of another sweep, a missing extra, ...)."""
+
+
+class SweepLockedError(SweepError):
+    """The output directory is in use by another running sweep (the message names its process)."""
+
+
+@contextlib.contextmanager
+def directory_lock(out: str | Path) -> Iterator[Path]:
+    """Hold ``out/.sweep.lock`` (created if needed) for the duration: an exclusive, non-blocking ``flock``.
+
+    The file records who holds it (pid, host, start time, command line) for the message another sweep gets.
+    The lock is the kernel's, so a sweep killed with SIGKILL leaves no stale lock; the file itself stays.
+
+    Raises:
+        SweepLockedError: another process holds the lock (wait for it to finish or choose another directory).
+        SweepError: ``out`` cannot be created or is not a directory.
+    """
+    d = Path(out)
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+        fd = os.open(d / LOCK, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+    except OSError as exc:
+        raise SweepError(f"cannot use {d} as a sweep's output directory ({exc}); choose another out=") from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 4096, 0).decode("utf-8", "replace").strip() or "a process that has not said"
+            raise SweepLockedError(
+                f"{d} is in use by another sweep ({holder}): wait for it to finish, or choose another output "
+                "directory (records of one sweep never come from two processes)"
+            ) from None
+        info = f"pid {os.getpid()} on {socket.gethostname()}, since {time.strftime('%Y-%m-%d %H:%M:%S')}: "
+        info += " ".join(sys.argv)[:300]
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, info.encode() + b"\n", 0)
+        try:
+            yield d
+        finally:
+            os.ftruncate(fd, 0)  # still locked here: nobody reads a stale holder
+    finally:
+        os.close(fd)  # releases the lock
 
 
 def _clean(x: Any) -> Any:
@@ -81,8 +132,15 @@ def read_records(out: str | Path) -> list[dict[str, Any]]:
     """Every record stored in ``out`` (JSON-lines or Parquet), one per job (the last one wins), by job index.
 
     A partial last JSON line (an interrupted write) is ignored.
+
+    Raises:
+        SweepError: ``out`` is not an existing directory.
     """
+    if not isinstance(out, (str, os.PathLike)):
+        raise SweepError(f"out must be a directory path, got {type(out).__name__} {out!r}"[:200])
     d = Path(out)
+    if not d.is_dir():
+        raise SweepError(f"{d} is not a directory of sweep records (check the path; python -m coop_ga.sweep --out)")
     by_job: dict[int, dict[str, Any]] = {}
     rows: list[dict[str, Any]] = []
     if (d / JSONL).is_file():
@@ -116,11 +174,17 @@ class RecordWriter:
     """
 
     def __init__(self, out: str | Path, fmt: str = "jsonl", meta: Mapping[str, Any] | None = None, batch: int = 64):
-        if fmt not in FORMATS:
+        if not isinstance(fmt, str) or fmt not in FORMATS:
             raise SweepError(f"unknown record format {fmt!r}; choose one of {list(FORMATS)}")
+        if not isinstance(out, (str, os.PathLike)):
+            raise SweepError(f"out must be a directory path, got {type(out).__name__} {out!r}"[:200])
+        if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
+            raise SweepError(f"batch must be an integer ≥ 1 (records per Parquet file), got {batch!r}")
+        if meta is not None and not isinstance(meta, Mapping):
+            raise SweepError(f"meta must be a mapping (written to sweep.json) or None, got {type(meta).__name__}")
         self.dir = Path(out)
         self.fmt = fmt
-        self.batch = max(1, int(batch))
+        self.batch = batch
         self._buf: list[dict[str, Any]] = []
         self.dir.mkdir(parents=True, exist_ok=True)
         if meta is not None:
@@ -139,10 +203,20 @@ class RecordWriter:
             (self.dir / PARTS).mkdir(exist_ok=True)
 
     def write(self, rec: Mapping[str, Any]) -> None:
-        """Store one record (JSON-lines: written and flushed now; Parquet: in the current batch)."""
+        """Store one record (JSON-lines: written and flushed now; Parquet: in the current batch).
+
+        Raises:
+            SweepError: ``rec`` is not a mapping with an integer ``job``, or is not JSON-able.
+        """
+        if not isinstance(rec, Mapping) or isinstance(rec.get("job"), bool) or not isinstance(rec.get("job"), int):
+            raise SweepError(f"a record is a mapping with an integer 'job' field, got {str(rec)[:120]}")
         r = _clean(dict(rec))
+        try:
+            line = json.dumps(r, allow_nan=False, separators=(",", ":"))
+        except (TypeError, ValueError) as exc:
+            raise SweepError(f"record of job {r['job']} is not JSON-able ({exc}); store plain data") from None
         if self._f is not None:
-            self._f.write(json.dumps(r, allow_nan=False, separators=(",", ":")) + "\n")
+            self._f.write(line + "\n")
             self._f.flush()
         else:
             self._buf.append(r)

@@ -8,11 +8,16 @@ enters no rate; a ``failed`` job (an exception) counts as not converged.  Iterat
 from __future__ import annotations
 
 import json
+import math
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from .. import validation
+from ..errors import InvalidInputError
 
 __all__ = ["QUANTILES", "format_table", "plot", "summarize"]
 
@@ -21,13 +26,38 @@ FIELDS = ("iterations", "seconds")
 
 
 def _group_value(v: Any) -> Any:
+    """A hashable group key: lists and dicts as canonical JSON (``repr`` if they hold anything else)."""
     if isinstance(v, (list, dict)):
-        return json.dumps(v, sort_keys=True)
+        try:
+            return json.dumps(v, sort_keys=True)
+        except (TypeError, ValueError):
+            return repr(v)
+    try:
+        hash(v)
+    except TypeError:
+        return repr(v)
     return v
 
 
+def _names(x: Any, what: str) -> list[str]:
+    """Record field names: one string or a non-empty sequence of strings."""
+    names = [x] if isinstance(x, str) else x
+    if isinstance(names, (bytes, Mapping)) or not isinstance(names, Sequence) or not names:
+        raise InvalidInputError(f"{what} must be a record field name or a non-empty list of them, got {x!r}"[:200])
+    for n in names:
+        if not isinstance(n, str):
+            raise InvalidInputError(f"{what} must hold record field names (strings), got {n!r}"[:200])
+    return list(names)
+
+
 def _q(xs: Sequence[float], q: float) -> float | None:
-    return float(np.quantile(np.asarray(xs, dtype=float), q)) if len(xs) else None
+    """The q-quantile (linear interpolation) of finite values; the nearest value where interpolating overflows."""
+    if not len(xs):
+        return None
+    a = np.asarray(xs, dtype=float)
+    with np.errstate(over="ignore", invalid="ignore"):
+        v = float(np.quantile(a, q))
+    return v if math.isfinite(v) else float(np.quantile(a, q, method="nearest"))
 
 
 def summarize(
@@ -38,12 +68,26 @@ def summarize(
 ) -> list[dict[str, Any]]:
     """One row per group of ``by`` (record field names, in first-seen order).
 
-    Row: the group's values, ``jobs``, ``runs`` (not skipped), ``skipped``, ``failed``, ``converged``,
-    ``success_rate`` (converged / runs; None without runs), ``outside_limits`` (ok runs with ``violation`` > 1e-6),
-    and ``<field>_q<p>`` for each of ``fields`` (default ``iterations`` and ``seconds`` [s]) and each quantile p in
-    percent (``q50``, ``q90``, ``q100`` = max) over the ok runs where the field is not None.
+    Row: the group's values, ``jobs``, ``runs`` (not skipped), ``skipped``, ``failed`` (not ok: an exception, a
+    dead worker or a timeout), ``timeouts``, ``converged``, ``success_rate`` (converged / runs; None without
+    runs), ``outside_limits`` (ok runs with ``violation`` > 1e-6), and ``<field>_q<p>`` for each of ``fields``
+    (default ``iterations`` and ``seconds`` [s]) and each quantile p in percent (``q50``, ``q90``, ``q100`` = max)
+    over the ok runs where the field is a finite number (None if there is none).
+
+    Raises:
+        InvalidInputError: ``records`` not a sequence of mappings, ``by``/``fields`` not field names,
+            ``quantiles`` not numbers in [0, 1].
     """
-    keys = [by] if isinstance(by, str) else list(by)
+    keys = _names(by, "by")
+    fields = _names(fields, "fields")
+    if isinstance(records, (str, bytes, Mapping)) or not isinstance(records, Sequence):
+        raise InvalidInputError(f"records must be a list of record dicts, got {type(records).__name__}")
+    for r in records:
+        if not isinstance(r, Mapping):
+            raise InvalidInputError(f"records must be a list of record dicts, got an element {str(r)[:80]}")
+    if isinstance(quantiles, (str, bytes)) or not isinstance(quantiles, Sequence):
+        raise InvalidInputError(f"quantiles must be a list of numbers in [0, 1], got {quantiles!r}")
+    quantiles = [validation.scalar(q, "quantiles entry", low=0.0, high=1.0) for q in quantiles]
     groups: dict[tuple[Any, ...], list[Mapping[str, Any]]] = {}
     for r in records:
         groups.setdefault(tuple(_group_value(r.get(k)) for k in keys), []).append(r)
@@ -58,12 +102,13 @@ def summarize(
             runs=len(runs),
             skipped=len(rs) - len(runs),
             failed=len(runs) - len(ok),
+            timeouts=sum(r.get("status") == "timeout" for r in runs),
             converged=len(conv),
             success_rate=len(conv) / len(runs) if runs else None,
             outside_limits=sum((r.get("violation") or 0.0) > 1e-6 for r in ok),
         )
         for f in fields:
-            xs = [float(r[f]) for r in ok if isinstance(r.get(f), (int, float))]
+            xs = [float(r[f]) for r in ok if isinstance(r.get(f), (int, float)) and math.isfinite(r[f])]
             for q in quantiles:
                 row[f"{f}_q{round(100 * q)}"] = _q(xs, q)
         rows.append(row)
@@ -85,7 +130,17 @@ def _fmt(k: str, v: Any) -> str:
 
 
 def format_table(rows: Sequence[Mapping[str, Any]]) -> str:
-    """A plain-text table of :func:`summarize` rows (times in ms)."""
+    """A plain-text table of :func:`summarize` rows (times in ms).
+
+    Raises:
+        InvalidInputError: ``rows`` not a sequence of mappings.
+    """
+    if (
+        isinstance(rows, (str, bytes, Mapping))
+        or not isinstance(rows, Sequence)
+        or not all(isinstance(r, Mapping) for r in rows)
+    ):
+        raise InvalidInputError(f"rows must be a list of summarize() rows (dicts), got {str(rows)[:80]}")
     if not rows:
         return "(no records)"
     cols = list(rows[0])
@@ -108,11 +163,18 @@ def plot(
     per group over the ok runs → a PNG at ``path``.
 
     Drawn with matplotlib's Agg canvas (headless, no pyplot state).
+
+    Raises:
+        InvalidInputError: as :func:`summarize`; ``path`` not a path, ``title``/``field`` not strings.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise InvalidInputError(f"path must be a file path for the PNG, got {type(path).__name__}")
+    if not isinstance(title, str) or not isinstance(field, str):
+        raise InvalidInputError(f"title and field must be strings, got {title!r}, {field!r}"[:200])
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    keys = [by] if isinstance(by, str) else list(by)
+    keys = _names(by, "by")
     rows = summarize(records, keys)
     labels = [" / ".join(str(r[k]) for k in keys) for r in rows]
     fig = Figure(figsize=(11, 4.2), dpi=110)
@@ -130,7 +192,7 @@ def plot(
     ax1.set_title("success rate")
     groups: dict[str, list[float]] = {lab: [] for lab in labels}
     for rec in records:
-        if rec.get("status") == "ok" and isinstance(rec.get(field), (int, float)):
+        if rec.get("status") == "ok" and isinstance(rec.get(field), (int, float)) and math.isfinite(rec[field]):
             lab = " / ".join(str(_group_value(rec.get(k))) for k in keys)
             groups.setdefault(lab, []).append(float(rec[field]))
     allit = [x for v in groups.values() for x in v]

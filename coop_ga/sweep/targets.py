@@ -1,4 +1,4 @@
-"""Seeds and target sampling of a sweep (shared with ``benchmarks/robustness.py``, issue 11).
+"""Seeds and target sampling of a sweep (shared with ``benchmarks/robustness.py``).
 
 **Seeds.**  A job's random stream is ``numpy.random.SeedSequence(entropy, spawn_key=key)``.
 By default (:func:`seeds`) job i of n gets the i-th child of ``SeedSequence(root).spawn(n)``,
@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import validation
 from ..errors import InvalidInputError
 
 __all__ = [
@@ -95,7 +96,13 @@ def name_spawn_key(values: Sequence[Any]) -> tuple[int, ...]:
 
 
 def seeds(root: int, n: int) -> list[dict[str, Any]]:
-    """The seeds of n jobs: ``SeedSequence(root).spawn(n)`` as plain data ``{"entropy", "spawn_key"}``."""
+    """The seeds of n jobs: ``SeedSequence(root).spawn(n)`` as plain data ``{"entropy", "spawn_key"}``.
+
+    Raises:
+        InvalidInputError: ``root`` or ``n`` not an integer ≥ 0.
+    """
+    root = validation.integer(root, "root (the sweep's seed)", minimum=0)
+    n = validation.integer(n, "n (the number of seeds)", minimum=0)
     return [
         {"entropy": int(s.entropy), "spawn_key": [int(k) for k in s.spawn_key]}  # type: ignore[arg-type]
         for s in np.random.SeedSequence(int(root)).spawn(int(n))
@@ -107,8 +114,17 @@ def seed_sequence(seed: Any) -> np.random.SeedSequence:
     if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and int(seed) >= 0:
         return np.random.SeedSequence(int(seed))
     if isinstance(seed, Mapping) and set(seed) <= {"entropy", "spawn_key"} and "entropy" in seed:
-        key = tuple(int(k) for k in seed.get("spawn_key", ()))
-        return np.random.SeedSequence(int(seed["entropy"]), spawn_key=key)
+        try:
+            ent = validation.integer(seed["entropy"], "seed entropy", minimum=0)
+            keys = seed.get("spawn_key", ())
+            if isinstance(keys, (str, bytes, Mapping)) or not isinstance(keys, Sequence):
+                raise InvalidInputError(f"seed spawn_key must be a list of integers ≥ 0, got {keys!r}")
+            key = tuple(validation.integer(k, "seed spawn_key entry", minimum=0) for k in keys)
+        except InvalidInputError as exc:
+            raise InvalidInputError(
+                f"{exc}; a seed is an int ≥ 0 or {{'entropy': int, 'spawn_key': [int, ...]}}"
+            ) from None
+        return np.random.SeedSequence(ent, spawn_key=key)
     raise InvalidInputError(
         f"seed must be a non-negative int or {{'entropy': int, 'spawn_key': [int, ...]}}, got {seed!r}"
     )
@@ -140,7 +156,22 @@ def draw_displacement(rng: np.random.Generator, level: Level, nq: int, qd_max: f
 
     The draw order is fixed (direction, axis, scale sign, velocity) so that a stream always gives the same
     target; it is the order of ``benchmarks/robustness.py`` (``draw_target``), whose targets this reproduces.
+
+    Raises:
+        InvalidInputError: ``rng`` not a numpy Generator, ``level`` not a :class:`Level` of finite sizes ≥ 0
+            (scale < 1), ``nq`` not an integer ≥ 0, ``qd_max`` not finite ≥ 0.
     """
+    if not isinstance(rng, np.random.Generator):
+        raise InvalidInputError(
+            f"rng must be a numpy.random.Generator (np.random.default_rng(seed)), got {type(rng).__name__}"
+        )
+    if not isinstance(level, Level):
+        raise InvalidInputError(f"level must be a coop_ga.sweep.Level (e.g. LEVELS['small']), got {level!r}")
+    validation.nonnegative(level.translation_m, "level.translation_m [m]")
+    validation.scalar(level.angle_deg, "level.angle_deg [deg]", low=0.0, high=180.0)
+    validation.scalar(level.scale, "level.scale (relative change)", low=0.0, high=0.99)
+    nq = validation.integer(nq, "nq", minimum=0)
+    qd_max = validation.nonnegative(qd_max, "qd_max [rad/s]")
     direction = _unit(rng)
     axis = _unit(rng)
     sign = 1.0 if rng.random() < 0.5 else -1.0
@@ -170,8 +201,15 @@ def certify(task: Any, q0: np.ndarray, target: Any) -> dict[str, Any]:
     ``scipy.optimize.least_squares(e, q0, jac=J_e, bounds=(lower, upper), method="trf")`` from q0 (nq,) [rad];
     certified iff the final ‖e‖ < :data:`CERT_TOL` and the final q is within the limits.  Returns
     ``{certified, error, violation, nfev, status, reason, time_s}`` (the same as ``benchmarks/robustness.py``).
+
+    Raises:
+        InvalidInputError: ``task`` is not a cooperative task, ``q0`` not a finite (nq,) vector.
     """
     from scipy.optimize import least_squares
+
+    if not (hasattr(task, "error_and_jacobian") and hasattr(task, "system") and hasattr(task, "nq")):
+        raise InvalidInputError(f"task must be a coop_ga cooperative task, got {type(task).__name__}")
+    q0 = validation.configuration(q0, int(task.nq), "q0")
 
     lim = task.system.limits
     lo, hi = np.asarray(lim.lower, dtype=float), np.asarray(lim.upper, dtype=float)

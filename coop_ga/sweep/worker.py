@@ -33,10 +33,11 @@ import contextlib
 import json
 import math
 import os
+import signal
 import time
 import warnings
 from collections import OrderedDict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import fields, is_dataclass
 from typing import Any
 
@@ -45,7 +46,7 @@ import numpy as np
 from .spec import CONTROLLERS, job_hash
 from .targets import LEVELS, Level, certify, draw_displacement, seed_sequence
 
-__all__ = ["BLAS_ENV", "TIME_FIELDS", "init_worker", "run_chunk", "run_job"]
+__all__ = ["BLAS_ENV", "FAULTS_ENV", "TIME_FIELDS", "RayWorker", "base_record", "init_worker", "run_job", "serve"]
 
 #: environment variables that pin BLAS/OpenMP to one thread (set before numpy loads)
 BLAS_ENV = {
@@ -364,7 +365,8 @@ def _start(job: Mapping[str, Any], task: Any, rng: np.random.Generator, draw: An
     return q, qd
 
 
-def _base_record(index: int, job: Mapping[str, Any]) -> dict[str, Any]:
+def base_record(index: int, job: Mapping[str, Any]) -> dict[str, Any]:
+    """The fields every record of a normalized job has, before it runs (``status="ok"``, no result yet)."""
     sys_name = job["system"] if isinstance(job["system"], str) else job["system"].get("name") or job["system"]["urdf"]
     ss = seed_sequence(job["seed"])
     rec: dict[str, Any] = {
@@ -395,15 +397,29 @@ def _base_record(index: int, job: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def run_job(index: int, job: Mapping[str, Any]) -> dict[str, Any]:
-    """Run one normalized job → its record (module docstring).  Never raises for a failing job."""
+    """Run one job → its record (module docstring).  A job that fails is a record, never an exception.
+
+    Args:
+        index: the job's index in its sweep (an integer ≥ 0; the record's ``job``).
+        job: a job dict (:func:`coop_ga.sweep.normalize_job` is applied; a normalized job is unchanged by it).
+
+    Raises:
+        InvalidInputError: a bad ``index``.  InvalidJobError: a malformed job (nothing ran).
+    """
+    from .. import validation
+    from .spec import normalize_job
+
+    index = validation.integer(index, "index (the job's index in the sweep)", minimum=0)
+    job = normalize_job(job)
     try:
-        rec = _base_record(index, job)
+        rec = base_record(index, job)
     except Exception as exc:  # pragma: no cover - normalize_job checked the structure
         return {"job": int(index), "status": "failed", "converged": False, "error": None, "iterations": None,
                 "seconds": 0.0, "exception_type": type(exc).__name__, "exception": str(exc)[:MESSAGE_CHARS]}  # fmt: skip
     t0 = time.perf_counter()
     stage = "setup"
     try:
+        _test_fault(job)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             reason = _case_problem(job)
@@ -458,6 +474,82 @@ def _certificate(job: Mapping[str, Any], task: Any, target: Any) -> dict[str, An
     return c
 
 
-def run_chunk(items: Iterable[tuple[int, Mapping[str, Any]]]) -> list[dict[str, Any]]:
-    """Run several (index, job) pairs in this process → their records (the unit of work sent to a worker)."""
-    return [run_job(i, j) for i, j in items]
+# ============================================================================ running in a worker process
+#: with this variable set to 1 in a worker's environment, a job whose tags hold ``"fault"`` does not run but
+#: provokes that fault (the tests of the executors' fault handling; without the variable the tag is a tag)
+FAULTS_ENV = "COOP_GA_SWEEP_TEST_FAULTS"
+_FAULTS = ("exit", "kill", "segfault", "hang", "raise")
+
+
+def _test_fault(job: Mapping[str, Any]) -> None:
+    """Test hook (:data:`FAULTS_ENV`): ``tags.fault`` in exit | kill | segfault | hang | raise; with
+    ``tags.fault_once`` (a file path) only while that file does not exist (it is created first), so a retry runs."""
+    tags = job.get("tags") or {}
+    fault = tags.get("fault")
+    if fault is None or os.environ.get(FAULTS_ENV) != "1":
+        return
+    once = tags.get("fault_once")
+    if once is not None:
+        try:
+            with open(once, "x"):
+                pass
+        except FileExistsError:
+            return
+    if fault == "exit":
+        os._exit(3)
+    if fault == "kill":
+        os.kill(os.getpid(), signal.SIGKILL)
+    if fault == "segfault":
+        import ctypes
+
+        ctypes.string_at(0)  # reads address 0: SIGSEGV
+    if fault == "hang":
+        time.sleep(1e6)
+    raise RuntimeError(f"test fault {fault!r} (one of {_FAULTS})")
+
+
+def serve(conn: Any, setup: Sequence[Mapping[str, Any]], warmup: bool, env: Mapping[str, str] | None = None) -> None:
+    """A process-pool worker: take the parent's environment ``env`` (a forked worker has the fork server's),
+    initialise (:func:`init_worker`), say ``("ready", pid)``, then for every ``(index, job)`` received send
+    ``("done", record)``; return on ``None`` or when the parent has gone.
+
+    Ctrl-C is ignored here: the parent decides when workers stop.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if env is not None:
+        os.environ.clear()
+        os.environ.update(env)
+    init_worker(setup, warmup)
+    try:
+        conn.send(("ready", os.getpid()))
+        while True:
+            item = conn.recv()
+            if item is None:
+                return
+            conn.send(("done", run_job(*item)))
+    except (EOFError, OSError, BrokenPipeError):  # the parent has gone
+        return
+
+
+class RayWorker:
+    """The Ray actor of a sweep (wrapped with ``ray.remote`` by the executor): one per worker slot."""
+
+    def __init__(self, setup: Sequence[Mapping[str, Any]], warmup: bool):
+        init_worker(setup, warmup)
+
+    def ready(self) -> int:
+        """The actor's process id, once it has initialised."""
+        return os.getpid()
+
+    def run(self, index: int, job: Mapping[str, Any]) -> dict[str, Any]:
+        """:func:`run_job` in the actor."""
+        return run_job(index, job)
+
+
+def dask_job(index: int, job: Mapping[str, Any], topic: str) -> dict[str, Any]:
+    """:func:`run_job` as a Dask task that first logs ``{"job", "worker"}`` to ``topic`` (its start, for timeouts)."""
+    from distributed import get_worker
+
+    w = get_worker()
+    w.log_event(topic, {"job": int(index), "worker": w.address})
+    return run_job(index, job)

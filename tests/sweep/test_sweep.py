@@ -1,4 +1,4 @@
-"""coop_ga.sweep (issue 16): executors agree, resume, failures are data, specs, store, summary.
+"""coop_ga.sweep: executors agree, resume, failures are data, specs, store, summary.
 
 Sweeps are tiny (a few jobs on ``three_finger_hand``, 12 joints) so that the file runs in well under a minute;
 records are compared exactly, timing fields (``coop_ga.sweep.TIME_FIELDS``) excepted.
@@ -173,9 +173,9 @@ def test_malformed_jobs_raise_before_running(job: Any, match: str) -> None:
 def test_process_pool_equals_serial_with_a_cold_shared_cache(
     serial: list[dict[str, Any]], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """2 spawned workers build the same tasks for the first time, in one empty cache, at once.
+    """2 workers build the same tasks for the first time, in one empty cache, at once.
 
-    coop_ga.codegen makes that safe (flock per entry + atomic os.replace, issue 10; the compile-once and
+    coop_ga.codegen makes that safe (flock per entry + atomic os.replace; the compile-once and
     no-crash properties under 12 concurrent processes are tests/reliability/test_compile_cache.py::
     test_defect1_concurrent_first_compiles_do_not_crash).  Here: the records equal the serial ones and the
     cache holds exactly one verified library per entry, no temporaries.
@@ -184,7 +184,7 @@ def test_process_pool_equals_serial_with_a_cold_shared_cache(
 
     cache = tmp_path / "cache"
     monkeypatch.setenv("COOP_GA_CACHE", str(cache))
-    recs = sw.run(_jobs() + _failing(), executor="process", workers=2, chunksize=1)
+    recs = sw.run(_jobs() + _failing(), executor="process", workers=2)
     _same(serial, recs)
     so = sorted(cache.glob("*.so"))
     assert so, "the workers compiled nothing into the shared cache"
@@ -195,10 +195,32 @@ def test_process_pool_equals_serial_with_a_cold_shared_cache(
     assert not [n for n in names if not n.endswith((".so", ".so.sha256", ".lock"))], names
 
 
-def test_dask_local_cluster_equals_serial(serial: list[dict[str, Any]]) -> None:
+def _faults() -> list[dict[str, Any]]:
+    """A job that kills its worker (os._exit) and one that hangs (worker test hook, COOP_GA_SWEEP_TEST_FAULTS=1)."""
+    base = {"system": SYSTEM, "kind": "circle", "controller": "gauss_newton"}
+    return [{**base, "tags": {"fault": "exit"}}, {**base, "tags": {"fault": "hang"}}]
+
+
+FAULT_TIMEOUT = 20.0  # [s]: above any normal job here on a loaded machine (an unreachable iLQR runs seconds)
+
+
+def _same_with_faults(serial: list[dict[str, Any]], recs: list[dict[str, Any]]) -> None:
+    """The faults ran first (restarts overlap the other jobs); the normal jobs' records equal serial's; the killer
+    is WorkerDied after its retry, the hung job timed out."""
+    died, hung = recs[:2]
+    assert died["status"] == "failed" and died["exception_type"] == "WorkerDied", died
+    assert hung["status"] == "timeout" and hung["exception_type"] == "Timeout", hung
+    _same(serial, [{**r, "job": r["job"] - 2} for r in recs[2:]])
+
+
+def test_dask_local_cluster_equals_serial(serial: list[dict[str, Any]], monkeypatch: pytest.MonkeyPatch) -> None:
+    """Dask's own death rule (allowed-failures = retries = 1 on the local cluster) and the cancel-and-restart
+    timeout give the same records as the process pool."""
     pytest.importorskip("dask.distributed", reason="the dask extra is not installed: pip install 'coop_ga[dask]'")
-    recs = sw.run(_jobs() + _failing(), executor="dask", workers=2)
-    _same(serial, recs)
+    monkeypatch.setenv("COOP_GA_SWEEP_TEST_FAULTS", "1")
+    recs = sw.run(_faults() + _jobs() + _failing(), executor="dask", workers=2, timeout=FAULT_TIMEOUT)
+    _same_with_faults(serial, recs)
+    assert "KilledWorker" in recs[0]["exception"]
 
 
 def test_dask_existing_scheduler_address(serial: list[dict[str, Any]]) -> None:
@@ -210,10 +232,13 @@ def test_dask_existing_scheduler_address(serial: list[dict[str, Any]]) -> None:
     _same(serial, recs)
 
 
-def test_ray_equals_serial(serial: list[dict[str, Any]]) -> None:
+def test_ray_equals_serial(serial: list[dict[str, Any]], monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ray actors, one job at a time each: a dead actor's job is retried once on a new actor, a hung one killed."""
     pytest.importorskip("ray", reason="the ray extra is not installed: pip install 'coop_ga[ray]'")
-    recs = sw.run(_jobs() + _failing(), executor="ray", workers=2)
-    _same(serial, recs)
+    monkeypatch.setenv("COOP_GA_SWEEP_TEST_FAULTS", "1")
+    recs = sw.run(_faults() + _jobs() + _failing(), executor="ray", workers=2, timeout=FAULT_TIMEOUT)
+    _same_with_faults(serial, recs)
+    assert "ActorDiedError" in recs[0]["exception"] and "2 attempts" in recs[0]["exception"]
 
 
 @pytest.mark.parametrize(("executor", "module", "extra"), [("dask", "dask.distributed", "dask"), ("ray", "ray", "ray")])
@@ -229,6 +254,8 @@ def test_bad_executor_and_workers() -> None:
         sw.run([], executor="threads")
     with pytest.raises(sw.SweepError, match="workers must be"):
         sw.run([], executor="process", workers=0)
+    with pytest.raises(sw.SweepArgumentError, match="workers must be"):
+        sw.run([], executor="process", workers=1.5)
 
 
 # ---------------------------------------------------------------------------- store and resume
