@@ -5,7 +5,7 @@ A **job** is a plain dict (or a :class:`Job`, converted with :meth:`Job.to_dict`
     {"system": "three_franka",          # a registry name, or a from_urdf recipe (below)
      "kind": "circle",                   # point, point_pair, line, circle, plane, sphere
      "points": None,                     # optional: end-point indices (coop_ga.cooperative_task)
-     "controller": "gauss_newton",       # gauss_newton | diff_ik | ilqr | ilqr_moving | impedance (gn, diffik)
+     "controller": "gauss_newton",       # a registered solver (coop_ga.control.SOLVERS) or ilqr_moving
      "options": {},                      # keyword overrides of the controller's options dataclass
      "target": {"translation": [0.05, 0, 0], "angle": 0.2, "axis": [0, 0, 1], "scale": 1.1},
      "start": None,                      # optional: {"spread": rad, "qd_max": rad/s} random start about q0
@@ -97,16 +97,25 @@ class InvalidJobError(InvalidInputError):
     """A job or sweep specification is malformed (raised before any job runs)."""
 
 
-#: controller names → canonical names (``gn``/``diffik`` are the robustness study's names)
-CONTROLLERS: dict[str, str] = {
-    "gauss_newton": "gauss_newton",
-    "gn": "gauss_newton",
-    "diff_ik": "diff_ik",
-    "diffik": "diff_ik",
-    "ilqr": "ilqr",
-    "ilqr_moving": "ilqr_moving",
-    "impedance": "impedance",
-}
+#: the sweep-only variant of iLQR that starts from the sampled displacement's joint velocity
+MOVING_ILQR = "ilqr_moving"
+
+
+def _controllers() -> dict[str, str]:
+    """Controller names → canonical solver names, read from :data:`coop_ga.control.SOLVERS`: every runner of
+    the ``reach`` signature that needs no problem data beyond its options (names and aliases, e.g. ``gn``,
+    ``diffik``), plus :data:`MOVING_ILQR`."""
+    from ..control.registry import SOLVERS
+
+    out = {MOVING_ILQR: MOVING_ILQR}
+    for e in SOLVERS.values():
+        if e.signature == "reach" and not e.required:
+            out.update(dict.fromkeys((e.name, *e.aliases), e.name))
+    return out
+
+
+#: controller names → canonical names (from the solver registry; ``gn``/``diffik`` are the robustness study's)
+CONTROLLERS: dict[str, str] = _controllers()
 #: default limit of the jobs a spec may expand into (``expand(max_jobs=)``, ``--max-jobs``)
 MAX_JOBS = 10**6
 MAX_SPEC_BYTES = 8 * 2**20  # a spec file's size limit [bytes]

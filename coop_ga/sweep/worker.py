@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from .spec import CONTROLLERS, job_hash
+from .spec import CONTROLLERS, MOVING_ILQR, job_hash
 from .targets import LEVELS, Level, certify, draw_displacement, seed_sequence
 
 __all__ = ["BLAS_ENV", "FAULTS_ENV", "TIME_FIELDS", "RayWorker", "base_record", "init_worker", "run_job", "serve"]
@@ -184,7 +184,7 @@ def init_worker(jobs: Sequence[Mapping[str, Any]] = (), warmup: bool = True, wor
 
 def _options(job: Mapping[str, Any]) -> dict[str, Any]:
     opts = dict(job.get("options") or {})
-    if CONTROLLERS[job["controller"]] == "impedance":
+    if CONTROLLERS[job["controller"]] == "simulate_impedance":
         for g in ("K", "D"):
             if isinstance(opts.get(g), list):
                 opts[g] = np.asarray(opts[g], dtype=float)
@@ -192,19 +192,15 @@ def _options(job: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _call(job: Mapping[str, Any], task: Any, q: np.ndarray, target: Any, qd: np.ndarray | None) -> Any:
-    from ..control import diff_ik_reach, gauss_newton_ik, ilqr_reach, simulate_impedance
+    """Run the job's controller through the solver registry (:func:`coop_ga.control.get_solver`)."""
+    from ..control import get_solver
 
     name = CONTROLLERS[job["controller"]]
+    entry = get_solver("ilqr" if name == MOVING_ILQR else name)
     opts = _options(job)
-    if name == "gauss_newton":
-        return gauss_newton_ik(task, q, target, **opts)
-    if name == "diff_ik":
-        return diff_ik_reach(task, q, target, **opts)
-    if name in ("ilqr", "ilqr_moving"):
-        return ilqr_reach(task, q, target, qd_init=qd, **opts)
-    if name == "impedance":
-        return simulate_impedance(task, q, target, qd_init=qd, **opts)
-    raise AssertionError(name)  # normalize_job checked the name
+    if entry.initial_velocity:
+        opts["qd_init"] = qd
+    return entry.solve(task, q, target, **opts)
 
 
 def _warm_up(job: Mapping[str, Any]) -> None:
@@ -222,7 +218,7 @@ def _warm_up(job: Mapping[str, Any]) -> None:
         q0 = np.asarray(task.system.q0, dtype=float)
         tgt = displaced_target(task, q0, **_WARMUP)
         wjob = dict(job)
-        if name == "impedance":  # a few steps build everything a long simulation uses
+        if name == "simulate_impedance":  # a few steps build everything a long simulation uses
             wjob["options"] = {**(job.get("options") or {}), "duration": 0.005}
         _call(wjob, task, q0, tgt, np.zeros(task.nq))
     _CTX.warm[k] = time.perf_counter() - t0
@@ -276,7 +272,7 @@ def _result_fields(job: Mapping[str, Any], task: Any, res: Any) -> dict[str, Any
     qd = getattr(res, "qd", None)
     name = CONTROLLERS[job["controller"]]
     dt = getattr(res, "dt", None)
-    if name == "diff_ik" and dt is None:
+    if name == "diff_ik_reach" and dt is None:
         from ..control import DiffIKOptions
 
         dt = float(job["options"].get("dt", DiffIKOptions().dt))
@@ -289,7 +285,7 @@ def _result_fields(job: Mapping[str, Any], task: Any, res: Any) -> dict[str, Any
         out["max_speed"] = _finite(np.max(np.abs(qd)))
         out["final_speed"] = _finite(np.max(np.abs(qd[-1])))
         out["speed_violation"] = _finite(lim.velocity_violation(qd))
-    if name == "diff_ik":
+    if name == "diff_ik_reach":
         errs = getattr(res, "errors", None)
         t_reach = None
         if errs is not None and dt is not None:
@@ -360,7 +356,7 @@ def _start(job: Mapping[str, Any], task: Any, rng: np.random.Generator, draw: An
         q = np.clip(q, np.asarray(lim.lower, dtype=float), np.asarray(lim.upper, dtype=float))
     if st.get("qd_max"):
         qd = rng.uniform(-float(st["qd_max"]), float(st["qd_max"]), size=task.nq)
-    if CONTROLLERS[job["controller"]] == "ilqr_moving" and draw is not None:
+    if CONTROLLERS[job["controller"]] == MOVING_ILQR and draw is not None:
         qd = np.asarray(draw.qd_init, dtype=float)
     return q, qd
 
