@@ -99,3 +99,43 @@ def test_reentering_an_active_collector_is_refused():
     with c, pytest.raises(InvalidInputError, match="already active"):
         c.__enter__()
     assert diagnostics._stack() == []
+
+
+def test_ilqr_restart_from_a_random_start_keeps_its_warnings():
+    """The crash found by scanning random in-limit starts (allegro circle, seed 35 of 400): the first solve
+    stalls without a warning, the restart's Gauss–Newton IK converges without one, and the restarted solve
+    passes near a degenerate circle.  Before: ``ValueError: list.remove(x): x not in list`` and a stale
+    collector left on the stack."""
+    import numpy as np
+
+    import coop_ga as cg
+    from coop_ga.control import displaced_target, ilqr_reach
+    from coop_ga.control import gauss_newton as gn_module
+    from coop_ga.sweep.targets import LEVELS, draw_displacement
+
+    task = cg.cooperative_task(cg.systems.load("allegro"), "circle")
+    lim = task.system.limits
+    rng = np.random.default_rng(35)
+    q = rng.uniform(lim.lower, lim.upper)
+    d = draw_displacement(rng, LEVELS["large"], task.nq)
+    target = displaced_target(
+        task, task.system.q0, translation=d.translation, axis=d.axis, angle=d.angle, scale=d.scale
+    )
+    ik_calls = []
+    original = gn_module.gauss_newton_ik
+
+    def spy(*args, **kwargs):
+        ik_calls.append(1)
+        return original(*args, **kwargs)
+
+    with warnings.catch_warnings(record=True) as caught, pytest.MonkeyPatch.context() as mp:
+        warnings.simplefilter("always")
+        mp.setattr(gn_module, "gauss_newton_ik", spy)
+        res = ilqr_reach(task, q, target)
+        assert ik_calls == [1]  # the restart ran (the nesting of the crash)
+        assert diagnostics._stack() == []
+        n = res.warnings["DegeneracyWarning:allegro"]
+        assert n > 1
+        assert [str(w.message).endswith(f"(occurred {n} times in this call)") for w in caught] == [True]
+        warn("later", JointLimitWarning)
+        assert len(caught) == 2 and str(caught[-1].message) == "later"
