@@ -85,9 +85,28 @@ Feasibility of what is returned.  After the solve, the trajectory is blended wit
 strictly feasible reference (rest at q_init, or braking to rest from a moving start):
 ``u ← (1 − β) u + β u_ref`` with the smallest β that satisfies every bound (the
 constraints are affine in u, so β is computed exactly).  β is 0 when the AL solution is
-already feasible and tiny otherwise (reported).  Hence **every returned trajectory
-satisfies the bounds** (to 1e-12); if no strictly feasible reference exists (a start
-state that cannot be stopped within the limits) the result says so and is not converged.
+already feasible and tiny otherwise (reported).  A start on a position bound is feasible
+but rest there is not *strictly* feasible (the blend could not move the trajectory off that
+bound); the blend is then done joint by joint (the dynamics and the bounds are separable per
+joint), each joint that leaves a bound with its own strictly feasible reference: braking, a
+bang-bang move of ≤ 0.05 rad inward off the bound, or, for a joint moving out through its
+bound, a reversal of its velocity in one knot where the acceleration bound allows it.  Hence
+**every returned trajectory satisfies the bounds** (to 1e-12), including a start on a bound
+(Talos' neutral configuration has four arm joints on one); only a start that no control keeps
+inside (a joint moving out through the bound it sits on faster than its acceleration bound can
+reverse) is reported as such and is not converged.
+
+Fast honest failure.  Before iterating, :func:`_unreachable` checks a certificate: every end point
+stays in a ball about its chain's first joint (radius: the sum of the link offsets, plus the
+travel of prismatic joints), and ``e = 0`` puts every end point on the target primitive; if the
+target primitive misses one ball by a margin (ten times the displacement ``tol`` allows), no
+configuration reaches the target and the solve returns at once (rest, or braking to rest, inside
+the limits) with ``converged=False`` and a message saying the target is not reachable inside the
+limits from this start.  A target 3 m away thus fails in ~0.01 s instead of the full budget
+(1–7 s, 1–20× the bounded Gauss–Newton IK's time; ``benchmarks/ilqr_unreachable.py``).  The
+certificate is exact, so no run that can converge is cut short; targets within reach that the
+limits (or the primitive's orientation) make unreachable are not certified and still use the
+budget.
 
 ``converged`` means: ``‖e(q_n)‖ < tol`` **and** the bounds hold **and** the last step was
 accepted by the line search on the true (re-evaluated) merit.  An unreachable target
@@ -856,6 +875,178 @@ def _active(ocp: ReachingOCP, q: np.ndarray, qd: np.ndarray, u: np.ndarray, tol:
     return tuple(out)
 
 
+def _strictly_inside(ocp: ReachingOCP, u: np.ndarray) -> np.ndarray:
+    """Per joint (nq,): whether the trajectory of ``u`` is strictly inside every bound of that joint at the knots
+    1 … n (positions and velocities) and strictly below its acceleration bound."""
+    q, qd = ocp.rollout(u)
+    c = ocp.constraint_values(q, qd)  # (n, 4, nq), −inf where a bound is infinite
+    return np.all(c < 0.0, axis=(0, 1)) & np.all(np.abs(u) < ocp.a_max, axis=0)
+
+
+def _joint_inside(ocp: ReachingOCP, j: int, uj: np.ndarray) -> bool:
+    """Whether joint j alone, driven by ``uj`` (n,), stays strictly inside its bounds at the knots 1 … n."""
+    qd = ocp.qd_init[j] + np.cumsum(ocp.dt * uj)
+    q = ocp.q_init[j] + np.cumsum(ocp.dt * np.concatenate([[ocp.qd_init[j]], qd[:-1]]) + ocp.h * uj)
+    lo, hi, v, a = ocp.q_lower[j], ocp.q_upper[j], ocp.v_max[j], ocp.a_max[j]
+    return bool(np.all((q > lo) & (q < hi) & (np.abs(qd) < v) & (np.abs(uj) < a)))
+
+
+def _joint_reference(ocp: ReachingOCP, j: int) -> np.ndarray | None:
+    """Controls (n,) of joint j alone that keep it strictly inside its bounds, or None if there are none of this form.
+
+    Braking to rest at 90 % of the acceleration bound (10 rad/s² where it is infinite), then a bang-bang move of at
+    most 0.05 rad inward (toward the middle of the range; from rest on a position bound this is what makes the
+    reference strictly feasible).  A joint moving out through a bound it sits on cannot brake in time; if its
+    acceleration bound allows (> 2.1 |q̇₀|/Δt, always when it is infinite) it first reverses its velocity in one knot
+    ("bounce": ``u₀ = −2.1 q̇₀/Δt``, so that q₁ = q₀ − 0.05 Δt q̇₀ is inside), then brakes and moves inward.
+    """
+    T, dt, v0, q0 = ocp.horizon, ocp.dt, ocp.qd_init[j], ocp.q_init[j]
+    a = 0.9 * ocp.a_max[j] if np.isfinite(ocp.a_max[j]) else 10.0  # [rad/s²]
+    plain = _joint_inward(ocp, j, np.zeros(T), a, 0, v0, q0)
+    if _joint_inside(ocp, j, plain):
+        return plain
+    if v0 == 0.0 or T < 3:
+        return None
+    bounce = np.zeros(T)
+    bounce[0] = -2.1 * v0 / dt  # q̇₁ = −1.1 q̇₀, q₁ = q₀ − 0.05 Δt q̇₀
+    bounce = _joint_inward(ocp, j, bounce, a, 1, -1.1 * v0, q0 - 0.05 * dt * v0)
+    return bounce if _joint_inside(ocp, j, bounce) else None
+
+
+def _joint_inward(ocp: ReachingOCP, j: int, uj: np.ndarray, a: float, start: int, v: float, q: float) -> np.ndarray:
+    """Fill ``uj[start:]``: from velocity v at position q (knot ``start``), brake to rest at deceleration ≤ a, then move
+    inward by at most 0.05 rad (k knots at +a, k at −a: rest to rest, a displacement of a (k Δt)²)."""
+    T, dt = ocp.horizon, ocp.dt
+    m = min(int(np.ceil(abs(v) / (a * dt))), T - start) if v != 0.0 else 0
+    if m:
+        uj[start : start + m] = -v / (m * dt)
+    q_stop = q + 0.5 * v * m * dt  # exact for the constant deceleration (ZOH)
+    lo, hi = ocp.q_lower[j], ocp.q_upper[j]
+    width, rest = hi - lo, T - start - m
+    if not width > 0.0 or rest < 2:
+        return uj
+    delta = min(0.05, 0.25 * width) if np.isfinite(width) else 0.05
+    v_cap = 0.9 * ocp.v_max[j] if np.isfinite(ocp.v_max[j]) else np.inf
+    a = min(a, delta / dt**2, v_cap / dt)
+    k = int(max(1, min(np.floor(np.sqrt(delta / a) / dt), np.floor(v_cap / (a * dt)), rest // 2)))
+    sign = 1.0 if q_stop - lo <= hi - q_stop else -1.0
+    i = start + m
+    uj[i : i + k] += sign * a
+    uj[i + k : i + 2 * k] -= sign * a
+    return uj
+
+
+def _restore_joints(ocp: ReachingOCP, u: np.ndarray, u_ref: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Joint-by-joint feasibility blend: ``u_j ← (1 − β_j) u_j + β_j r_j`` for each joint j that leaves a bound, with
+    r_j strictly feasible for joint j (the reference ``u_ref``'s column where it is, else :func:`_joint_reference`).
+
+    The double integrator and the bounds are separable per joint, so each β_j is exact for its joint and the other
+    joints are left alone.  Used when ``u_ref`` is not strictly feasible as a whole (a start on a position bound: rest
+    there is feasible, not strictly).  Returns ``(u, max β_j)``, or None if a violating joint has no strictly feasible
+    reference.
+    """
+    q, qd = ocp.rollout(u)
+    ca = np.concatenate([ocp.constraint_values(q, qd), (np.abs(u) - ocp.a_max)[:, None, :]], axis=1)  # (n, 5, nq)
+    bad = np.flatnonzero(np.max(ca, axis=(0, 1)) > 0.0)
+    if not bad.size:
+        return u, 0.0
+    ref = u_ref.copy()
+    ok = _strictly_inside(ocp, ref)
+    for j in bad:
+        if not ok[j]:
+            rj = _joint_reference(ocp, int(j))
+            if rj is not None:
+                ref[:, j] = rj
+    if not np.all(_strictly_inside(ocp, ref)[bad]):
+        return None
+    qr, qdr = ocp.rollout(ref)
+    cr = np.concatenate([ocp.constraint_values(qr, qdr), (np.abs(ref) - ocp.a_max)[:, None, :]], axis=1)
+    out = u.copy()
+    beta_max = 0.0
+    for j in bad:
+        cj, crj = ca[:, :, j].ravel(), cr[:, :, j].ravel()
+        viol = cj > 0
+        beta = float(np.max(cj[viol] / (cj[viol] - crj[viol])))
+        beta = min(1.0, beta * (1.0 + 1e-9) + 1e-15)
+        out[:, j] = (1.0 - beta) * u[:, j] + beta * ref[:, j]
+        beta_max = max(beta_max, beta)
+    return out, beta_max
+
+
+def _unit_distance(kind: str, y: np.ndarray) -> float:
+    """Distance of the point y (3,) from the unit primitive X_u of ``kind`` (:func:`coop_ga.geometry.unit_primitive`:
+    the origin; the points (0, ∓1, 0); the e2 axis; the unit circle in z = 0; the plane z = 0; the unit sphere)."""
+    x1, x2, x3 = (float(c) for c in y)
+    if kind == "point":
+        return float(np.linalg.norm(y))
+    if kind == "point_pair":
+        return min(float(np.linalg.norm(y - (0.0, -1.0, 0.0))), float(np.linalg.norm(y - (0.0, 1.0, 0.0))))
+    if kind == "line":
+        return float(np.hypot(x1, x3))
+    if kind == "circle":
+        return float(np.hypot(np.hypot(x1, x2) - 1.0, x3))
+    if kind == "plane":
+        return abs(x3)
+    return abs(float(np.linalg.norm(y)) - 1.0)  # sphere
+
+
+def _reach_balls(ocp: ReachingOCP) -> list[tuple[np.ndarray, float]] | None:
+    """For each end point of the task, a ball (centre (3,) [m], radius [m]) that contains every position it can take
+    within the position limits; None if the task has no kinematic tree.
+
+    Centre: the origin of the chain's first joint (fixed in the world).  Radius: by the triangle inequality, the sum
+    of the lengths of the later joint placements and of the end frame's offset (a revolute joint turns about an axis
+    through its origin, so it does not move a point away from it by more than that), plus the largest travel of each
+    prismatic joint (infinite without position limits).
+    """
+    tree = getattr(ocp.task, "tree", None)
+    if tree is None or not hasattr(tree, "chains"):
+        return None
+    model = tree.model
+    travel = np.maximum(np.abs(ocp.q_lower), np.abs(ocp.q_upper))
+    balls = []
+    for chain, fname in zip(tree.chains, tree.end_frames):
+        offset = np.asarray(model.frames[model.getFrameId(fname)].placement.translation, dtype=float)
+        if not chain:
+            balls.append((offset, 0.0))
+            continue
+        radius = float(np.linalg.norm(offset))
+        radius += sum(float(np.linalg.norm(model.jointPlacements[j].translation)) for j in chain[1:])
+        radius += sum(float(travel[tree.joints[j].q_index]) for j in chain if tree.joints[j].kind == "prismatic")
+        balls.append((np.asarray(model.jointPlacements[chain[0]].translation, dtype=float), radius))
+    return balls
+
+
+def _unreachable(ocp: ReachingOCP, tol: float) -> str | None:
+    """A certificate that no configuration within the limits reaches ‖e‖ < tol, or None.
+
+    ‖e‖ = 0 puts every end point on the target primitive X_d = V_Sd X_u Ṽ_Sd (the cooperative primitive passes through
+    them, and e = 0 makes it X_d).  If X_d does not meet the ball that contains every position of some end point
+    (:func:`_reach_balls`), no configuration reaches the target.  ‖e‖ < tol moves the end points off X_d by at most
+    ~tol·(s + 2L) (s the target's scale, L their distance from its centre), so the certificate asks for a gap of ten
+    times that; it is off for the least-squares kinds (their points need not lie on the primitive) and for tol > 0.1.
+    Cost: microseconds (no task evaluation).
+    """
+    kind = getattr(ocp.task, "kind", None)
+    balls = _reach_balls(ocp) if kind in ("point", "point_pair", "line", "circle", "plane", "sphere") else None
+    if balls is None or tol > 0.1:
+        return None
+    t, Rm, s = ocp.target.translation, ocp.target.rotation_matrix, float(ocp.target.scale)
+    for i, (c, r) in enumerate(balls):
+        if not np.isfinite(r):
+            continue
+        gap = s * _unit_distance(str(kind), Rm.T @ (c - t) / s) - r  # [m] between the ball and X_d
+        margin = 10.0 * max(tol, 1e-3) * (s + 2.0 * (float(np.linalg.norm(c - t)) + r))
+        if gap > margin:
+            frame = ocp.task.tree.end_frames[i]
+            return (
+                f"unreachable: the target {kind} passes {gap:.3g} m outside the reach of end point {i} ('{frame}'), "
+                f"a ball of radius {r:.3g} m about its chain's first joint that holds every position it can take, so "
+                "the target is not reachable inside the limits from this start (nor from any other)"
+            )
+    return None
+
+
 # ============================================================================ solver
 def ilqr_reach(
     task: Any,
@@ -919,6 +1110,11 @@ def ilqr_reach(
         if lim.velocity_violation(ocp.qd_init) > 1e-9:
             raise InvalidInputError("qd_init exceeds the velocity limits; lower it, or pass limits='none'")
     with collect_warnings() as caught:
+        unreachable = _unreachable(ocp, o.tol)
+        if unreachable is not None:  # certified: no iteration can help (module docstring, "Fast honest failure")
+            t_start = time.perf_counter()
+            u_ref = _reference_controls(ocp)
+            return _finish(ocp, o, u_ref, u_ref, _Progress(t_start=t_start, message=unreachable), caught.counts)
         res = _solve(ocp, o, u_init, caught.counts)
         # restart only a solve that stalled (not one that ran out of its iteration budget, not an
         # unreachable tol = 0, not a user's own initial guess)
@@ -1239,18 +1435,61 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
     else:
         if not finished:
             message = f"max_outer ({o.max_outer}) outer iterations reached"
-    solve_time = time.perf_counter() - t_start
+    progress = _Progress(
+        t_start=t_start, costs=costs, errs=errs, stats=stats, iterations=it, outer=outer, message=message
+    )
+    return _finish(ocp, o, u, u_ref, progress, warning_counts)
+
+
+@dataclass
+class _Progress:
+    """What a solve reports besides its final controls: histories, counters, the reason it stopped."""
+
+    t_start: float
+    costs: list[float] = field(default_factory=list)
+    errs: list[float] = field(default_factory=list)
+    stats: list[ILQRIteration] = field(default_factory=list)
+    iterations: int = 0
+    outer: int = 0
+    message: str = ""
+
+
+def _finish(
+    ocp: ReachingOCP,
+    o: ILQROptions,
+    u: np.ndarray,
+    u_ref: np.ndarray,
+    progress: _Progress,
+    warning_counts: dict[str, int],
+) -> ILQRResult:
+    """The result of a solve that ended at ``u``: the feasibility blend with ``u_ref``, the re-evaluated terminal error
+    and cost, the limit checks, the verdict and its message."""
+    task = ocp.task
+    solve_time = time.perf_counter() - progress.t_start
+    message = progress.message or "stopped"
 
     # ---------------------------------------------------------------- feasibility of what is returned
     beta = 0.0
     if o.limits == "enforce":
         restored = _restore(ocp, u, u_ref)
-        if restored is None:
-            message += "; no strictly feasible reference: the trajectory may violate the limits"
-        else:
+        if restored is not None:
             u, beta = restored
             if beta > 0:
                 message += f"; blended with the feasible reference (β = {beta:.2e}) to satisfy the bounds exactly"
+        else:  # the reference is not strictly feasible as a whole (e.g. at rest on a position bound)
+            restored = _restore_joints(ocp, u, u_ref)
+            if restored is None:
+                message += (
+                    "; the start state cannot be kept inside the limits (a joint moves out through a bound faster "
+                    "than its acceleration limit can stop it): the trajectory may violate them"
+                )
+            else:
+                u, beta = restored
+                if beta > 0:
+                    message += (
+                        f"; blended joint by joint with feasible references (largest β = {beta:.2e}) to satisfy "
+                        "the bounds exactly"
+                    )
     q, qd = ocp.rollout(u)
     # the reported error is re-evaluated at the re-integrated terminal state (and re-checks degeneracy)
     lf, e, _ = ocp.terminal(q[-1], qd[-1])
@@ -1259,8 +1498,9 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
     min_clear = (
         float(min(ocp.clearance.evaluate(qk, hessian=False)[3] for qk in q)) if ocp.clearance is not None else np.inf
     )
-    costs[-1] = cost
-    errs[-1] = float(np.linalg.norm(e))
+    # the last iterate's entries re-evaluated (an early exit has no history yet: its only entry)
+    costs = [*progress.costs[:-1], cost]
+    errs = [*progress.errs[:-1], float(np.linalg.norm(e))]
     lim = task.system.limits
     pviol = lim.position_violation(q)
     vviol = lim.velocity_violation(qd)
@@ -1282,7 +1522,7 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
             else "converged: terminal error below tol (limits not enforced)"
         )
     else:
-        message = f"not converged: {message or 'stopped'}; ‖e‖ = {errs[-1]:.3g}" + (
+        message = f"not converged: {message}; ‖e‖ = {errs[-1]:.3g}" + (
             f"; bounds within 1e-3 of active: {'; '.join(active[:6])}{' …' if len(active) > 6 else ''}"
             if active
             else ""
@@ -1290,7 +1530,7 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
     return ILQRResult(
         converged=converged,
         error=errs[-1],
-        iterations=it,
+        iterations=progress.iterations,
         message=message,
         q=q[-1].copy(),
         warnings=warning_counts,
@@ -1304,12 +1544,12 @@ def _solve(ocp: ReachingOCP, o: ILQROptions, u_init: Any, warning_counts: dict[s
         cost_history=np.array(costs),
         error_history=np.array(errs),
         solve_time_s=solve_time,
-        stats=tuple(stats),
+        stats=tuple(progress.stats),
         joint_limit_violation=pviol,
         velocity_violation=vviol,
         acceleration_violation=aviol,
         active_constraints=active,
-        outer_iterations=outer,
+        outer_iterations=progress.outer,
         restoration=beta,
         dt=ocp.dt,
         target=ocp.target,
