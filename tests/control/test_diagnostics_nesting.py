@@ -103,14 +103,18 @@ def test_reentering_an_active_collector_is_refused():
 
 def test_ilqr_restart_from_a_random_start_keeps_its_warnings():
     """The crash found by scanning random in-limit starts (allegro circle, seed 35 of 400): the first solve
-    stalls without a warning, the restart's Gauss–Newton IK converges without one, and the restarted solve
-    passes near a degenerate circle.  Before: ``ValueError: list.remove(x): x not in list`` and a stale
-    collector left on the stack."""
+    stalls without a warning, the restart's Gauss–Newton IK runs (three nested collectors) and warns, and the
+    solve goes on.  Before: ``ValueError: list.remove(x): x not in list`` and a stale collector left on the stack.
+
+    The target is in fact out of reach (its circle misses the reach of end point 0, link_3.0_tip, by 1.7 cm), which ``ilqr_reach``
+    now certifies before iterating; the certificate is switched off here so that the run takes the path of the crash.
+    """
     import numpy as np
 
     import coop_ga as cg
     from coop_ga.control import displaced_target, ilqr_reach
     from coop_ga.control import gauss_newton as gn_module
+    from coop_ga.control.ilqr import solver
     from coop_ga.sweep.targets import LEVELS, draw_displacement
 
     task = cg.cooperative_task(cg.systems.load("allegro"), "circle")
@@ -130,7 +134,10 @@ def test_ilqr_restart_from_a_random_start_keeps_its_warnings():
 
     with warnings.catch_warnings(record=True) as caught, pytest.MonkeyPatch.context() as mp:
         warnings.simplefilter("always")
+        assert "unreachable" in ilqr_reach(task, q, target).message  # certified: no restart, no nesting
+        assert ik_calls == [] and caught == []
         mp.setattr(gn_module, "gauss_newton_ik", spy)
+        mp.setattr(solver, "unreachable", lambda ocp, tol: None)
         res = ilqr_reach(task, q, target)
         assert ik_calls == [1]  # the restart ran (the nesting of the crash)
         assert diagnostics._stack() == []

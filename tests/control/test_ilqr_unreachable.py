@@ -11,7 +11,8 @@ import pytest
 
 import coop_ga as cg
 from coop_ga.control import displaced_target, gauss_newton_ik, ilqr_reach
-from coop_ga.control.ilqr import ReachingOCP, _reach_balls, _unit_distance, _unreachable
+from coop_ga.control.ilqr import ReachingOCP
+from coop_ga.control.ilqr.reachability import reach_balls, unit_distance, unreachable
 
 PHRASE = "not reachable inside the limits from this start"
 
@@ -74,13 +75,13 @@ def test_certificate_is_sound(load_system, name, kind):
                 ocp = ReachingOCP(task, s.q0, target)
         except (cg.errors.DegeneratePrimitiveError, cg.errors.ChartError):
             continue  # a degenerate primitive, or one across the chart's half-turn from q0's
-        assert _unreachable(ocp, 1e-5) is None
-        balls = _reach_balls(ocp)
+        assert unreachable(ocp, 1e-5) is None
+        balls = reach_balls(ocp)
         assert balls is not None and len(balls) == len(task.end_frames)
         t, Rm, sc = target.translation, target.rotation_matrix, target.scale
         for p, (c, r) in zip(task.tree.end_points_array(q), balls):
             worst_ball = max(worst_ball, float(np.linalg.norm(p - c)) - r)
-            worst_on = max(worst_on, sc * _unit_distance(task.primitive_kind, Rm.T @ (p - t) / sc))
+            worst_on = max(worst_on, sc * unit_distance(task.primitive_kind, Rm.T @ (p - t) / sc))
         checked += 1
     assert checked >= 6
     assert worst_ball <= 1e-12  # the balls hold the end points
@@ -92,17 +93,17 @@ def test_certificate_is_off_where_it_cannot_hold(load_system):
     s = load_system("allegro")
     q0 = np.array(s.q0)
     fit = cg.cooperative_task(s, "sphere_fit")
-    assert _unreachable(ReachingOCP(fit, q0, displaced_target(fit, q0, translation=(3.0, 0, 0))), 1e-5) is None
+    assert unreachable(ReachingOCP(fit, q0, displaced_target(fit, q0, translation=(3.0, 0, 0))), 1e-5) is None
     task = cg.cooperative_task(s, "sphere")
     ocp = ReachingOCP(task, q0, displaced_target(task, q0, translation=(3.0, 0, 0)))
-    assert _unreachable(ocp, 1e-5) is not None and _unreachable(ocp, 0.5) is None
+    assert unreachable(ocp, 1e-5) is not None and unreachable(ocp, 0.5) is None
 
 
 def test_unit_distances():
     y = np.array([3.0, 4.0, 12.0])
-    assert _unit_distance("point", y) == 13.0
-    assert _unit_distance("point_pair", y) == pytest.approx(np.sqrt(9 + 9 + 144))
-    assert _unit_distance("line", y) == pytest.approx(np.hypot(3.0, 12.0))
-    assert _unit_distance("circle", y) == pytest.approx(np.hypot(4.0, 12.0))
-    assert _unit_distance("plane", y) == 12.0
-    assert _unit_distance("sphere", y) == 12.0
+    assert unit_distance("point", y) == 13.0
+    assert unit_distance("point_pair", y) == pytest.approx(np.sqrt(9 + 9 + 144))
+    assert unit_distance("line", y) == pytest.approx(np.hypot(3.0, 12.0))
+    assert unit_distance("circle", y) == pytest.approx(np.hypot(4.0, 12.0))
+    assert unit_distance("plane", y) == 12.0
+    assert unit_distance("sphere", y) == 12.0
