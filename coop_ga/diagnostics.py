@@ -18,6 +18,13 @@ Nested collectors forward their records to the outermost one, so a public functi
 that calls another public function still warns once (a ``silent`` collector swallows
 instead).  Collectors are per thread.
 Outside any collector, :func:`warn` emits immediately (with the user-facing stacklevel).
+
+A collector leaves the stack by *identity* (two collectors with the same records are still two
+collectors), on the stack it joined, wherever it sits: an exit out of order (an outer block
+closed before an inner one, e.g. through a suspended generator) neither raises nor leaves a
+stale collector behind that would swallow every later warning of the thread.  A collector
+emits when no enclosing collector remains; it then emits for the still-open collectors entered
+after it too (they hold a subset of its records), so nothing is emitted twice or lost.
 """
 
 from __future__ import annotations
@@ -28,6 +35,8 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType, TracebackType
+
+from .errors import InvalidInputError
 
 __all__ = ["collect_warnings", "user_stacklevel", "warn"]
 
@@ -78,7 +87,7 @@ class _Record:
     count: int = 0
 
 
-@dataclass
+@dataclass(eq=False)  # identity equality: a collector is removed from the stack as itself, not as an equal one
 class collect_warnings:
     """Context manager: deduplicate coop_ga warnings raised inside the block (module docstring).
 
@@ -93,6 +102,7 @@ class collect_warnings:
     silent: bool = False
     _records: dict[tuple[type[Warning], str], _Record] = field(default_factory=dict, repr=False)
     counts: dict[str, int] = field(default_factory=dict)
+    _on: list[collect_warnings] | None = field(default=None, init=False, repr=False)  # the stack it joined
 
     def _record(self, message: str, category: type[Warning], key: str) -> None:
         r = self._records.get((category, key))
@@ -103,14 +113,28 @@ class collect_warnings:
         self.counts[label] = r.count
 
     def __enter__(self) -> collect_warnings:
-        _stack().append(self)
+        if self._on is not None:
+            raise InvalidInputError(
+                "collect_warnings: this collector is already active; open a new collect_warnings() for the inner block"
+            )
+        self._on = _stack()
+        self._on.append(self)
         return self
 
     def __exit__(self, et: type[BaseException] | None, ev: BaseException | None, tb: TracebackType | None) -> None:
-        stack = _stack()
-        stack.remove(self)
-        if stack or not self.emit or self.silent:
-            return  # nested: the outermost collector holds the same records and emits them
+        stack, self._on = self._on, None
+        if stack is None:
+            return  # never entered, or already exited
+        i = next((i for i in range(len(stack) - 1, -1, -1) if stack[i] is self), None)
+        if i is None:
+            return  # not on its stack any more (nothing to remove, nothing that could still be lost)
+        inner = stack[i + 1 :]  # collectors entered after this one and still open (an out-of-order exit)
+        del stack[i]
+        if i == 0:  # their records are a subset of this block's: emitted (or dropped) here, counts kept
+            for c in inner:
+                c._records.clear()
+        if i > 0 or not self.emit or self.silent:
+            return  # nested: an enclosing collector holds the same records and emits them
         for r in self._records.values():
             msg = r.message if r.count == 1 else f"{r.message} (occurred {r.count} times in this call)"
             _emit(msg, r.category)

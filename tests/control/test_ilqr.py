@@ -9,15 +9,8 @@ import numpy as np
 import pytest
 
 import coop_ga as cg
-from coop_ga.control.ilqr import (
-    ReachingOCP,
-    _backward,
-    _condensed_step,
-    _forward_deviation,
-    _gramian,
-    displaced_target,
-    ilqr_reach,
-)
+from coop_ga.control.ilqr import ReachingOCP, displaced_target, ilqr_reach
+from coop_ga.control.ilqr.lq import backward, condensed_step, forward_deviation, gramian
 from coop_ga.errors import InvalidInputError, JointLimitWarning, NonFiniteError
 
 # (system, kind, end-point order, displacement of the primitive at q0)
@@ -175,15 +168,15 @@ def test_riccati_step_equals_condensed_gauss_newton_step(franka):
     H[:n, :n] = 2 * Je.T @ ocp.Q @ Je
     H[n:, n:] = 2 * ocp.Qv
     g = np.concatenate([2 * Je.T @ ocp.Q @ e, 2 * ocp.Qv @ qd[-1]])
-    k, K, d1 = _backward(ocp, u, H, g)
-    du, dq, dqd = _forward_deviation(ocp, k, K)
-    du2, dq2, dqd2, d12 = _condensed_step(ocp, u, H, g, *_gramian(ocp))
+    k, K, d1 = backward(ocp, u, H, g)
+    du, dq, dqd = forward_deviation(ocp, k, K)
+    du2, dq2, dqd2, d12 = condensed_step(ocp, u, H, g, *gramian(ocp))
     np.testing.assert_allclose(dq, dq2, atol=1e-9)
     np.testing.assert_allclose(dqd, dqd2, atol=1e-9)
     np.testing.assert_allclose(du, du2, atol=1e-7)
     assert d1 == pytest.approx(d12, rel=1e-8)
     # and it is the minimiser of the quadratic model: its gradient in u vanishes
-    ck = _gramian(ocp)[0]
+    ck = gramian(ocp)[0]
     m = g + H @ np.concatenate([dq2, dqd2])
     grad = (u + du2) @ ocp.R2.T + np.outer(ck, m[:n]) + ocp.dt * m[n:][None, :]
     assert np.abs(grad).max() < 1e-9 * max(1.0, np.abs(u @ ocp.R2.T).max())

@@ -221,3 +221,54 @@ def test_restart_from_the_bounded_ik_configuration(load_system):
     assert res.converged and "restarted" in res.message, res.message
     _within(res, s)
     assert res.iterations == len(res.stats) == len(res.error_history) - 1
+
+
+@pytest.fixture(scope="module")
+def talos_arms():
+    """Talos (example-robot-data) with its torso and arms: at q = 0 four arm joints sit exactly on a position bound
+    (arm_left_2 and arm_right_2 on one bound, arm_left_4 and arm_right_4 on their upper bound)."""
+    m = erd.load("talos").model
+    locked = [n for n in list(m.names)[1:] if not n.startswith(("torso", "arm_"))]
+    s = cg.systems.from_model(
+        m, ["gripper_left_base_link", "gripper_right_base_link"], name="talos", locked_joints=locked
+    )
+    q = np.zeros(s.nq)  # the neutral configuration, built explicitly (not the system's default q0)
+    on = (q <= s.q_lower) | (q >= s.q_upper)
+    assert on.sum() == 4
+    return s, q
+
+
+@pytest.mark.parametrize("max_iter", [5, 20])
+def test_start_on_a_position_bound_stays_inside(talos_arms, max_iter):
+    """Rest on a bound is feasible, not strictly: the feasibility blend used to give up ("no strictly feasible
+    reference") and return the AL iterate, 0.116 rad outside after 5 iterations.  Joint by joint, the joints on a
+    bound blend with a reference that moves inward, so every returned trajectory is inside."""
+    s, q = talos_arms
+    task = cg.cooperative_task(s, "line")
+    V = displaced_target(task, q, translation=(0.0, 0.0, -0.1))
+    res = ilqr_reach(task, q, V, max_iter=max_iter)
+    lim = s.limits
+    assert lim.position_violation(res.trajectory) <= 1e-12
+    assert lim.velocity_violation(res.qd) <= 1e-12 and lim.acceleration_violation(res.u) == 0.0
+    assert res.joint_limit_violation <= 1e-12 and res.within_limits
+    assert np.array_equal(res.trajectory[0], q)
+    assert 0.0 < res.restoration < 1.0 and "blended joint by joint" in res.message
+    assert not res.converged and "not converged" in res.message  # 0.1 m in 5 or 20 iterations from a bound: honest
+
+
+def test_start_moving_out_through_a_bound(talos_arms):
+    """A joint on its bound moving outward: with Talos' unbounded accelerations the reference reverses it in one knot,
+    so the trajectory stays inside; with 10 rad/s² it cannot be stopped (0.2 rad/s needs 42 rad/s² in one knot of
+    10 ms) and the result says so."""
+    s, q = talos_arms
+    i = s.joint_names.index("arm_left_4_joint")  # on its upper bound at q = 0
+    qd = np.zeros(s.nq)
+    qd[i] = 0.2
+    task = cg.cooperative_task(s, "line")
+    V = displaced_target(task, q, translation=(0.0, 0.0, -0.1))
+    res = ilqr_reach(task, q, V, qd_init=qd, max_iter=5)
+    assert s.limits.position_violation(res.trajectory) <= 1e-12 and res.within_limits
+    stiff = s.with_limits(acceleration=10.0)
+    res = ilqr_reach(cg.cooperative_task(stiff, "line"), q, V, qd_init=qd, max_iter=2)
+    assert not res.converged and "cannot be kept inside the limits" in res.message
+    assert res.joint_limit_violation > 0.0  # reported, not hidden

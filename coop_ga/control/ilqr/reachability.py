@@ -1,0 +1,84 @@
+"""A certificate that a target is unreachable: the target primitive misses the reach of an end point (package docstring
+of :mod:`coop_ga.control.ilqr`, "Fast honest failure")."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .problem import ReachingOCP
+
+__all__ = ["reach_balls", "unit_distance", "unreachable"]
+
+
+def unit_distance(kind: str, y: np.ndarray) -> float:
+    """Distance of the point y (3,) from the unit primitive X_u of ``kind`` (:func:`coop_ga.geometry.unit_primitive`:
+    the origin; the points (0, ∓1, 0); the e2 axis; the unit circle in z = 0; the plane z = 0; the unit sphere)."""
+    x1, x2, x3 = (float(c) for c in y)
+    if kind == "point":
+        return float(np.linalg.norm(y))
+    if kind == "point_pair":
+        return min(float(np.linalg.norm(y - (0.0, -1.0, 0.0))), float(np.linalg.norm(y - (0.0, 1.0, 0.0))))
+    if kind == "line":
+        return float(np.hypot(x1, x3))
+    if kind == "circle":
+        return float(np.hypot(np.hypot(x1, x2) - 1.0, x3))
+    if kind == "plane":
+        return abs(x3)
+    return abs(float(np.linalg.norm(y)) - 1.0)  # sphere
+
+
+def reach_balls(ocp: ReachingOCP) -> list[tuple[np.ndarray, float]] | None:
+    """For each end point of the task, a ball (centre (3,) [m], radius [m]) that contains every position it can take
+    within the position limits; None if the task has no kinematic tree.
+
+    Centre: the origin of the chain's first joint (fixed in the world).  Radius: by the triangle inequality, the sum
+    of the lengths of the later joint placements and of the end frame's offset (a revolute joint turns about an axis
+    through its origin, so it does not move a point away from it by more than that), plus the largest travel of each
+    prismatic joint (infinite without position limits).
+    """
+    tree = getattr(ocp.task, "tree", None)
+    if tree is None or not hasattr(tree, "chains"):
+        return None
+    model = tree.model
+    travel = np.maximum(np.abs(ocp.q_lower), np.abs(ocp.q_upper))
+    balls = []
+    for chain, fname in zip(tree.chains, tree.end_frames):
+        offset = np.asarray(model.frames[model.getFrameId(fname)].placement.translation, dtype=float)
+        if not chain:
+            balls.append((offset, 0.0))
+            continue
+        radius = float(np.linalg.norm(offset))
+        radius += sum(float(np.linalg.norm(model.jointPlacements[j].translation)) for j in chain[1:])
+        radius += sum(float(travel[tree.joints[j].q_index]) for j in chain if tree.joints[j].kind == "prismatic")
+        balls.append((np.asarray(model.jointPlacements[chain[0]].translation, dtype=float), radius))
+    return balls
+
+
+def unreachable(ocp: ReachingOCP, tol: float) -> str | None:
+    """A certificate that no configuration within the limits reaches ‖e‖ < tol, or None.
+
+    ‖e‖ = 0 puts every end point on the target primitive X_d = V_Sd X_u Ṽ_Sd (the cooperative primitive passes through
+    them, and e = 0 makes it X_d).  If X_d does not meet the ball that contains every position of some end point
+    (:func:`reach_balls`), no configuration reaches the target.  ‖e‖ < tol moves the end points off X_d by at most
+    ~tol·(s + 2L) (s the target's scale, L their distance from its centre), so the certificate asks for a gap of ten
+    times that; it is off for the least-squares kinds (their points need not lie on the primitive) and for tol > 0.1.
+    Cost: microseconds (no task evaluation).
+    """
+    kind = getattr(ocp.task, "kind", None)
+    balls = reach_balls(ocp) if kind in ("point", "point_pair", "line", "circle", "plane", "sphere") else None
+    if balls is None or tol > 0.1:
+        return None
+    t, Rm, s = ocp.target.translation, ocp.target.rotation_matrix, float(ocp.target.scale)
+    for i, (c, r) in enumerate(balls):
+        if not np.isfinite(r):
+            continue
+        gap = s * unit_distance(str(kind), Rm.T @ (c - t) / s) - r  # [m] between the ball and X_d
+        margin = 10.0 * max(tol, 1e-3) * (s + 2.0 * (float(np.linalg.norm(c - t)) + r))
+        if gap > margin:
+            frame = ocp.task.tree.end_frames[i]
+            return (
+                f"unreachable: the target {kind} passes {gap:.3g} m outside the reach of end point {i} ('{frame}'), "
+                f"a ball of radius {r:.3g} m about its chain's first joint that holds every position it can take, so "
+                "the target is not reachable inside the limits from this start (nor from any other)"
+            )
+    return None

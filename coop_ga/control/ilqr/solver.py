@@ -1,0 +1,468 @@
+"""The solver: :func:`ilqr_reach` (checks, the certificate, the solve and its restart) and the AL / iLQR loops."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ...diagnostics import collect_warnings
+from ...errors import DegeneratePrimitiveError, InvalidInputError
+from ..base import resolve_options
+from .feasibility import reference_controls, restore
+from .lq import Condensation, LQStep, add_state_hessian, controls_to, lq_step, second_order_correction
+from .merit import Evaluation, Merit, gauss_newton_hessian, multiplier_estimate, terminal_model
+from .options import ILQROptions
+from .problem import ReachingOCP
+from .reachability import unreachable
+from .results import ILQRIteration, ILQRResult, Progress, finish
+
+__all__ = ["ilqr_reach"]
+
+
+def ilqr_reach(
+    task: Any,
+    q_init: Any,
+    target: Any,
+    options: ILQROptions | None = None,
+    *,
+    qd_init: Any = None,
+    u_init: Any = None,
+    **overrides: Any,
+) -> ILQRResult:
+    """Reach the target similarity ``V_Sd`` within the joint limits by iLQR on Eq 53–57 (:mod:`coop_ga.control.ilqr`).
+
+    Parameters
+    ----------
+    task: a :class:`coop_ga.CooperativeTask`.
+    q_init: (nq,) initial configuration [rad]; the system starts at rest unless ``qd_init``.
+    target: V_Sd, a :class:`~coop_ga.Similarity` of the task's kind (e.g. from :func:`displaced_target`).
+    options: :class:`ILQROptions` (problem and solver settings); keyword ``overrides``
+        replace its fields (``ilqr_reach(task, q, V, max_iter=20)``).
+    qd_init: (nq,) initial joint velocity [rad/s] (default 0).
+    u_init: (n, nq) initial control guess [rad/s²] (default: rest, or braking to rest).
+
+    Returns
+    -------
+    :class:`ILQRResult`; every returned trajectory satisfies the bounds (package docstring).  A target certified
+    unreachable (package docstring, "Fast honest failure") returns before any iteration.
+
+    Raises
+    ------
+    InvalidInputError: wrong shapes or values (q_init size, weights, horizon, target, …), or
+        (``limits="enforce"``) a start state outside the limits.
+    NonFiniteError: NaN/inf in q_init, qd_init, u_init or an option.
+    DegeneratePrimitiveError: the primitive is degenerate at ``q_init``.
+
+    Timing: before the clock starts, the task's compiled error function is evaluated once
+    at ``q_init`` (generated and compiled by gcc on the first call per task — ~1–2 s, cached
+    on disk — which also validates the inputs), and the Newton model's second-order function
+    is built (~0.2 s, once per task and process); ``solve_time_s`` covers everything else.
+    """
+    o = resolve_options(ILQROptions, options, overrides, "ilqr_reach")
+    ocp = _problem(task, q_init, target, qd_init, o)
+    with collect_warnings() as caught:
+        reason = unreachable(ocp, o.tol)
+        if reason is not None:  # certified: no iteration can help
+            t_start = time.perf_counter()
+            u_ref = reference_controls(ocp)
+            return finish(ocp, o, u_ref, u_ref, Progress(t_start=t_start, message=reason), caught.counts)
+        res = _Solve(ocp, o, u_init).run(caught.counts)
+        # restart only a solve that stalled (not one that ran out of its iteration budget, not an
+        # unreachable tol = 0, not a user's own initial guess)
+        stalled = "max_iter" not in res.message and res.iterations < o.max_iter
+        if res.converged or u_init is not None or not o.restart or not stalled or o.tol == 0:
+            return res
+        return _restart(ocp, o, res, caught.counts)
+
+
+def _problem(task: Any, q_init: Any, target: Any, qd_init: Any, o: ILQROptions) -> ReachingOCP:
+    """The checked problem; with ``limits="enforce"`` a start outside the position or velocity limits is refused."""
+    ocp = ReachingOCP(
+        task,
+        q_init,
+        target,
+        qd_init=qd_init,
+        horizon=o.horizon,
+        dt=o.dt,
+        R=o.R,
+        Q=o.Q,
+        Qv=o.Qv,
+        limits=o.limits,
+        clearance=o.clearance,
+    )
+    if o.limits == "enforce":
+        lim = task.system.limits
+        if lim.position_violation(ocp.q_init) > 1e-9:
+            raise InvalidInputError(
+                f"q_init is outside the joint limits ({lim.describe(ocp.q_init, 1e-9)}); move it "
+                "inside, or pass limits='none' to solve without bounds"
+            )
+        if lim.velocity_violation(ocp.qd_init) > 1e-9:
+            raise InvalidInputError("qd_init exceeds the velocity limits; lower it, or pass limits='none'")
+    return ocp
+
+
+def _restart(ocp: ReachingOCP, o: ILQROptions, res: ILQRResult, warning_counts: dict[str, int]) -> ILQRResult:
+    """Globalisation of a stalled solve ``res``.
+
+    A failed solve usually stalls on a local minimum of the bounded terminal problem (joints pressed on their limits,
+    ‖e‖ ~ 1e-2).  The bounded Gauss–Newton IK reaches the target inside the limits more often from q_init; restart
+    from the minimum-energy controls to its answer (rest-to-rest they are cubics, monotone between the bounds) and
+    keep the better result (both solves in its statistics and histories).
+    """
+    from ..gauss_newton import gauss_newton_ik
+
+    with collect_warnings(silent=True):
+        ik = gauss_newton_ik(ocp.task, ocp.q_init, ocp.target, limits=o.limits)
+    if not ik.converged:
+        return res
+    u_guess = controls_to(ocp, ik.q)
+    if o.limits == "enforce" and ocp.violation(*ocp.rollout(u_guess), u_guess) > 0:
+        blended = restore(ocp, u_guess, reference_controls(ocp))  # e.g. a moving start overshoots a bound
+        if blended is not None:
+            u_guess = blended[0]
+    o2 = dataclasses.replace(o, max_iter=max(o.max_iter - res.iterations, 1))
+    res2 = _Solve(ocp, o2, u_guess).run(warning_counts)
+    if not (res2.converged or res2.error < res.error):
+        return res
+    return dataclasses.replace(
+        res2,
+        iterations=res.iterations + res2.iterations,
+        solve_time_s=res.solve_time_s + res2.solve_time_s,
+        stats=res.stats + res2.stats,
+        # the histories of both solves (the restart's own starting point left out, so len = iterations + 1)
+        cost_history=np.concatenate([res.cost_history, res2.cost_history[1:]]),
+        error_history=np.concatenate([res.error_history, res2.error_history[1:]]),
+        message=f"{res2.message} (restarted after {res.iterations} iterations from the minimum-energy controls "
+        f"to the bounded Gauss–Newton IK configuration, ‖e‖ = {res.error:.3g} before)",
+    )
+
+
+@dataclass(frozen=True)
+class _Model:
+    """The LQ models of one iteration: the terminal model (gradient vx, Hessian Hf_b with the knot-n state terms), the
+    state terms at the knots, whether the Newton model is used, and the (model, damping) pairs to try in order."""
+
+    newton: bool
+    vx: np.ndarray
+    Hf_b: np.ndarray
+    hscale: float
+    lx: np.ndarray
+    lxx: np.ndarray
+    state_active: bool
+    tries: list[tuple[str, float]]
+
+
+@dataclass(frozen=True)
+class _Accepted:
+    """An accepted step: its length, the evaluation there, the model's predicted change, the roll-outs it took, the
+    α = 1 travel, and the model that produced it."""
+
+    alpha: float
+    ev: Evaluation
+    expected: float
+    trials: int
+    travel: float
+    backward_passes: int = 0
+    mode: str = "gauss_newton"
+    mu: float = 0.0
+    kind: str = "riccati"
+
+
+class _Solve:
+    """One augmented-Lagrangian iLQR solve from a control guess (package docstring, "Solver").
+
+    The outer loop updates the AL multipliers and penalty and the terminal shift; the inner loop takes iLQR steps on
+    the augmented merit, each from a list of terminal models (Newton, then Gauss–Newton, with growing
+    Levenberg–Marquardt damping) with an Armijo line search capped by the joint-travel trust region.
+    """
+
+    def __init__(self, ocp: ReachingOCP, o: ILQROptions, u_init: Any):
+        self.ocp, self.o = ocp, o
+        task = ocp.task
+        self.u_ref = reference_controls(ocp)
+        u = self.u_ref.copy() if u_init is None else ocp.check_controls(u_init).copy()
+        if u_init is not None and ocp.u_bounded:
+            u = np.clip(u, -ocp.a_max, ocp.a_max)
+        task.error_and_jacobian(ocp.q_init, ocp.target)  # build/compile once, outside the timed solve
+        if o.hessian == "newton":
+            task.graph.error_hessian_function  # noqa: B018  (built once per task, outside the timed solve)
+
+        t_start = time.perf_counter()
+        self.cond = Condensation.of(ocp)
+        self.eye2 = np.eye(2 * ocp.nq)
+        bounded = o.limits == "enforce" and bool(np.any(np.isfinite(ocp.q_lower)) or np.any(np.isfinite(ocp.v_max)))
+        # AL terms from the start: zero while feasible, a penalty as soon as a bound is crossed
+        self.merit = Merit(ocp, o.al_penalty if bounded else 0.0)
+        ev = self.merit.evaluate(u)
+        if ev is None:
+            q_g, _ = ocp.rollout(u)
+            task.error_and_jacobian(q_g[-1], ocp.target)  # re-raises the task's degeneracy error
+            raise DegeneratePrimitiveError("the initial guess reaches a degenerate primitive")
+        self.u, self.ev = u, ev
+        self.progress = Progress(t_start=t_start, costs=[ev.cost], errs=[float(np.linalg.norm(ev.e))])
+        self.rho_x = 0.0  # LM damping of the state deviations in the Riccati pass (adapted by the step quality)
+        self.lm = 0.0  # LM damping of the terminal model (adapted by the step quality)
+        self.prev_violation = np.inf
+
+    # ------------------------------------------------------------------ tests on an evaluation
+    def _reached(self, ev: Evaluation) -> bool:
+        return float(np.linalg.norm(ev.e)) < self.o.tol
+
+    def _done(self, ev: Evaluation) -> bool:
+        # a violation ≤ al_violation is removed exactly by the final blend with the feasible reference
+        return float(np.linalg.norm(ev.e)) < self.o.tol and ev.violation <= self.o.al_violation
+
+    # ------------------------------------------------------------------ outer loop
+    def run(self, warning_counts: dict[str, int]) -> ILQRResult:
+        """Solve, then :func:`~coop_ga.control.ilqr.results.finish` (feasibility blend, verdict)."""
+        o, p = self.o, self.progress
+        finished = self._done(self.ev)
+        if finished:
+            p.message = "initial guess already within tol"
+        while not finished and p.outer < o.max_outer:
+            finished, inner_stalled = self._inner()
+            if finished or p.iterations >= o.max_iter:
+                if not finished:
+                    p.message = f"max_iter ({o.max_iter}) reached"
+                break
+            if not self._outer_update(inner_stalled):
+                break
+        else:
+            if not finished:
+                p.message = f"max_outer ({o.max_outer}) outer iterations reached"
+        return finish(self.ocp, o, self.u, self.u_ref, p, warning_counts)
+
+    def _outer_update(self, inner_stalled: bool) -> bool:
+        """Multipliers, penalty and terminal shift after an inner solve; False (with the reason) if nothing changed."""
+        o, p, merit, ev = self.o, self.progress, self.merit, self.ev
+        p.outer += 1
+        changed = False
+        viol = ev.violation
+        if merit.mu > 0:
+            new_lam = np.maximum(0.0, merit.lam + merit.mu * ev.c)
+            changed = not np.allclose(new_lam, merit.lam, rtol=0.0, atol=1e-12)
+            merit.lam = new_lam
+            if viol > o.al_violation and viol > 0.25 * self.prev_violation and merit.mu < o.al_max_penalty:
+                merit.mu = min(merit.mu * o.al_growth, o.al_max_penalty)
+                changed = True
+        self.prev_violation = viol
+        if o.terminal == "constraint" and not self._reached(ev):
+            merit.shift = merit.shift + ev.e
+            changed = True
+        if not changed:
+            if inner_stalled and o.terminal == "soft":
+                p.message = (
+                    "stationary: the optimum of the soft terminal cost (Eq 57) keeps ‖e‖ above tol; use "
+                    "terminal='constraint' (the default) or raise Q relative to R"
+                )
+            elif inner_stalled:
+                p.message = (
+                    "stationary: the optimum within the limits is reached but the terminal error stays above "
+                    "tol (the target is not reachable inside the limits from here)"
+                )
+            return False
+        ev_new = merit.evaluate(self.u)
+        assert ev_new is not None  # the same trajectory
+        self.ev = ev_new
+        return True
+
+    # ------------------------------------------------------------------ inner loop
+    def _inner(self) -> tuple[bool, bool]:
+        """iLQR iterations on the augmented merit: ``(finished, stalled)``."""
+        o, p = self.o, self.progress
+        while p.iterations < o.max_iter:
+            t_it = time.perf_counter()
+            e_norm = float(np.linalg.norm(self.ev.e))
+            newton = o.hessian == "newton" and e_norm < o.newton_switch
+            w = multiplier_estimate(self.ocp, self.ev, self.cond.ck) if newton else None
+            shift_estimated = self._estimate_shift(w, e_norm)
+            model = self._model(w, newton)
+            acc = self._search(model)
+            if acc is None:
+                p.message = (
+                    "no descent step found (stationary point of the merit or line-search failure): the "
+                    "terminal error cannot be reduced further from here"
+                )
+                return False, True
+            decrease = self.ev.merit - acc.ev.merit
+            self._adapt_damping(acc, decrease, model.hscale)
+            self._record(acc, decrease, t_it)
+            stop = self._stop(decrease, model.newton, shift_estimated)
+            if stop is not None:
+                return stop == "done", stop == "stalled"
+        return False, False
+
+    def _estimate_shift(self, w: np.ndarray | None, e_norm: float) -> bool:
+        """Near the target, set the terminal shift from the multiplier estimate w; whether it was tried.
+
+        The penalty's optimum keeps e = (2Q)⁻¹λ_e − s; with w ≈ λ_e, the shift s = (2Q)⁻¹w puts that optimum at e = 0
+        now instead of after a stalled inner solve.
+        """
+        o = self.o
+        if w is None or o.terminal != "constraint" or not e_norm < 100.0 * o.tol or self.ev.violation != 0.0:
+            return False
+        s_new = np.linalg.lstsq(2.0 * self.ocp.Q, w, rcond=1e-12)[0]
+        if np.all(np.isfinite(s_new)):
+            self.merit.shift = s_new
+            ev_s = self.merit.evaluate(self.u)
+            assert ev_s is not None  # the same trajectory
+            self.ev = ev_s
+        return True
+
+    def _model(self, w: np.ndarray | None, newton: bool) -> _Model:
+        """The terminal model (Newton with multiplier w, or Gauss–Newton while an AL term is active), the state
+        terms (LM-damped on the states in the Riccati pass), and the (model, damping) pairs to try."""
+        ocp, ev, cond = self.ocp, self.ev, self.cond
+        gf, Hf = terminal_model(ocp, ev, w)
+        st = self.merit.state_terms(ev)
+        lx, lxx = st.lx, st.lxx
+        if st.active:
+            newton = False  # the multiplier estimate ignores the AL terms: Gauss–Newton while a bound is active
+            gf, Hf = terminal_model(ocp, ev, None)
+        if st.active and self.rho_x > 0:
+            # Levenberg–Marquardt on the states (a trust region on δx at every knot)
+            lxx = lxx + self.rho_x if lxx.ndim == 2 else lxx + self.rho_x * self.eye2
+        vx = gf + lx[-1]
+        Hf_b = Hf.copy()
+        add_state_hessian(Hf_b, lxx[-1])
+        hscale = max(float(np.linalg.norm(Hf_b, 2)), 1e-12)
+        lm, wmin = self.lm, cond.wmin
+        tries: list[tuple[str, float]] = []
+        if newton:
+            # convexify: the condensed Hessian W⁻¹ + H_f must be positive definite; lift its smallest
+            # eigenvalue to λ_min(W⁻¹) (the running cost's own stiffness at x_n) where it is not
+            lmin = float(np.linalg.eigvalsh(cond.Winv + Hf_b)[0])
+            base = max(0.0, wmin - lmin)
+            tries += [("newton", base + lm), ("newton", base + lm + wmin), ("newton", base + lm + 16.0 * wmin)]
+        tries += [("gauss_newton", lm)]
+        tries += [("gauss_newton", lm + 10.0**p * hscale) for p in range(-6, 3)]
+        return _Model(newton, vx, Hf_b, hscale, lx, lxx, st.active, tries)
+
+    def _search(self, model: _Model) -> _Accepted | None:
+        """The first (model, damping) whose LQ step passes the line search."""
+        ocp, ev = self.ocp, self.ev
+        n_back = 0
+        for mode, mu in model.tries:
+            H = model.Hf_b if mode == "newton" or not model.newton else gauss_newton_hessian(ocp, ev, model.lxx[-1])
+            Vxx = H + mu * self.eye2
+            n_back += 1
+            condensed = self.o.backward == "auto" and not model.state_active
+            step = lq_step(ocp, self.cond, self.u, ev.q, ev.qd, Vxx, model.vx, model.lx, model.lxx, condensed=condensed)
+            if step is None or not step.d1 < 0:
+                continue
+            acc = self._line_search(step)
+            if acc is not None:
+                return dataclasses.replace(acc, backward_passes=n_back, mode=mode, mu=mu, kind=step.kind)
+        return None
+
+    def _line_search(self, step: LQStep) -> _Accepted | None:
+        """Armijo backtracking on the merit from α ≤ max_travel / (the α = 1 step's joint travel), with a
+        second-order correction of a rejected full closed-form step."""
+        o, ev = self.o, self.ev
+        # trust region on joint travel: the α = 1 step's largest joint motion along the trajectory
+        u1 = step.trial(1.0)
+        q1, _ = self.ocp.rollout(u1)
+        travel = float(np.max(np.abs(q1 - ev.q)))
+        alpha = min(1.0, o.max_travel / travel) if travel > 0 else 1.0
+        trials = 0
+        for b in range(o.max_backtracks + 1):
+            trials += 1
+            u_t = u1 if alpha == 1.0 else step.trial(alpha)
+            ev_t = self.merit.evaluate(u_t)  # None: degenerate
+            expected = alpha * step.d1 + alpha * alpha * step.d2
+            if ev_t is not None and ev_t.merit <= ev.merit + o.armijo * min(expected, 0.0):
+                return _Accepted(alpha, ev_t, expected, trials, travel)
+            if b == 0 and o.soc and ev_t is not None and step.kind == "condensed":
+                trials += 1
+                ev_c = self._corrected(ev_t, expected)
+                if ev_c is not None:
+                    return _Accepted(alpha, ev_c, expected, trials, travel)
+            alpha *= 0.5
+        return None
+
+    def _corrected(self, ev_t: Evaluation, expected: float) -> Evaluation | None:
+        """The second-order correction of a rejected trial point, if it passes the Armijo test without more violation.
+
+        The Maratos effect: the stiff terminal penalty rejects good steps whose error is second order; the
+        minimum-energy change of u that cancels the linearised terminal error at the trial point and keeps q̇_n, in
+        closed form (:func:`~coop_ga.control.ilqr.lq.second_order_correction`).
+        """
+        o, ev = self.o, self.ev
+        u_c = second_order_correction(self.ocp, self.cond, ev_t.u, ev_t.Je, ev_t.es)
+        ev_c = self.merit.evaluate(u_c) if u_c is not None else None
+        if (
+            ev_c is not None
+            and ev_c.violation <= ev.violation
+            and ev_c.merit <= ev.merit + o.armijo * min(expected, 0.0)
+        ):
+            return ev_c
+        return None
+
+    def _adapt_damping(self, acc: _Accepted, decrease: float, hscale: float) -> None:
+        """Levenberg–Marquardt updates from the step quality (actual / predicted decrease, cut steps)."""
+        wmin = self.cond.wmin
+        # on the terminal model (a trust region in x_n): a step whose decrease is far below the model's, or that had
+        # to be cut, asks for more damping; a good full step for less
+        ratio_t = decrease / max(-acc.expected, 1e-300)
+        if ratio_t < 0.25 or acc.alpha < 1.0:
+            self.lm = max(4.0 * self.lm, wmin) if self.lm < 1e6 * hscale else self.lm
+        elif ratio_t > 0.75:
+            self.lm = self.lm / 4.0 if self.lm / 4.0 >= wmin else 0.0
+        if acc.kind == "riccati":
+            ratio = decrease / max(-acc.expected, 1e-300)
+            if acc.alpha < 1.0 or ratio < 0.25:  # a poor model: damp the state deviations more
+                self.rho_x = max(4.0 * self.rho_x, wmin)
+            elif ratio > 0.5:
+                self.rho_x = self.rho_x / 4.0 if self.rho_x / 4.0 >= wmin else 0.0
+
+    def _record(self, acc: _Accepted, decrease: float, t_it: float) -> None:
+        """Move to the accepted point and append its history entries and statistics."""
+        p = self.progress
+        self.ev = ev = acc.ev
+        self.u = ev.u
+        p.iterations += 1
+        p.costs.append(ev.cost)
+        p.errs.append(float(np.linalg.norm(ev.e)))
+        p.stats.append(
+            ILQRIteration(
+                cost=ev.cost,
+                error=p.errs[-1],
+                alpha=acc.alpha,
+                mu=acc.mu,
+                expected_decrease=-acc.expected,
+                actual_decrease=decrease,
+                line_search_trials=acc.trials,
+                backward_passes=acc.backward_passes,
+                time_s=time.perf_counter() - t_it,
+                model=acc.mode,
+                merit=ev.merit,
+                outer=p.outer,
+                violation=ev.violation,
+                travel=acc.alpha * acc.travel,
+                backward=acc.kind,
+            )
+        )
+
+    def _stop(self, decrease: float, newton: bool, shift_estimated: bool) -> str | None:
+        """Why the inner loop stops after a step: ``"done"``, ``"stalled"``, ``"update"`` (go to the outer update),
+        or None (go on)."""
+        o, ev, errs = self.o, self.ev, self.progress.errs
+        if self._done(ev):
+            return "done"
+        if decrease <= o.ftol * max(abs(ev.merit), 1e-300):
+            return "stalled"
+        # near the target the penalty's own optimum keeps e ≈ λ_e/(2Q): once a Newton step no longer halves
+        # ‖e‖, shift the terminal target (the multiplier update) instead of creeping toward that optimum
+        near = o.terminal == "constraint" and newton and errs[-1] < 100.0 * o.tol
+        if near and errs[-1] > 0.5 * errs[-2] and ev.violation <= o.al_violation and not shift_estimated:
+            return "update"
+        # the AL subproblem is solved well enough: update the multipliers now (the penalty optimum keeps a
+        # violation ~ λ*/μ that only the outer update removes)
+        if ev.violation > o.al_violation and (self._reached(ev) or decrease <= o.al_inner_tol * abs(ev.merit)):
+            return "update"
+        return None
