@@ -79,8 +79,7 @@ def _remove(path: Path) -> None:
 def _staging(out: Path, fig: Figure) -> tuple[Path, Path, Path, Path]:
     """``(folder, new, failed, previous)``: the figure's folder and its hidden siblings (same file system,
     so every move below is a rename)."""
-    folder = out / fig.folder
-    return folder, *(out / f".{fig.folder}.{tag}" for tag in ("new", "failed", "previous"))
+    return out / fig.folder, out / f".{fig.folder}.new", out / f".{fig.folder}.failed", out / f".{fig.folder}.previous"
 
 
 def _swap_in(new: Path, folder: Path, previous: Path) -> None:
