@@ -122,8 +122,9 @@ def primitive_parameters(X: Multivector) -> tuple[str, Any, Any, Any]:
 def _read_parameters(X: Multivector) -> tuple[str, Any, Any, Any, tuple[float, float]]:
     """:func:`primitive_parameters` plus ``(est, ratio)``: the estimated relative error of r (0 where r
     is exact to rounding: kinds without a radius, symbolic X, a primitive read from its local form) and
-    the distance of the round from the origin in radii, ``(ρ + r)/r``.  Centers, closest points and axes
-    are accurate to ~ε relative to the coordinates whatever the distance; only r degrades."""
+    the distance of the round from the origin in radii, ``(ρ + r)/r``.  Centers and closest points are
+    accurate to ~ε ρ whatever the distance, axes to ~ε (~ε ρ/r without a local form: a turn that moves
+    the primitive by ~ε ρ, as much as its center's rounding); only r degrades by more."""
     kind = kind_of(X)
     if kind == "point":
         return kind, center(X), None, None, (0.0, 1.0)
