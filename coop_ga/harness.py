@@ -21,7 +21,10 @@ same seed gives the same run.
 Command line (every script): ``--out DIR`` (default ``results/<script name>``), ``--seed N``
 (a non-negative integer), ``--quiet`` (no progress bars or stage timers on stderr; results
 still go to stdout and the files), ``--help`` (the script's docstring and every option
-with its default).  Values are checked by the ``type=`` functions below
+with its default).  A script with a short CI mode declares it with :meth:`Experiment.add_fast`
+(``--fast`` and the values it gives to other options); **an option given on the command line
+always keeps its value**, ``--fast`` only replaces defaults (``--fast --dt 0.01`` runs the
+fast presets at Δt = 0.01 s).  Values are checked by the ``type=`` functions below
 (:func:`positive_float`, :func:`nonneg_float`, :func:`finite_float`, :func:`positive_int`,
 :func:`nonneg_int`, :func:`int_at_least`, :func:`probability`; fixed sets with argparse's
 ``choices=``): a bad value makes argparse print ``argument --duration: expected a number > 0,
@@ -53,6 +56,7 @@ __all__ = [
     "Experiment",
     "HelpFormatter",
     "experiment_parser",
+    "explicit_options",
     "finite_float",
     "int_at_least",
     "make_rng",
@@ -174,9 +178,33 @@ def experiment_parser(
     return p
 
 
+class _Unset:
+    """Marks an option that the command line did not give (see :func:`explicit_options`)."""
+
+    def __repr__(self) -> str:
+        return "<unset>"
+
+
+_UNSET = _Unset()
+
+
+def explicit_options(parser: argparse.ArgumentParser, argv: list[str] | None = None) -> set[str]:
+    """The ``dest`` of every option that ``argv`` (default ``sys.argv[1:]``) gives explicitly,
+    also when it gives the default value.  ``argv`` must parse (parse it first for the errors)."""
+    # argparse fills in a default only where the namespace has no attribute yet: pre-set every
+    # destination to a marker, and whatever the command line set is no longer the marker
+    probe = argparse.Namespace(**{a.dest: _UNSET for a in parser._actions if a.dest != argparse.SUPPRESS})
+    ns = parser.parse_args(argv, namespace=probe)
+    return {k for k, v in vars(ns).items() if v is not _UNSET}
+
+
 def make_rng(seed: int | None) -> np.random.Generator:
     """``numpy.random.default_rng(seed)``: the one source of randomness of a run."""
     return np.random.default_rng(seed)
+
+
+def _show(v: Any) -> str:
+    return " ".join(map(str, v)) if isinstance(v, (list, tuple)) else str(v)
 
 
 # ---------------------------------------------------------------------- output
@@ -339,7 +367,8 @@ class Experiment:
     seed: default of ``--seed`` (``None``: no seed of its own; see :func:`experiment_parser`).
     out: default of ``--out`` instead of ``results/<stem>``.
 
-    After :meth:`parse`: ``args``, ``out`` (created), ``seed``, ``quiet`` and ``rng``.
+    After :meth:`parse`: ``args``, ``out`` (created), ``seed``, ``quiet``, ``rng``, ``fast`` (False
+    without :meth:`add_fast`) and ``explicit`` (the options the command line gave).
     """
 
     def __init__(
@@ -349,15 +378,45 @@ class Experiment:
         self.parser = experiment_parser(self.name, description, seed=seed, out=out, prog=Path(file).name)
         self.args: argparse.Namespace | None = None
         self.quiet = False
+        self.fast = False
+        self.fast_presets: dict[str, Any] = {}
+        self.explicit: set[str] = set()
 
     def add(self, *names: str, **kwargs: Any) -> argparse.Action:
         """``parser.add_argument``: a script's own option (give ``type=`` a checker above)."""
         return self.parser.add_argument(*names, **kwargs)
 
+    def add_fast(self, help: str, **presets: Any) -> argparse.Action:
+        """``--fast``: the script's short run (CI), which gives the options named in ``presets``
+        (by ``dest``: ``dt=0.04``) those values instead of their defaults.  An option given on the
+        command line keeps its own value (an explicit option always wins; :meth:`parse` says so on
+        stderr).  Declare the options first; the presets must be values those options accept.
+        """
+        dests = {a.dest: a for a in self.parser._actions}
+        for dest in presets:
+            if dest not in dests or dest == "fast":
+                raise ValueError(f"add_fast: no option with dest {dest!r} to preset; add it first")
+        self.fast_presets = dict(presets)
+        shown = ", ".join(f"{dests[d].option_strings[0]} {_show(v)}" for d, v in presets.items())
+        note = f" ({shown}; an option given explicitly keeps its value)" if presets else ""
+        return self.parser.add_argument("--fast", action="store_true", help=help + note)
+
     def parse(self, argv: list[str] | None = None) -> argparse.Namespace:
-        """Parse ``argv`` (default ``sys.argv[1:]``), create ``--out`` and seed ``rng``."""
+        """Parse ``argv`` (default ``sys.argv[1:]``), apply the ``--fast`` presets to the options not
+        given explicitly, create ``--out`` and seed ``rng``."""
         self.args = self.parser.parse_args(argv)
+        self.explicit = explicit_options(self.parser, argv)
+        self.fast = bool(getattr(self.args, "fast", False))
         self.quiet = bool(self.args.quiet)
+        if self.fast:
+            kept = []
+            for dest, value in self.fast_presets.items():
+                if dest in self.explicit:
+                    kept.append(f"{dest} = {_show(getattr(self.args, dest))} (fast preset {_show(value)})")
+                else:
+                    setattr(self.args, dest, value)
+            if kept and not self.quiet:
+                print(f"--fast: kept the explicit {'; '.join(kept)}", file=sys.stderr, flush=True)
         self.seed = self.args.seed
         self.rng = make_rng(self.seed)
         self.out = Path(self.args.out)

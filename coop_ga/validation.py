@@ -14,22 +14,20 @@ passed and what is expected.  What is rejected, everywhere:
   ``(0, 1, 2)``).
 
 This module sits at the bottom of the layers (numpy and :mod:`coop_ga.errors` only), so
-that every layer can use it; :func:`target` imports the geometry layer lazily.
+that every layer can use it; :func:`target` calls the conversion that the geometry layer
+installs when it is imported (:meth:`coop_ga.Similarity.coerce`), without importing it.
 """
 
 from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
 from .errors import InvalidInputError, NonFiniteError, UnknownNameError
-
-if TYPE_CHECKING:
-    from .geometry.groups import Similarity
 
 __all__ = [
     "array",
@@ -208,8 +206,13 @@ def frames(names: Any, available: Sequence[str], what: str = "end_frames") -> tu
     return out
 
 
-def target(x: Any, what: str = "target") -> Similarity:
-    """A similarity argument as a :class:`~coop_ga.Similarity` (:meth:`Similarity.coerce`)."""
-    from .geometry.groups import Similarity
+#: ``Similarity.coerce``, set by :mod:`coop_ga.geometry.groups` when it is imported (``import coop_ga``
+#: imports it): this module is below the geometry layer and must not import it
+similarity_coerce: Callable[[Any, str], Any] | None = None
 
-    return Similarity.coerce(x, what)
+
+def target(x: Any, what: str = "target") -> Any:
+    """A similarity argument as a :class:`~coop_ga.Similarity` (:meth:`Similarity.coerce`)."""
+    if similarity_coerce is None:  # pragma: no cover - coop_ga/__init__ imports the geometry layer
+        raise InvalidInputError(f"{what}: no similarity type is loaded; import coop_ga first")
+    return similarity_coerce(x, what)

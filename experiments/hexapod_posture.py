@@ -86,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--terrain-seed", type=nonneg_int, default=1, help="seed of the random tile terrain")
     exp.add("--phase-time", type=positive_float, default=1.0, help="duration of each phase [s] (--fast: 0.4 s)")
     exp.add("--dt", type=positive_float, default=0.01, help="control step [s] (--fast: 0.02 s)")
-    exp.add("--fast", action="store_true", help="0.4 s phases at Δt 0.02 s (CI)")
+    exp.add_fast("short phases (CI)", phase_time=0.4, dt=0.02)
     args = exp.parse(argv)
     t_start = time.perf_counter()
     plt = exp.pyplot()
@@ -99,8 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     from coop_ga.legged.posture import PostureOptions, command_from_body_twist, posture_step
     from coop_ga.legged.terrain import Terrain
 
-    dt = 0.02 if args.fast else float(args.dt)
-    phase_time = 0.4 if args.fast else float(args.phase_time)
+    dt, phase_time = float(args.dt), float(args.phase_time)
     n_phase = max(4, round(phase_time / dt))
     legs = hexapod_legs()
     hexapod = cg.systems.load("hexapod")

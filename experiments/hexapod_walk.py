@@ -112,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--distance", type=positive_float, default=1.0, help="distance to walk [m] (--fast: 0.3 m)")
     exp.add("--dt", type=positive_float, default=0.02, help="time step [s] (rounded to the gait's grid; --fast 0.04)")
     exp.add("--frames", type=int_at_least(2), default=60, help="frames of walk.gif (--fast: 12)")
-    exp.add("--fast", action="store_true", help="0.3 m at Δt 0.04 s and a 12-frame GIF (CI)")
+    exp.add_fast("a short walk and GIF (CI)", distance=0.3, dt=0.04, frames=12)
     args = exp.parse(argv)
     t_start = time.perf_counter()
 
@@ -122,12 +122,15 @@ def main(argv: list[str] | None = None) -> int:
     from coop_ga.legged.terrain import Terrain
     from coop_ga.legged.walk import SERVO_SPEED, WalkOptions, robot_mass, walk
 
-    distance = 0.3 if args.fast else float(args.distance)
-    dt = 0.04 if args.fast else float(args.dt)
-    frames = 12 if args.fast else int(args.frames)
+    distance, dt, frames = float(args.distance), float(args.dt), int(args.frames)
+    opts = WalkOptions(gait=args.gait, dt=dt)
+    if round(opts.period / dt / 6) < 1:  # walk() would silently use its coarsest grid, T/6, instead
+        exp.parser.error(
+            f"argument --dt: {dt:g} s is too coarse for the {args.gait} gait: Δt is rounded to a whole sixth of "
+            f"its {opts.period:g} s cycle, at most {opts.period / 6:.3g} s; give --dt < {opts.period / 3:.3g} s"
+        )
     terrain = Terrain.make(args.terrain, seed=int(exp.seed if exp.seed is not None else 0))
     legs = hexapod_legs()
-    opts = WalkOptions(gait=args.gait, dt=dt)
     with exp.stage(f"walking {distance} m, {args.gait} on {args.terrain}"):
         t0 = time.perf_counter()
         res = walk(terrain, opts, distance=distance, legs=legs)

@@ -77,11 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--spread", type=nonneg_float, default=0.1, help="half-width [rad] of the uniform perturbation of q0")
     exp.add("--duration", type=positive_float, default=4.0, help="simulated time per run [s] (paper: 4 s)")
     exp.add("--dt", type=positive_float, default=1e-3, help="control/integration step [s]")
-    exp.add(
-        "--fast",
-        action="store_true",
-        help=f"CI run: at most {FAST_RUNS} runs of at most {FAST_DURATION:g} s (every output still written)",
-    )
+    exp.add_fast("CI run (every output still written)", runs=FAST_RUNS, duration=FAST_DURATION)
     args = exp.parse(argv)
     plt = exp.pyplot()
 
@@ -89,8 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     from coop_ga import viz
     from coop_ga.control import PAPER_GAINS, simulate_impedance
 
-    runs = min(args.runs, FAST_RUNS) if args.fast else args.runs
-    duration = min(args.duration, FAST_DURATION) if args.fast else args.duration
+    runs, duration = args.runs, args.duration
     timing: dict[str, float] = {}
     t_total = time.perf_counter()
 

@@ -84,11 +84,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--max-speed", type=positive_float, default=0.2, help="right-hand speed cap [m/s]")
     exp.add("--constraint-gain", type=nonneg_float, default=10.0, help="constraint feedback gain k_c [1/s]")
     exp.add("--tol", type=positive_float, default=1e-4, help="right-hand error [m] at which the target is reached")
-    exp.add(
-        "--fast",
-        action="store_true",
-        help="CI run: Δt = 0.02 s, at most 150 steps, tol 1e-3 m (every output file and metric still written)",
-    )
+    exp.add_fast("CI run (every output file and metric still written)", dt=0.02, steps=150, tol=1e-3)
     args = exp.parse(argv)
     plt = exp.pyplot()
 
@@ -103,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
         point_constraint,
     )
 
-    dt, steps, tol = (0.02, min(args.steps, 150), max(args.tol, 1e-3)) if args.fast else (args.dt, args.steps, args.tol)
+    dt, steps, tol = args.dt, args.steps, args.tol
     t_total = time.perf_counter()
     timing: dict[str, float] = {}
     with exp.stage("loading g1_arms and the line task") as st:

@@ -114,9 +114,9 @@ def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0)
     exp.add("--steps", type=int_at_least(8), default=360, help="requested crank angles per cycle")
     exp.add("--frames", type=int_at_least(2), default=48, help="frames per GIF")
-    exp.add("--fast", action="store_true", help="72 crank steps and 8 GIF frames (CI)")
+    exp.add_fast("fewer crank steps and GIF frames (CI)", steps=72, frames=8)
     args = exp.parse(argv)
-    steps, frames = (72, 8) if args.fast else (args.steps, args.frames)
+    steps, frames = args.steps, args.frames
     plt = exp.pyplot()
     angles = np.linspace(0.0, 2 * np.pi, steps + 1)
     linkages: dict[str, Linkage] = {

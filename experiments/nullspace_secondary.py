@@ -77,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--dt", type=positive_float, default=0.01, help="time step [s] (Eq 61)")
     exp.add("--secondary-gain", type=positive_float, default=2.0, help="point-reaching gain k_s [1/s]")
     exp.add("--primary-gain", type=nonneg_float, default=10.0, help="primary (hold) feedback gain k_p [1/s]")
-    exp.add("--fast", action="store_true", help=f"CI run: at most {FAST_DURATION:g} s (every output still written)")
+    exp.add_fast("CI run (every output still written)", duration=FAST_DURATION)
     args = exp.parse(argv)
     plt = exp.pyplot()
 
@@ -85,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
     from coop_ga import viz
     from coop_ga.control.nullspace import nullspace_point_reach, point_on_circle
 
-    duration = min(args.duration, FAST_DURATION) if args.fast else args.duration
+    duration = args.duration
     timing: dict[str, float] = {}
     t_total = time.perf_counter()
     with exp.stage("loading three_franka and compiling the circle task") as st:

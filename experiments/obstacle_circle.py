@@ -87,7 +87,7 @@ CLAIM = (
 
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0)
-    exp.add("--fast", action="store_true", help="Δt = 0.02 s, 150 steps, small renders (CI)")
+    exp.add_fast("Δt = 0.02 s, 150 steps, small renders (CI)")
     args = exp.parse(argv)
     return run(exp, bool(args.fast))
 

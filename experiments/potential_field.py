@@ -131,12 +131,12 @@ def _arm_follow(arm: Any, path: PotentialPath) -> tuple[np.ndarray, dict[str, An
 
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0)
-    exp.add("--fast", action="store_true", help=f"CI run: {FAST_SCENES} random scenes")
     exp.add("--scenes", type=int_at_least(1), default=200, help="number of random scenes")
     exp.add("--margin", type=nonneg_float, default=0.05, help="security margin added to each radius [m]")
     exp.add("--step", type=positive_float, default=0.01, help="step length ε of the path [m]")
+    exp.add_fast("CI run", scenes=FAST_SCENES)
     args = exp.parse(argv)
-    n_scenes = FAST_SCENES if args.fast else args.scenes
+    n_scenes = args.scenes
     t0 = time.perf_counter()
 
     # ------------------------------------------------------------------ random scenes

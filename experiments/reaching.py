@@ -223,7 +223,6 @@ def add_options(exp: Experiment, figure: str | None = None) -> None:
     else ``--figure`` chooses one (default fig07)."""
     if figure is None:
         exp.add("--figure", choices=FIGURES, default="fig07", help="the paper figure (preset) to reproduce")
-    exp.add("--fast", action="store_true", help=f"{FAST_HORIZON} knots × {FAST_DT} s (same 2.5 s horizon), for CI")
     exp.add(
         "--perturb",
         type=nonneg_float,
@@ -256,15 +255,16 @@ def add_options(exp: Experiment, figure: str | None = None) -> None:
     exp.add(
         "--horizon",
         type=positive_int,
-        default=None,
-        help=f"iLQR knots; default {HORIZON} ({FAST_HORIZON} with --fast)",
+        default=HORIZON,
+        help=f"iLQR knots ({FAST_HORIZON} with --fast)",
     )
     exp.add(
         "--dt",
         type=positive_float,
-        default=None,
-        help=f"time step [s] of iLQR (and differential IK); default {DT} ({FAST_DT} with --fast)",
+        default=DT,
+        help=f"time step [s] of iLQR (and differential IK) ({FAST_DT} with --fast)",
     )
+    exp.add_fast("the same 2.5 s horizon in fewer knots, for CI", horizon=FAST_HORIZON, dt=FAST_DT)
     exp.add("--max-iter", type=positive_int, default=None, help="iLQR iteration limit; default: ilqr_reach's (60)")
     exp.add(
         "--backward",
@@ -305,9 +305,7 @@ def resolve(exp: Experiment, args: argparse.Namespace, figure: str) -> Setup:
         exp.parser.error("argument --tilt-axis: expected a non-zero vector")
     if p.kind in FLAT_KINDS and scale != 1.0:
         exp.parser.error(f"argument --scale: a dilation leaves a {p.kind} unchanged ({figure}); use 1")
-    horizon = args.horizon if args.horizon is not None else (FAST_HORIZON if args.fast else HORIZON)
-    dt = args.dt if args.dt is not None else (FAST_DT if args.fast else DT)
-    return Setup(p, tr, axis, tilt, scale, horizon, dt, bool(args.fast))
+    return Setup(p, tr, axis, tilt, scale, int(args.horizon), float(args.dt), exp.fast)
 
 
 def preset_setup(figure: str, fast: bool = False) -> Setup:

@@ -198,7 +198,6 @@ def prepare_start(
 # ---------------------------------------------------------------------- main
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0)
-    exp.add("--fast", action="store_true", help="CI run: Δt = 0.05 s instead of --dt (same controller and stop rule)")
     exp.add("--dt", type=positive_float, default=0.01, help="time step [s] of the point-reaching control (Eq 61)")
     exp.add("--gain", type=positive_float, default=2.0, help="point-reaching gain k [1/s]")
     exp.add("--max-speed", type=positive_float, default=0.25, help="TCP speed cap [m/s]")
@@ -213,8 +212,9 @@ def main(argv: list[str] | None = None) -> int:
         default=0.5,
         help="target p* = P2 + f (P3 − P2) on the line (0.5: the midpoint)",
     )
+    exp.add_fast("CI run (same controller and stop rule)", dt=0.05)
     args = exp.parse(argv)
-    dt = 0.05 if args.fast else args.dt
+    dt = args.dt
     plt = exp.pyplot()
 
     import coop_ga as cg

@@ -159,9 +159,9 @@ def markdown(rows: dict[str, dict], samples: int) -> str:
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0)
     exp.add("--samples", type=positive_int, default=200, help="random configurations per primitive")
-    exp.add("--fast", action="store_true", help="20 samples per primitive (CI)")
+    exp.add_fast("fewer samples (CI)", samples=20)
     args = exp.parse(argv)
-    samples = 20 if args.fast else args.samples
+    samples = args.samples
     rows = {}
     for kind in exp.progress(list(PAPER_BLADES), "measuring J^G per primitive"):
         rows[kind] = measure(kind, samples, exp.rng)

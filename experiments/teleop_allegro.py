@@ -91,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--rotation-gain", type=nonneg_float, default=0.5, help="k_r [rad/s per unit input]")
     exp.add("--dilation-gain", type=nonneg_float, default=1.0, help="k_d [1/s per unit input]")
     exp.add("--interactive", action="store_true", help="keyboard teleoperation in a matplotlib window")
-    exp.add("--fast", action="store_true", help="CI run: the session segments halved (every output still written)")
+    exp.add_fast("CI run: the session segments halved (every output still written)")
     args = exp.parse(argv)
     plt = exp.pyplot(interactive=args.interactive)
 

@@ -4,10 +4,15 @@
 
 Runs each figure's experiment script (``paper_figures.FIGURES``: Figs. 5–21, Table 1 and
 the drawings of the systems) into ``DIR/figNN_<name>/`` — its PNGs, ``metrics.json`` and,
-untracked, ``timing.json`` and ``log.txt`` (the script's own output); earlier PNG/JSON/NPZ/MD/TXT
-files in that folder are removed first, so no stale figure survives — and writes the
+untracked, ``timing.json`` and ``log.txt`` (the script's own output) — and writes the
 gallery ``DIR/README.md``: per figure the paper's claim, the measured numbers that support
 or contradict it, and the command that made it.
+
+A figure is regenerated into a fresh folder next to its own (``DIR/.figNN_<name>.new``) and
+swapped in only when it succeeded: the earlier PNG/JSON/NPZ/MD/TXT files then disappear (no
+stale figure survives; other files in the folder are kept), and a failed or interrupted run
+leaves the folder exactly as it was (the failed run's files stay in
+``DIR/.figNN_<name>.failed`` for inspection).
 
 Deterministic: every script draws from its own fixed seed (``--seed`` overrides all of
 them), metrics are rounded to 6 significant digits and NPZ files carry no timestamps, so
@@ -28,6 +33,7 @@ import contextlib
 import io
 import json
 import os
+import shutil
 import sys
 import time
 import traceback
@@ -42,7 +48,7 @@ from . import FIGURES, ROOT, Figure, load_script, select
 LOG_FILE = "log.txt"
 #: metrics keys that must be 0 in every published figure (a trajectory outside the joint limits)
 VIOLATION_KEYS = ("max_limit_violation", "max_velocity_violation")
-#: files a figure folder holds; removed before its script runs again (nothing else is touched)
+#: the files a figure's run writes: those of the previous run are dropped when the new one is swapped in
 OUTPUT_SUFFIXES = (".png", ".json", ".npz", ".md", ".txt")
 
 
@@ -63,17 +69,70 @@ def _limit_violations(obj: Any, path: str = "") -> list[tuple[str, float]]:
     return out
 
 
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    elif path.exists() or path.is_symlink():
+        path.unlink()
+
+
+def _staging(out: Path, fig: Figure) -> tuple[Path, Path, Path, Path]:
+    """``(folder, new, failed, previous)``: the figure's folder and its hidden siblings (same file system,
+    so every move below is a rename)."""
+    return out / fig.folder, out / f".{fig.folder}.new", out / f".{fig.folder}.failed", out / f".{fig.folder}.previous"
+
+
+def _swap_in(new: Path, folder: Path, previous: Path) -> None:
+    """Make ``new`` the figure's folder.  Files of ``folder`` that are no run's output (notes, sub-folders)
+    are copied over first; its outputs are not (a figure the script no longer makes must not survive).
+    ``folder`` is renamed aside before ``new`` takes its name: an interruption between the two renames
+    leaves ``previous`` complete, and :func:`_recover` puts it back."""
+    if folder.exists():
+        for entry in folder.iterdir():
+            if (entry.is_file() and entry.suffix in OUTPUT_SUFFIXES) or (new / entry.name).exists():
+                continue
+            if entry.is_dir():
+                shutil.copytree(entry, new / entry.name, symlinks=True)
+            else:
+                shutil.copy2(entry, new / entry.name, follow_symlinks=False)
+        _remove(previous)
+        folder.rename(previous)
+    new.rename(folder)
+    _remove(previous)
+
+
+def _recover(folder: Path, previous: Path) -> None:
+    """Undo a swap that was interrupted after the old folder was renamed aside."""
+    if previous.exists() and not folder.exists():
+        previous.rename(folder)
+
+
 def run_one(fig: Figure, out: Path, extra: list[str], verbose: bool) -> dict[str, Any]:
-    """Run one figure's script into ``out/fig.folder`` and check what it wrote.
+    """Run one figure's script into a fresh folder, check what it wrote and, if all is well, swap it in
+    as ``out/fig.folder`` (module docstring); otherwise ``out/fig.folder`` is left untouched.
 
     Returns ``{"key", "ok", "seconds", "problems": [...]}``.  The script's stdout/stderr go
     to ``log.txt`` in its folder (and to the terminal too with ``verbose``)."""
-    folder = out / fig.folder
-    folder.mkdir(parents=True, exist_ok=True)
-    # outputs of an earlier run (perhaps of an older script version) must not linger as stale figures
-    for old in folder.iterdir():
-        if old.is_file() and old.suffix in OUTPUT_SUFFIXES:
-            old.unlink()
+    folder, new, failed, previous = _staging(out, fig)
+    _recover(folder, previous)
+    _remove(new)  # left over by a run that was killed
+    new.mkdir(parents=True)
+    try:
+        problems, seconds = _run_checked(fig, new, extra, verbose)
+        if problems:
+            _remove(failed)
+            new.rename(failed)
+            problems.append(f"{folder} is unchanged; this run's files and log are in {failed}")
+        else:
+            _swap_in(new, folder, previous)
+            _remove(failed)
+    finally:
+        _remove(new)  # an interrupted run (KeyboardInterrupt) leaves nothing behind
+    return {"key": fig.key, "ok": not problems, "seconds": seconds, "problems": problems}
+
+
+def _run_checked(fig: Figure, folder: Path, extra: list[str], verbose: bool) -> tuple[list[str], float]:
+    """Run the script into ``folder`` and check its outputs: ``(problems, seconds)``."""
     argv = [*fig.args, "--out", str(folder), *extra]
     problems: list[str] = []
     t0 = time.perf_counter()
@@ -94,22 +153,27 @@ def run_one(fig: Figure, out: Path, extra: list[str], verbose: bool) -> dict[str
         problems.append(f"{fig.script} raised:\n{traceback.format_exc()}")
     seconds = time.perf_counter() - t0
     (folder / LOG_FILE).write_text(log.getvalue())
+    return problems or _output_problems(folder), seconds
+
+
+def _output_problems(folder: Path) -> list[str]:
+    """What is wrong with a run's outputs: no metrics or gallery block, a listed figure missing, a
+    trajectory outside the joint limits."""
     metrics_path = folder / "metrics.json"
-    if not problems:
-        if not metrics_path.exists():
-            problems.append("no metrics.json written")
-        else:
-            metrics = json.loads(metrics_path.read_text())
-            gallery = metrics.get("gallery")
-            if not isinstance(gallery, dict) or not {"title", "claim", "evidence", "agrees"} <= set(gallery):
-                problems.append("metrics.json has no complete 'gallery' block (title, claim, evidence, agrees)")
-            else:
-                for name in [*gallery.get("figures", []), *gallery.get("tables", [])]:
-                    if not (folder / name).exists():
-                        problems.append(f"the gallery lists {name}, which was not written")
-            for where, v in _limit_violations(metrics):
-                problems.append(f"a trajectory leaves the joint limits: {where} = {v:g} rad")
-    return {"key": fig.key, "ok": not problems, "seconds": seconds, "problems": problems}
+    if not metrics_path.exists():
+        return ["no metrics.json written"]
+    problems = []
+    metrics = json.loads(metrics_path.read_text())
+    gallery = metrics.get("gallery")
+    if not isinstance(gallery, dict) or not {"title", "claim", "evidence", "agrees"} <= set(gallery):
+        problems.append("metrics.json has no complete 'gallery' block (title, claim, evidence, agrees)")
+    else:
+        for name in [*gallery.get("figures", []), *gallery.get("tables", [])]:
+            if not (folder / name).exists():
+                problems.append(f"the gallery lists {name}, which was not written")
+    for where, v in _limit_violations(metrics):
+        problems.append(f"a trajectory leaves the joint limits: {where} = {v:g} rad")
+    return problems
 
 
 def _worker(args: tuple[str, str, list[str]]) -> dict[str, Any]:
@@ -200,7 +264,9 @@ def write_gallery(out: Path, fast: bool, failures: dict[str, list[str]]) -> Path
             "",
         ]
     path = out / "README.md"
-    path.write_text("\n".join(lines).rstrip() + "\n")
+    tmp = out / ".README.md.new"  # written whole, then renamed: an interrupted run keeps the old gallery
+    tmp.write_text("\n".join(lines).rstrip() + "\n")
+    os.replace(tmp, path)
     return path
 
 

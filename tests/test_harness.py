@@ -212,3 +212,62 @@ def test_experiment_rounds_metrics_and_splits_timing(tmp_path):
     assert json.loads(p.read_text()) == {"e": 1.23457e-07, "v": [0.666667], "n": 3}
     t = exp.write_timing({"solve_s": 0.123456})
     assert t.name == harness.TIMING_FILE and json.loads(t.read_text()) == {"solve_s": 0.123}
+
+
+# ---------------------------------------------------------------------- --fast and explicit options
+def _fast_exp():
+    e = _exp()
+    e.add("--dt", type=harness.positive_float, default=0.02, help="time step [s]")
+    e.add("--target", type=harness.finite_float, nargs=3, default=(0.0, 0.0, 1.0), help="a 3-vector")
+    e.add_fast("short run (CI)", dt=0.04, runs=3, target=(1.0, 2.0, 3.0))
+    return e
+
+
+@pytest.mark.parametrize(
+    "argv,expected",
+    [
+        ([], {"dt": 0.02, "runs": 10, "target": (0.0, 0.0, 1.0), "fast": False}),
+        (["--fast"], {"dt": 0.04, "runs": 3, "target": (1.0, 2.0, 3.0), "fast": True}),
+        # an explicit option wins over --fast, before or after it, also when it repeats the default
+        (["--fast", "--dt", "5"], {"dt": 5.0, "runs": 3, "target": (1.0, 2.0, 3.0)}),
+        (["--dt", "0.02", "--fast"], {"dt": 0.02, "runs": 3}),
+        (["--fast", "--runs", "10", "--target", "0", "0", "1"], {"dt": 0.04, "runs": 10, "target": [0.0, 0.0, 1.0]}),
+        (["--dt", "0.5"], {"dt": 0.5, "runs": 10}),
+    ],
+)
+def test_explicit_options_win_over_fast_presets(tmp_path, argv, expected, capsys):
+    """Old: each script replaced its options under --fast (``dt = 0.04 if args.fast else args.dt``), so
+    ``hexapod_walk.py --fast --dt 5`` silently ran at Δt = 0.038 s."""
+    e = _fast_exp()
+    args = e.parse([*argv, "--out", str(tmp_path)])
+    for k, v in expected.items():
+        assert getattr(args, k) == v, k
+    assert e.fast is ("--fast" in argv)
+    err = capsys.readouterr().err
+    kept = [k for k in ("dt", "runs", "target") if f"--{k}" in argv] if "--fast" in argv else []
+    assert ("--fast: kept the explicit" in err) == bool(kept)
+    for k in kept:
+        assert f"{k} = " in err
+
+
+def test_explicit_options_are_detected_without_changing_the_parser(tmp_path):
+    e = _fast_exp()
+    assert harness.explicit_options(e.parser, ["--dt", "0.02", "--mode", "b", "--fast"]) == {"dt", "mode", "fast"}
+    assert harness.explicit_options(e.parser, []) == set()
+    assert e.parse(["--out", str(tmp_path)]).dt == 0.02  # defaults untouched by the probe
+
+
+def test_fast_presets_name_existing_options_and_are_listed_in_help(capsys):
+    with pytest.raises(ValueError, match="no option with dest 'steps'"):
+        _exp().add_fast("x", steps=3)
+    with pytest.raises(SystemExit):
+        _fast_exp().parse(["--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert (
+        "short run (CI) (--dt 0.04, --runs 3, --target 1.0 2.0 3.0; an option given explicitly keeps its value)" in out
+    )
+
+
+def test_quiet_fast_run_says_nothing_about_kept_options(tmp_path, capsys):
+    _fast_exp().parse(["--fast", "--dt", "5", "--quiet", "--out", str(tmp_path)])
+    assert capsys.readouterr().err == ""

@@ -155,3 +155,91 @@ def test_fast_singularity_eigenvalue_falls_toward_zero(fast_run):
     assert m["well_definedness_final"] < 2 * m["raise_below"]  # it got close to the singularity
     assert m["min_eigenvalue_ratio_last_resolved"] < 1e-6  # λ₂ falls like w²
     assert m["radius_final"] > 1e3 * m["radius_initial"]
+
+
+# ---------------------------------------------------------------------- regeneration never loses committed files
+FAKE_SCRIPT = """
+import json, sys
+from pathlib import Path
+
+def main(argv):
+    out = Path(argv[argv.index("--out") + 1])
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "scene.png").write_bytes(b"new picture")
+    gallery = {{"title": "t", "claim": "c", "evidence": "e", "agrees": True, "figures": {figures}}}
+    (out / "metrics.json").write_text(json.dumps({{"value": 2, "gallery": gallery}}))
+    print("half-way")
+    {fail}
+    return 0
+"""
+
+
+def _fake_figure(tmp_path, monkeypatch, fail="", figures=("scene.png",)):
+    script = tmp_path / "fake_script.py"
+    script.write_text(FAKE_SCRIPT.format(fail=fail, figures=list(figures)))
+    fig = paper_figures.Figure("fake", "fake_fig", str(script))
+    monkeypatch.setattr(paper_figures.__main__, "FIGURES", (fig,))
+    monkeypatch.setattr(paper_figures.__main__, "select", lambda names: [fig])
+    out = tmp_path / "out"
+    folder = out / "fake_fig"
+    (folder / "sub").mkdir(parents=True)
+    (folder / "metrics.json").write_text('{"value": 1}')
+    (folder / "scene.png").write_bytes(b"committed picture")
+    (folder / "old_figure.png").write_bytes(b"committed, no longer made")
+    (folder / "table.md").write_text("| committed |")
+    (folder / "notes.keep").write_text("not an output")
+    (folder / "sub" / "data.bin").write_bytes(b"\x00\x01")
+    return out, folder
+
+
+def _snapshot(folder):
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize(
+    "fail,figures",
+    [
+        ("raise RuntimeError('the solver diverged')", ["scene.png"]),  # the script fails half-way
+        ("return 3", ["scene.png"]),  # non-zero exit status
+        ("", ["scene.png", "missing.png"]),  # its gallery lists a figure it did not write
+    ],
+)
+def test_a_failed_figure_leaves_its_committed_folder_byte_identical(tmp_path, monkeypatch, capsys, fail, figures):
+    """Old: the folder's PNG/JSON/NPZ/MD/TXT files were deleted before the script ran, so a run that failed
+    (or was interrupted) half-way left the tracked files deleted or half-rewritten."""
+    out, folder = _fake_figure(tmp_path, monkeypatch, fail, figures)
+    before = _snapshot(folder)
+    assert main(["--out", str(out), "--quiet"]) == 1
+    assert _snapshot(folder) == before
+    failed = out / ".fake_fig.failed"
+    assert (failed / "scene.png").read_bytes() == b"new picture" and "half-way" in (failed / "log.txt").read_text()
+    assert not (out / ".fake_fig.new").exists()
+
+
+def test_an_interrupted_figure_leaves_its_committed_folder_byte_identical(tmp_path, monkeypatch):
+    out, folder = _fake_figure(tmp_path, monkeypatch, "raise KeyboardInterrupt")
+    before = _snapshot(folder)
+    with pytest.raises(KeyboardInterrupt):
+        main(["--out", str(out), "--quiet"])
+    assert _snapshot(folder) == before
+    assert sorted(p.name for p in out.iterdir()) == ["fake_fig"]  # nothing half-made left next to it
+
+
+def test_a_successful_figure_replaces_its_outputs_and_keeps_other_files(tmp_path, monkeypatch):
+    out, folder = _fake_figure(tmp_path, monkeypatch)
+    (out / ".fake_fig.failed").mkdir()  # from an earlier failed run: gone after a success
+    assert main(["--out", str(out), "--quiet"]) == 0
+    after = _snapshot(folder)
+    assert sorted(after) == ["log.txt", "metrics.json", "notes.keep", "scene.png", "sub/data.bin"]  # stale ones gone
+    assert after["scene.png"] == b"new picture" and json.loads(after["metrics.json"])["value"] == 2
+    assert after["notes.keep"] == b"not an output" and after["sub/data.bin"] == b"\x00\x01"
+    assert sorted(p.name for p in out.iterdir()) == ["README.md", "fake_fig", "timing.json"]
+
+
+def test_a_swap_interrupted_between_its_renames_is_recovered(tmp_path, monkeypatch):
+    """A run killed after the committed folder was renamed aside: the next run puts it back first."""
+    out, folder = _fake_figure(tmp_path, monkeypatch, "return 1")
+    before = _snapshot(folder)
+    folder.rename(out / ".fake_fig.previous")
+    assert main(["--out", str(out), "--quiet"]) == 1
+    assert _snapshot(folder) == before and not (out / ".fake_fig.previous").exists()

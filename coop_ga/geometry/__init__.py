@@ -1,4 +1,4 @@
-"""Layer 2: geometric primitives, versor groups and similarities between primitives."""
+"""Geometric primitives, versor groups and similarities between primitives."""
 
 from .groups import (
     TANGENT_BASIS,

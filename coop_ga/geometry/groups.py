@@ -962,6 +962,11 @@ class Similarity(VersorGroup):
         raise InvalidInputError(f"{what} must be a coop_ga.Similarity, got {type(value).__name__}")
 
 
+# validation.target converts similarity arguments with this; validation sits below this layer and does not
+# import it, so the conversion is handed down here (coop_ga/__init__ imports this module)
+validation.similarity_coerce = Similarity.coerce
+
+
 def _parts(S: Similarity) -> tuple[np.ndarray, np.ndarray, float]:
     R, beta, t = _decompose_coeffs(S.versor)
     return (

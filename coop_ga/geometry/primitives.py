@@ -23,7 +23,7 @@ Numerics (numeric inputs only; the symbolic formulas are unchanged)
 -------------------------------------------------------------------
 * **Scale-free guards.**  No threshold is absolute: degeneracy is decided by the
   dimensionless :func:`well_definedness`; read-outs test for exact zeros after an exact
-  power-of-two rescaling of X (:func:`coop_ga.algebra.multivector.balance_exponents`: an
+  power-of-two rescaling of X (:func:`_balance`: an
   overall factor and a dilation), so X → λX and uniform scaling of the points give the
   same verdicts, and nothing overflows or underflows in between; :func:`kind_of` uses a
   scale-free roundness.
@@ -33,12 +33,16 @@ Numerics (numeric inputs only; the symbolic formulas are unchanged)
   centroid and translates the result back: every coefficient is then as accurate as the
   exactly rounded one (the plain outer product lost ~ε(ρ/r)² and read-outs of it ~ε(ρ/r)³:
   a unit circle 10⁶ m away reported radius 3.87).
-* **What stays lost.**  Even an exactly rounded primitive stores its *radius* only to
-  ~ε(ρ/r)² relative (centers to ~ε ρ, axes to ~ε).  :func:`radius` estimates
-  ``ε((ρ + r)/r)²`` and emits a :class:`~coop_ga.PrecisionWarning` above
-  :data:`PRECISION_WARN` = 1e-6 (ρ/r ≳ 7e4), or raises when the radius is lost entirely.
-  Build such primitives about a nearby origin (the cooperative layer uses the end points'
-  centroid and :func:`coop_ga.geometry.similarity.similarity_from_parameters`).
+* **What the coefficients lose, and the local form.**  Even an exactly rounded primitive
+  stores its *radius* only to ~ε(ρ/r)² relative (centers to ~ε ρ, axes to ~ε): r enters
+  only through ρ² + r².  :func:`primitive_from_points` therefore keeps the primitive built
+  about the centroid, ``(m, X_m)`` (:attr:`Primitive.local`), and :func:`radius` reads r
+  from it (to ~ε wherever the primitive is).  Without a local form (an untagged or
+  transformed multivector) :func:`radius` estimates ``ε((ρ + r)/r)²`` and emits a
+  :class:`~coop_ga.PrecisionWarning` above :data:`PRECISION_WARN` = 1e-6 (ρ/r ≳ 7e4), or
+  raises when the radius is lost entirely.  Symbolic primitives are built about a nearby
+  origin by their callers (the cooperative layer uses the end points' centroid and
+  :func:`coop_ga.geometry.similarity.similarity_from_parameters`).
 * **Range.**  Coefficients of a kind grow like |x|^k (k = 2 for points … 5 for planes and
   spheres); coordinates beyond 2^(1000//k) m (3e150 m for points, 1.6e60 m for spheres) or
   spreads below 2^(−1000//k) m raise :class:`~coop_ga.InvalidInputError` instead of
@@ -63,7 +67,7 @@ import numpy as np
 from .. import validation
 from ..algebra import backend as B
 from ..algebra.basis import blade_index
-from ..algebra.multivector import OMEGA, Multivector, balance_exponents, safe_range
+from ..algebra.multivector import OMEGA, Multivector, _exponents, safe_range
 from ..diagnostics import warn
 from ..errors import DegeneratePrimitiveError, InvalidInputError, PrecisionWarning, UnknownNameError
 
@@ -130,14 +134,23 @@ class Primitive(Multivector):
     keeps the tag because similarities map primitives onto primitives of the same kind.
     """
 
-    __slots__ = ("kind",)
+    __slots__ = ("kind", "local")
 
-    def __init__(self, blades: tuple[int, ...], coeffs: tuple[Any, ...], kind: str):
+    def __init__(
+        self, blades: tuple[int, ...], coeffs: tuple[Any, ...], kind: str, local: tuple[Any, Primitive] | None = None
+    ):
         super().__init__(blades, coeffs)
         self.kind = _check_kind(kind)
+        #: ``(m, X_m)`` or None: the same primitive built about the point m (shape (3,) or (N, 3) [m]),
+        #: ``X = T(m) X_m T̃(m)``.  :func:`primitive_from_points` keeps it for points far from the origin;
+        #: :func:`radius`, :func:`direction` and :func:`normal` read it, because X itself stores the radius
+        #: only to ~ε(ρ/r)² relative and the axis to ~ε ρ/r (module docstring).
+        #: Any operation on X returns a plain Multivector, so the local form never goes stale.
+        self.local = local
 
     @classmethod
     def tag(cls, X: Multivector, kind: str) -> Primitive:
+        """X tagged with ``kind`` (no local form)."""
         if not isinstance(X, Multivector):
             raise InvalidInputError(f"Primitive.tag(X, kind): X must be a coop_ga Multivector, got {type(X).__name__}")
         return cls(X.blades, X.coeffs, kind)
@@ -508,28 +521,31 @@ def _wedge(kind: str, coords: list[tuple[Any, Any, Any]]) -> Multivector:
     return X
 
 
-def _local_wedge(kind: str, P: np.ndarray) -> Multivector:
-    """∧ P(p_i) (∧ e∞) computed about the centroid m of the points and translated back.
+def _local_wedge(kind: str, P: np.ndarray) -> tuple[Multivector, tuple[np.ndarray, Multivector] | None]:
+    """∧ P(p_i) (∧ e∞) computed about the centroid m of the points and translated back,
+    with the local primitive ``(m, X_m)`` (None when the points are near the origin).
 
     The coefficients of a primitive of size r at distance ρ from the origin are
     polynomials whose terms are ρ/r times larger than their sum; the plain outer product
     of the conformal points rounds each term and so loses ~ε(ρ/r)² per coefficient.
     Built about m, the local primitive is accurate and the translation ``T(m) X T̃(m)``
     adds terms of the size of the result, so every coefficient is accurate to a few ε of
-    its own degree group (measured: as good as rounding the exact coefficients).
+    its own degree group (measured: as good as rounding the exact coefficients).  Even
+    exactly rounded, those coefficients hold a round's radius only to ~ε(ρ/r)² (module
+    docstring); X_m holds it to ~ε, hence it is returned too.
     """
     rho = float(np.max(np.abs(P)))
     spread = float(np.max(np.abs(P - P[0])))
     if rho <= 4.0 * spread:  # near the origin: nothing to gain, keep the exact plain product
         if P.ndim == 2:
-            return _wedge(kind, [tuple(p) for p in P.tolist()])
-        return _wedge(kind, [tuple(p[..., j] for j in range(3)) for p in P])
+            return _wedge(kind, [tuple(p) for p in P.tolist()]), None
+        return _wedge(kind, [tuple(p[..., j] for j in range(3)) for p in P]), None
     m = P.mean(axis=0)
     rel = [tuple((p - m)[..., j] for j in range(3)) for p in P]
     X = _wedge(kind, rel)
     m0, m1, m2 = (m[..., j] for j in range(3))
     T = Multivector(_TRANSLATOR, (1.0 + 0.0 * m0, -0.5 * m0, -0.5 * m1, -0.5 * m2))
-    return (T * X * T.reverse()).grade(X.grades[0])
+    return (T * X * T.reverse()).grade(X.grades[0]), (m, X)
 
 
 def primitive_from_points(
@@ -542,8 +558,10 @@ def primitive_from_points(
     kind); numeric input at or below it raises :class:`DegeneratePrimitiveError`.
 
     Numeric points far from the origin relative to their spread are wedged about their
-    centroid and translated back (see :func:`_local_wedge`), so the coefficients are
-    accurate wherever the points are; coordinates beyond the representable range of the
+    centroid m and translated back (see :func:`_local_wedge`), so the coefficients are
+    accurate wherever the points are, and the primitive keeps its local form ``(m, X_m)``
+    (:attr:`Primitive.local`) for the read-outs that the coefficients cannot give to full
+    precision (the radius: module docstring); coordinates beyond the representable range of the
     kind (e.g. ~1e60 m for spheres, whose coefficients grow like |x|⁵) raise
     :class:`InvalidInputError`.  Symbolic points use the plain outer product.
     """
@@ -580,10 +598,16 @@ def primitive_from_points(
         if kind != "point":
             _check_degenerate(kind, P, tol)
         _check_range(kind, P)
-        X = _local_wedge(kind, P)
+        X, local = _local_wedge(kind, P)
     else:
-        X = _wedge(kind, coords)
-    return Primitive.tag(X.grade(len(coords) + (kind in _FLAT)), kind)
+        X, local = _wedge(kind, coords), None
+    g = len(coords) + (kind in _FLAT)
+    Xg = X.grade(g)
+    if local is None:
+        return Primitive(Xg.blades, Xg.coeffs, kind)
+    m, Xm = local
+    Xm = Xm.grade(g)
+    return Primitive(Xg.blades, Xg.coeffs, kind, local=(m, Primitive(Xm.blades, Xm.coeffs, kind)))
 
 
 def point_pair(a: Any, b: Any, tol: float = 1e-9) -> Primitive:
@@ -740,12 +764,39 @@ def _stack3(c: tuple[Any, Any, Any]) -> Any:
     return np.stack(np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in c]), axis=-1)
 
 
+def _balance(*Xs: Multivector) -> tuple[int, list[int]]:
+    """:func:`~coop_ga.algebra.multivector.balance_exponents` with the dilation set by the *largest*
+    length estimate.
+
+    A round of weight w centred ρ from the origin has e0-, e0/e∞-free and e∞-parts of sizes ~w,
+    ~wρ (or wr) and ~w|ρ² − r²|, i.e. two length estimates: (e0/e∞-free)/e0 and √(e∞/e0).
+    ``balance_exponents`` uses only the second when both parts exist; for a round through (or
+    within ~1e-150 m of) the origin the e∞-part is ~0 — a sphere with a 1e-308 coordinate has
+    e∞-part 5e-309 — and the dilation it picked (2^512) made the radius overflow.  The larger
+    estimate is always a true size; the other parts then shrink (they are smaller), never grow.
+    """
+    exps = [_exponents(X) for X in Xs]
+    e: dict[int, int] = {}
+    for ex in exps:
+        for w, x in ex:
+            e[w] = max(e.get(w, x), x)
+    cands = []
+    if -1 in e and 1 in e:
+        cands.append((e[1] - e[-1]) // 2)
+    if -1 in e and 0 in e:
+        cands.append(e[0] - e[-1])
+    if not cands and 1 in e and 0 in e:
+        cands.append(e[1] - e[0])
+    k = max(cands) if cands else 0
+    return k, [-max(x - k * w for w, x in ex) if ex else 0 for ex in exps]
+
+
 def _balanced(X: Multivector) -> tuple[Multivector, int]:
     """X rescaled exactly (powers of two) to unit size; positions/lengths of the result times
-    ``2**k`` are those of X (see :func:`coop_ga.algebra.multivector.balance_exponents`)."""
+    ``2**k`` are those of X (see :func:`_balance`)."""
     if safe_range(X):
         return X, 0
-    k, (lam,) = balance_exponents(X)
+    k, (lam,) = _balance(X)
     return X._rescaled(k, lam), k
 
 
@@ -761,32 +812,64 @@ def _unscale(v: Any, k: int, what: str) -> np.ndarray:
 
 
 def to_euclidean(P: Multivector) -> Any:
-    """Euclidean position x of a (possibly scaled) conformal point ``λ P(x)``: shape (3,).
+    """Euclidean position x (3,) [m] (or (N, 3)) of a (possibly scaled) conformal point ``λ P(x)``, or
+    of a flat point ``λ P(x)∧e∞`` (what :func:`meet` returns for a line and a plane).
 
-    Normalises by the e0 weight (``−P·e∞``).  Raises :class:`DegeneratePrimitiveError` for
-    points at infinity: zero weight, or a weight lost in rounding relative to the rest of
-    P (tested after an exact rescaling, so the verdict does not depend on λ or on the
-    length unit).
+    Normalises by the e0 weight (``−P·e∞``; the e0∞ coefficient of a flat point).  Raises
+    :class:`DegeneratePrimitiveError` for points at infinity: zero weight, or a weight lost in
+    rounding relative to the rest of P (tested per point after an exact rescaling, so the verdict
+    depends neither on λ — which may differ between the points of a batch — nor on the length
+    unit), and :class:`InvalidInputError` for other multivectors (e.g. a point pair: use
+    :func:`center` or :func:`endpoints`).  A grade-1 vector that is not null (a dual sphere, as
+    returned by :func:`project`) gives its center.
     """
     P = _mv_arg(P, "P")
     w = P.get(_B["e0"])
     x = _euclid(P)
     if B.any_symbolic(w, *x):
         return _stack3(tuple(xi / w for xi in x))
-    Pv = P.project(_VEC)
-    k, (lam,) = balance_exponents(Pv)  # always: the weight test below is relative to the balanced parts
+    grades = set(P.prune(0.0).grades)
+    if 1 in grades or not grades:  # a point, or a vector with rounding noise in other grades (project())
+        Pv = P.project(_VEC)
+    elif 2 in grades:
+        Pv = _flat_point_as_vector(P)
+    else:
+        raise InvalidInputError(
+            f"to_euclidean(P) reads a conformal point (grade 1) or a flat point P∧e∞ (grade 2); got a multivector "
+            f"of grades {sorted(grades)} — for a primitive use center(), closest_point_to_origin() or endpoints()"
+        )
+    k, (lam,) = _balance(Pv)  # always: the weight test below is relative to the balanced parts
     Pb = Pv._rescaled(k, lam)
-    wb = np.abs(np.asarray(Pb.get(_B["e0"]), dtype=float))
-    big = max([_absmax(c) for c in Pb.coeffs] + [0.0])
-    if np.any(wb <= 64.0 * EPS * big) or big == 0.0:
+    wv = np.asarray(Pb.get(_B["e0"]), dtype=float)
+    big = np.max(np.stack(np.broadcast_arrays(0.0, *[np.abs(np.asarray(c, dtype=float)) for c in Pb.coeffs])), axis=0)
+    if np.any(np.abs(wv) <= 64.0 * EPS * big) or np.any(big == 0.0):
         raise DegeneratePrimitiveError(
             "this point has zero e0 weight (a point at infinity or a direction); pass a finite conformal point"
         )
     xb = _euclid(Pb)
-    wv = np.asarray(Pb.get(_B["e0"]), dtype=float)
     with np.errstate(over="ignore"):
         x = _stack3(tuple(np.asarray(xi, dtype=float) / wv for xi in xb))
     return _unscale(x, k, "to_euclidean(P): the position")
+
+
+_B_FLAT_POINT = tuple(blade_index(n)[0] for n in ("e0inf", "e1inf", "e2inf", "e3inf"))  # w, w x of P(x)∧e∞
+
+
+def _flat_point_as_vector(F: Multivector) -> Multivector:
+    """The vector ``w(e0 + x)`` of a numeric ``F = w P(x)∧e∞ = w(e0∞ + x∧e∞)`` (grade 2); raises when F
+    is not a flat point (its other blades, relative to the rest after an exact rescaling, are not rounding)."""
+    k, (lam,) = _balance(F)
+    Fb = F._rescaled(k, lam)
+    rest = max([_absmax(c) for b, c in zip(Fb.blades, Fb.coeffs) if b not in _B_FLAT_POINT] + [0.0])
+    top = max(_absmax(c) for c in Fb.coeffs)
+    if rest > 64.0 * EPS * top:
+        grades = sorted(set(F.prune(0.0).grades))
+        what = f"a {kind_of(F)}" if grades == [2] else f"grades {grades}"
+        raise InvalidInputError(
+            f"to_euclidean(P): this multivector is not a flat point P∧e∞ ({what}); use center() or endpoints() "
+            "for a point pair"
+        )
+    return Multivector(_VEC[:4], tuple(F.get(b) for b in _B_FLAT_POINT))
 
 
 def endpoints(X: Multivector) -> tuple[Any, Any]:
@@ -838,6 +921,16 @@ def _radius2_of(X: Multivector) -> tuple[Any, Any]:
     return X.norm_squared(), (_EINF | X).norm_squared()
 
 
+def _local_form(X: Multivector) -> Multivector:
+    """The primitive built about its local origin if X keeps one (:attr:`Primitive.local`), else X:
+    for the translation-invariant read-outs, which it holds to ~ε relative: the radius (X itself to
+    ~ε(ρ/r)²) and the axis (X itself to ~ε ρ/r: its e0-blades are the small differences of the
+    translated ones)."""
+    if isinstance(X, Primitive) and X.local is not None:
+        return X.local[1]
+    return X
+
+
 def radius_squared(X: Multivector) -> Any:
     """r² = −⟨X X̃⟩₀ / ⟨(e∞⌋X)(e∞⌋X)~⟩₀ for point pairs, circles and spheres (corrects Eq 24)."""
     kind = kind_of(X)
@@ -845,7 +938,7 @@ def radius_squared(X: Multivector) -> Any:
     if X.is_symbolic:
         num, den = _radius2_of(X)
         return -num / den
-    Xb, k = _balanced(X)
+    Xb, k = _balanced(_local_form(X))
     num, den = (np.asarray(v, dtype=float) for v in _radius2_of(Xb))
     if np.any(den == 0):
         raise DegeneratePrimitiveError(f"the {kind} is flat (e∞⌋X = 0): infinite radius; a line/plane has no radius")
@@ -857,7 +950,9 @@ def radius(X: Multivector) -> Any:
 
     Precision: a primitive of radius r whose center is ρ from the origin stores r only to a
     relative precision of about ε(ρ/r)² (its coefficients mix ρ²r² and r⁴ terms), more
-    (~ε(ρ/r)³) if it was built by plain outer products of far-away points.  Numeric
+    (~ε(ρ/r)³) if it was built by plain outer products of far-away points.  A
+    :class:`Primitive` built by :func:`primitive_from_points` keeps its local form
+    (:attr:`Primitive.local`), from which r is read to ~ε wherever it is.  Other numeric
     read-outs estimate ``ε((ρ + r)/r)²`` and emit a :class:`~coop_ga.PrecisionWarning`
     above :data:`PRECISION_WARN` (1e-6); when the radius is lost entirely (r² within the
     rounding noise, possibly negative) they raise :class:`DegeneratePrimitiveError`.
@@ -874,7 +969,17 @@ def radius(X: Multivector) -> Any:
     if X.is_symbolic:
         num, den = _radius2_of(X)
         return B.sqrt(-num / den)
-    Xb, k = _balanced(X)
+    r, est, ratio = _radius_estimated(kind, X)
+    if est > PRECISION_WARN:
+        _warn_radius(kind, ratio, est)
+    return r
+
+
+def _radius_estimated(kind: str, X: Multivector) -> tuple[Any, float, float]:
+    """``(r, est, ratio)`` of a numeric round X: its radius [m], the estimated relative error
+    ``est = ε·ratio²`` of r and ``ratio = (ρ + r)/r`` (the largest over a batch); read from the local
+    form when X keeps one.  Raises when the radius is lost in rounding or imaginary."""
+    Xb, k = _balanced(_local_form(X))
     num, den = _radius2_of(Xb)
     if type(num) in (float, np.float64) and type(den) in (float, np.float64):  # one primitive: plain floats
         return _radius_scalar(kind, float(num), float(den), _length_scale(Xb), k)
@@ -887,7 +992,7 @@ def radius(X: Multivector) -> Any:
         r = np.sqrt(np.abs(r2))
         ratio = np.where(r > 0, (ell + r) / np.where(r > 0, r, 1.0), np.inf)
         est = EPS * ratio * ratio
-    est_max = float(np.max(np.where(r2 == 0, 0.0, est)))
+    est = np.where(r2 == 0, 0.0, est)
     if np.any(r2 < 0):
         lost = float(np.max(np.where(r2 < 0, est, 0.0)))
         if lost >= 0.1:
@@ -898,11 +1003,9 @@ def radius(X: Multivector) -> Any:
         raise DegeneratePrimitiveError(
             f"the {kind} is imaginary (r² = {float(np.min(r2)):.3g} < 0); it cannot come from real points"
         )
-    if est_max > PRECISION_WARN:
-        i = int(np.argmax(np.where(r2 == 0, 0.0, est).reshape(-1)))
-        rr = float(np.asarray(ratio).reshape(-1)[i]) if np.ndim(ratio) else float(ratio)
-        _warn_radius(kind, rr, est_max)
-    return _unscale(np.sqrt(r2), k, f"the {kind}'s radius")
+    i = int(np.argmax(est.reshape(-1)))
+    rr = float(np.asarray(ratio).reshape(-1)[i]) if np.ndim(ratio) else float(ratio)
+    return _unscale(np.sqrt(r2), k, f"the {kind}'s radius"), float(est.reshape(-1)[i]), rr
 
 
 def _length_scale(X: Multivector) -> float:
@@ -917,12 +1020,12 @@ def _length_scale(X: Multivector) -> float:
     return max(g[0] / g[-1], math.sqrt(g[1] / g[-1]))
 
 
-def _radius_scalar(kind: str, num: float, den: float, ell: float, k: int) -> float:
+def _radius_scalar(kind: str, num: float, den: float, ell: float, k: int) -> tuple[float, float, float]:
     if den == 0.0:
         raise DegeneratePrimitiveError(f"the {kind} is flat (e∞⌋X = 0): infinite radius; a line/plane has no radius")
     r2 = -num / den
     if r2 == 0.0:
-        return 0.0
+        return 0.0, 0.0, 1.0
     r = math.sqrt(abs(r2))
     ratio = (ell + r) / r
     est = EPS * ratio * ratio
@@ -933,12 +1036,10 @@ def _radius_scalar(kind: str, num: float, den: float, ell: float, k: int) -> flo
                 "precision of its coefficients; build it about a nearer origin"
             )
         raise DegeneratePrimitiveError(f"the {kind} is imaginary (r² = {r2:.3g} < 0); it cannot come from real points")
-    if est > PRECISION_WARN:
-        _warn_radius(kind, ratio, est)
     out = math.ldexp(r, k) if k else r
     if not math.isfinite(out):
         raise InvalidInputError(f"the {kind}'s radius is beyond the float64 range (|value| > 1.8e308)")
-    return out
+    return out, est, ratio
 
 
 def _warn_radius(kind: str, ratio: float, est: float) -> None:
@@ -988,7 +1089,7 @@ def normal(X: Multivector) -> Any:
     kind = kind_of(X)
     if kind not in ("plane", "circle"):
         raise InvalidInputError(f"normal() is defined for planes and circles, not for a {kind}")
-    X = _mv_arg(X, "X")
+    X = _local_form(_mv_arg(X, "X"))
     wn, _ = _dual_flat_plane(X)
     return _stack3(_unit3(wn, f"the {kind} has no normal (degenerate)"))
 
@@ -998,7 +1099,7 @@ def direction(X: Multivector) -> Any:
     kind = kind_of(X)
     if kind not in ("line", "point_pair"):
         raise InvalidInputError(f"direction() is defined for lines and point pairs, not for a {kind}")
-    X = _mv_arg(X, "X")
+    X = _local_form(_mv_arg(X, "X"))
     L = X if kind == "line" else (X ^ _EINF)
     d = tuple(L.get(b) for b in _B_E0IINF)
     return _stack3(_unit3(d, f"the {kind} has no direction (its points coincide)"))
@@ -1052,7 +1153,7 @@ def project(P: Multivector, X: Multivector) -> Multivector:
         return (P | X) * X.inverse()
     if safe_range(P, X):
         return _unscale_mv((P | X) * X.inverse(), 0, 0, "project(P, X)")
-    k, (lp, lx) = balance_exponents(P, X)
+    k, (lp, lx) = _balance(P, X)
     Pb, Xb = P._rescaled(k, lp), X._rescaled(k, lx)
     Y = (Pb | Xb) * Xb.inverse()
     return _unscale_mv(Y, -k, -lp, "project(P, X)")
@@ -1082,6 +1183,6 @@ def meet(X1: Multivector, X2: Multivector) -> Multivector:
         return ((X1 * _I5) ^ (X2 * _I5)) * _I5.scale(-1.0)
     if safe_range(X1, X2):
         return _unscale_mv(((X1 * _I5) ^ (X2 * _I5)) * _I5.scale(-1.0), 0, 0, "meet(X1, X2)")
-    k, (l1, l2) = balance_exponents(X1, X2)
+    k, (l1, l2) = _balance(X1, X2)
     Y = ((X1._rescaled(k, l1) * _I5) ^ (X2._rescaled(k, l2) * _I5)) * _I5.scale(-1.0)
     return _unscale_mv(Y, -k, -(l1 + l2), "meet(X1, X2)")

@@ -302,10 +302,15 @@ def test_item7_far_primitives_are_built_accurately_and_warn_when_their_radius_is
         exact = _exact_circle(pts)
         for b, e in zip(exact.blades, exact.coeffs):  # every coefficient as if exactly rounded
             assert abs(X.get(b) - float(e)) <= 4 * EPS * max(abs(float(x)) for x in exact.coeffs), b
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            # read from its local form: no loss beyond the points' own rounding (~ε ρ), and no warning
+            assert abs(cg.radius(X) - 1.0) <= 4 * EPS * rho
         est = EPS * (rho + 1.0) ** 2
+        bare = cg.Primitive(X.blades, X.coeffs, "circle")  # the same coefficients without the local form
         with warnings.catch_warnings(record=True) as w:
             warnings.simplefilter("always")
-            r = cg.radius(X)
+            r = cg.radius(bare)
         precision = [x for x in w if issubclass(x.category, PrecisionWarning)]
         assert bool(precision) == (est > 1e-6)
         if precision:
