@@ -47,14 +47,14 @@ from . import FIGURES, ROOT, Figure, load_script, select
 
 LOG_FILE = "log.txt"
 #: metrics keys that must be 0 in every published figure (a trajectory outside the joint limits)
-VIOLATION_KEYS = ("max_limit_violation", "max_velocity_violation")
+VIOLATION_KEYS = ("max_limit_violation", "max_velocity_violation", "max_acceleration_violation")
 #: the files a figure's run writes: those of the previous run are dropped when the new one is swapped in
-OUTPUT_SUFFIXES = (".png", ".json", ".npz", ".md", ".txt")
+OUTPUT_SUFFIXES = (".png", ".gif", ".mp4", ".json", ".npz", ".xml", ".md", ".txt")
 
 
 def _limit_violations(obj: Any, path: str = "") -> list[tuple[str, float]]:
-    """Every ``max_limit_violation`` (position, [rad]) or ``max_velocity_violation`` ([rad/s]) value > 0 in
-    a metrics tree, with its key path."""
+    """Every ``max_limit_violation`` (position, [rad]), ``max_velocity_violation`` ([rad/s]) or
+    ``max_acceleration_violation`` ([rad/s²]) value > 0 in a metrics tree, with its key path."""
     out: list[tuple[str, float]] = []
     if isinstance(obj, dict):
         for k, v in obj.items():
