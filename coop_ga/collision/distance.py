@@ -570,6 +570,8 @@ def seed002_link_sphere_distance(p_i: Any, p_j: Any, r2: float, sphere: Sphere) 
         L = line(a, b)
     except DegeneratePrimitiveError as exc:
         raise DegeneratePrimitiveError(f"p_i and p_j span no line: {exc}") from None
+    except InvalidInputError as exc:  # e.g. coordinates whose line coefficients overflow
+        raise type(exc)(f"p_i, p_j: {exc}") from None
     s = sphere.dual
     s2 = float((s * s).get(0))  # s² = R² (s ∧ s = 0)
     C = s + Multivector((_EI,), (0.5 * s2,))  # s + ½ s² e∞: the centre point

@@ -93,6 +93,7 @@ from ..geometry.primitives import Primitive, kind_of, point, sphere
 
 __all__ = [
     "CHARGE_RULES",
+    "SCENE_DISTANCE",
     "PotentialPath",
     "additive_split",
     "charges",
@@ -119,6 +120,8 @@ _B_E = tuple(blade_index(n)[0] for n in ("e1", "e2", "e3"))
 #: which puts the 3-D field's equilibrium point at distance R behind the obstacle.
 CHARGE_RULES = ("seed", "equilibrium")
 
+#: start–goal distance range [m] of :func:`random_scene`
+SCENE_DISTANCE = (1.0, 2.0)
 #: :func:`potential_path` refuses a larger ``max_iter`` (bounded work: each iteration is one step of the path)
 MAX_ITERATIONS = 10_000_000
 #: :func:`random_scene` gives up after this many rejected draws, and refuses more obstacles than this
@@ -651,7 +654,7 @@ def random_scene(
         s = rng.uniform(-1.0, 1.0, 3)
         u = rng.normal(size=3)
         u /= np.linalg.norm(u)
-        g = s + rng.uniform(1.0, 2.0) * u
+        g = s + rng.uniform(*SCENE_DISTANCE) * u
         obs, ok = [], True
         for _ in range(n):
             c = s + rng.uniform(0.25, 0.75) * (g - s) + rng.normal(0.0, 0.1, 3)

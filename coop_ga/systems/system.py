@@ -42,6 +42,7 @@ __all__ = [
     "from_model",
     "from_urdf",
     "prefixed",
+    "unique_frames",
 ]
 
 #: Directory of the URDFs coop_ga ships (iiwa14, hexapod): package data of ``coop_ga.systems``,
@@ -424,14 +425,50 @@ def prefixed(model: Any, prefix: str) -> Any:
     return m
 
 
+def _repeated_frames(model: Any) -> dict[str, list[str]]:
+    """``{name: [frame types]}`` of the frame names a model repeats (a URDF joint named like a link gives a
+    FIXED_JOINT and a BODY frame of one name)."""
+    types: dict[str, list[str]] = {}
+    for f in model.frames:
+        types.setdefault(f.name, []).append(str(f.type).rsplit(".", 1)[-1])
+    return {n: t for n, t in types.items() if len(t) > 1}
+
+
+def unique_frames(model: Any) -> Any:
+    """A copy of ``model`` in which no two frames share a name: of frames sharing a name, the BODY frame (or
+    else the first) keeps it, the others get their type appended (``"gripperStator"`` FIXED_JOINT →
+    ``"gripperStator_fixed_joint"``).  ``pinocchio.appendModel`` (:func:`append_robots`) needs unique names."""
+    import pinocchio as pin
+
+    m = pin.Model(_pin_model(model))
+    repeated = _repeated_frames(m)
+    taken = {f.name for f in m.frames}
+    for name in repeated:
+        ids = [i for i in range(len(m.frames)) if m.frames[i].name == name]
+        keep = next((i for i in ids if m.frames[i].type == pin.FrameType.BODY), ids[0])
+        for i in ids:
+            if i == keep:
+                continue
+            f = m.frames[i]
+            new = f"{name}_{str(f.type).rsplit('.', 1)[-1].lower()}"
+            k = 2
+            while new in taken:
+                new, k = f"{name}_{str(f.type).rsplit('.', 1)[-1].lower()}{k}", k + 1
+            taken.add(new)
+            f.name = new
+            m.frames[i] = f
+    return m
+
+
 def append_robots(parts: Sequence[tuple[Any, Any]]) -> Any:
     """Combine ``(model, world_placement_SE3)`` pairs into one model with ``pinocchio.appendModel``.
 
     Each model is attached to the universe frame at its placement.  Joint and frame names must be
-    unique across the parts: rename copies of the same robot first with :func:`prefixed`.
+    unique across the parts (rename copies of the same robot first with :func:`prefixed`) and within each
+    part (:func:`unique_frames` renames a model's repeated frame names, e.g. the Unitree Z1's).
 
     Raises :class:`~coop_ga.errors.InvalidInputError` for a malformed part and for a joint or frame name
-    that two parts share (the message names it, the parts and the fix).
+    that two parts share or one part repeats (the message names it, the parts and the fix).
     """
     import pinocchio as pin
 
@@ -447,6 +484,15 @@ def append_robots(parts: Sequence[tuple[Any, Any]]) -> Any:
         if not isinstance(placement, pin.SE3):
             raise InvalidInputError(
                 f"parts[{k}]: the placement must be a pinocchio.SE3 (world ← robot base), got {type(placement).__name__}"
+            )
+        repeated = _repeated_frames(m)
+        if repeated:
+            name, types = next(iter(repeated.items()))
+            raise InvalidInputError(
+                f"parts[{k}]: the model has {len(types)} frames named '{name}' ({', '.join(types)})"
+                + (f" and {len(repeated) - 1} more repeated name(s)" if len(repeated) > 1 else "")
+                + "; pinocchio.appendModel cannot tell them apart: rename them first with "
+                "coop_ga.systems.unique_frames(model)"
             )
         names = [("joint", n) for n in list(m.names)[1:]] + [("frame", f.name) for f in m.frames if f.name != "universe"]
         for kind, n in dict.fromkeys(names):
