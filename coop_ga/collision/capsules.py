@@ -48,9 +48,11 @@ def _points(points: Any, what: str) -> np.ndarray:
     """Points (n, 3) [m] (one point (3,) gives n = 1), finite (a new array)."""
     P = validation.array(points, what)
     if P.ndim == 1 and P.shape == (3,):
-        return P.reshape(1, 3)
+        P = P.reshape(1, 3)
     if P.ndim != 2 or P.shape[1] != 3:
         raise InvalidInputError(f"{what} must be points of shape (n, 3) [m] (or one point (3,)), got shape {P.shape}")
+    if P.size and float(np.max(np.abs(P))) > MAX_COORDINATE:
+        raise InvalidInputError(f"{what} reach {float(np.max(np.abs(P))):.3g} m, beyond ±{MAX_COORDINATE:g} m")
     return P
 
 

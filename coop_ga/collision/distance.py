@@ -394,6 +394,11 @@ def _batch(points: dict[str, Vec3], radii: dict[str, Any] | None = None) -> None
                 )
 
 
+def _quiet() -> Any:
+    """numpy's floating-point warnings off: the public functions check their results (:func:`_finite_result`)."""
+    return np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore")
+
+
 def _finite_result(value: Any, what: str) -> Any:
     """Numeric results are finite (the inputs are bounded, so this only fires on an overflow)."""
     if not Bk.is_symbolic(value) and not np.all(np.isfinite(value)):
@@ -431,20 +436,23 @@ def point_sphere_product(x: Any, sphere: Sphere) -> Any:
     """``P(x) · S = ½ (r² − |x − c|²)`` [m²] — the CGA inner product (left contraction of two vectors) of the
     point ``x`` (3,) [m] (or a batch) and the dual ``sphere`` (a :class:`Sphere`)."""
     v = _vec3(x, "x")
-    return _finite_result(_point_sphere_product(v, _obstacle(sphere, Sphere, "sphere")), "P(x)·S")
+    with _quiet():
+        return _finite_result(_point_sphere_product(v, _obstacle(sphere, Sphere, "sphere")), "P(x)·S")
 
 
 def point_sphere_distance(x: Any, sphere: Sphere) -> Any:
     """Clearance ``|x − c| − r`` [m] of point x (3,) [m] from the :class:`Sphere`, as ``sqrt(r² − 2 P(x)·S) − r``
     (Eq 1); a (..., 3) batch of points gives one per point."""
     v = _vec3(x, "x")
-    return _finite_result(_point_sphere_distance(v, _obstacle(sphere, Sphere, "sphere")), "the clearance")
+    with _quiet():
+        return _finite_result(_point_sphere_distance(v, _obstacle(sphere, Sphere, "sphere")), "the clearance")
 
 
 def point_plane_distance(x: Any, plane: Plane) -> Any:
     """Signed distance ``n·x − δ`` [m] of point x (3,) [m] from the :class:`Plane`, as ``P(x)·π`` (Eq 2)."""
     v = _vec3(x, "x")
-    return _finite_result(_point_plane_distance(v, _obstacle(plane, Plane, "plane")), "the distance")
+    with _quiet():
+        return _finite_result(_point_plane_distance(v, _obstacle(plane, Plane, "plane")), "the distance")
 
 
 # ====================================================================== segments and capsules
@@ -459,7 +467,8 @@ def segment_point_parameter(a: Any, b: Any, c: Any) -> Any:
     [a, b] to point c (all (3,) [m] or batches; t* = 0 for a degenerate segment)."""
     a3, b3, c3 = _vec3(a, "a"), _vec3(b, "b"), _vec3(c, "c")
     _batch({"a": a3, "b": b3, "c": c3})
-    return _finite_result(_segment_point_parameter(a3, b3, c3), "t*")
+    with _quiet():
+        return _finite_result(_segment_point_parameter(a3, b3, c3), "t*")
 
 
 def _capsule_sphere_distance(a3: Vec3, b3: Vec3, radius: Any, sphere: Sphere) -> tuple[Any, Any]:
@@ -477,8 +486,9 @@ def capsule_sphere_distance(a: Any, b: Any, radius: Any, sphere: Sphere) -> tupl
     """
     a3, b3, r = _vec3(a, "a"), _vec3(b, "b"), _radius(radius, "radius")
     _batch({"a": a3, "b": b3}, {"radius": r})
-    d, t = _capsule_sphere_distance(a3, b3, r, _obstacle(sphere, Sphere, "sphere"))
-    return _finite_result(d, "the clearance"), t
+    with _quiet():
+        d, t = _capsule_sphere_distance(a3, b3, r, _obstacle(sphere, Sphere, "sphere"))
+        return _finite_result(d, "the clearance"), _finite_result(t, "t*")
 
 
 def _capsule_plane_distance(a3: Vec3, b3: Vec3, radius: Any, plane: Plane) -> tuple[Any, Any]:
@@ -492,8 +502,9 @@ def capsule_plane_distance(a: Any, b: Any, radius: Any, plane: Plane) -> tuple[A
     :class:`Plane`: ``min(P(a)·π, P(b)·π) − radius``, t* ∈ {0, 1} the end that is closer (Eq 2)."""
     a3, b3, r = _vec3(a, "a"), _vec3(b, "b"), _radius(radius, "radius")
     _batch({"a": a3, "b": b3}, {"radius": r})
-    d, t = _capsule_plane_distance(a3, b3, r, _obstacle(plane, Plane, "plane"))
-    return _finite_result(d, "the clearance"), t
+    with _quiet():
+        d, t = _capsule_plane_distance(a3, b3, r, _obstacle(plane, Plane, "plane"))
+        return _finite_result(d, "the clearance"), t
 
 
 def _segment_segment_closest(P0: Vec3, P1: Vec3, Q0: Vec3, Q1: Vec3) -> tuple[Any, Any]:
@@ -523,8 +534,9 @@ def segment_segment_closest(p0: Any, p1: Any, q0: Any, q1: Any) -> tuple[Any, An
     handled — module docstring)."""
     P0, P1, Q0, Q1 = (_vec3(v, n) for v, n in ((p0, "p0"), (p1, "p1"), (q0, "q0"), (q1, "q1")))
     _batch({"p0": P0, "p1": P1, "q0": Q0, "q1": Q1})
-    s, t = _segment_segment_closest(P0, P1, Q0, Q1)
-    return _finite_result(s, "s*"), _finite_result(t, "t*")
+    with _quiet():
+        s, t = _segment_segment_closest(P0, P1, Q0, Q1)
+        return _finite_result(s, "s*"), _finite_result(t, "t*")
 
 
 def _capsule_capsule_distance(
@@ -546,8 +558,9 @@ def capsule_capsule_distance(
     A0, A1, B0, B1 = (_vec3(v, n) for v, n in ((a0, "a0"), (a1, "a1"), (b0, "b0"), (b1, "b1")))
     ra_, rb_ = _radius(ra, "ra"), _radius(rb, "rb")
     _batch({"a0": A0, "a1": A1, "b0": B0, "b1": B1}, {"ra": ra_, "rb": rb_})
-    d, st, xy = _capsule_capsule_distance(A0, A1, ra_, B0, B1, rb_)
-    return _finite_result(d, "the clearance"), st, xy
+    with _quiet():
+        d, st, xy = _capsule_capsule_distance(A0, A1, ra_, B0, B1, rb_)
+        return _finite_result(d, "the clearance"), st, xy
 
 
 # ====================================================================== seed 002, Eq 28–29

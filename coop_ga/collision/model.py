@@ -101,12 +101,30 @@ def _capsules(system: Any, capsules: Any) -> tuple[Capsule, ...]:
     return out
 
 
-def _obstacle(k: int, x: Any) -> Sphere | Plane:
-    """:func:`as_obstacle` of the k-th obstacle, its error naming it."""
-    try:
-        return as_obstacle(x)
-    except CoopGAError as exc:
-        raise type(exc)(f"obstacles[{k}]: {exc}") from None
+def _flags(**flags: Any) -> None:
+    for name, value in flags.items():
+        if not isinstance(value, (bool, np.bool_)):
+            raise InvalidInputError(f"{name} must be True or False, got {value!r}")
+
+
+def _obstacles(obstacles: Any) -> tuple[Sphere | Plane, ...]:
+    """The obstacles argument (one obstacle, or an iterable of :func:`as_obstacle` inputs), errors naming the
+    offending one."""
+    from ..geometry.primitives import Primitive
+
+    if isinstance(obstacles, (Sphere, Plane, dict, Primitive)):
+        obstacles = [obstacles]  # one obstacle
+    if isinstance(obstacles, str) or not isinstance(obstacles, Iterable):
+        raise InvalidInputError(
+            f"obstacles must be a list of collision.Sphere / collision.Plane (or primitives, dicts), got {obstacles!r}"
+        )
+    out = []
+    for k, x in enumerate(obstacles):
+        try:
+            out.append(as_obstacle(x))
+        except CoopGAError as exc:
+            raise type(exc)(f"obstacles[{k}]: {exc}") from None
+    return tuple(out)
 
 
 class CollisionModel:
@@ -146,28 +164,14 @@ class CollisionModel:
         import pinocchio as pin
 
         self.system = check_system(system)
-        for flag, value in (
-            ("self_collision", self_collision),
-            ("exclude_adjacent", exclude_adjacent),
-            ("exclude_overlapping", exclude_overlapping),
-            ("srdf", srdf),
-        ):
-            if not isinstance(value, (bool, np.bool_)):
-                raise InvalidInputError(f"{flag} must be True or False, got {value!r}")
+        _flags(self_collision=self_collision, exclude_adjacent=exclude_adjacent, exclude_overlapping=exclude_overlapping,
+               srdf=srdf)  # fmt: skip
         self.margin = validation.nonnegative(margin, "margin [m]")
         model = system.model
         self._model = model
         self._data = model.createData()
         self.capsules: tuple[Capsule, ...] = _capsules(system, capsules)
-        from ..geometry.primitives import Primitive
-
-        if isinstance(obstacles, (Sphere, Plane, dict, Primitive)):
-            obstacles = [obstacles]  # one obstacle
-        if isinstance(obstacles, str) or not isinstance(obstacles, Iterable):
-            raise InvalidInputError(
-                f"obstacles must be a list of collision.Sphere / collision.Plane (or primitives, dicts), got {obstacles!r}"
-            )
-        self.obstacles: tuple[Sphere | Plane, ...] = tuple(_obstacle(k, o) for k, o in enumerate(obstacles))
+        self.obstacles: tuple[Sphere | Plane, ...] = _obstacles(obstacles)
         self.nq = int(model.nq)
 
         # ---- per capsule: frame id, parent joint, ends in the parent joint's frame, supporting columns
@@ -332,6 +336,10 @@ class CollisionModel:
 
     # ------------------------------------------------------------------ distances
     def _eval(self, q: np.ndarray, jac: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow (a huge prismatic q) is refused below
+            return self._eval_unchecked(q, jac)
+
+    def _eval_unchecked(self, q: np.ndarray, jac: bool) -> tuple[np.ndarray, np.ndarray | None]:
         A, B, J6 = self._ends(q, jac)
         r = self._radius
         ds: list[np.ndarray] = []
@@ -363,6 +371,11 @@ class CollisionModel:
                 n = _unit(X - Y)
                 Js.append(self._rows(J6, i, X, n) - self._rows(J6, j, Y, n))
         dist = (np.concatenate(ds) if ds else np.zeros(0)) - self.margin
+        if not np.all(np.isfinite(dist)):
+            raise InvalidInputError(
+                f"q places a capsule where its distances overflow (|q| up to {float(np.max(np.abs(q))):.3g}); "
+                "this configuration is far outside any workspace"
+            )
         if not jac:
             return dist, None
         return dist, (np.concatenate(Js, axis=0) if Js else np.zeros((0, self.nq)))
@@ -402,8 +415,9 @@ class CollisionModel:
         raise InvalidInputError(f"kind must be 'obstacle', 'self' or 'inter_branch', got {kind!r}")
 
     def closest(self, q: Any) -> tuple[str, float]:
-        """``(label, distance [m])`` of the smallest distance at q."""
-        d = self.distances(q)
+        """``(label, distance [m])`` of the smallest distance at one configuration q (nq,) (``("", inf)`` for a
+        model without distances)."""
+        d = self._eval(self._q(q), False)[0]
         if not len(d):
             return "", float("inf")
         k = int(np.argmin(d))

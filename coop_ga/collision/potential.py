@@ -90,6 +90,7 @@ from ..algebra.basis import blade_index
 from ..algebra.multivector import Multivector
 from ..errors import DegeneratePrimitiveError, InvalidInputError
 from ..geometry.primitives import Primitive, kind_of, point, sphere
+from .distance import MAX_COORDINATE
 
 __all__ = [
     "CHARGE_RULES",
@@ -137,8 +138,10 @@ _SAFETY = 2e-10
 def obstacle(center_: Any, radius_: Any) -> Primitive:
     """The obstacle sphere of centre ``center_`` (3,) [m] and radius ``radius_`` > 0 [m] as a
     coop_ga OPNS primitive (kind ``"sphere"``, the wedge of four of its points, Eq 5)."""
-    c = validation.vector(center_, 3, "center")
+    c = _bounded(validation.vector(center_, 3, "center"), "center")
     r = validation.positive(radius_, "radius")
+    if r > MAX_COORDINATE:
+        raise InvalidInputError(f"radius = {r:g} m is beyond {MAX_COORDINATE:g} m")
     pts = [c + r * np.array(d, dtype=float) for d in ((1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0))]
     return sphere(pts[0], pts[1], pts[2], pts[3])
 
@@ -209,7 +212,8 @@ def signed_squared_distance(x: Any, S: Multivector) -> Any:
     Positive inside, zero on the sphere, negative outside.  Returns a float or an (N,) array.
     """
     s = dual_sphere(S)
-    v = (point(x) | s).get(0)
+    with np.errstate(over="ignore", invalid="ignore"):  # checked below
+        v = (point(x) | s).get(0)
     if not np.all(np.isfinite(v)):
         raise InvalidInputError("x is too far from the sphere: P(x)·s overflows; express the scene in a nearer unit")
     return float(v) if np.ndim(v) == 0 else np.asarray(v, dtype=float)
@@ -229,7 +233,7 @@ def charges(security_radii: Any, centers: Any, goal: Any, rule: str = "seed") ->
     if R.size and not float(R.min()) > 0.0:
         raise InvalidInputError(f"security_radii must be > 0 [m], got {float(R.min()):g}")
     C = _centers(centers, "centers")
-    g = validation.vector(goal, 3, "goal")
+    g = _bounded(validation.vector(goal, 3, "goal"), "goal")
     if C.shape[0] != R.shape[0]:
         raise InvalidInputError(f"{R.shape[0]} security_radii for {C.shape[0]} centers: give one radius per centre")
     D = np.linalg.norm(C - g, axis=1)
@@ -246,7 +250,14 @@ def equilibrium_distance(q: float, D: float) -> float:
     if q >= 1.0:
         raise InvalidInputError(f"an obstacle charge q = {q:g} ≥ 1 has no equilibrium point behind it")
     sq = float(np.sqrt(q))
-    return sq * D / (1.0 - sq)
+    with np.errstate(over="ignore"):
+        return float(validation.finite_result(sq * D / (1.0 - sq), f"equilibrium_distance(q = {q:g}, D = {D:g} m)"))
+
+
+def _bounded(P: np.ndarray, what: str) -> np.ndarray:
+    if P.size and float(np.max(np.abs(P))) > MAX_COORDINATE:
+        raise InvalidInputError(f"{what} reaches {float(np.max(np.abs(P))):.3g} m, beyond ±{MAX_COORDINATE:g} m")
+    return P
 
 
 def _centers(centers: Any, what: str) -> np.ndarray:
@@ -255,7 +266,7 @@ def _centers(centers: Any, what: str) -> np.ndarray:
         C = C.reshape(1, 3)
     if C.ndim != 2 or C.shape[1] != 3:
         raise InvalidInputError(f"{what} must have shape (k, 3) [m], got shape {C.shape}")
-    return C
+    return _bounded(C, what)
 
 
 def _charges_args(x: Any, centers: Any, q: Any, goal: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -265,12 +276,12 @@ def _charges_args(x: Any, centers: Any, q: Any, goal: Any) -> tuple[np.ndarray, 
     X = validation.array(x, "x")
     if X.shape[-1:] != (3,) or X.ndim > 2:
         raise InvalidInputError(f"x must have shape (3,) or (N, 3) [m], got shape {X.shape}")
-    X = X.reshape(-1, 3)
+    X = _bounded(X.reshape(-1, 3), "x")
     C = _centers(centers, "centers")
     Q = validation.array(q, "q").reshape(-1)
     if Q.shape[0] != C.shape[0]:
         raise InvalidInputError(f"{Q.shape[0]} charges q for {C.shape[0]} centers: give one charge per centre")
-    g = validation.vector(goal, 3, "goal")
+    g = _bounded(validation.vector(goal, 3, "goal"), "goal")
     for label, P in (("the goal", g[None]), *((f"charge {i} (centre {c.tolist()})", c[None]) for i, c in enumerate(C))):
         hit = np.flatnonzero(np.all(X == P, axis=1))
         if hit.size:
@@ -287,9 +298,10 @@ def coulomb_potential(x: Any, centers: Any, q: Any, goal: Any) -> Any:
 
     Raises :class:`InvalidInputError` for a point on a charge or on the goal (U is singular there)."""
     X, C, Q, g = _charges_args(x, centers, q, goal)
-    U = np.sum(Q[None, :] / np.linalg.norm(X[:, None, :] - C[None], axis=2), axis=1) - 1.0 / np.linalg.norm(
-        X - g, axis=1
-    )
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):  # checked below
+        U = np.sum(Q[None, :] / np.linalg.norm(X[:, None, :] - C[None], axis=2), axis=1) - 1.0 / np.linalg.norm(
+            X - g, axis=1
+        )
     if not np.all(np.isfinite(U)):
         raise InvalidInputError("x lies too close to a charge: the Coulomb potential overflows there")
     return float(U[0]) if np.ndim(x) == 1 else U
@@ -311,7 +323,11 @@ def coulomb_field(x: Any, centers: Any, q: Any, goal: Any) -> np.ndarray:
     Raises :class:`InvalidInputError` for a point on a charge or on the goal (E is singular there)."""
     validation.vector(x, 3, "x")
     X, C, Q, g = _charges_args(x, centers, q, goal)
-    E = _field(X[0], C, Q, g)
+    try:
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):  # checked below
+            E = _field(X[0], C, Q, g)
+    except OverflowError:  # |x − goal|³ beyond the doubles
+        raise InvalidInputError("x is too far from the goal: the Coulomb field's |x − goal|³ overflows") from None
     if not np.all(np.isfinite(E)):
         raise InvalidInputError("x lies too close to a charge: the Coulomb field overflows there")
     return E
@@ -431,6 +447,41 @@ def _project_cone(delta: np.ndarray, normals: list[np.ndarray]) -> np.ndarray:
     return np.zeros(3)
 
 
+def _path_ends(start: Any, goal: Any, step: Any, tol: Any) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The checked start (3,), goal (3,) [m], step and goal tolerance (default: the step) [m] of a path.
+
+    A tolerance not below the start–goal distance is refused: the start would count as reached."""
+    x0 = validation.vector(start, 3, "start")
+    g = validation.vector(goal, 3, "goal")
+    for name, p in (("start", x0), ("goal", g)):
+        if float(np.max(np.abs(p))) > MAX_COORDINATE:
+            raise InvalidInputError(
+                f"{name} = {p.tolist()} is beyond ±{MAX_COORDINATE:g} m (its conformal point overflows)"
+            )
+    h = validation.positive(step, "step")
+    tol_ = h if tol is None else validation.positive(tol, "tol")
+    d_start = float(np.linalg.norm(g - x0))
+    if 0.0 < d_start <= tol_:
+        which = "tol" if tol is not None else "step (the default goal tolerance tol)"
+        raise InvalidInputError(
+            f"{which} = {tol_:g} m is not smaller than the start–goal distance {d_start:.6g} m: the start would count "
+            f"as reached without a step; pass a step (or tol) below {d_start:.6g} m"
+        )
+    return x0, g, h, tol_
+
+
+def _security_spheres(obstacles: Any, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """Centres (k, 3) [m] and security radii ρ + margin (k,) [m] of the obstacle spheres (one sphere or a list)."""
+    if isinstance(obstacles, Multivector):
+        obstacles = [obstacles]
+    if isinstance(obstacles, str) or not isinstance(obstacles, Iterable):
+        raise InvalidInputError(
+            f"obstacles must be a list of spheres (collision.potential.obstacle), got {obstacles!r}"
+        )
+    cr = [_center_radius(S, f"obstacles[{i}]") for i, S in enumerate(obstacles)]
+    return np.array([c for c, _ in cr]).reshape(-1, 3), np.array([r + margin for _, r in cr])
+
+
 def potential_path(
     start: Any,
     goal: Any,
@@ -465,10 +516,7 @@ def potential_path(
     count as reached without a step (a path of length 0, whatever lies in between).
     Never raises for a failure of the method: see ``status`` and ``message`` of the result.
     """
-    x0 = validation.vector(start, 3, "start")
-    g = validation.vector(goal, 3, "goal")
-    h = validation.positive(step, "step")
-    tol_ = h if tol is None else validation.positive(tol, "tol")
+    x0, g, h, tol_ = _path_ends(start, goal, step, tol)
     max_iter = validation.integer(max_iter, "max_iter", minimum=1)
     if max_iter > MAX_ITERATIONS:
         raise InvalidInputError(
@@ -480,20 +528,7 @@ def potential_path(
     charge_rule = validation.choice(charge_rule, CHARGE_RULES, "charge_rule")
     margin = validation.nonnegative(margin, "margin")
     d_start = float(np.linalg.norm(g - x0))
-    if 0.0 < d_start <= tol_:
-        which = "tol" if tol is not None else "step (the default goal tolerance tol)"
-        raise InvalidInputError(
-            f"{which} = {tol_:g} m is not smaller than the start–goal distance {d_start:.6g} m: the start would count "
-            f"as reached without a step; pass a step (or tol) below {d_start:.6g} m"
-        )
-    if isinstance(obstacles, Multivector):
-        obstacles = [obstacles]
-    if isinstance(obstacles, str) or not isinstance(obstacles, Iterable):
-        raise InvalidInputError(f"obstacles must be a list of spheres (collision.potential.obstacle), got {obstacles!r}")
-    obs = list(obstacles)
-    cr = [_center_radius(S, f"obstacles[{i}]") for i, S in enumerate(obs)]
-    C = np.array([c for c, _ in cr]).reshape(-1, 3)
-    R = np.array([r + margin for _, r in cr])
+    C, R = _security_spheres(obstacles, margin)
     S = [point(c) - _EINF.scale(0.5 * r * r) for c, r in zip(C, R)]
     for name, p in (("start", x0), ("goal", g)):
         for i in range(len(S)):

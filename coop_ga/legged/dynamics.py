@@ -87,7 +87,9 @@ class RolloutOptions:
                 raise InvalidInputError(f"RolloutOptions.{name} must be True or False, got {getattr(self, name)!r}")
         b = validation.array(self.baumgarte, "RolloutOptions.baumgarte")
         if b.shape != (2,) or np.any(b < 0.0):
-            raise InvalidInputError(f"RolloutOptions.baumgarte must be (K_p, K_d) ≥ 0 [1/s², 1/s], got {self.baumgarte!r}")
+            raise InvalidInputError(
+                f"RolloutOptions.baumgarte must be (K_p, K_d) ≥ 0 [1/s², 1/s], got {self.baumgarte!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -177,12 +179,23 @@ def _rx(a: float) -> np.ndarray:
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
-def _check_plan(t: Any, q: Any, body: Any, stance: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _check_plan(
+    t: Any, q: Any, body: Any, stance: Any, dt: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The checked plan arrays; a plan that needs more than :data:`MAX_STEPS` integration steps of ``dt`` [s] is
+    refused (bounded work)."""
     tt = validation.array(t, "t")
     if tt.ndim != 1 or tt.size < 2:
         raise InvalidInputError(f"t must have shape (T,) with T ≥ 2 samples [s], got shape {tt.shape}")
     if np.any(np.diff(tt) <= 0.0):
         raise InvalidInputError("t must be strictly increasing")
+    with np.errstate(over="ignore"):
+        n_steps = float(np.sum(np.maximum(1.0, np.ceil(np.diff(tt) / dt - 1e-9))))
+    if not n_steps <= MAX_STEPS:
+        raise InvalidInputError(
+            f"the plan spans t = {tt[0]:.4g} … {tt[-1]:.4g} s: {n_steps:.3g} integration steps of options.dt = {dt:g} s, "
+            f"above {MAX_STEPS}; simulate a shorter plan or take a longer dt"
+        )
     T = tt.size
     qq = validation.array(q, "q", shape=(T, 18))
     bb = validation.array(body, "body", shape=(T, 7))
@@ -253,13 +266,7 @@ def contact_rollout(
     kp = validation.nonnegative(opts.kp, "options.kp")
     kd = validation.nonnegative(opts.kd, "options.kd")
     dt = validation.positive(opts.dt, "options.dt")
-    tt, qq, bb, st = _check_plan(t, q, body, stance)
-    n_steps = int(np.sum(np.maximum(1, np.ceil(np.diff(tt) / dt - 1e-9))))
-    if n_steps > MAX_STEPS:
-        raise InvalidInputError(
-            f"the plan spans t = {tt[0]:.4g} … {tt[-1]:.4g} s: {n_steps:.3g} integration steps of options.dt = {dt:g} s, "
-            f"above {MAX_STEPS}; simulate a shorter plan or take a longer dt"
-        )
+    tt, qq, bb, st = _check_plan(t, q, body, stance, dt)
     if system is None:
         if FLOATING_SYSTEM not in names():
             raise UnknownNameError(f"the physics check needs the registered system '{FLOATING_SYSTEM}'")

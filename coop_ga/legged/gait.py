@@ -254,24 +254,27 @@ def swing_arc(p0: object, p1: object, lift: float, s: object) -> tuple[np.ndarra
     ss = array(s, "s")
     if np.any(ss < -1e-12) or np.any(ss > 1.0 + 1e-12):
         raise InvalidInputError(f"s must lie in [0, 1], got values in [{ss.min()}, {ss.max()}]")
-    ss = np.clip(ss, 0.0, 1.0)
-    d = _SWING_DELAY
-    # horizontal: a smoothstep over [d, 1 − d]
-    hx, dhx = _smoothstep((ss - d) / (1.0 - 2.0 * d))
-    dhx = dhx / (1.0 - 2.0 * d)
-    # vertical: z0 → z_top over [0, ½], z_top → z1 over [½, 1]
-    z0, z1 = a[2], b[2]
-    z_top = max(z0, z1) + h_lift
-    up, dup = _smoothstep(2.0 * ss)
-    down, ddown = _smoothstep(2.0 * ss - 1.0)
-    first = ss <= 0.5
-    z = np.where(first, z0 + (z_top - z0) * up, z_top + (z1 - z_top) * down)
-    dz = np.where(first, (z_top - z0) * 2.0 * dup, (z1 - z_top) * 2.0 * ddown)
-    p = np.empty((*ss.shape, 3))
-    v = np.empty((*ss.shape, 3))
-    for k in range(2):
-        p[..., k] = a[k] + (b[k] - a[k]) * hx
-        v[..., k] = (b[k] - a[k]) * dhx
-    p[..., 2] = z
-    v[..., 2] = dz
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused below
+        ss = np.clip(ss, 0.0, 1.0)
+        d = _SWING_DELAY
+        # horizontal: a smoothstep over [d, 1 − d]
+        hx, dhx = _smoothstep((ss - d) / (1.0 - 2.0 * d))
+        dhx = dhx / (1.0 - 2.0 * d)
+        # vertical: z0 → z_top over [0, ½], z_top → z1 over [½, 1]
+        z0, z1 = a[2], b[2]
+        z_top = max(z0, z1) + h_lift
+        up, dup = _smoothstep(2.0 * ss)
+        down, ddown = _smoothstep(2.0 * ss - 1.0)
+        first = ss <= 0.5
+        z = np.where(first, z0 + (z_top - z0) * up, z_top + (z1 - z_top) * down)
+        dz = np.where(first, (z_top - z0) * 2.0 * dup, (z1 - z_top) * 2.0 * ddown)
+        p = np.empty((*ss.shape, 3))
+        v = np.empty((*ss.shape, 3))
+        for k in range(2):
+            p[..., k] = a[k] + (b[k] - a[k]) * hx
+            v[..., k] = (b[k] - a[k]) * dhx
+        p[..., 2] = z
+        v[..., 2] = dz
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(v))):
+        raise InvalidInputError("swing_arc(p0, p1, lift): the arc overflows; rescale the end points and the lift")
     return p, v

@@ -61,6 +61,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .. import validation
 from ..errors import InvalidInputError, UnreachableError
 from ..geometry.groups import Similarity, bivector_to_tangent, tangent_to_bivector
 from ..validation import array, choice, integer, nonnegative, positive, vector
@@ -99,6 +100,8 @@ _CLIP_TOL = 1e-10
 
 def _base_kind(kind: str) -> str:
     """``"sphere_fit"`` → ``"sphere"`` (the LSQ kinds of :mod:`coop_ga.legged.stance` have the stabiliser of their kind)."""
+    if not isinstance(kind, str):
+        raise InvalidInputError(f"kind must be a stance primitive kind (str), got {kind!r}")
     k = kind[:-4] if kind.endswith("_fit") else kind
     if k not in OBSERVABLE:
         raise InvalidInputError(f"posture control needs a stance plane, circle or sphere, got kind {kind!r}")
@@ -255,7 +258,8 @@ def feet_field(command_B: Any, points_B: Any) -> np.ndarray:
         raise InvalidInputError(f"points_B must have shape (k, 3) or (3,) [m], got shape {p.shape}")
     p = p.reshape(-1, 3)
     w = np.array([c[2], -c[1], c[0]])
-    return c[4:7] + np.cross(w, p) + c[3] * p
+    with np.errstate(over="ignore", invalid="ignore"):
+        return validation.finite_result(c[4:7] + np.cross(w, p) + c[3] * p, "feet_field(command_B, points_B)")
 
 
 def command_from_body_twist(v: Any, omega: Any) -> np.ndarray:
@@ -403,12 +407,7 @@ def posture_step(
     c_in = vector(command_twist_B, 7, "command_twist_B")
     if nullspace_twist is not None:
         nullspace_twist = vector(nullspace_twist, 6, "nullspace_twist")
-    _swing_args(swing_q, swing_feet_W, idx)
-    if task is not None:
-        from ..cooperative.task import CooperativeTask
-
-        if not isinstance(task, CooperativeTask):
-            raise InvalidInputError(f"task must be a CooperativeTask (stance_task(...)), got {type(task).__name__}")
+    _swing_args(swing_q, swing_feet_W, idx, task)
     if _violation(lm, state.q) > 1e-12:
         raise InvalidInputError(
             f"state.q is outside the joint limits by {_violation(lm, state.q):.3g} rad; posture_step starts inside them"
@@ -574,8 +573,14 @@ def _posture_args(
     return lm, PostureOptions() if options is None else options, idx
 
 
-def _swing_args(swing_q: Any, swing_feet_W: Any, idx: tuple[int, ...]) -> None:
-    """``swing_q`` / ``swing_feet_W``: None or ``{swing leg: (3,)}`` (joint angles [rad] / a foot target [m] in W)."""
+def _swing_args(swing_q: Any, swing_feet_W: Any, idx: tuple[int, ...], task: Any = None) -> None:
+    """``swing_q`` / ``swing_feet_W``: None or ``{swing leg: (3,)}`` (joint angles [rad] / a foot target [m] in W);
+    ``task``: None or a :class:`~coop_ga.cooperative.CooperativeTask`."""
+    if task is not None:
+        from ..cooperative.task import CooperativeTask
+
+        if not isinstance(task, CooperativeTask):
+            raise InvalidInputError(f"task must be a CooperativeTask (stance_task(...)), got {type(task).__name__}")
     for what, m in (("swing_q", swing_q), ("swing_feet_W", swing_feet_W)):
         if m is None:
             continue

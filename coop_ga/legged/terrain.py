@@ -192,7 +192,7 @@ class Terrain:
         edges = x0 + L * np.arange(n)
         if not np.all(np.isfinite(edges)) or not np.isfinite(H * n):
             raise InvalidInputError(
-                f"the staircase overflows: start_x + n_steps·step_length or n_steps·step_height is not finite"
+                "the staircase overflows: start_x + n_steps·step_length or n_steps·step_height is not finite"
             )
         planes = np.zeros((1, n + 1, 4))
         planes[0, :, 2] = 1.0
@@ -344,7 +344,9 @@ class Terrain:
     def from_arrays(cls, d: Mapping[str, Any]) -> Terrain:
         """The terrain from :meth:`to_arrays` output (a dict or an ``np.load`` NpzFile; extra keys ignored)."""
         if not isinstance(d, Mapping):
-            raise InvalidInputError(f"d must be a dict of terrain arrays (Terrain.to_arrays(), np.load(...)), got {d!r}")
+            raise InvalidInputError(
+                f"d must be a dict of terrain arrays (Terrain.to_arrays(), np.load(...)), got {d!r}"
+            )
         need = ("terrain_kind", "terrain_x_edges", "terrain_y_edges", "terrain_planes")
         missing = [k for k in need if k not in d]
         if missing:

@@ -133,6 +133,10 @@ def convex_hull(points_xy: object) -> np.ndarray:
     return np.array(hull, dtype=float)
 
 
+#: horizontal coordinates [m] beyond this are refused by :func:`static_stability_margin` (squares overflow)
+_MAX_XY = 1e150
+
+
 def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     ab = b - a
     L2 = float(ab @ ab)
@@ -154,6 +158,9 @@ def static_stability_margin(com_xy: object, support_xy: object) -> float:
     S = array(support_xy, "support_xy")
     if S.ndim != 2 or S.shape[1] != 2:
         raise InvalidInputError(f"support_xy must have shape (k, 2), got {S.shape}")
+    for what, P in (("com_xy", c), ("support_xy", S)):
+        if P.size and float(np.max(np.abs(P))) > _MAX_XY:
+            raise InvalidInputError(f"{what} reaches {float(np.max(np.abs(P))):.3g} m, beyond ±{_MAX_XY:g} m")
     if S.shape[0] == 0:
         return -math.inf
     H = convex_hull(S)
@@ -583,6 +590,40 @@ def _posture_update(
 
 
 # ====================================================================== walking
+def _walk_args(terrain: Any, options: Any, legs: Any) -> tuple[WalkOptions, LegModel]:
+    """The checked options (default :class:`WalkOptions`) and legs (default the hexapod's) of :func:`walk`."""
+    from .legs import hexapod_legs
+
+    opts = options if options is not None else WalkOptions()
+    if not isinstance(opts, WalkOptions):
+        raise InvalidInputError(f"options must be a WalkOptions, got {type(opts).__name__}")
+    if not all(callable(getattr(terrain, f, None)) for f in ("height", "land")):
+        raise InvalidInputError(
+            f"terrain must be a coop_ga.legged.Terrain (or have height(xy) and land(xy)), got {type(terrain).__name__}"
+        )
+    return opts, check_legs(legs) if legs is not None else hexapod_legs()
+
+
+def _walk_duration(speed: float, ramp: float, dt: float, distance: Any, duration: Any) -> float:
+    """The walk's duration [s] from ``distance`` [m] at ``speed`` [m/s] after a ``ramp`` [s], or ``duration`` [s];
+    at most :data:`MAX_KNOTS` knots of ``dt`` (bounded work)."""
+    if distance is not None:
+        dist = positive(distance, "distance")
+        if speed <= 1e-12:
+            raise InvalidInputError("walk(distance=…) needs a translation command; give duration for a turn in place")
+        t_end = dist / speed + 0.5 * ramp if dist / speed >= 0.5 * ramp else math.sqrt(dist / speed * ramp)
+    elif duration is not None:
+        t_end = positive(duration, "duration")
+    else:
+        raise InvalidInputError("walk needs distance [m] or duration [s]")
+    if not t_end / dt <= MAX_KNOTS:
+        raise InvalidInputError(
+            f"the walk ({'distance' if distance is not None else 'duration'}) would take {t_end:.4g} s = "
+            f"{t_end / dt:.3g} knots of {dt:.4g} s, above {MAX_KNOTS}; walk a shorter distance or duration"
+        )
+    return t_end
+
+
 def walk(
     terrain: Terrain,
     options: WalkOptions | None = None,
@@ -603,16 +644,7 @@ def walk(
 
     Returns a :class:`WalkResult`.  Raises :class:`~coop_ga.errors.InvalidInputError` for bad arguments.
     """
-    from .legs import hexapod_legs
-
-    opts = options if options is not None else WalkOptions()
-    if not isinstance(opts, WalkOptions):
-        raise InvalidInputError(f"options must be a WalkOptions, got {type(opts).__name__}")
-    if not all(callable(getattr(terrain, f, None)) for f in ("height", "land")):
-        raise InvalidInputError(
-            f"terrain must be a coop_ga.legged.Terrain (or have height(xy) and land(xy)), got {type(terrain).__name__}"
-        )
-    lm = check_legs(legs) if legs is not None else hexapod_legs()
+    opts, lm = _walk_args(terrain, options, legs)
     tab = opts.table()
     cmd = opts.command()
     T = tab.period
@@ -627,21 +659,7 @@ def walk(
         )
     offsets = np.round(tab.offsets * N).astype(int)
     ramp = T if opts.ramp_time is None else float(opts.ramp_time)
-    speed = float(np.linalg.norm(cmd[:2]))
-    if distance is not None:
-        dist = positive(distance, "distance")
-        if speed <= 1e-12:
-            raise InvalidInputError("walk(distance=…) needs a translation command; give duration for a turn in place")
-        t_end = dist / speed + 0.5 * ramp if dist / speed >= 0.5 * ramp else math.sqrt(dist / speed * ramp)
-    elif duration is not None:
-        t_end = positive(duration, "duration")
-    else:
-        raise InvalidInputError("walk needs distance [m] or duration [s]")
-    if not t_end / dt <= MAX_KNOTS:
-        raise InvalidInputError(
-            f"the walk ({'distance' if distance is not None else 'duration'}) would take {t_end:.4g} s = "
-            f"{t_end / dt:.3g} knots of {dt:.4g} s, above {MAX_KNOTS}; walk a shorter distance or duration"
-        )
+    t_end = _walk_duration(float(np.linalg.norm(cmd[:2])), ramp, dt, distance, duration)
     K = math.ceil(t_end / dt - 1e-9)
     mid = round(0.5 * tab.duty * N)
     ref = _reference_path(cmd, dt, K + N + mid + 2, ramp)

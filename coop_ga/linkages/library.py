@@ -71,6 +71,12 @@ def _lengths(ground: Any, crank: Any, coupler: Any, rocker: Any) -> tuple[float,
     )
 
 
+_RATIO_OVERFLOW = (
+    "the link lengths (ground, crank, coupler, rocker) = {lengths} m differ by too many orders of magnitude: "
+    "their ratios overflow; express them in one unit near their size"
+)
+
+
 def _branch(branch: Any, what: str = "branch") -> int:
     if isinstance(branch, (bool, np.bool_)) or not isinstance(branch, (int, np.integer)) or branch not in (1, -1):
         raise InvalidInputError(f"{what} must be the integer +1 or -1 (the assembly mode), got {branch!r}")
@@ -127,9 +133,12 @@ def freudenstein_output(ground: float, crank: float, coupler: float, rocker: flo
     Raises :class:`LinkageError` naming the first crank angle where the linkage cannot be assembled
     (|−R/√(P² + Q²)| > 1 beyond rounding; :func:`crank_limits` gives the toggle angles).
     """
-    d, a, b, c = _lengths(ground, crank, coupler, rocker)
+    d, a, b, c = (np.float64(v) for v in _lengths(ground, crank, coupler, rocker))
     t2 = validation.array(theta2, "theta2 [rad]")
-    K1, K2, K3 = d / a, d / c, (a * a - b * b + c * c + d * d) / (2 * a * c)
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore", under="ignore"):
+        K1, K2, K3 = d / a, d / c, (a * a - b * b + c * c + d * d) / (2 * a * c)
+    if not (np.isfinite(K1) and np.isfinite(K2) and np.isfinite(K3)):
+        raise InvalidInputError(_RATIO_OVERFLOW.format(lengths=(float(d), float(a), float(b), float(c))))
     P = K1 - np.cos(t2)
     Q = -np.sin(t2)
     R = K3 - K2 * np.cos(t2)
@@ -153,10 +162,13 @@ def crank_limits(ground: float, crank: float, coupler: float, rocker: float) -> 
 
     |A − D|² = a² + d² − 2ad cos θ2; each limit that exists is returned (its mirror −θ is one too).
     """
-    d, a, b, c = _lengths(ground, crank, coupler, rocker)
+    d, a, b, c = (np.float64(v) for v in _lengths(ground, crank, coupler, rocker))
     out = []
     for L in (b + c, abs(b - c)):
-        cs = (a * a + d * d - L * L) / (2 * a * d)
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore", under="ignore"):
+            cs = (a * a + d * d - L * L) / (2 * a * d)
+        if not np.isfinite(cs):
+            raise InvalidInputError(_RATIO_OVERFLOW.format(lengths=(float(d), float(a), float(b), float(c))))
         if -1 <= cs <= 1:
             out.append(float(np.arccos(cs)))
     return tuple(sorted(out))
@@ -268,7 +280,9 @@ def slider_crank(crank: float = 1.0, rod: float = 4.0) -> Linkage:
     """
     crank, rod = _length(crank, "crank"), _length(rod, "rod")
     if not rod > crank:
-        raise InvalidInputError(f"slider_crank needs rod > crank [m] (the crank turns fully), got crank={crank}, rod={rod}")
+        raise InvalidInputError(
+            f"slider_crank needs rod > crank [m] (the crank turns fully), got crank={crank}, rod={rod}"
+        )
     A = np.array([crank, 0.0])
     S = np.array([0.0, np.sqrt(rod * rod - crank * crank)])
     return Linkage(

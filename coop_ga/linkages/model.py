@@ -290,7 +290,9 @@ class Linkage:
         d = np.asarray(cp[tip], float) - self.pivot
         self.crank_radius = float(np.hypot(*d))
         if not self.crank_radius > 1e-12:
-            raise LinkageError(f"the crank tip {tip!r} coincides with the pivot {pivot!r}: the crank angle is undefined")
+            raise LinkageError(
+                f"the crank tip {tip!r} coincides with the pivot {pivot!r}: the crank angle is undefined"
+            )
         self.reference_angle = float(np.arctan2(d[1], d[0]))
         self.tip = tip
         self.moving = tuple(n for n in self.links if n not in (ground, crank))
@@ -528,8 +530,13 @@ class Linkage:
         if min_step > max_step:
             raise InvalidInputError(f"min_step = {min_step:g} rad must be ≤ max_step = {max_step:g} rad")
         max_substeps = validation.integer(max_substeps, "max_substeps", minimum=1)
-        span = float(np.sum(np.abs(np.diff(angles))))
-        need = math.ceil(span / max_step - 1e-9) if guard else angles.size - 1
+        with np.errstate(over="ignore"):
+            span = float(np.sum(np.abs(np.diff(angles))))
+        need = (
+            (math.ceil(span / max_step - 1e-9) if math.isfinite(span / max_step) else math.inf)
+            if guard
+            else angles.size - 1
+        )
         if need > max_substeps:
             raise InvalidInputError(
                 f"crank_angles span {span:.6g} rad ({span / (2 * math.pi):.4g} turns): "
@@ -663,7 +670,7 @@ class Linkage:
             substeps=np.array(rows["sub"], int),
             sigma_min=np.array(rows["smin"], float),
             det_sign=np.array(rows["sign"], int),
-            motors=np.array(rows["m"]).reshape(T, -1),
+            motors=np.array(rows["m"]).reshape(T, 4 * len(self.moving)),  # (T = 0: cannot assemble at the start)
             complete=complete,
             requested=int(angles.size),
             stop_angle=stop,

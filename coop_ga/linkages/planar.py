@@ -63,11 +63,18 @@ def _coords(x: Any, n: int, what: str) -> Any:
         if len(x) != n:
             raise InvalidInputError(f"{what} must have {n} entries, got {len(x)}")
         return x
-    return validation.vector(x, n, what)
+    a = validation.vector(x, n, what)
+    if a.size and float(np.max(np.abs(a))) > _MAX:
+        raise InvalidInputError(f"{what} has an entry of {float(np.max(np.abs(a))):.3g}, beyond ±{_MAX:g}")
+    return a
 
 
 def _angle(x: Any, what: str) -> Any:
-    return x if bk.is_symbolic(x) else validation.scalar(x, what)
+    return x if bk.is_symbolic(x) else validation.scalar(x, what, low=-_MAX, high=_MAX)
+
+
+#: numeric entries beyond this are refused: the products of the motor algebra must not overflow
+_MAX = 1e75
 
 
 def _mv(m: Any) -> Multivector:
@@ -139,7 +146,10 @@ def apply_point(m: Any, p: Any) -> tuple[Any, Any]:
     M = _mv(m)
     X = M * up(p) * M.reverse()
     w = X["e0"]  # 1 for a unit motor; divided out so a slightly unnormalised motor still gives a point
-    return X["e1"] / w, X["e2"] / w
+    x, y = X["e1"] / w, X["e2"] / w
+    if not bk.is_symbolic(x) and not (np.isfinite(x) and np.isfinite(y)):
+        raise InvalidInputError(f"moving p by m overflows (m = {list(m)}, p = {list(p)}); rescale the linkage")
+    return x, y
 
 
 def motor_pose(m: Any) -> tuple[float, float, float]:

@@ -88,7 +88,9 @@ class JointLimits:
         if not isinstance(model, pin.Model):
             raise InvalidInputError(f"model must be a pinocchio.Model, got {type(model).__name__}")
         if isinstance(joint_names, str) or not isinstance(joint_names, Sequence) or len(joint_names) != model.nq:
-            raise InvalidInputError(f"joint_names must be {model.nq} names (one per coordinate of q), got {joint_names!r}")
+            raise InvalidInputError(
+                f"joint_names must be {model.nq} names (one per coordinate of q), got {joint_names!r}"
+            )
         lo = np.array(model.lowerPositionLimit, dtype=float)
         hi = np.array(model.upperPositionLimit, dtype=float)
         big = 1e300  # Pinocchio's "no limit" is ±max double

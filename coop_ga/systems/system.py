@@ -242,15 +242,19 @@ class System:
         if not self.labels:
             self.labels = self.end_frames
         self.labels = tuple(self.labels) if isinstance(self.labels, (list, tuple)) else self.labels
-        if not isinstance(self.labels, tuple) or len(self.labels) != len(self.end_frames) or not all(
-            isinstance(x, str) for x in self.labels
+        if (
+            not isinstance(self.labels, tuple)
+            or len(self.labels) != len(self.end_frames)
+            or not all(isinstance(x, str) for x in self.labels)
         ):
             raise InvalidInputError(
                 f"labels of system '{self.name}' must be {len(self.end_frames)} strings (one per end frame), "
                 f"got {self.labels!r}"
             )
         if isinstance(self.visuals, (str, VisualSource)) or not isinstance(self.visuals, Sequence):
-            raise InvalidInputError(f"visuals of system '{self.name}' must be a list of VisualSource, got {self.visuals!r}")
+            raise InvalidInputError(
+                f"visuals of system '{self.name}' must be a list of VisualSource, got {self.visuals!r}"
+            )
         self.visuals = tuple(self.visuals)
         if not all(isinstance(v, VisualSource) for v in self.visuals):
             raise InvalidInputError(f"visuals of system '{self.name}' must be VisualSource objects")
@@ -374,7 +378,9 @@ class System:
         [−π, π] (revolute) or [−1, 1] m (prismatic).  ``rng``: a ``numpy.random.Generator``; ``scale`` ∈ [0, 1].
         """
         if not isinstance(rng, np.random.Generator):
-            raise InvalidInputError(f"rng must be a numpy.random.Generator (numpy.random.default_rng(seed)), got {rng!r}")
+            raise InvalidInputError(
+                f"rng must be a numpy.random.Generator (numpy.random.default_rng(seed)), got {rng!r}"
+            )
         scale = validation.scalar(scale, "scale", low=0.0, high=1.0)
         lo, hi = self.q_lower.copy(), self.q_upper.copy()
         unbounded = (hi - lo > 1e6) | ~np.isfinite(hi - lo)
@@ -494,7 +500,9 @@ def append_robots(parts: Sequence[tuple[Any, Any]]) -> Any:
                 + "; pinocchio.appendModel cannot tell them apart: rename them first with "
                 "coop_ga.systems.unique_frames(model)"
             )
-        names = [("joint", n) for n in list(m.names)[1:]] + [("frame", f.name) for f in m.frames if f.name != "universe"]
+        names = [("joint", n) for n in list(m.names)[1:]] + [
+            ("frame", f.name) for f in m.frames if f.name != "universe"
+        ]
         for kind, n in dict.fromkeys(names):
             if (kind, n) in seen:
                 raise InvalidInputError(
@@ -565,7 +573,9 @@ def from_model(
     sources = tuple(visuals)
     if visual_model is not None:
         if not isinstance(visual_model, pin.GeometryModel):
-            raise InvalidInputError(f"visual_model must be a pinocchio.GeometryModel, got {type(visual_model).__name__}")
+            raise InvalidInputError(
+                f"visual_model must be a pinocchio.GeometryModel, got {type(visual_model).__name__}"
+            )
         sources += (VisualSource(geometry=visual_model, model=pin.Model(model)),)
     locked = _names(locked_joints, "locked_joints")
     if locked:
@@ -576,7 +586,12 @@ def from_model(
                 f"unknown locked_joints {missing}. Joints of the model: {', '.join(list(model.names)[1:])}"
             )
         ql = pin.neutral(model) if q_lock is None else validation.configuration(q_lock, model.nq, "q_lock")
-        model = pin.buildReducedModel(model, [model.getJointId(j) for j in locked], ql)
+        try:
+            model = pin.buildReducedModel(model, [model.getJointId(j) for j in locked], ql)
+        except (ValueError, RuntimeError) as e:
+            raise InvalidInputError(
+                f"locked_joints {list(locked)}: pinocchio.buildReducedModel refused them ({str(e).splitlines()[0]})"
+            ) from None
     if q0 is None:
         q0 = _default_q0(model)
     return System(

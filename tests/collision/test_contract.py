@@ -66,9 +66,9 @@ def test_radii_obstacles_and_batches_are_checked():
         C.capsule_sphere_distance(Z, E3, -0.05, SPHERE)
     with pytest.raises(NonFiniteError, match="rb"):
         C.capsule_capsule_distance(Z, E3, 0.05, Z, E3, NAN)
-    with pytest.raises(InvalidInputError, match="sphere must be a collision.Sphere"):
+    with pytest.raises(InvalidInputError, match=r"sphere must be a collision\.Sphere"):
         C.capsule_sphere_distance(Z, E3, 0.05, PLANE)
-    with pytest.raises(InvalidInputError, match="plane must be a collision.Plane"):
+    with pytest.raises(InvalidInputError, match=r"plane must be a collision\.Plane"):
         C.point_plane_distance(Z, {"normal": E3})
     with pytest.raises(InvalidInputError, match="do not broadcast"):
         C.segment_segment_closest(np.zeros((4, 3)), np.ones((5, 3)), Z, E3)
@@ -76,7 +76,7 @@ def test_radii_obstacles_and_batches_are_checked():
         C.capsule_sphere_distance(Z, E3, [0.05], SPHERE)  # a radius never adds a batch dimension
     # batches with one radius per pair, and CasADi symbols, still work
     A = np.random.default_rng(0).normal(size=(6, 3))
-    d, t = C.capsule_sphere_distance(A, A + 0.1, np.full(6, 0.02), SPHERE)
+    d, _ = C.capsule_sphere_distance(A, A + 0.1, np.full(6, 0.02), SPHERE)
     assert d.shape == (6,) and np.all(np.isfinite(d))
     x = ca.SX.sym("x", 3)
     assert isinstance(C.point_sphere_distance(x, SPHERE), ca.SX)
@@ -100,7 +100,7 @@ def test_obstacles_and_capsules_refuse_bad_fields():
 def test_collision_model_checks_its_arguments():
     s = cartesian_points(3)
     caps = [C.Capsule(f"tip{i}", Z, [0.0, 0.0, 0.1], 0.05) for i in range(3)]
-    with pytest.raises(InvalidInputError, match="system must be a coop_ga.systems.System"):
+    with pytest.raises(InvalidInputError, match=r"system must be a coop_ga\.systems\.System"):
         C.CollisionModel("cartesian3", capsules=caps)
     with pytest.raises(InvalidInputError, match="margin"):
         C.CollisionModel(s, capsules=caps, margin="0.1")

@@ -76,7 +76,7 @@ def test_track_options_are_checked(options, arg):
 def test_link_geometry_and_joints_are_checked():
     with pytest.raises(NonFiniteError, match=r"points\['B'\] of link 'coupler'"):
         Link("coupler", {"A": (0.5, 0.0), "B": (NAN, 1.2)})
-    with pytest.raises(InvalidInputError, match="Link.points"):
+    with pytest.raises(InvalidInputError, match=r"Link\.points"):
         Link("bar", [[0.0, 0.0]])
     with pytest.raises(InvalidInputError, match="Revolute a"):
         Revolute("crank.A", ("coupler", "A"))

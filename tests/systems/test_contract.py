@@ -54,7 +54,7 @@ def test_q0_outside_the_limits_is_refused_naming_the_joints():
     with pytest.raises(InvalidInputError, match=r"q0 of system 'hexapod' is outside the joint limits: lf_coxa_joint"):
         from_urdf(HEXAPOD, FEET, q0=[10.0] * 18)
     s = cartesian_points(2)
-    with pytest.raises(InvalidInputError, match="c0_px=6.0000 not in"):
+    with pytest.raises(InvalidInputError, match=r"c0_px=6\.0000 not in"):
         System("s", s.model, ("tip0",), [6.0] + [0.0] * 5)
 
 
@@ -67,7 +67,9 @@ def test_append_robots_names_the_clash_and_the_fix():
     assert [f.name for f in z1u.frames].count("gripperStator") == 1
     assert z1u.frames[z1u.getFrameId("gripperStator")].type == pin.FrameType.BODY
     assert "gripperStator_fixed_joint" in [f.name for f in z1u.frames]
-    with pytest.raises(InvalidInputError, match=r"parts\[0\] and parts\[1\] both have a joint named 'joint1'.*prefixed"):
+    with pytest.raises(
+        InvalidInputError, match=r"parts\[0\] and parts\[1\] both have a joint named 'joint1'.*prefixed"
+    ):
         append_robots([(z1u, pin.SE3.Identity()), (z1u, pin.SE3.Identity())])
     z1 = z1u
     # distinct joint names, one frame name in common
@@ -79,7 +81,7 @@ def test_append_robots_names_the_clash_and_the_fix():
         append_robots([(s.model, pin.SE3.Identity()), (m2, pin.SE3.Identity())])
     both = append_robots([(prefixed(z1, "a_"), pin.SE3.Identity()), (prefixed(z1, "b_"), pin.SE3.Identity())])
     assert both.nq == 2 * z1.nq
-    with pytest.raises(InvalidInputError, match="placement must be a pinocchio.SE3"):
+    with pytest.raises(InvalidInputError, match=r"placement must be a pinocchio\.SE3"):
         append_robots([(z1, "origin")])
     with pytest.raises(InvalidInputError, match="prefix"):
         prefixed(z1, 3)
@@ -118,7 +120,7 @@ def test_from_urdf_paths_are_checked(path, match):
 def test_unreadable_urdf_is_a_coop_ga_error(tmp_path):
     bad = tmp_path / "x.urdf"
     bad.write_text("<robot><oops")
-    with pytest.raises(InvalidInputError, match="urdf_path: .* is not a URDF Pinocchio can read"):
+    with pytest.raises(InvalidInputError, match=r"urdf_path: .* is not a URDF Pinocchio can read"):
         from_urdf(bad, FEET)
 
 
@@ -148,7 +150,7 @@ def test_system_arguments_are_checked():
     s = cartesian_points(3)
     with pytest.raises(InvalidInputError, match="labels of system 's' must be 3 strings"):
         System("s", s.model, ("tip0", "tip1", "tip2"), [0.0] * 9, labels=("a", "b"))
-    with pytest.raises(InvalidInputError, match="model of system 's' must be a pinocchio.Model"):
+    with pytest.raises(InvalidInputError, match=r"model of system 's' must be a pinocchio\.Model"):
         System("s", None, ("tip0",), [0.0] * 9)
     with pytest.raises(InvalidInputError, match="scale"):
         s.random_q(np.random.default_rng(0), 2.0)
