@@ -170,3 +170,15 @@ __all__ = [
     "validation",
     "well_definedness",
 ]
+
+from types import ModuleType as _ModuleType
+
+
+def __getattr__(name: str) -> _ModuleType:
+    """``coop_ga.viz`` and ``coop_ga.viewer`` are imported on first use (PEP 562): drawing and the
+    browser viewer stay out of ``import coop_ga``."""
+    if name in ("viz", "viewer"):
+        import importlib
+
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

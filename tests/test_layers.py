@@ -29,6 +29,7 @@ ORDER = [
     "control",
     "legged",
     "sim",
+    "viewer",
     "sweep",
     "harness",
 ]
