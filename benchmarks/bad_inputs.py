@@ -1296,7 +1296,6 @@ def sweep_cases() -> list[Case]:
     b.add("run", "workers", "a float", W.run, [job], "process", 1.5)
     b.add("run", "format", "'csv'", W.run, [job], format="csv")
     b.add("run", "jobs", "an int", W.run, 5)
-    b.add("run", "chunksize", "zero", W.run, [job], "process", 1, chunksize=0)
     b.add("run", "out", "an int", W.run, [job], out=3)
     b.add("run", "timeout", "negative", W.run, [job], timeout=-1.0)
     b.add("read_records", "out", "an int", W.read_records, 3)
