@@ -72,7 +72,6 @@ from __future__ import annotations
 
 import threading
 import weakref
-from dataclasses import dataclass
 from typing import Any
 
 import casadi as ca
@@ -90,6 +89,7 @@ __all__ = [
     "CooperativeWrench",
     "WrenchMap",
     "cooperative_wrench",
+    "layout",
     "squeeze_capacity",
     "squeeze_direction",
     "wrench_expressions",
@@ -218,27 +218,41 @@ _OUTPUTS = (
 )
 
 
+def layout(n: int) -> dict[str, slice]:
+    """Where each output of :data:`_OUTPUTS` sits in the flat ``values`` vector of the compiled function
+    (n end points)."""
+    sizes = {"squeeze": 1, "radius": 1, "centre": 3, "object_wrench": 6, "unresolved": 6}
+    sizes |= {k: 7 for k in ("wrench", "external", "command")}
+    sizes |= {k: 3 * n for k in ("internal_forces", "internal_rest", "direction")}
+    out, i = {}, 0
+    for k in _OUTPUTS:
+        out[k] = slice(i, i + sizes[k])
+        i += sizes[k]
+    return out
+
+
 def _wrench_function(graph: TaskGraph) -> ca.Function:
-    """``(p, F, T, w_cmd, s_cmd) → (outputs of _OUTPUTS..., checks)`` as one SX function."""
+    """``(p, F, T, w_cmd, s_cmd) → (values, checks)``: every output of :data:`_OUTPUTS` stacked in one
+    column (:func:`layout`: one copy gives them all), and the guard's checks."""
     m = 3 * graph.n_points
     p, F, T = ca.SX.sym("p", m), ca.SX.sym("F", m), ca.SX.sym("T", m)
     wc, sc = ca.SX.sym("w_cmd", 6), ca.SX.sym("s_cmd")
     e = wrench_expressions(graph, p, F, T, wc, sc)
-    outs = [ca.densify(e[k]) for k in _OUTPUTS]
+    outs = [ca.densify(ca.vec(e[k])) for k in _OUTPUTS]
     checks = TaskGraph.checks(e, (p, F, T, wc, sc), tuple(outs))
     return ca.Function(
         f"coop_wrench_{graph.name}",
         [p, F, T, wc, sc],
-        [*outs, checks],
+        [ca.vertcat(*outs), checks],
         ["p", "F", "T", "w_cmd", "s_cmd"],
-        [*_OUTPUTS, "checks"],
+        ["values", "checks"],
     )
 
 
 # ====================================================================== numeric front end
-@dataclass(frozen=True)
 class CooperativeWrench:
-    """The cooperative wrench of one set of end-point forces (module docstring; arrays are copies).
+    """The cooperative wrench of one set of end-point forces (module docstring): read-only views of one
+    copy of the compiled function's output, each field sliced when it is read.
 
     Attributes:
         wrench: (7,) 𝒲 = external + internal, on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]`` (body frame) [J].
@@ -256,19 +270,47 @@ class CooperativeWrench:
         well_definedness: of the end points (1 best, 0 degenerate).
     """
 
-    wrench: np.ndarray
-    external: np.ndarray
-    internal: np.ndarray
-    squeeze: float
-    force: np.ndarray
-    torque: np.ndarray
-    unresolved: np.ndarray
-    internal_forces: np.ndarray
-    internal_rest: np.ndarray
-    centre: np.ndarray
-    radius: float
-    direction: np.ndarray
-    well_definedness: float
+    __slots__ = ("_n", "_sl", "_v", "well_definedness")
+
+    def __init__(self, values: np.ndarray, n: int, slices: dict[str, slice], well_definedness: float):
+        values.setflags(write=False)
+        self._v, self._n, self._sl, self.well_definedness = values, n, slices, well_definedness
+
+    def __repr__(self) -> str:
+        return (
+            f"CooperativeWrench(squeeze={self.squeeze:.6g} N, force={np.round(self.force, 6).tolist()} N, "
+            f"torque={np.round(self.torque, 6).tolist()} N m)"
+        )
+
+    def _get(self, name: str) -> np.ndarray:
+        return self._v[self._sl[name]]
+
+    def _points(self, name: str) -> np.ndarray:
+        return self._v[self._sl[name]].reshape(self._n, 3)
+
+    wrench = property(lambda self: self._get("wrench"))
+    external = property(lambda self: self._get("external"))
+    unresolved = property(lambda self: self._get("unresolved"))
+    centre = property(lambda self: self._get("centre"))
+    force = property(lambda self: self._get("object_wrench")[:3])
+    torque = property(lambda self: self._get("object_wrench")[3:])
+    internal_forces = property(lambda self: self._points("internal_forces"))
+    internal_rest = property(lambda self: self._points("internal_rest"))
+    direction = property(lambda self: self._points("direction"))
+
+    @property
+    def squeeze(self) -> float:
+        return float(self._get("squeeze")[0])
+
+    @property
+    def radius(self) -> float:
+        return float(self._get("radius")[0])
+
+    @property
+    def internal(self) -> np.ndarray:
+        e = np.zeros(7)
+        e[BETA] = -self.squeeze * self._n * self.radius
+        return e
 
 
 class WrenchMap:
@@ -291,11 +333,20 @@ class WrenchMap:
             self.function, codegen=task.codegen if codegen is None else codegen, check_finite=False
         )
         self._zero = np.zeros(3 * self.n)
+        self._zero6 = np.zeros(6)
+        #: where each quantity sits in :meth:`evaluate_views`' flat output
+        self.slices = layout(self.n)
 
     def __repr__(self) -> str:
         return f"WrenchMap({self.task.name!r}, n={self.n}, instructions={self.compiled.n_instructions})"
 
     def _vec(self, x: Any, what: str, shape: tuple[int, ...]) -> np.ndarray:
+        if (
+            type(x) is np.ndarray
+            and x.dtype == np.float64
+            and (x.shape == shape or x.shape == (x.size,) == (3 * self.n,))
+        ):
+            return x.reshape(-1)  # NaN/inf are caught by the guard of the evaluation, naming the argument
         a = validation.array(x, what)
         if a.shape == shape:
             return a.reshape(-1)
@@ -303,11 +354,12 @@ class WrenchMap:
             return a
         raise InvalidInputError(f"{what} must have shape {shape} ({self.n} end points), got {a.shape}")
 
-    def evaluate_views(self, p: np.ndarray, F: np.ndarray, T: np.ndarray, w_cmd: np.ndarray, s_cmd: float) -> list:
-        """Hot-loop variant: flat float arrays in (3n, 3n, 3n, 6) and a float; returns this thread's
-        output buffers in the order ``wrench, external, squeeze, object_wrench, unresolved,
-        internal_forces, internal_rest, centre, radius, command, direction, checks`` (overwritten by the
-        next call).  Raises like :meth:`__call__` on NaN input or degenerate points."""
+    def evaluate_views(
+        self, p: np.ndarray, F: np.ndarray, T: np.ndarray, w_cmd: np.ndarray, s_cmd: float
+    ) -> np.ndarray:
+        """Hot-loop variant: flat float arrays in (3n, 3n, 3n, 6) and a float; returns this thread's output
+        buffer ``values`` (flat; :attr:`slices` says where each quantity sits), overwritten by the next
+        call.  Raises like :meth:`__call__` on NaN input or degenerate points."""
         b = self.compiled.binding()
         ins = b.flat_inputs
         ins[0][...] = p
@@ -316,15 +368,16 @@ class WrenchMap:
         ins[3][...] = w_cmd
         ins[4][0] = s_cmd
         b.eval()
-        out = b.outputs
+        values, checks = b.outputs
         guard = self.task.guard
-        if not out[-1].item(0) > guard.warn_below:
+        if not checks.item(0) > guard.warn_below:
             guard.diagnose(
-                out[-1],
+                checks,
                 ins[0],
                 (("points", ins[0]), ("forces", ins[1]), ("torques", ins[2]), ("w_cmd", ins[3]), ("s_cmd", ins[4])),
             )
-        return out
+        self._checks = checks
+        return values.reshape(-1)
 
     def __call__(self, points: Any, forces: Any, torques: Any = None) -> CooperativeWrench:
         """The :class:`CooperativeWrench` of ``forces`` (n, 3) [N] (and ``torques`` (n, 3) [N m], default 0)
@@ -333,25 +386,8 @@ class WrenchMap:
         p = self._vec(points, "points", sh)
         F = self._vec(forces, "forces", sh)
         T = self._zero if torques is None else self._vec(torques, "torques", sh)
-        o = self.evaluate_views(p, F, T, np.zeros(6), 0.0)
-        s = o[2].item(0)
-        e = np.zeros(7)
-        e[BETA] = -s * self.n * o[8].item(0)
-        return CooperativeWrench(
-            wrench=o[0].reshape(-1).copy(),
-            external=o[1].reshape(-1).copy(),
-            internal=e,
-            squeeze=s,
-            force=o[3].reshape(-1)[:3].copy(),
-            torque=o[3].reshape(-1)[3:].copy(),
-            unresolved=o[4].reshape(-1).copy(),
-            internal_forces=o[5].reshape(sh).copy(),
-            internal_rest=o[6].reshape(sh).copy(),
-            centre=o[7].reshape(-1).copy(),
-            radius=o[8].item(0),
-            direction=o[10].reshape(sh).copy(),
-            well_definedness=o[-1].item(1),
-        )
+        v = self.evaluate_views(p, F, T, self._zero6, 0.0).copy()
+        return CooperativeWrench(v, self.n, self.slices, self._checks.item(1))
 
     def command(self, points: Any, force: Any = (0.0, 0.0, 0.0), torque: Any = (0.0, 0.0, 0.0), squeeze: float = 0.0):
         """The similarity wrench 𝒲 (7,) [J] to command (``τ = J^Gᵀ 𝒲``, Eq 52) so that the end points at
@@ -361,7 +397,7 @@ class WrenchMap:
         p = self._vec(points, "points", (self.n, 3))
         wc = np.concatenate([validation.vector(force, 3, "force"), validation.vector(torque, 3, "torque")])
         s = validation.scalar(squeeze, "squeeze")
-        return self.evaluate_views(p, self._zero, self._zero, wc, s)[9].reshape(-1).copy()
+        return self.evaluate_views(p, self._zero, self._zero, wc, s)[self.slices["command"]].copy()
 
 
 _MAPS: weakref.WeakKeyDictionary[Any, WrenchMap] = weakref.WeakKeyDictionary()

@@ -56,10 +56,13 @@ __all__ = [
     "CarryCase",
     "CarryRun",
     "CarrySetup",
+    "box_state",
     "carry_metrics",
     "carry_setup",
     "default_gains",
+    "grasp_overlays",
     "run_carry",
+    "slip_series",
 ]
 
 SYSTEM = "three_iiwa14"
@@ -81,7 +84,7 @@ FAST_DURATIONS = (1.0, 0.4, 0.4, 1.2, 1.8, 0.3, 1.2, 0.4, 0.3)
 class CarryCase:
     """One run: ``name``, box ``mass`` [kg], ``friction`` (box and pads, sliding), the box's ``offset``
     (2,) [m] from where the plan expects it, the squeeze set-point ``squeeze`` [N] (0: the control
-    case) and the phase ``durations`` [s]."""
+    case), the phase ``durations`` [s], and the carry: ``shift`` [m] towards 150°, ``turn`` [rad]."""
 
     name: str = "nominal"
     mass: float = 2.0
@@ -89,6 +92,8 @@ class CarryCase:
     offset: Any = (0.0, 0.0)
     squeeze: float = 40.0
     durations: tuple[float, ...] = FULL_DURATIONS
+    shift: float = SHIFT
+    turn: float = YAW
 
     def __post_init__(self) -> None:
         validation.positive(self.mass, "mass")
@@ -214,7 +219,7 @@ def carry_setup(case: CarryCase, gains: HoldGains | None = None) -> CarrySetup:
         pos=centre + np.array([case.offset[0], case.offset[1], 0.0005]),
         friction=fr,
         condim=4,
-        rgba=(0.78, 0.6, 0.38, 1.0),
+        rgba=(0.78, 0.6, 0.38, 0.6),  # see-through: the pictures show the circle and the forces inside
     )
     table = Box(
         name="table",
@@ -241,8 +246,8 @@ def carry_setup(case: CarryCase, gains: HoldGains | None = None) -> CarrySetup:
         radius_open=GRASP_RADIUS + OPEN,
         squeeze=case.squeeze,
         lift=LIFT,
-        shift=(SHIFT * math.cos(HEADING), SHIFT * math.sin(HEADING), 0.0),
-        yaw=YAW,
+        shift=(case.shift * math.cos(HEADING), case.shift * math.sin(HEADING), 0.0),
+        yaw=case.turn,
         durations=case.durations,
         angles=(-0.5 * math.pi, SPREAD, math.pi - SPREAD),
         tool_pitch=TOOL_PITCH,
@@ -256,19 +261,28 @@ def carry_setup(case: CarryCase, gains: HoldGains | None = None) -> CarrySetup:
     return CarrySetup(case, system, scene, task, plan, ctl, q_start, q_grasp, centre, half, table_top)
 
 
-def run_carry(case: CarryCase, *, gains: HoldGains | None = None, progress: bool = False) -> CarryRun:
-    """Simulate ``case`` for its plan's duration and measure it (:func:`carry_metrics`)."""
+def run_carry(
+    case: CarryCase,
+    *,
+    gains: HoldGains | None = None,
+    duration: float | None = None,
+    disturbances: Any = (),
+    progress: bool = False,
+) -> CarryRun:
+    """Simulate ``case`` (for its plan's duration, or ``duration`` [s]; with :class:`~coop_ga.sim.Disturbance`
+    s on the box) and measure it (:func:`carry_metrics`, only for a whole run)."""
     st = carry_setup(case, gains)
-    sim = Simulation(st.scene, st.controller, q=st.q_start)
-    log = sim.run(st.plan.duration, progress=progress)
+    sim = Simulation(st.scene, st.controller, q=st.q_start, disturbances=disturbances)
+    log = sim.run(st.plan.duration if duration is None else duration, progress=progress)
     trace = st.controller.trace()
     run = CarryRun(st, log, trace)
-    run.metrics = carry_metrics(run)
+    if duration is None:
+        run.metrics = carry_metrics(run)
     return run
 
 
 # ====================================================================== measurements
-def _box_state(run: CarryRun) -> tuple[np.ndarray, np.ndarray]:
+def box_state(run: CarryRun) -> tuple[np.ndarray, np.ndarray]:
     """(positions (T, 3), rotation matrices (T, 3, 3)) of the box over the log."""
     from ._mujoco import mj
 
@@ -288,17 +302,21 @@ def _window(run: CarryRun, first: str, last: str, edge: str = "start") -> np.nda
     return np.flatnonzero((t >= pt[first][0] - 1e-9) & (t <= pt[last][1] + 1e-9))
 
 
-def _slip(run: CarryRun, rows: np.ndarray, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
-    """(n,) largest tangential displacement [m] of each end point on the box's surface (box frame) over
-    ``rows``, from its place at the first row; the face normal is the box axis the point sits out along."""
-    P = run.trace["points"]  # (T-1, n, 3): trace row k = log row k
-    rows = rows[rows < len(P)]
-    local = np.einsum("kji,knj->kni", R[rows], P[rows] - pos[rows][:, None, :])  # Rᵀ (p − b)
-    d = local - local[0]
-    normal = np.argmax(np.abs(local[0]), axis=1)  # (n,) the face each point presses on
-    for i, ax in enumerate(normal):
+def slip_series(run: CarryRun, first: str = "lift") -> np.ndarray:
+    """(T, n) tangential displacement [m] of each end point on the box's surface (box frame) from its place at
+    the start of phase ``first``, per trace row (NaN before); the face normal is the box axis the point sits
+    out along (its normal component, the pad's compression, is not slip)."""
+    P = run.trace["points"]  # (T, n, 3): trace row k = log row k
+    pos, R = box_state(run)
+    T = len(P)
+    local = np.einsum("kji,knj->kni", R[:T], P - pos[:T, None, :])  # Rᵀ (p − b)
+    i0 = int(np.searchsorted(run.trace["time"], run.setup.plan.phase_times()[first][0] - 1e-9))
+    d = local - local[i0]
+    for i, ax in enumerate(np.argmax(np.abs(local[i0]), axis=1)):
         d[:, i, ax] = 0.0
-    return np.max(np.linalg.norm(d, axis=2), axis=0)
+    out = np.linalg.norm(d, axis=2)
+    out[:i0] = np.nan
+    return out
 
 
 def _limits(run: CarryRun) -> dict[str, float]:
@@ -331,14 +349,15 @@ def carry_metrics(run: CarryRun) -> dict[str, Any]:
       limit left; ``success`` (squeeze = 0, the control case): the box never rises 1 cm.
     """
     st, log, tr = run.setup, run.log, run.trace
-    pos, R = _box_state(run)
+    pos, R = box_state(run)
     z0 = pos[0, 2]
     carried = _window(run, "lift", "lower")
     aloft = _window(run, "carry", "hold")
     tilt = np.degrees(np.arccos(np.clip(R[:, 2, 2], -1.0, 1.0)))
     s = tr["squeeze"]
     srows = carried[carried < len(s)]
-    slip = _slip(run, carried, pos, R)
+    rows = carried[carried < len(tr["time"])]
+    slip = np.max(slip_series(run)[rows], axis=0)
     hold_end = _window(run, "hold", "hold")[-1]
     yaw = np.degrees(np.arctan2(R[hold_end, 1, 0], R[hold_end, 0, 0]) - np.arctan2(R[0, 1, 0], R[0, 0, 0]))
     shift = np.asarray(st.plan.shift)

@@ -284,6 +284,7 @@ TRACE_FIELDS = (
     "radius_target",
     "object_force",
     "object_torque",
+    "centre",
     "weight_estimate",
     "error",
     "yaw",
@@ -466,8 +467,14 @@ class HoldController:
         out = self.wmap.evaluate_views(
             P.reshape(-1), -wr[:, :3].reshape(-1), -wr[:, 3:].reshape(-1), self._feedforward(), squeeze
         )
-        self._centre = out[7].reshape(-1).copy()
-        return out[2].item(0), out[3].reshape(-1).copy(), out[9].reshape(-1).copy(), out[8].item(0)
+        sl = self.wmap.slices
+        self._centre = out[sl["centre"]].copy()
+        return (
+            float(out[sl["squeeze"]][0]),
+            out[sl["object_wrench"]].copy(),
+            out[sl["command"]].copy(),
+            float(out[sl["radius"]][0]),
+        )
 
     def _target_rate(self, t: float, V: np.ndarray, r: float) -> tuple[np.ndarray, float]:
         """The plan's body twist (7,) at t (central difference): β̇ = ṙ_d / r, t-rows Rᵀ ċ_d / r; and its
@@ -540,6 +547,7 @@ class HoldController:
                 r_d,
                 w_obj[:3],
                 w_obj[3:],
+                self._centre,
                 self.w_est[2] / self._g,
                 e,
                 psi,
@@ -554,7 +562,8 @@ class HoldController:
     def trace(self) -> dict[str, np.ndarray]:
         """The logged signals, one row per control update: ``time`` [s], ``squeeze`` and ``squeeze_set`` [N],
         ``radius`` and ``radius_target`` [m], ``object_force`` (T, 3) [N] and ``object_torque`` (T, 3)
-        [N m] (what the end points exert on the object, about the circle's centre, world frame),
+        [N m] (what the end points exert on the object, about the circle's centre, world frame), ``centre``
+        (T, 3) [m] that centre,
         ``weight_estimate`` [kg] (ŵ_z / g), ``error`` (T, 7) e = log(Ṽ_Sc V_d), ``yaw`` and
         ``yaw_target`` [rad], ``points`` (T, n, 3) [m], ``forces`` (T, n, 3) [N] the contact force of each end
         body on what it touches (the object), ``phase`` (T,) names."""
