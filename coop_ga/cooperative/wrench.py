@@ -58,9 +58,11 @@ three evenly spaced points on a circle it recovers only half of the net force, a
 points it reports a squeeze under a pure external load (``tests/cooperative/test_wrench.py`` shows
 both).  The split above has neither defect.
 
-Commanding a wrench: :meth:`WrenchMap.command` returns ``𝒲 = 𝒲_ext(w_d) − s_d n r e0∞`` for a
-desired object wrench w_d and squeeze s_d; ``τ = J^Gᵀ 𝒲`` then exerts w_d (its resolvable part) and
-the squeeze s_d on a held object, statically.
+Commanding a wrench: :meth:`WrenchMap.command` returns ``𝒲 = 𝒲_ext(w_d) − (s_d − s_ext) n r e0∞`` for
+a desired object wrench w_d and squeeze s_d, where ``s_ext`` is the squeeze of the point forces
+``Gᵀ 𝒲_ext`` alone (zero for evenly spaced points; for uneven ones the lift of a weight also presses);
+``τ = J^Gᵀ 𝒲`` then exerts w_d (its resolvable part) and exactly the squeeze s_d on a held object,
+statically.
 
 Speed: one compiled CasADi function ``(p, F, T, w_d, s_d) → everything above`` per task
 (:class:`WrenchMap`), built on the task graph's pose function (the same G as J^G) with the 6 × 6
@@ -186,6 +188,11 @@ def wrench_expressions(graph: TaskGraph, p: Any, F: Any, T: Any, w_cmd: Any, s_c
     e_beta[BETA] = 1.0
     direction = -gb / ca.sqrt(ca.fmax(g2, 1e-300)) * has_beta
     rest = Fint + ca.if_else(g2 > 1e-300, s * scale, 0.0) * gb  # F_int − (g_β·F / ‖g_β‖²) g_β
+    # the command: 𝒲_ext(w_cmd) plus the e0∞ part that makes the squeeze of Gᵀ𝒲 exactly s_cmd — for
+    # unevenly spaced points Gᵀ𝒲_ext itself squeezes by −g_β·Gᵀ𝒲_ext / (‖g_β‖² n r), which is removed
+    Wc = to_similarity(w_cmd)
+    s_ext = -ca.dot(gb, ca.mtimes(G.T, Wc)) / (ca.fmax(g2, 1e-300) * scale)
+    command = Wc - has_beta * (s_cmd - s_ext) * scale * e_beta
     return {
         "wrench": Wext - s * scale * e_beta,
         "external": Wext,
@@ -196,7 +203,7 @@ def wrench_expressions(graph: TaskGraph, p: Any, F: Any, T: Any, w_cmd: Any, s_c
         "internal_rest": rest,
         "centre": c,
         "radius": r,
-        "command": to_similarity(w_cmd) - has_beta * s_cmd * scale * e_beta,
+        "command": command,
         "direction": direction,
         "well_definedness": w,
         "chart": c2,

@@ -74,6 +74,7 @@ TABLE_SIZE, TABLE_CENTRE = (0.45, 0.35), (-0.09, 0.05)  # [m] covers the box's s
 OPEN = 0.03  # [m] pre-grasp circle this much outside the touching one
 START_RADIUS, START_HEIGHT = GRASP_RADIUS + 0.05, GRASP_HEIGHT + 0.03  # [m] the arms start with the pads on this circle
 TOOL_PITCH = 0.2  # [rad] the tools point at the centre, raised by this (module docstring)
+OFF_TABLE = 0.002  # [m] the box counts as carried this far above its rest
 LIFT, SHIFT, HEADING, YAW = 0.15, 0.20, math.radians(150.0), math.radians(20.0)
 #: phase durations [s] (approach, close, squeeze, lift, carry, hold, lower, release, open)
 FULL_DURATIONS = (1.5, 0.5, 0.5, 1.5, 2.5, 0.5, 1.5, 0.5, 0.5)
@@ -332,12 +333,14 @@ def carry_metrics(run: CarryRun) -> dict[str, Any]:
 
     * ``rise_max_m``: the box's highest rise over its resting height; ``lift_m``: its lowest height
       over the carry (lift end → lower start) above the resting height;
-    * ``tilt_max_deg``: the largest angle of the box's z axis from vertical while carried (lift start
-      → lower end);
+    * carried: the rows of the log in which the box is off the table (more than 2 mm above its rest)
+      between the lift start and the end of the put-down (``carried_s`` [s] of them);
+    * ``tilt_max_deg``: the largest angle of the box's z axis from vertical while carried;
     * ``slip_mm`` (n,): each end point's largest tangential displacement on the box's surface while
       carried (box frame, from its place at the lift start); ``slip_max_mm``;
     * ``squeeze_min_N``, ``squeeze_max_N``, ``squeeze_error_max``: the measured squeeze while carried
-      and its largest relative deviation from the set-point;
+      and its largest relative deviation from the set-point; ``squeeze_error_max_holding``: the same
+      from the lift start to the end of the put-down (with the lift-off and touch-down transients);
     * ``carry_error_m``: |box displacement at the end of the hold − the planned shift|;
       ``turn_deg``: the box's turn about the vertical by then;
     * ``weight_estimate_kg``: the estimate at the end of the hold; ``on_table``: at the end the box
@@ -351,13 +354,14 @@ def carry_metrics(run: CarryRun) -> dict[str, Any]:
     st, log, tr = run.setup, run.log, run.trace
     pos, R = box_state(run)
     z0 = pos[0, 2]
-    carried = _window(run, "lift", "lower")
+    holding = _window(run, "lift", "lower")  # from the lift start to the end of the put-down
+    holding = holding[holding < len(tr["time"])]
+    off = holding[pos[holding, 2] - z0 > OFF_TABLE]  # carried: off the table (a control case may be empty)
+    carried = off if off.size else holding
     aloft = _window(run, "carry", "hold")
     tilt = np.degrees(np.arccos(np.clip(R[:, 2, 2], -1.0, 1.0)))
     s = tr["squeeze"]
-    srows = carried[carried < len(s)]
-    rows = carried[carried < len(tr["time"])]
-    slip = np.max(slip_series(run)[rows], axis=0)
+    slip = np.max(slip_series(run)[carried], axis=0)
     hold_end = _window(run, "hold", "hold")[-1]
     yaw = np.degrees(np.arctan2(R[hold_end, 1, 0], R[hold_end, 0, 0]) - np.arctan2(R[0, 1, 0], R[0, 0, 0]))
     shift = np.asarray(st.plan.shift)
@@ -372,9 +376,11 @@ def carry_metrics(run: CarryRun) -> dict[str, Any]:
         "tilt_max_deg": float(np.max(tilt[carried])),
         "slip_mm": (1e3 * slip).tolist(),
         "slip_max_mm": float(1e3 * np.max(slip)),
-        "squeeze_min_N": float(np.min(s[srows])),
-        "squeeze_max_N": float(np.max(s[srows])),
-        "squeeze_error_max": float(np.max(np.abs(s[srows] / set_point - 1.0))) if set_point > 0 else None,
+        "squeeze_min_N": float(np.min(s[carried])),
+        "squeeze_max_N": float(np.max(s[carried])),
+        "squeeze_error_max": float(np.max(np.abs(s[carried] / set_point - 1.0))) if set_point > 0 else None,
+        "squeeze_error_max_holding": float(np.max(np.abs(s[holding] / set_point - 1.0))) if set_point > 0 else None,
+        "carried_s": float(len(off) * st.scene.model.opt.timestep),
         "carry_error_m": float(np.linalg.norm(pos[hold_end, :2] - pos[0, :2] - shift[:2])),
         "turn_deg": float((yaw + 180.0) % 360.0 - 180.0),
         "weight_estimate_kg": float(tr["weight_estimate"][min(hold_end, len(s) - 1)]),

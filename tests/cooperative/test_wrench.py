@@ -176,8 +176,8 @@ def test_internal_forces_exert_no_wrench_and_the_squeeze_ignores_rigid_fields(ci
 
 
 def test_command_round_trip(circle):
-    """F = Gᵀ 𝒲 of a commanded 𝒲 exerts the commanded object wrench (its resolvable part) and, on evenly
-    spaced points, reads back the commanded squeeze exactly."""
+    """F = Gᵀ 𝒲 of a commanded 𝒲 exerts the commanded object wrench (its resolvable part) and the commanded
+    squeeze exactly, on evenly and on unevenly spaced points (where Gᵀ𝒲_ext alone also squeezes)."""
     wm = wrench_map(circle)
     for P in (_even_circle(), UNEVEN):
         force, torque = np.array([0.5, -1.0, 19.6]), np.array([0.2, -0.1, 0.3])
@@ -187,8 +187,14 @@ def test_command_round_trip(circle):
         n = _circumcircle(P)[2]
         np.testing.assert_allclose(w.force, force, atol=1e-10)
         np.testing.assert_allclose(w.torque, torque - (torque @ n) * n, atol=1e-10)
-        if P is not UNEVEN:
-            assert w.squeeze == pytest.approx(7.0, rel=1e-10)
+        assert w.squeeze == pytest.approx(7.0, rel=1e-10)
+    # without the correction the uneven lift command would press on its own
+    W0 = wm.command(UNEVEN, force=(0.0, 0.0, 19.6))
+    _, _, G = _pose(circle, UNEVEN)
+    assert abs(wm(UNEVEN, (G.T @ W0).reshape(3, 3)).squeeze) < 1e-10
+    W_ext = W0.copy()
+    W_ext[BETA] = 0.0
+    assert abs(wm(UNEVEN, (G.T @ W_ext).reshape(3, 3)).squeeze) > 0.1
     # a pure squeeze command reads back exactly on any points
     W = wm.command(UNEVEN, squeeze=5.0)
     _, _, G = _pose(circle, UNEVEN)
