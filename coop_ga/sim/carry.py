@@ -341,6 +341,8 @@ def carry_metrics(run: CarryRun) -> dict[str, Any]:
     * ``squeeze_min_N``, ``squeeze_max_N``, ``squeeze_error_max``: the measured squeeze while carried
       and its largest relative deviation from the set-point; ``squeeze_error_max_holding``: the same
       from the lift start to the end of the put-down (with the lift-off and touch-down transients);
+      ``pad_force_max_N``: the largest contact force of an end point over that time (the control case:
+      the pads did touch the box);
     * ``carry_error_m``: |box displacement at the end of the hold − the planned shift|;
       ``turn_deg``: the box's turn about the vertical by then;
     * ``weight_estimate_kg``: the estimate at the end of the hold; ``on_table``: at the end the box
@@ -381,6 +383,7 @@ def carry_metrics(run: CarryRun) -> dict[str, Any]:
         "squeeze_error_max": float(np.max(np.abs(s[carried] / set_point - 1.0))) if set_point > 0 else None,
         "squeeze_error_max_holding": float(np.max(np.abs(s[holding] / set_point - 1.0))) if set_point > 0 else None,
         "carried_s": float(len(off) * st.scene.model.opt.timestep),
+        "pad_force_max_N": float(np.max(np.linalg.norm(tr["forces"][holding], axis=2))),
         "carry_error_m": float(np.linalg.norm(pos[hold_end, :2] - pos[0, :2] - shift[:2])),
         "turn_deg": float((yaw + 180.0) % 360.0 - 180.0),
         "weight_estimate_kg": float(tr["weight_estimate"][min(hold_end, len(s) - 1)]),

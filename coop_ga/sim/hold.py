@@ -37,7 +37,8 @@ Torque (Eq 50–52) with the task J_a = [J^G without its e12 row (6); J_φ (n); 
 so J_a has full row rank and Λ_a = (J_a M⁻¹ J_aᵀ)⁻¹ (Eq 36) is an exact inverse::
 
     a_d = K e + D ė          (e: log(Ṽ_Sc V_d) without e12, φ_d − φ, the pointing errors;
-                              ė: J_e q̇ + the plan's twist, φ̇_d − J_φ q̇, −ω_⊥)
+                              ė: J_e q̇ + the plan's twist (backward difference over one
+                              update), φ̇_d − J_φ q̇, −ω_⊥)
     a_0 = K_post (q_post − q) − D_null q̇
     τ = h + J_aᵀ Λ_a (a_d − J̇_a q̇ − J_a a_0) + M a_0 + J^Gᵀ 𝒲_ff
 
@@ -385,6 +386,7 @@ class HoldController:
         self.w_est = np.zeros(6)
         self._last_t: float | None = None
         self._squeeze_started = False
+        self._prev: tuple[float, PlanPoint] | None = None
         self._rows: list[tuple[Any, ...]] = []
 
     # ------------------------------------------------------------------ pieces of one update
@@ -476,18 +478,20 @@ class HoldController:
             float(out[sl["radius"]][0]),
         )
 
-    def _target_rate(self, t: float, V: np.ndarray, r: float) -> tuple[np.ndarray, float]:
-        """The plan's body twist (7,) at t (central difference): β̇ = ṙ_d / r, t-rows Rᵀ ċ_d / r; and its
-        turn rate ψ̇_d [rad/s]."""
-        h = 1e-3
-        a, b = self.plan.at(t - h), self.plan.at(t + h)
+    def _target_rate(self, t: float, ref: PlanPoint, V: np.ndarray, r: float) -> tuple[np.ndarray, float]:
+        """The plan's body twist (7,) at t — β̇ = ṙ_d / r, t-rows Rᵀ ċ_d / r — and its turn rate ψ̇_d [rad/s],
+        by the backward difference with the previous control update (0 at the first)."""
         Rq = V[_ROTOR_INDEX]
         R = np.array(rotor_matrix(tuple(Rq / np.linalg.norm(Rq))), float)
-        out = np.zeros(7)
-        out[BETA] = (b.radius - a.radius) / (2 * h * r)
-        out[4:7] = R.T @ (b.centre - a.centre) / (2 * h * r)
         self._R = R
-        return out, (b.yaw - a.yaw) / (2 * h)
+        out = np.zeros(7)
+        prev, self._prev = self._prev, (t, ref)
+        if prev is None or t <= prev[0]:
+            return out, 0.0
+        dt, a = t - prev[0], prev[1]
+        out[BETA] = (ref.radius - a.radius) / (dt * r)
+        out[4:7] = R.T @ (ref.centre - a.centre) / (dt * r)
+        return out, (ref.yaw - a.yaw) / dt
 
     def _gain_vectors(self) -> tuple[np.ndarray, np.ndarray]:
         g, n = self.gains, self.n
@@ -510,7 +514,7 @@ class HoldController:
         self._update_loops(t, ref, s, w_obj)
         r_d = ref.radius + self.dr
         e, Je = task.error_and_jacobian(q, circle_target(ref.centre, r_d))
-        bd, yaw_rate = self._target_rate(t, V, r)
+        bd, yaw_rate = self._target_rate(t, ref, V, r)
         # dynamics (Eq 32) and the end frames' Jacobians
         M = pin.crba(model, data, q)
         M[self._iu[1], self._iu[0]] = M[self._iu]

@@ -19,9 +19,9 @@ from coop_ga.sim import Disturbance, replay
 from coop_ga.sim.carry import CarryCase, carry_setup, run_carry
 
 #: approach, close, squeeze, lift, "carry" (no shift, no turn: a hold), hold, lower, release, open [s]
-DURATIONS = (0.5, 0.25, 0.25, 0.7, 0.9, 0.2, 0.5, 0.3, 0.3)
-LIFT_END, HOLD_END = 1.7, 2.6
-PUSH_FORCE, PUSH_TORQUE, PUSH_START = np.array([3.0, -2.0, 4.0]), np.array([0.3, -0.2, 0.1]), 2.1
+DURATIONS = (0.5, 0.3, 0.4, 0.7, 1.1, 0.2, 0.5, 0.3, 0.3)
+LIFT_END, HOLD_END = 1.9, 3.0
+PUSH_FORCE, PUSH_TORQUE, PUSH_START = np.array([3.0, -2.0, 4.0]), np.array([0.3, -0.2, 0.1]), 2.2
 MASS = 2.0
 
 
