@@ -100,34 +100,40 @@ def add_pads(
     m = mj()
     spec = scene.spec.copy()
     model = scene.model
-    colour = validation.vector(rgba, 4, "rgba")
+    kw: dict[str, Any] = dict(
+        friction=fr,
+        condim=int(condim),
+        contype=1,
+        conaffinity=1,
+        group=GROUP_SCENE,
+        rgba=validation.vector(rgba, 4, "rgba"),
+        margin=validation.nonnegative(margin, "margin"),
+    )
+    if solref is not None:
+        kw["solref"] = validation.vector(solref, 2, "solref")
+    rs = validation.positive(shaft_radius, "shaft_radius")
     for frame, sid in zip(scene.system.end_frames, scene.site_ids):
         body = spec.body(m.mj_id2name(model, m.mjtObj.mjOBJ_BODY, int(model.site_bodyid[sid])))
-        pos = np.array(model.site_pos[sid])
-        kw = dict(
-            friction=fr,
-            condim=int(condim),
-            contype=1,
-            conaffinity=1,
-            group=GROUP_SCENE,
-            rgba=colour,
-            margin=validation.nonnegative(margin, "margin"),
-        )
-        if solref is not None:
-            kw["solref"] = validation.vector(solref, 2, "solref")
-        body.add_geom(name=f"{frame}_pad", type=m.mjtGeom.mjGEOM_SPHERE, size=[r, 0.0, 0.0], pos=pos, **kw)
-        if L > 0:
-            R = np.empty(9)
-            m.mju_quat2Mat(R, np.array(model.site_quat[sid]))
-            z = R.reshape(3, 3)[:, 2]
-            body.add_geom(
-                name=f"{frame}_shaft",
-                type=m.mjtGeom.mjGEOM_CAPSULE,
-                size=[validation.positive(shaft_radius, "shaft_radius"), 0.0, 0.0],
-                fromto=np.concatenate([pos - L * z, pos - 0.5 * r * z]),
-                **kw,
-            )
+        _add_pad(body, frame, np.array(model.site_pos[sid]), np.array(model.site_quat[sid]), r, L, rs, kw)
     spec.option.cone = m.mjtCone.mjCONE_ELLIPTIC if cone == "elliptic" else m.mjtCone.mjCONE_PYRAMIDAL
     spec.option.impratio = validation.positive(impratio, "impratio")
     spec.option.noslip_iterations = validation.integer(noslip_iterations, "noslip_iterations", minimum=0)
     return replace(scene, spec=spec).recompile()
+
+
+def _add_pad(body: Any, frame: str, pos: np.ndarray, quat: np.ndarray, r: float, L: float, rs: float, kw: dict) -> None:
+    """The pad sphere of radius r at ``pos`` in ``body`` and, for L > 0, the stick (radius rs) behind it
+    along the frame's −z."""
+    m = mj()
+    body.add_geom(name=f"{frame}_pad", type=m.mjtGeom.mjGEOM_SPHERE, size=[r, 0.0, 0.0], pos=pos, **kw)
+    if L > 0:
+        R = np.empty(9)
+        m.mju_quat2Mat(R, quat)
+        z = R.reshape(3, 3)[:, 2]
+        body.add_geom(
+            name=f"{frame}_shaft",
+            type=m.mjtGeom.mjGEOM_CAPSULE,
+            size=[rs, 0.0, 0.0],
+            fromto=np.concatenate([pos - L * z, pos - 0.5 * r * z]),
+            **kw,
+        )
