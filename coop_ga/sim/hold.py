@@ -362,6 +362,7 @@ class HoldController:
         self._Ja = np.zeros((m, task.nq))
         self._err, self._derr, self._jdq = np.zeros(m), np.zeros(m), np.zeros(m)
         self._zero = np.zeros(task.nq)
+        self._KD = self._gain_vectors()
         self.reset()
 
     def check_squeeze(self, q_grasp: Any, margin: float = 0.8) -> dict[str, float]:
@@ -536,7 +537,7 @@ class HoldController:
         for i in range(n):
             k = n6 + 2 * i
             Ja[k : k + 2], err[k : k + 2], derr[k : k + 2] = self._axis_rows(i, Js[i][3:], axes[i][:, 2], ref, qd)
-        Kv, Dv = self._gain_vectors()
+        Kv, Dv = self._KD
         a_d = Kv * err + Dv * derr
         a0 = g.K_post * (self.q_post - q) - g.D_null * qd
         X = np.linalg.solve(M, Ja.T)  # M⁻¹ J_aᵀ
