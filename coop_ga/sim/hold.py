@@ -316,7 +316,12 @@ class HoldController:
             hard within their effort limits).
 
     After a run, :meth:`trace` returns the logged signals (one row per control update).
+    Subclasses holding with another primitive (:class:`coop_ga.sim.ball.SphereHoldController`) set
+    :attr:`primitive` and override :meth:`_row_count`, :meth:`_gain_vectors` and the update.
     """
+
+    #: the cooperative primitive this controller holds with (the task's kind)
+    primitive = "circle"
 
     def __init__(
         self,
@@ -333,8 +338,10 @@ class HoldController:
 
         if task.system is not scene.system:
             raise InvalidInputError("the task must be a task of the scene's system")
-        if task.primitive_kind != "circle":
-            raise InvalidInputError(f"HoldController needs a circle task (three end points), got {task.kind}")
+        if task.primitive_kind != self.primitive:
+            raise InvalidInputError(
+                f"{type(self).__name__} needs a {self.primitive} task, got a {task.primitive_kind} task ({task.kind})"
+            )
         self.scene, self.task, self.plan = scene, task, plan
         self.gains = gains or HoldGains()
         self.model = scene.system.model
@@ -358,23 +365,25 @@ class HoldController:
         pin.framesForwardKinematics(self.model, self.data, q0)
         self._axes0 = [self.data.oMf[f].rotation[:, 2].copy() for f in self.frames]
         self._iu = np.triu_indices(task.nq, 1)
-        m = 6 + 3 * self.n
+        m = self._row_count()
         self._Ja = np.zeros((m, task.nq))
         self._err, self._derr, self._jdq = np.zeros(m), np.zeros(m), np.zeros(m)
         self._zero = np.zeros(task.nq)
         self._KD = self._gain_vectors()
         self.reset()
 
-    def check_squeeze(self, q_grasp: Any, margin: float = 0.8) -> dict[str, float]:
-        """Check the plan's squeeze against the capacity at ``q_grasp`` (gravity of the arms included);
-        returns :func:`~coop_ga.cooperative.squeeze_capacity`'s numbers, raises :class:`CoopGAError`."""
+    def check_squeeze(self, q_grasp: Any, margin: float = 0.8, squeeze: float | None = None) -> dict[str, float]:
+        """Check the squeeze set-point (default: the plan's) against the capacity at ``q_grasp`` (gravity of the
+        robots included); returns :func:`~coop_ga.cooperative.squeeze_capacity`'s numbers, raises
+        :class:`CoopGAError`."""
         q = validation.configuration(q_grasp, self.task.nq, "q_grasp")
+        s_d = self.plan.squeeze if squeeze is None else validation.nonnegative(squeeze, "squeeze")
         g = self._pin.computeGeneralizedGravity(self.model, self.data, q)
         cap = squeeze_capacity(self.task, q, self.effort, bias=np.asarray(g))
         limit = validation.positive(margin, "capacity_margin") * cap["squeeze_max"]
-        if self.plan.squeeze > limit:
+        if s_d > limit:
             raise CoopGAError(
-                f"squeeze set-point {self.plan.squeeze:g} N exceeds {margin:g} × the capacity at the grasp "
+                f"squeeze set-point {s_d:g} N exceeds {margin:g} × the capacity at the grasp "
                 f"({cap['squeeze_max']:.3g} N: joint '{self.scene.system.joint_names[int(cap['joint'])]}' reaches its "
                 f"effort limit first; force manipulability along e0∞ {cap['ellipsoid']:.3g} N per unit torque norm); "
                 "lower the set-point or grasp in a configuration with more force manipulability on e0∞"
@@ -493,6 +502,10 @@ class HoldController:
         out[BETA] = (ref.radius - a.radius) / (dt * r)
         out[4:7] = R.T @ (ref.centre - a.centre) / (dt * r)
         return out, (ref.yaw - a.yaw) / dt
+
+    def _row_count(self) -> int:
+        """Rows of the task J_a: J^G without e12 (6), each end point's angle (n), each tool's pointing (2n)."""
+        return 6 + 3 * self.n
 
     def _gain_vectors(self) -> tuple[np.ndarray, np.ndarray]:
         g, n = self.gains, self.n
