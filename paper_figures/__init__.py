@@ -101,6 +101,7 @@ FIGURES: tuple[Figure, ...] = (
         ("--fast", "--no-squeeze"),
         addition=True,
     ),
+    Figure("sim_ball_hold", "ours_sim_ball_hold", "experiments/sim_ball_hold.py", ("--fast",), addition=True),
 )
 
 

@@ -62,6 +62,7 @@ __all__ = [
     "ball_metrics",
     "ball_setup",
     "disturbances",
+    "grasp_overlays",
     "run_ball",
 ]
 
@@ -84,7 +85,7 @@ PUSHES = (
 )
 BETA_ROWS = slice(3, 7)  # e0∞, e1∞, e2∞, e3∞ of a similarity 7-vector
 FULL_DURATIONS = (0.4, 0.4, 0.8, 0.3, 0.5, 0.5, 2.4)
-FAST_DURATIONS = (0.3, 0.3, 0.6, 0.2, 0.4, 0.4, 1.8)
+FAST_DURATIONS = (0.25, 0.25, 0.5, 0.2, 0.3, 0.3, 1.2)
 
 
 # ====================================================================== the plan
@@ -194,6 +195,7 @@ class SphereHoldController(HoldController):
     """
 
     primitive = "sphere"
+    plan: BallPlan
 
     def _row_count(self) -> int:
         return 4 + 2 * self.n
@@ -555,3 +557,28 @@ def _failures(m: dict[str, Any]) -> list[str]:
     if m["squeeze_error_hold"] > 0.25:
         out.append(f"squeeze off its set-point by {100 * m['squeeze_error_hold']:.0f} % > 25 %")
     return out
+
+
+def grasp_overlays(run: BallRun, k: int) -> list[Any]:
+    """Overlays of log row ``k`` for :func:`coop_ga.sim.render.render_log`: the cooperative sphere through the
+    tips (translucent orange) and the squeeze part of each tip's force on the ball (blue arrows, 1 cm per N)."""
+    from ..cooperative import cooperative_wrench
+    from ..cooperative.primitive import cooperative_primitive
+    from ..geometry.primitives import point as conformal_point
+    from . import render
+
+    tr = run.trace
+    k = min(k, len(tr["time"]) - 1)
+    P, F = tr["points"][k], tr["forces"][k]
+    X = cooperative_primitive("sphere", [conformal_point(p) for p in P])
+    D = cooperative_wrench(run.setup.task, P, -F).direction
+    sq = float(np.sum(-F * D)) * D
+
+    def sphere(scn: Any) -> None:
+        render.add_primitive(scn, X, width=0.0015)
+
+    def arrows(scn: Any) -> None:
+        for p, f in zip(P, sq):
+            render.add_force(scn, p, f, scale=0.01, width=0.003)
+
+    return [sphere, arrows]

@@ -302,7 +302,7 @@ class HoldController:
     Args:
         scene: the :class:`Scene` (with pads: :func:`add_pads`).
         task: the cooperative circle task of ``scene.system`` (its end points are the pads' centres).
-        plan: the :class:`CarryPlan`.
+        plan: the :class:`CarryPlan` (a subclass's own plan: :attr:`primitive`).
         gains: :class:`HoldGains`.
         q_start: the configuration the run starts from (default ``system.q0``): the tools keep their
             orientation in it, turned by the plan's yaw.
@@ -327,7 +327,7 @@ class HoldController:
         self,
         scene: Scene,
         task: Any,
-        plan: CarryPlan,
+        plan: Any,
         gains: HoldGains | None = None,
         *,
         q_start: Any = None,
