@@ -48,6 +48,7 @@ def test_without_the_squeeze_the_box_stays_on_the_table():
     assert r["case"]["squeeze_N"] == 0.0 and r["success"]
     assert r["rise_max_m"] < 0.01  # the circle lifted 0.15 m; the box did not follow
     assert r["squeeze_max_N"] < 10.0  # nothing pressed (the squeeze loop backs off)
+    assert r["pad_force_max_N"] > 1.0  # … though the pads did touch the box's walls
     assert m["gallery"]["agrees"] is True
 
 
@@ -58,15 +59,16 @@ def test_the_logs_replay_with_mujoco_alone(folder):
     assert replay(folder) <= 1e-12
 
 
-def test_the_gallery_run_is_what_the_code_computes():
+@pytest.mark.parametrize(("folder", "squeeze"), [(CARRY, 40.0), (CONTROL, 0.0)], ids=["carry", "no_squeeze"])
+def test_the_gallery_run_is_what_the_code_computes(folder, squeeze):
     """The committed model.xml is the current scene's, and the first 0.3 s of the current controller
-    reproduce the committed log (regenerate: python experiments/sim_box_carry.py --fast --out ...)."""
+    reproduce the committed log (regenerate: python experiments/sim_box_carry.py --fast [--no-squeeze] --out ...)."""
     from coop_ga.sim import Simulation
     from coop_ga.sim.carry import FAST_DURATIONS, CarryCase, carry_setup
 
-    st = carry_setup(CarryCase("nominal", durations=FAST_DURATIONS))
-    assert st.scene.to_xml() == (CARRY / "model.xml").read_text()
-    log = np.load(CARRY / "log.npz")
+    st = carry_setup(CarryCase("nominal", squeeze=squeeze, durations=FAST_DURATIONS))
+    assert st.scene.to_xml() == (folder / "model.xml").read_text()
+    log = np.load(folder / "log.npz")
     sim = Simulation(st.scene, st.controller, q=st.q_start)
     new = sim.run(0.3)
     k = len(new.time)
