@@ -21,6 +21,10 @@ gains, ``--fast`` (the gallery) the nominal and the hardest one with shorter pha
 of the planned 3 cm), the ball's displacement under each push (≤ 5 mm), each fingertip's slip on the ball
 (≤ 5 mm), the squeeze against its set-point (±25 % once each ramp has settled, tight and loose levels).
 
+Where it stops holding (fast runs, 0.3 kg, measured once, not part of the gallery): friction 0.3 still passes
+(slip 4.2 mm); at friction 0.2 the tips slip 9.7 mm (the ball is not dropped, but the slip claim fails); a 3 N
+push instead of 1 N moves the ball 4.9 mm (friction 1.0).
+
 Writes to ``--out``: ``model.xml``, ``log.npz`` (the nominal run: replay with ``coop_ga.sim.replay``),
 ``metrics.json`` (``object_body``, every run's metrics under ``runs``, the success count, the failures, the
 ``gallery`` block), ``hold.png`` (nominal: ball displacement, slip per tip, squeeze against its set-point,

@@ -38,13 +38,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from .. import validation
 from ..errors import InvalidInputError
-from .hold import HoldController, HoldGains, PlanPoint, circle_target, min_jerk
+from .hold import HoldController, HoldGains, PhasedPlan, PlanPoint, circle_target, min_jerk
 from .objects import Ball, Cylinder
 from .scene import Scene, build_scene
 from .simulation import Disturbance, Simulation, SimulationLog
@@ -90,7 +90,7 @@ FAST_DURATIONS = (0.25, 0.25, 0.5, 0.2, 0.3, 0.3, 1.2)
 
 # ====================================================================== the plan
 @dataclass(frozen=True)
-class BallPlan:
+class BallPlan(PhasedPlan):
     """Close, squeeze, move, tighten, loosen, hold (module docstring), for :class:`SphereHoldController`.
 
     Args:
@@ -105,6 +105,7 @@ class BallPlan:
         durations: seconds per phase of :data:`BALL_PHASES`.
     """
 
+    phases: ClassVar[tuple[str, ...]] = BALL_PHASES
     centre: Any
     radius_touch: float
     radius_open: float
@@ -131,27 +132,7 @@ class BallPlan:
         if u.ndim != 2 or u.shape[1] != 3 or not np.allclose(np.linalg.norm(u, axis=1), 1.0, atol=1e-9):
             raise InvalidInputError(f"directions must be (n, 3) unit vectors, got shape {u.shape}")
         object.__setattr__(self, "directions", u)
-        d = tuple(validation.positive(x, "durations") for x in self.durations)
-        if len(d) != len(BALL_PHASES):
-            raise InvalidInputError(f"durations must give {len(BALL_PHASES)} phases {BALL_PHASES}, got {len(d)}")
-        object.__setattr__(self, "durations", d)
-
-    @property
-    def duration(self) -> float:
-        """Total duration [s]."""
-        return float(sum(self.durations))
-
-    def phase_times(self) -> dict[str, tuple[float, float]]:
-        """``{phase: (start, end)}`` [s]."""
-        return dict(self._times)
-
-    @cached_property
-    def _times(self) -> dict[str, tuple[float, float]]:
-        out, t = {}, 0.0
-        for name, d in zip(BALL_PHASES, self.durations):
-            out[name] = (t, t + d)
-            t += d
-        return out
+        self._check_durations()
 
     def at(self, t: float) -> PlanPoint:
         """The :class:`~coop_ga.sim.PlanPoint` at time t [s] (yaw 0; after the end: the final point)."""

@@ -51,7 +51,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -68,6 +68,7 @@ __all__ = [
     "CarryPlan",
     "HoldController",
     "HoldGains",
+    "PhasedPlan",
     "PlanPoint",
     "circle_target",
     "min_jerk",
@@ -104,8 +105,39 @@ class PlanPoint:
     approach: float = 1.0
 
 
+class PhasedPlan:
+    """A plan made of named phases run one after the other: the ``phases`` (class attribute) last ``durations``
+    [s] each (a field of the dataclass that mixes this in; :class:`CarryPlan`, :class:`coop_ga.sim.ball.BallPlan`)."""
+
+    phases: ClassVar[tuple[str, ...]] = ()
+    durations: tuple[float, ...]
+
+    def _check_durations(self) -> None:
+        d = tuple(validation.positive(x, "durations") for x in self.durations)
+        if len(d) != len(self.phases):
+            raise InvalidInputError(f"durations must give {len(self.phases)} phases {self.phases}, got {len(d)}")
+        object.__setattr__(self, "durations", d)
+
+    @property
+    def duration(self) -> float:
+        """Total duration [s]."""
+        return float(sum(self.durations))
+
+    def phase_times(self) -> dict[str, tuple[float, float]]:
+        """``{phase: (start, end)}`` [s]."""
+        return dict(self._times)
+
+    @cached_property
+    def _times(self) -> dict[str, tuple[float, float]]:
+        out, t = {}, 0.0
+        for name, d in zip(self.phases, self.durations):
+            out[name] = (t, t + d)
+            t += d
+        return out
+
+
 @dataclass(frozen=True)
-class CarryPlan:
+class CarryPlan(PhasedPlan):
     """Grasp, lift, carry and put down an object with the cooperative circle (module docstring).
 
     Args:
@@ -126,6 +158,7 @@ class CarryPlan:
         start: (centre (3,), radius) of the circle at t = 0 (set by the controller from the state).
     """
 
+    phases: ClassVar[tuple[str, ...]] = PHASES
     centre: Any
     object_centre: Any
     radius_touch: float
@@ -149,32 +182,12 @@ class CarryPlan:
         if not validation.positive(self.radius_open, "radius_open") > self.radius_touch:
             raise InvalidInputError("radius_open must be larger than radius_touch (the pads start clear of the object)")
         validation.nonnegative(self.squeeze, "squeeze")
-        d = tuple(validation.positive(x, "durations") for x in self.durations)
-        if len(d) != len(PHASES):
-            raise InvalidInputError(f"durations must give {len(PHASES)} phases {PHASES}, got {len(d)}")
-        object.__setattr__(self, "durations", d)
+        self._check_durations()
         if self.angles is not None:
             a = validation.array(self.angles, "angles")
             if a.ndim != 1:
                 raise InvalidInputError("angles must be one angle per end point [rad]")
             object.__setattr__(self, "angles", a)
-
-    @property
-    def duration(self) -> float:
-        """Total duration [s]."""
-        return float(sum(self.durations))
-
-    def phase_times(self) -> dict[str, tuple[float, float]]:
-        """``{phase: (start, end)}`` [s]."""
-        return dict(self._times)
-
-    @cached_property
-    def _times(self) -> dict[str, tuple[float, float]]:
-        out, t = {}, 0.0
-        for name, d in zip(PHASES, self.durations):
-            out[name] = (t, t + d)
-            t += d
-        return out
 
     def at(self, t: float) -> PlanPoint:
         """The :class:`PlanPoint` at time t [s] (after the end: the final point)."""
