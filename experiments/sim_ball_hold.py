@@ -1,6 +1,6 @@
 #!/usr/bin/env python
 """Our addition (not a figure of the paper): the Allegro hand's four fingertips hold a ball with the cooperative
-sphere in MuJoCo, move it, tighten and loosen it with the dilation, and keep it under 1 N pushes.
+sphere in MuJoCo, move it, tighten and loosen it on the e0∞ (dilation) channel, and keep it under 1 N pushes.
 
 Fig. 21 commands the Allegro's cooperative sphere by teleoperation, kinematically; here the same sphere holds
 a free ball (no weld, no equality constraint, contacts and gravity on) that starts resting on a thin
@@ -11,7 +11,10 @@ pedestal:
    the sphere's radius (``coop_ga.sim.HoldController``'s, here ``coop_ga.sim.ball.SphereHoldController``);
 2. translation commands of the sphere's centre move the ball 3 cm (towards the palm and up, off the
    pedestal; the weight is estimated from the measured wrench and fed forward);
-3. the dilation tightens the grasp to 8 N and loosens it back to 4 N;
+3. the e0∞ channel tightens the grasp to 8 N and loosens it back to 4 N: the set-point's feed-forward wrench
+   ``𝒲 = −s n r e0∞`` (dual to the dilation: on the impedance it acts as a dilation offset 𝒲 / (Λ K)) does
+   it, the admittance on the dilation target corrects the rest (it moves by hundredths of a millimetre:
+   the feed-forward alone lands within 10 % of the set-point);
 4. a 1 N force pushes the ball along +x, −x, +y, −y, +z, −z in turn (``data.xfrc_applied``).
 
 The scene, plan, controller and metrics are :mod:`coop_ga.sim.ball` (its docstring says why the hand's
@@ -47,7 +50,7 @@ from coop_ga.harness import Experiment
 FPS_FAST, FPS_FULL = 4.0, 10.0  # GIF frames per simulated second (the gallery run renders 12 frames)
 CLAIM = (
     "The Allegro hand's four fingertips hold a free 0.3 kg ball with the cooperative sphere (MuJoCo, contacts and "
-    "gravity, no weld): translation commands move it 3 cm (within 5 mm), the dilation tightens the grasp to 8 N "
+    "gravity, no weld): translation commands move it 3 cm (within 5 mm), the e0∞ (dilation) channel tightens the grasp to 8 N "
     "and loosens it to 4 N (±25 %), 1 N pushes in ±x, ±y, ±z move it ≤ 5 mm, the tips slip ≤ 5 mm, no drop."
 )
 
@@ -125,7 +128,8 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
             f"{np.linalg.norm(r['move_m']) * 100:.2f} cm (off the plan by {r['move_error_m'] * 1000:.1f} mm), pushes "
             f"displace it ≤ {r['push_displacement_max_mm']:.2f} mm, slip ≤ {r['slip_max_mm']:.2f} mm, squeeze tight "
             f"{r['squeeze_tight_N']:.2f} N (set {c['tighten_N']:g}) / loose {r['squeeze_loose_N']:.2f} N (set "
-            f"{c['squeeze_N']:g}), within {100 * r['squeeze_error_hold']:.0f} % of its set-point when settled, weight "
+            f"{c['squeeze_N']:g}; on e0∞ the feed-forward wrench does it, the admittance moved the dilation target "
+            f"by {r['dilation_tight_mm']:.2f} mm), within {100 * r['squeeze_error_hold']:.0f} % of its set-point when settled, weight "
             f"estimated {r['weight_estimate_kg']:.3f} kg"
         )
     evidence = f"{k} of {n} runs succeed. " + "; ".join(parts) + f". Failures: {fails}."
@@ -168,7 +172,11 @@ def _plot(exp: Experiment, nominal: Any) -> str:
     a.fill_between(t, 0.75 * tr["squeeze_set"], 1.25 * tr["squeeze_set"], color="0.85", label="±25 %")
     a.set_ylabel("e0∞ squeeze [N]")
     a.set_xlabel("t [s]")
-    a.legend(fontsize=7)
+    a.legend(fontsize=7, loc="upper left")
+    b = a.twinx()  # the dilation the squeeze loop commands: the sphere's target radius
+    b.plot(t, 1000 * (tr["radius_target"] - plan.radius_touch), color="C2", lw=1.0, label="r_d − r_touch")
+    b.set_ylabel("dilation: r_d − r_touch [mm]", color="C2")
+    b.legend(fontsize=7, loc="upper right")
     a = axes[1, 1]
     F = np.linalg.norm(tr["forces"], axis=2)
     for i, lab in enumerate(nominal.setup.system.labels):

@@ -23,9 +23,11 @@ Scene (:func:`ball_setup`)
   friction per :class:`BallCase`) starts resting on a thin static pedestal under the grasp sphere's
   centre, the fingers open (the sphere 8 mm wider);
 * the plan (:class:`BallPlan`): close onto the ball, squeeze to the set-point, move the sphere's centre
-  3 cm up (off the pedestal), settle, tighten (twice the set-point) and loosen (back) through the
-  e0∞ squeeze loop, then hold while a 1 N force pushes the ball along ±x, ±y and ±z in turn
-  (:func:`disturbances`).
+  3 cm towards the palm and up (−x, +z: 1.8 cm off the pedestal; straight up is out of the fingers'
+  reach within their joint limits — Gauss–Newton on the sphere does not converge there — and this heading
+  keeps the most joint-limit margin of those tried), settle, tighten (twice the set-point) and loosen
+  (back) through the e0∞ squeeze (its feed-forward wrench and the admittance loop), then hold while a 1 N
+  force pushes the ball along ±x, ±y and ±z in turn (:func:`disturbances`).
 
 :class:`SphereHoldController`: the task rows are J^G's dilation and translation rows (a sphere has no
 rotation: its J^G rotation rows are 0) and, per fingertip, the two components of its direction from the
@@ -471,7 +473,9 @@ def ball_metrics(run: BallRun) -> dict[str, Any]:
     * squeeze: ``squeeze_error_hold`` the largest |s/s_d − 1| over the last 60 % of the settle phase, the
       last 40 % of the tighten and loosen phases (after each ramp) and the whole disturb phase;
       ``squeeze_tight_N`` (the mean measured squeeze over the last 30 % of tighten, set-point ``tighten``),
-      ``squeeze_loose_N`` (the same over the last 30 % of loosen);
+      ``squeeze_loose_N`` (the same over the last 30 % of loosen); ``dilation_tight_mm``: how much the
+      squeeze loop closed the sphere's target radius (its dilation) from the start to the end of tighten,
+      ``dilation_loose_mm`` how much it reopened it over loosen;
     * ``weight_estimate_kg``: at the start of the disturb phase; saturation counts; ``success``: not
       dropped, moved within 5 mm of the plan, every push displacing the ball ≤ 5 mm, slip ≤ 5 mm, the
       squeeze within ±25 % of its set-point in the hold windows.
@@ -494,6 +498,7 @@ def ball_metrics(run: BallRun) -> dict[str, Any]:
         return b - frac * (b - a), b
 
     hold_windows = [tail("settle", 0.6), tail("tighten", 0.4), tail("loosen", 0.4), pt["disturb"]]
+    rd, i_tight, i_loose = tr["radius_target"], _rows(run, *pt["tighten"]), _rows(run, *pt["loosen"])
     dropped = bool(np.linalg.norm(pos[-1] - plan_end) > 0.01 or np.min(fmag[after]) < 1e-6)
     ped_top = st.plan.centre[2] - st.ball_radius
     m = {
@@ -512,6 +517,8 @@ def ball_metrics(run: BallRun) -> dict[str, Any]:
         "squeeze_error_hold": _squeeze_error(run, hold_windows),
         "squeeze_tight_N": float(np.mean(tr["squeeze"][_rows(run, *tail("tighten", 0.3))])),
         "squeeze_loose_N": float(np.mean(tr["squeeze"][_rows(run, *tail("loosen", 0.3))])),
+        "dilation_tight_mm": float(1e3 * (rd[i_tight[0]] - rd[i_tight[-1]])),
+        "dilation_loose_mm": float(1e3 * (rd[i_loose[-1]] - rd[i_loose[0]])),
         "weight_estimate_kg": float(tr["weight_estimate"][min(int(np.searchsorted(t, pt["disturb"][0])), len(t) - 1)]),
         "saturated_updates": int(run.log.saturated_updates),
         "control_updates": int(run.log.control_updates),
