@@ -15,7 +15,11 @@ pedestal:
    ``𝒲 = −s n r e0∞`` (dual to the dilation: on the impedance it acts as a dilation offset 𝒲 / (Λ K)) does
    it, the admittance on the dilation target corrects the rest (it moves by hundredths of a millimetre:
    the feed-forward alone lands within 10 % of the set-point);
-4. a 1 N force pushes the ball along +x, −x, +y, −y, +z, −z in turn (``data.xfrc_applied``).
+4. Fig. 21's command, now with contact: the sphere's dilation 4 mm smaller and back (the squeeze loop paused).
+   It tightens only a little — the impedance's stiffness along e0∞ is Λ_β K_β (Eq 36, 51), and the task
+   inertia of four fingertips along the dilation is tiny, so a millimetre of dilation adds about 0.1 N —
+   which is why the squeeze is commanded as a force on e0∞ (3.) rather than as a dilation;
+5. a 1 N force pushes the ball along +x, −x, +y, −y, +z, −z in turn (``data.xfrc_applied``).
 
 The scene, plan, controller and metrics are :mod:`coop_ga.sim.ball` (its docstring says why the hand's
 damping and friction, its collision model and the move's heading are what they are).  The full version runs
@@ -129,7 +133,8 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
             f"displace it ≤ {r['push_displacement_max_mm']:.2f} mm, slip ≤ {r['slip_max_mm']:.2f} mm, squeeze tight "
             f"{r['squeeze_tight_N']:.2f} N (set {c['tighten_N']:g}) / loose {r['squeeze_loose_N']:.2f} N (set "
             f"{c['squeeze_N']:g}; on e0∞ the feed-forward wrench does it, the admittance moved the dilation target "
-            f"by {r['dilation_tight_mm']:.2f} mm), within {100 * r['squeeze_error_hold']:.0f} % of its set-point when settled, weight "
+            f"by {r['dilation_tight_mm']:.2f} mm; Fig. 21's dilation command, the sphere 4 mm smaller, raised it only "
+            f"{r['squeeze_loose_N']:.2f} → {r['dilated_squeeze_N']:.2f} N), within {100 * r['squeeze_error_hold']:.0f} % of its set-point when settled, weight "
             f"estimated {r['weight_estimate_kg']:.3f} kg"
         )
     evidence = f"{k} of {n} runs succeed. " + "; ".join(parts) + f". Failures: {fails}."
@@ -185,9 +190,11 @@ def _plot(exp: Experiment, nominal: Any) -> str:
     a.set_xlabel("t [s]")
     a.legend(fontsize=7)
     for ax in axes.flat:
-        for name in ("squeeze", "move", "tighten", "loosen", "disturb"):
+        for name in ("squeeze", "move", "tighten", "loosen", "dilate", "undilate", "disturb"):
             ax.axvline(pt[name][0], color="0.8", lw=0.8, zorder=0)
-    fig.suptitle("Allegro ball hold (nominal): phases squeeze, move, tighten, loosen, pushes (grey lines)")
+    fig.suptitle(
+        "Allegro ball hold (nominal): phases squeeze, move, tighten, loosen, dilate, undilate, pushes (grey lines)"
+    )
     fig.tight_layout()
     exp.save(fig, "hold.png")
     plt.close(fig)

@@ -26,8 +26,9 @@ Scene (:func:`ball_setup`)
   3 cm towards the palm and up (−x, +z: 1.8 cm off the pedestal; straight up is out of the fingers'
   reach within their joint limits — Gauss–Newton on the sphere does not converge there — and this heading
   keeps the most joint-limit margin of those tried), settle, tighten (twice the set-point) and loosen
-  (back) through the e0∞ squeeze (its feed-forward wrench and the admittance loop), then hold while a 1 N
-  force pushes the ball along ±x, ±y and ±z in turn (:func:`disturbances`).
+  (back) through the e0∞ squeeze (its feed-forward wrench and the admittance loop), tighten and loosen
+  again by Fig. 21's command — the sphere's dilation, 4 mm smaller and back, the squeeze loop paused —
+  then hold while a 1 N force pushes the ball along ±x, ±y and ±z in turn (:func:`disturbances`).
 
 :class:`SphereHoldController`: the task rows are J^G's dilation and translation rows (a sphere has no
 rotation: its J^G rotation rows are 0) and, per fingertip, the two components of its direction from the
@@ -75,7 +76,7 @@ MOVE = (-0.024, 0.0, 0.018)  # [m] 3 cm towards the palm and up (off the pedesta
 FINGER_DAMPING, FINGER_FRICTION = 0.05, 0.0  # [N m s/rad], [N m] (module docstring)
 PEDESTAL_RADIUS, PEDESTAL_LENGTH = 0.008, 0.06  # [m]
 #: the phases of a :class:`BallPlan`, in order; ``disturb`` is split into one window per push
-BALL_PHASES = ("close", "squeeze", "move", "settle", "tighten", "loosen", "disturb")
+BALL_PHASES = ("close", "squeeze", "move", "settle", "tighten", "loosen", "dilate", "undilate", "disturb")
 #: the pushes of the disturb phase, in order (unit directions of the 1 N force, world frame)
 PUSHES = (
     ("+x", (1, 0, 0)),
@@ -86,8 +87,8 @@ PUSHES = (
     ("-z", (0, 0, -1)),
 )
 BETA_ROWS = slice(3, 7)  # e0∞, e1∞, e2∞, e3∞ of a similarity 7-vector
-FULL_DURATIONS = (0.4, 0.4, 0.8, 0.3, 0.5, 0.5, 2.4)
-FAST_DURATIONS = (0.25, 0.25, 0.5, 0.2, 0.3, 0.3, 1.2)
+FULL_DURATIONS = (0.4, 0.4, 0.8, 0.3, 0.5, 0.5, 0.5, 0.5, 2.4)
+FAST_DURATIONS = (0.25, 0.25, 0.5, 0.2, 0.3, 0.3, 0.3, 0.3, 1.2)
 
 
 # ====================================================================== the plan
@@ -103,6 +104,9 @@ class BallPlan(PhasedPlan):
         squeeze: set-point s_d [N]; ``tighten``: the set-point [N] the tighten phase ramps to (and the loosen
             phase back from).
         move: (3,) [m] the centre's translation over the move phase.
+        dilation: [m] the sphere's radius shrinks by this over the dilate phase and regrows over undilate
+            (Fig. 21's dilation command, now with contact), the squeeze loop paused (its offset and the
+            feed-forward of the set-point held).
         directions: (n, 3) each tip's unit direction from the centre at the grasp (the tangential rows' target).
         durations: seconds per phase of :data:`BALL_PHASES`.
     """
@@ -117,6 +121,7 @@ class BallPlan(PhasedPlan):
     move: Any = MOVE
     durations: tuple[float, ...] = FULL_DURATIONS
     press: float = 0.001
+    dilation: float = 0.004
     # fields HoldController reads from a plan
     angles: Any = None
     tool_pitch: float | None = None
@@ -145,9 +150,11 @@ class BallPlan(PhasedPlan):
         return PlanPoint(
             centre=self.centre + self.move * s["move"],
             yaw=0.0,
-            radius=self.radius_open + (r_in - self.radius_open) * s["close"],
+            radius=self.radius_open
+            + (r_in - self.radius_open) * s["close"]
+            - self.dilation * (s["dilate"] - s["undilate"]),
             squeeze=sq,
-            admittance=t >= pt["squeeze"][0],
+            admittance=t >= pt["squeeze"][0] and not pt["dilate"][0] <= t < pt["undilate"][1],
             estimate=t >= pt["move"][0],
             phase=next((name for name in BALL_PHASES if t < pt[name][1]), BALL_PHASES[-1]),
         )
@@ -475,10 +482,14 @@ def ball_metrics(run: BallRun) -> dict[str, Any]:
       ``squeeze_tight_N`` (the mean measured squeeze over the last 30 % of tighten, set-point ``tighten``),
       ``squeeze_loose_N`` (the same over the last 30 % of loosen); ``dilation_tight_mm``: how much the
       squeeze loop closed the sphere's target radius (its dilation) from the start to the end of tighten,
-      ``dilation_loose_mm`` how much it reopened it over loosen;
+      ``dilation_loose_mm`` how much it reopened it over loosen; the dilation command: ``dilated_squeeze_N``
+      (the mean squeeze over the last 30 % of dilate, the sphere ``plan.dilation`` smaller),
+      ``undilated_squeeze_N`` (the same over undilate's), ``dilation_stiffness_N_per_mm`` (the squeeze
+      gained per mm of dilation over the loosened level);
     * ``weight_estimate_kg``: at the start of the disturb phase; saturation counts; ``success``: not
       dropped, moved within 5 mm of the plan, every push displacing the ball ≤ 5 mm, slip ≤ 5 mm, the
-      squeeze within ±25 % of its set-point in the hold windows.
+      squeeze within ±25 % of its set-point in the hold windows (they include undilate's end: the loop
+      paused, the sphere back to its size), the dilation command raising the squeeze.
     """
     st, tr = run.setup, run.trace
     pt = st.plan.phase_times()
@@ -497,7 +508,13 @@ def ball_metrics(run: BallRun) -> dict[str, Any]:
         a, b = pt[name]
         return b - frac * (b - a), b
 
-    hold_windows = [tail("settle", 0.6), tail("tighten", 0.4), tail("loosen", 0.4), pt["disturb"]]
+    hold_windows = [
+        tail("settle", 0.6),
+        tail("tighten", 0.4),
+        tail("loosen", 0.4),
+        tail("undilate", 0.3),
+        pt["disturb"],
+    ]
     rd, i_tight, i_loose = tr["radius_target"], _rows(run, *pt["tighten"]), _rows(run, *pt["loosen"])
     dropped = bool(np.linalg.norm(pos[-1] - plan_end) > 0.01 or np.min(fmag[after]) < 1e-6)
     ped_top = st.plan.centre[2] - st.ball_radius
@@ -519,11 +536,14 @@ def ball_metrics(run: BallRun) -> dict[str, Any]:
         "squeeze_loose_N": float(np.mean(tr["squeeze"][_rows(run, *tail("loosen", 0.3))])),
         "dilation_tight_mm": float(1e3 * (rd[i_tight[0]] - rd[i_tight[-1]])),
         "dilation_loose_mm": float(1e3 * (rd[i_loose[-1]] - rd[i_loose[0]])),
+        "dilated_squeeze_N": float(np.mean(tr["squeeze"][_rows(run, *tail("dilate", 0.3))])),
+        "undilated_squeeze_N": float(np.mean(tr["squeeze"][_rows(run, *tail("undilate", 0.3))])),
         "weight_estimate_kg": float(tr["weight_estimate"][min(int(np.searchsorted(t, pt["disturb"][0])), len(t) - 1)]),
         "saturated_updates": int(run.log.saturated_updates),
         "control_updates": int(run.log.control_updates),
         "effort_ratio": float(run.log.effort_ratio),
     }
+    m["dilation_stiffness_N_per_mm"] = (m["dilated_squeeze_N"] - m["squeeze_loose_N"]) / (1e3 * st.plan.dilation)
     m["failures"] = _failures(m)
     m["success"] = not m["failures"]
     return m
@@ -542,6 +562,8 @@ def _failures(m: dict[str, Any]) -> list[str]:
         out.append(f"a 1 N push displaced the ball {m['push_displacement_max_mm']:.1f} mm > 5 mm")
     if m["slip_max_mm"] > 5.0:
         out.append(f"slip {m['slip_max_mm']:.1f} mm > 5 mm")
+    if m["dilated_squeeze_N"] <= m["squeeze_loose_N"]:
+        out.append("the dilation command did not raise the squeeze")
     if m["squeeze_error_hold"] > 0.25:
         out.append(f"squeeze off its set-point by {100 * m['squeeze_error_hold']:.0f} % > 25 %")
     return out

@@ -38,6 +38,9 @@ def test_the_ball_hold_holds_its_claims():
         assert r["squeeze_loose_N"] == pytest.approx(r["case"]["squeeze_N"], rel=0.25)
         assert r["squeeze_tight_N"] > 1.5 * r["squeeze_loose_N"]  # e0∞ did tighten and loosen, by its wrench:
         assert 0.0 <= r["dilation_tight_mm"] < 0.5  # the admittance barely moved the dilation target
+        # Fig. 21's dilation command (4 mm) tightens, but little: Λ_β K_β is soft in newtons
+        assert 0.0 < r["dilated_squeeze_N"] - r["squeeze_loose_N"] < 1.0
+        assert r["undilated_squeeze_N"] == pytest.approx(r["case"]["squeeze_N"], rel=0.25)
         assert r["weight_estimate_kg"] == pytest.approx(r["case"]["mass_kg"], rel=0.05)
     g = m["gallery"]
     assert g["agrees"] is True and g["figures"] == ["hold.png", "keyframes.png", "hold.gif"]

@@ -21,13 +21,15 @@ def setup():
 def test_plan_profiles(setup):
     plan = setup.plan
     pt = plan.phase_times()
-    assert plan.duration == pytest.approx(3.0) and list(pt) == [
+    assert plan.duration == pytest.approx(3.6) and list(pt) == [
         "close",
         "squeeze",
         "move",
         "settle",
         "tighten",
         "loosen",
+        "dilate",
+        "undilate",
         "disturb",
     ]
     start, squeezed = plan.at(0.0), plan.at(pt["squeeze"][1])
@@ -36,7 +38,10 @@ def test_plan_profiles(setup):
     np.testing.assert_allclose(plan.at(pt["settle"][0]).centre - plan.centre, plan.move, atol=1e-15)
     assert np.linalg.norm(plan.move) == pytest.approx(0.03) and plan.move[2] > 0.015  # 3 cm, up off the pedestal
     assert plan.at(pt["tighten"][1]).squeeze == pytest.approx(8.0)  # tightened …
-    assert plan.at(pt["loosen"][1]).squeeze == pytest.approx(4.0)  # … and loosened by the dilation's set-point
+    assert plan.at(pt["loosen"][1]).squeeze == pytest.approx(4.0)  # … and loosened by the e0∞ set-point
+    dilated = plan.at(pt["dilate"][1])  # Fig. 21's command: the sphere smaller, the squeeze loop paused
+    assert dilated.radius == pytest.approx(squeezed.radius - plan.dilation) and not dilated.admittance
+    assert dilated.squeeze == pytest.approx(4.0) and plan.at(pt["undilate"][1]).radius == pytest.approx(squeezed.radius)
     pushes = plan.push_windows()
     assert [p[0] for p in pushes] == ["+x", "-x", "+y", "-y", "+z", "-z"]
     assert pushes[0][2] == pytest.approx(pt["disturb"][0]) and pushes[-1][3] < pt["disturb"][1]
