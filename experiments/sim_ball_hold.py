@@ -28,9 +28,10 @@ gains, ``--fast`` (the gallery) the nominal and the hardest one with shorter pha
 of the planned 3 cm), the ball's displacement under each push (≤ 5 mm), each fingertip's slip on the ball
 (≤ 5 mm), the squeeze against its set-point (±25 % once each ramp has settled, tight and loose levels).
 
-Where it stops holding (fast runs, 0.3 kg, measured once, not part of the gallery): friction 0.3 still passes
-(slip 4.2 mm); at friction 0.2 the tips slip 9.7 mm (the ball is not dropped, but the slip claim fails); a 3 N
-push instead of 1 N moves the ball 4.9 mm (friction 1.0).
+Where it stops holding (fast runs, 0.3 kg, measured once with ``coop_ga.sim.ball.run_ball``, not part of the
+gallery): friction 0.3 still passes (slip 4.2 mm); at friction 0.2 the tips slip 9.7 mm (the ball is not
+dropped, but the slip claim fails); pushes of 3 N instead of 1 N move the ball 4.95 mm, of 5 N 8.1 mm (held,
+the smallest tip force 0.9 N; friction 1.0).
 
 Writes to ``--out``: ``model.xml``, ``log.npz`` (the nominal run: replay with ``coop_ga.sim.replay``),
 ``metrics.json`` (``object_body``, every run's metrics under ``runs``, the success count, the failures, the
