@@ -1,7 +1,9 @@
 #!/usr/bin/env python
-"""Physics in the loop: real-time factor of three_franka + a 2 kg box at 1 kHz with a joint PD controller.
+"""Physics in the loop: real time with a controller at 1 kHz, and the cost of the cooperative wrench.
 
-    python benchmarks/sim.py [--seconds 5] [--ci] [--out results/benchmarks/sim] [--quiet]
+    python benchmarks/sim.py [--seconds 5] [--hold-seconds 4] [--ci] [--out results/benchmarks/sim] [--quiet]
+
+Part 1 — three_franka + a 2 kg box with a joint PD controller.
 
 Scene: ``coop_ga.sim.build_scene(three_franka, objects=[Box 0.2 m, 2 kg on the floor at the centre])``
 (21 joints, 33 collision capsules, the box's 4 floor contacts, visual meshes), Δt = 1 ms,
@@ -19,8 +21,24 @@ Scene: ``coop_ga.sim.build_scene(three_franka, objects=[Box 0.2 m, 2 kg on the f
 Printed: simulated seconds per wall second (≥ 1 is real time), the ratio of each loop's time per step
 to the anchor's, and the controller's share of a tick (time inside the controller callback over the
 loop's wall time).  Before the timings count, the run is checked: the arms hold q0 (max |q − q0|) and
-the box stays on the floor.  ``--ci``: 0.2 s simulated per loop (seconds of wall time; the CI test
-reads the JSON, never the times).  Results go to ``<out>/results.json``.
+the box stays on the floor.
+
+Part 2 — three arms + box with the cooperative controller in the loop: the box-carry scenario of
+:mod:`coop_ga.sim.carry` (three_iiwa14 with tools, a 2 kg box on a table,
+:class:`coop_ga.sim.HoldController` every 1 ms step: task evaluation, similarity error, J̇q̇, the
+cooperative wrench of the contact forces, Pinocchio dynamics, a 15-row operational-space solve) for
+the first ``--hold-seconds`` of its plan (approach, close, squeeze, lift: contacts from 1.5 s).  The
+anchor is the same run's logged controls replayed with bare ``mj_step`` in the same model (the physics
+alone, the same contacts).  Printed: simulated seconds per wall second, the ratio to the anchor, the
+controller's share of a tick, and CPU-time twins of each (the process's CPU time: on a shared machine
+the wall clock also counts other processes' time slices).
+
+Part 3 — the cooperative wrench (:func:`coop_ga.cooperative.wrench_map`) of three end-point forces on
+the same task against one cooperative evaluation ``task.evaluate(q)`` (the issue's target: ≤ 1.5×),
+the public calls and the hot-loop variants (``evaluate_views``), timed interleaved (best of repeats).
+
+``--ci``: 0.2 s simulated per loop and few wrench repetitions (the CI test reads the JSON, never the
+times).  Results go to ``<out>/results.json``.
 """
 
 from __future__ import annotations
@@ -100,6 +118,7 @@ def _loop(scene: Any, steps: int, controller: Any) -> tuple[float, Any]:
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/sim"))
     exp.add("--seconds", type=positive_float, default=5.0, help="simulated time per loop [s]")
+    exp.add("--hold-seconds", type=positive_float, default=4.0, help="simulated time of the carry scenario [s]")
     exp.add("--ci", action="store_true", help=f"small mode: {CI_SECONDS:g} s per loop (times meaningless)")
     args = exp.parse(argv)
     seconds = CI_SECONDS if args.ci else args.seconds
@@ -133,9 +152,16 @@ def main(argv: list[str] | None = None) -> int:
         f"real time with the controller: {realtime:.2f}× ({'PASS' if realtime >= 1.0 else 'MISS'} ≥ 1)\n"
         f"check: arms within {hold:.2e} rad of q0, box at z = {box_z:.4f} m"
     )
+    with exp.stage("the carry scenario with the hold controller"):
+        held = _hold(CI_SECONDS if args.ci else args.hold_seconds)
+    with exp.stage("the cooperative wrench against task.evaluate"):
+        wrench = _wrench(200 if args.ci else 5000, 3 if args.ci else 15)
+    _print_hold(held, wrench)
     exp.write_json(
         "results.json",
         {
+            "hold": held,
+            "wrench": wrench,
             "ci": bool(args.ci),
             "steps": steps,
             "simulated_s": seconds,
@@ -149,6 +175,137 @@ def main(argv: list[str] | None = None) -> int:
         digits=None,
     )
     return 0
+
+
+def _hold(seconds: float) -> dict[str, Any]:
+    """Part 2 (module docstring): the carry scenario for ``seconds``, timed (wall and CPU), its anchor."""
+    import mujoco
+
+    from coop_ga.cooperative import wrench_map
+    from coop_ga.sim import Simulation, circle_target
+    from coop_ga.sim.carry import CarryCase, carry_setup
+
+    st = carry_setup(CarryCase("benchmark"))
+    task, q0 = st.task, st.q_start
+    # load every compiled entry point before the clock runs (first calls bind buffers, load libraries)
+    task.evaluate(q0)
+    task.error_and_jacobian(q0, circle_target((0.0, 0.0, 0.4), 0.3))
+    task.jdot_qdot(q0, np.zeros_like(q0))
+    wrench_map(task).command(task.points(q0))
+    spent = {"wall": 0.0, "cpu": 0.0}
+
+    def timed(t: float, q: np.ndarray, qd: np.ndarray, sensors: Any) -> Any:
+        w0, c0 = time.perf_counter(), time.process_time()
+        tau = st.controller(t, q, qd, sensors)
+        spent["wall"] += time.perf_counter() - w0
+        spent["cpu"] += time.process_time() - c0
+        return tau
+
+    sim = Simulation(st.scene, timed, q=st.q_start)
+    steps = round(seconds / st.scene.model.opt.timestep)
+    w0, c0 = time.perf_counter(), time.process_time()
+    sim.step(steps)
+    wall, cpu = time.perf_counter() - w0, time.process_time() - c0
+    log = sim.log()
+    m, d = st.scene.model, mujoco.MjData(st.scene.model)
+    d.qpos[:], d.qvel[:] = log.qpos[0], log.qvel[0]
+    mujoco.mj_forward(m, d)
+    w0, c0 = time.perf_counter(), time.process_time()
+    for k in range(steps):  # the anchor: the same physics, the logged controls
+        d.ctrl[:] = log.ctrl[k]
+        mujoco.mj_step(m, d)
+    a_wall, a_cpu = time.perf_counter() - w0, time.process_time() - c0
+    replay_error = float(np.max(np.abs(d.qpos - log.qpos[-1])))
+    return {
+        "simulated_s": seconds,
+        "steps": steps,
+        "us_per_step": 1e6 * wall / steps,
+        "cpu_us_per_step": 1e6 * cpu / steps,
+        "anchor_us_per_step": 1e6 * a_wall / steps,
+        "anchor_cpu_us_per_step": 1e6 * a_cpu / steps,
+        "ratio": wall / a_wall,
+        "realtime": seconds / wall,
+        "realtime_cpu": seconds / cpu,
+        "controller_share": spent["wall"] / wall,
+        "controller_us_per_call": 1e6 * spent["wall"] / steps,
+        "controller_cpu_us_per_call": 1e6 * spent["cpu"] / steps,
+        "issue_target_realtime": "PASS" if seconds / wall >= 1.0 else "MISS",
+        "check": {"replay_max_qpos_error": replay_error, "contacts_at_end": int(sim.data.ncon)},
+    }
+
+
+def _wrench(n: int, repeat: int) -> dict[str, Any]:
+    """Part 3 (module docstring): interleaved best-of-``repeat`` times of ``n`` calls each [µs per call]."""
+    from coop_ga.cooperative import wrench_map
+    from coop_ga.sim.carry import _task
+
+    task = _task()
+    wm = wrench_map(task)
+    q = np.asarray(task.system.q0, float)
+    P = task.points(q)
+    F = np.random.default_rng(0).normal(size=P.shape)
+    T = np.zeros_like(F)
+    flat = [P.reshape(-1).copy(), F.reshape(-1).copy(), T.reshape(-1).copy(), np.zeros(6)]
+    calls = {
+        "wrench": lambda: wm(P, F, T),
+        "evaluate": lambda: task.evaluate(q),
+        "wrench_views": lambda: wm.evaluate_views(*flat, 0.0),
+        "evaluate_views": lambda: task.evaluate_views(q),
+    }
+    best = dict.fromkeys(calls, float("inf"))
+    for f in calls.values():
+        f()
+    for _ in range(repeat):
+        for name, f in calls.items():
+            t0 = time.perf_counter()
+            for _ in range(n):
+                f()
+            best[name] = min(best[name], (time.perf_counter() - t0) / n)
+    us = {k: 1e6 * v for k, v in best.items()}
+    ratio = us["wrench"] / us["evaluate"]
+    return {
+        "us_per_call": us,
+        "ratio": ratio,
+        "ratio_views": us["wrench_views"] / us["evaluate_views"],
+        "instructions": {"wrench": wm.compiled.n_instructions, "evaluate": task.compiled.n_instructions},
+        "issue_target_ratio": "PASS" if ratio <= 1.5 else "MISS",
+    }
+
+
+def _print_hold(hold: dict[str, Any], wrench: dict[str, Any]) -> None:
+    print_table(
+        f"three_iiwa14 + tools + 2 kg box, the hold controller at 1 kHz, {hold['steps']} steps (same run)",
+        ["loop", "µs/step", "CPU µs/step", "ratio to anchor", "sim s / wall s", "sim s / CPU s"],
+        [
+            [
+                "replayed controls, bare mj_step (anchor)",
+                f"{hold['anchor_us_per_step']:.1f}",
+                f"{hold['anchor_cpu_us_per_step']:.1f}",
+                "1.00",
+                "",
+                "",
+            ],
+            [
+                "Simulation + HoldController",
+                f"{hold['us_per_step']:.1f}",
+                f"{hold['cpu_us_per_step']:.1f}",
+                f"{hold['ratio']:.2f}",
+                f"{hold['realtime']:.2f}",
+                f"{hold['realtime_cpu']:.2f}",
+            ],
+        ],
+    )
+    print(
+        f"controller share of a tick: {100 * hold['controller_share']:.1f} % ({hold['controller_us_per_call']:.0f} µs "
+        f"per call, {hold['controller_cpu_us_per_call']:.0f} µs CPU); real time: {hold['realtime']:.2f}× "
+        f"({hold['issue_target_realtime']} ≥ 1)"
+    )
+    us = wrench["us_per_call"]
+    print(
+        f"cooperative wrench {us['wrench']:.2f} µs vs task.evaluate {us['evaluate']:.2f} µs: "
+        f"{wrench['ratio']:.2f}× ({wrench['issue_target_ratio']} ≤ 1.5); hot paths {us['wrench_views']:.2f} vs "
+        f"{us['evaluate_views']:.2f} µs ({wrench['ratio_views']:.2f}×)"
+    )
 
 
 if __name__ == "__main__":

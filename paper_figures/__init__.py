@@ -92,6 +92,16 @@ FIGURES: tuple[Figure, ...] = (
     Figure("obstacles", "ours_obstacle_circle", "experiments/obstacle_circle.py", addition=True),
     Figure("potential_field", "ours_potential_field", "experiments/potential_field.py", addition=True),
     Figure("linkages", "ours_linkages", "experiments/linkages.py", addition=True),
+    # physics in the loop (MuJoCo): the gallery runs the scripts' --fast (gallery-length) version
+    Figure("sim_box_carry", "ours_sim_box_carry", "experiments/sim_box_carry.py", ("--fast",), addition=True),
+    Figure(
+        "sim_box_no_squeeze",
+        "ours_sim_box_no_squeeze",
+        "experiments/sim_box_carry.py",
+        ("--fast", "--no-squeeze"),
+        addition=True,
+    ),
+    Figure("sim_ball_hold", "ours_sim_ball_hold", "experiments/sim_ball_hold.py", ("--fast",), addition=True),
 )
 
 

@@ -20,17 +20,21 @@ from .primitive import (
 )
 from .targets import displaced_target
 from .task import CooperativeTask, TaskState, cooperative_task
+from .wrench import CooperativeWrench, WrenchMap, cooperative_wrench, squeeze_capacity, wrench_map
 
 __all__ = [
     "COOPERATIVE_KINDS",
     "FIT_KINDS",
     "FLAT_KINDS",
     "CooperativeTask",
+    "CooperativeWrench",
     "TaskGraph",
     "TaskGuard",
     "TaskState",
+    "WrenchMap",
     "cooperative_primitive",
     "cooperative_task",
+    "cooperative_wrench",
     "damped_pinv",
     "displaced_target",
     "fit_primitive",
@@ -40,4 +44,6 @@ __all__ = [
     "manipulability_index",
     "nullspace_projector",
     "primitive_jacobian",
+    "squeeze_capacity",
+    "wrench_map",
 ]

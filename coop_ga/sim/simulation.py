@@ -106,18 +106,34 @@ def body_wrenches(model: Any, data: Any, bodies: Sequence[int] | np.ndarray, poi
     for i, b in enumerate(bodies):
         where.setdefault(int(b), []).append(i)
     con = data.contact
-    gb = np.asarray(model.geom_bodyid)
-    b1, b2 = gb[np.asarray(con.geom1[:n])], gb[np.asarray(con.geom2[:n])]
+    gb = model.geom_bodyid
+    b1s = gb[con.geom1[:n]].tolist()
+    b2s = gb[con.geom2[:n]].tolist()
+    frames = con.frame
     f6 = np.zeros(6)
-    for c in np.flatnonzero([int(a) in where or int(b) in where for a, b in zip(b1, b2)]):
-        mj().mj_contactForce(model, data, int(c), f6)
-        frame = np.asarray(con.frame[c]).reshape(3, 3)  # rows: normal (geom1 → geom2), tangents
-        F, T = frame.T @ f6[:3], frame.T @ f6[3:]  # on geom2, world frame
-        pos = np.asarray(con.pos[c])
-        for body, sign in ((int(b2[c]), 1.0), (int(b1[c]), -1.0)):
+    m = mj()
+    pts = np.asarray(points, float).tolist()
+    acc = [[0.0] * 6 for _ in range(len(bodies))]
+    for c in range(n):  # a few contacts: scalar Python beats numpy's per-call overhead here
+        b1, b2 = b1s[c], b2s[c]
+        if b1 not in where and b2 not in where:
+            continue
+        m.mj_contactForce(model, data, c, f6)
+        R = frames[c].reshape(3, 3)  # rows: normal (geom1 → geom2), tangents
+        fx, fy, fz = (f6[:3] @ R).tolist()  # on geom2, world frame
+        tx, ty, tz = (f6[3:] @ R).tolist()
+        x, y, z = con.pos[c].tolist()
+        for body, sign in ((b2, 1.0), (b1, -1.0)):
             for i in where.get(body, ()):
-                out[i, :3] += sign * F
-                out[i, 3:] += sign * (np.cross(pos - points[i], F) + T)
+                dx, dy, dz = x - pts[i][0], y - pts[i][1], z - pts[i][2]
+                a = acc[i]
+                a[0] += sign * fx
+                a[1] += sign * fy
+                a[2] += sign * fz
+                a[3] += sign * (dy * fz - dz * fy + tx)
+                a[4] += sign * (dz * fx - dx * fz + ty)
+                a[5] += sign * (dx * fy - dy * fx + tz)
+    out[:] = acc
     return out
 
 
