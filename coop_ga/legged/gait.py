@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -62,6 +63,17 @@ GAITS: tuple[str, ...] = ("tripod", "ripple", "wave")
 _SWING_DELAY = 0.2
 #: phases within this of a lift-off / touch-down boundary snap to it (t / T is rarely exact in floats).
 _PHASE_EPS = 1e-9
+
+
+#: :meth:`GaitTable.min_stance` and :meth:`GaitTable.diagram` refuse more samples than this (bounded memory)
+MAX_SAMPLES = 10_000_000
+
+
+def _samples(samples: Any) -> int:
+    n = integer(samples, "samples", minimum=1)
+    if n > MAX_SAMPLES:
+        raise InvalidInputError(f"samples = {n} is above {MAX_SAMPLES} per cycle")
+    return n
 
 
 def leg_names(n_legs: int) -> tuple[str, ...]:
@@ -97,6 +109,23 @@ class GaitTable:
     offsets: np.ndarray
     duty: float
     period: float = 1.0
+
+    def __post_init__(self) -> None:
+        choice(self.gait, GAITS, "gait")
+        if isinstance(self.legs, str) or not all(isinstance(x, str) for x in self.legs) or not self.legs:
+            raise InvalidInputError(f"legs must be a non-empty tuple of leg names, got {self.legs!r}")
+        n = len(self.legs)
+        off = array(self.offsets, "offsets")
+        if off.shape != (n,) or np.any(off < 0.0) or np.any(off >= 1.0):
+            raise InvalidInputError(f"offsets must be {n} lift-off phases in [0, 1) (one per leg), got {off.tolist()}")
+        off.setflags(write=False)
+        duty = scalar(self.duty, "duty")
+        if not 0.0 < duty < 1.0:
+            raise InvalidInputError(f"duty must be in (0, 1) (the stance fraction of a cycle), got {duty}")
+        object.__setattr__(self, "legs", tuple(self.legs))
+        object.__setattr__(self, "offsets", off)
+        object.__setattr__(self, "duty", duty)
+        object.__setattr__(self, "period", positive(self.period, "period"))
 
     @property
     def n_legs(self) -> int:
@@ -139,12 +168,12 @@ class GaitTable:
     def min_stance(self, samples: int = 3600) -> int:
         """The smallest number of stance legs over one cycle (sampled at ``samples`` phases, which include
         every lift-off and touch-down of the default tables)."""
-        t = np.arange(integer(samples, "samples", minimum=1)) * (self.period / samples)
+        t = np.arange(_samples(samples)) * (self.period / samples)
         return int(self.stance(t).sum(axis=-1).min())
 
     def diagram(self, samples: int = 600) -> tuple[np.ndarray, np.ndarray]:
         """The gait diagram over one cycle: (t (samples,) [s], stance (samples, n) bool)."""
-        t = np.arange(integer(samples, "samples", minimum=1)) * (self.period / samples)
+        t = np.arange(_samples(samples)) * (self.period / samples)
         return t, self.stance(t)
 
 
