@@ -100,22 +100,32 @@ def leg_capsules(legs: LegModel, system: Any = None) -> tuple[Capsule, ...]:
     of ``system`` (default ``legs.system``; e.g. ``hexapod_floating`` for a simulation) with every tibia
     capsule replaced by the shin (:func:`shin_capsule`) and a foot ball (a capsule of length 0, radius
     ``legs.foot_radius``) on every ``{leg}_foot`` frame.  For ``coop_ga.sim.build_scene(system,
-    capsules=leg_capsules(legs, system))``: the ground then touches the balls, where the planner's feet are."""
+    capsules=leg_capsules(legs, system))``: the ground then touches the balls, where the planner's feet are.
+    Coordinates below 1e-12 m (the fit's round-off) are set to 0, so the scene's ``model.xml`` reloads bit for bit."""
     from ..collision import Capsule, fit_capsules
 
     lm = check_legs(legs)
     sysm = lm.system if system is None else system
     a, b, rho = shin_capsule(lm)
+    a, b = _snap(a), _snap(b)
     out = []
     for c in fit_capsules(sysm):
         leg = next((x for x in lm.legs if c.frame == f"{x}_tibia"), None)
         if leg is None:
-            out.append(c)
+            out.append(Capsule(c.frame, _snap(c.a), _snap(c.b), c.radius, c.chain, c.link))
             continue
         out.append(Capsule(c.frame, a, b, rho, c.chain, c.link))
         if lm.foot_radius > 0:
             out.append(Capsule(f"{leg}_foot", np.zeros(3), np.zeros(3), lm.foot_radius, c.chain, f"{leg}_foot"))
     return tuple(out)
+
+
+def _snap(x: Any) -> np.ndarray:
+    """Round-off of the capsule fit (|x| < 1e-12 m, e.g. 1e-18 off an axis) set to 0: MuJoCo's MJCF writer does
+    not give such offsets back bit for bit, and ``coop_ga.sim`` refuses to save a model that does not reload."""
+    v = np.array(x, dtype=float)
+    v[np.abs(v) < 1e-12] = 0.0
+    return v
 
 
 def leg_segments(legs: LegModel, position: Any, rotation: Any, q: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

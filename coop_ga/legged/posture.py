@@ -487,11 +487,11 @@ def _resolve_legs(kind: str, legs: tuple[str, ...] | None, stance: tuple[str, ..
     import itertools
 
     if kind == "circle":  # the best-conditioned circle (§5.3)
-        best = max(itertools.combinations(stance, 3), key=lambda c: well_definedness("circle", [feet[x] for x in c]))
-        return best, "the 3 stance feet of the best-conditioned circle"
+        tri = max(itertools.combinations(stance, 3), key=lambda c: well_definedness("circle", [feet[x] for x in c]))
+        return tuple(tri), "the 3 stance feet of the best-conditioned circle"
     # point pair: the two stance feet farthest apart across B's xy (turns about the vertical best conditioned)
-    best = max(itertools.combinations(stance, 2), key=lambda c: float(np.linalg.norm((feet[c[0]] - feet[c[1]])[:2])))
-    return best, "the 2 stance feet farthest apart in B's xy"
+    pair = max(itertools.combinations(stance, 2), key=lambda c: float(np.linalg.norm((feet[c[0]] - feet[c[1]])[:2])))
+    return tuple(pair), "the 2 stance feet farthest apart in B's xy"
 
 
 def _resolve_one(lm: LegModel, q: np.ndarray, stance: tuple[str, ...], kind: str, legs: tuple[str, ...] | None,
@@ -704,7 +704,7 @@ def _commands(
         c_in[_BETA] = 0.0
     u_cmd = _body_twist_of(c_in)
     u_seen, u_N = _split(u_cmd, N)
-    names: tuple[str, ...] = ()
+    names = ()
     if _significant(u_N, u_cmd):
         if mode == "raise":
             raise InvalidInputError(_body_message(u_N, prims, "the body-frame posture command"))

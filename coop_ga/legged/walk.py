@@ -282,7 +282,8 @@ class WalkOptions:
         (a foot on a riser's edge has no single support plane): 16 mm = the 9 mm ball, the ≤ 5 mm it rolls in a
         stance and 2 mm, so the ball rests on its own tread and never touches the riser of a higher neighbour.
     clearance_margin: [m] the footholds and swing arcs keep every leg capsule this far above the terrain, as
-        predicted from the reference body path (module docstring; the walk measures the result).
+        predicted from the reference body path (module docstring; the walk measures the result); None: no
+        capsule check, the footholds and arcs of the foot ball alone (for comparison).
     rolling: the stance balls roll with their tibias (their centres move by ``r Δθ × n``, no sliding; the
         default), or their centres are held fixed (then the ball must slide by ``rolling``, the error of a
         point-contact plan).
@@ -304,7 +305,7 @@ class WalkOptions:
     tilt_follow: float = 1.0
     foot_reach: float | None = 0.16
     edge_clearance: float = 0.016
-    clearance_margin: float = 0.004
+    clearance_margin: float | None = 0.004
     rolling: bool = True
     use_posture: bool = True
 
@@ -330,7 +331,8 @@ class WalkOptions:
         if self.foot_reach is not None:
             positive(self.foot_reach, "foot_reach")
         nonnegative(self.edge_clearance, "edge_clearance")
-        nonnegative(self.clearance_margin, "clearance_margin")
+        if self.clearance_margin is not None:
+            nonnegative(self.clearance_margin, "clearance_margin")
         for flag in ("use_posture", "rolling"):
             if not isinstance(getattr(self, flag), (bool, np.bool_)):
                 raise InvalidInputError(f"{flag} must be True or False, got {getattr(self, flag)!r}")
@@ -751,7 +753,7 @@ class _Walker:
         C, m = targets.shape[:2]
         feet = np.broadcast_to(self.nominal, (C, m, 6, 3)).copy()
         feet[:, :, i] = np.einsum("mji,cmj->cmi", R, targets - P[None])
-        ok = (self.lm.workspace_margin(feet)[..., i] > 0.002).all(axis=1)
+        ok: np.ndarray = np.asarray((self.lm.workspace_margin(feet)[..., i] > 0.002).all(axis=1))
         clear = np.full(C, -np.inf)
         idx = np.flatnonzero(ok)
         if idx.size == 0:
@@ -772,7 +774,7 @@ class _Walker:
         xy = np.array([x, y]) + _rot_z(yaw)[:2, :2] @ self.nominal[i, :2]
         knots = [k_td, k_td + g.stance_knots // 2, k_td + g.stance_knots]
         c0 = self.centre(xy)
-        if self.light:
+        if self.light or self.opts.clearance_margin is None:
             return c0
         clear, ok = self._clearance(i, np.broadcast_to(c0, (1, 3, 3)), knots)
         if ok[0] and clear[0] >= self.opts.clearance_margin:
@@ -795,7 +797,7 @@ class _Walker:
         g, margin = self.g, self.opts.clearance_margin
         n = g.S - w0
         knots = [k + j for j in range(1, n)]
-        if not knots or self.light:
+        if not knots or self.light or margin is None:
             return lift
         s = np.array([j / n for j in range(1, n)])
         poses = [self.predicted_body(kk) for kk in knots]
@@ -824,8 +826,7 @@ class _Walker:
     def plan_swings(self, k: int, w: np.ndarray) -> None:
         """Arcs of the legs lifting off at knot k (w = 0; at k = 0 also the legs the table has in mid-swing)."""
         g = self.g
-        for i in np.flatnonzero((w == 0) | ((k == 0) & (w < g.S))):
-            i = int(i)
+        for i in (int(x) for x in np.flatnonzero((w == 0) | ((k == 0) & (w < g.S)))):
             p_lo = self.feet_W[i].copy()
             p_td = self.foothold(i, k + g.S - int(w[i]))
             top = _max_height(self.terrain, p_lo[:2], p_td[:2]) + self.r
@@ -931,8 +932,9 @@ class _Walker:
         sets = [st] if stance_prev is None else [st, stance_prev]
         p_ref, R_ref, n, d = self.stance_reference(fw[st], np.array([*state.position[:2], g.ref[k, 2]]))
         z_ref = R_ref[:, 2]
-        rows["tracking_error"].append([float(n @ state.position - d - self.opts.ride_height * (n @ z_ref)),
-                                       math.acos(float(np.clip(state.rotation[:, 2] @ z_ref, -1.0, 1.0)))])  # fmt: skip
+        z = state.rotation[:, 2]  # the tilt as atan2(|z × z_ref|, z · z_ref): exact near 0 (acos is not)
+        tilt = math.atan2(float(np.linalg.norm(np.cross(z, z_ref))), float(z @ z_ref))
+        rows["tracking_error"].append([float(n @ state.position - d - self.opts.ride_height * (n @ z_ref)), tilt])
         dist = self.terrain.solid_distance(fw) - self.r
         rows["t"].append(k * g.dt)
         rows["q"].append(state.q.copy())

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from coop_ga.errors import InvalidInputError, NonFiniteError
+from coop_ga.geometry.groups import Similarity
 from coop_ga.legged import (
     BodyState,
     GaitTable,
@@ -30,7 +31,6 @@ from coop_ga.legged import (
 )
 from coop_ga.legged.body import rpy_from_rotation
 from coop_ga.legged.posture import body_motion_target, feet_field
-from coop_ga.geometry.groups import Similarity
 
 NAN = float("nan")
 TRIPOD = ["lf", "lr", "rm"]
@@ -59,9 +59,9 @@ def test_walk_work_is_bounded_and_its_arguments_checked(legs):
     flat = Terrain.flat()
     with pytest.raises(InvalidInputError, match=r"distance\) would take .* above 1000000"):
         walk(flat, distance=1e9)
-    with pytest.raises(InvalidInputError, match="terrain must be a coop_ga.legged.Terrain"):
+    with pytest.raises(InvalidInputError, match=r"terrain must be a coop_ga.legged.Terrain"):
         walk("flat", duration=0.1)
-    with pytest.raises(InvalidInputError, match="legs must be a coop_ga.legged.LegModel"):
+    with pytest.raises(InvalidInputError, match=r"legs must be a coop_ga.legged.LegModel"):
         walk(flat, duration=0.1, legs="hexapod")
     with pytest.raises(InvalidInputError, match="use_posture"):
         WalkOptions(use_posture="no")
@@ -99,7 +99,7 @@ def test_body_state_arguments_are_named(state, legs):
         state.to_world([[NAN, 0.0, 0.0]])
     with pytest.raises(InvalidInputError, match="points_W"):
         state.to_body([[0.0, 0.0], [1.0, 1.0]])
-    with pytest.raises(InvalidInputError, match="legs must be a coop_ga.legged.LegModel"):
+    with pytest.raises(InvalidInputError, match=r"legs must be a coop_ga.legged.LegModel"):
         state.feet_world(None)
     with pytest.raises(InvalidInputError, match=r"\bR\b must be a rotation matrix"):
         rpy_from_rotation(np.diag([2.0, 1.0, 1.0]))
@@ -109,7 +109,7 @@ def test_body_state_arguments_are_named(state, legs):
 def test_posture_arguments_are_checked(state, legs):
     with pytest.raises(InvalidInputError, match="options must be a PostureOptions"):
         posture_step(state, TRIPOD, np.zeros(7), options={"dt": 1})
-    with pytest.raises(InvalidInputError, match="legs must be a coop_ga.legged.LegModel"):
+    with pytest.raises(InvalidInputError, match=r"legs must be a coop_ga.legged.LegModel"):
         posture_step(state, TRIPOD, np.zeros(7), "hexapod")
     with pytest.raises(InvalidInputError, match="swing_q must be a dict"):
         posture_step(state, TRIPOD, np.zeros(7), swing_q=[0.0] * 3)
@@ -144,7 +144,7 @@ def test_rollout_options_and_work_are_checked(legs):
         with pytest.raises(InvalidInputError, match=rf"RolloutOptions\.{arg}"):
             RolloutOptions(**kw)
     t, q, body, stance = _plan(legs)
-    with pytest.raises(InvalidInputError, match="integration steps .* above 5000000"):
+    with pytest.raises(InvalidInputError, match=r"integration steps .* above 5000000"):
         contact_rollout([0.0, 1e9, 2e9], q, body, stance)
     with pytest.raises(InvalidInputError, match="integration steps"):
         contact_rollout(t, q, body, stance, RolloutOptions(dt=1e-12))

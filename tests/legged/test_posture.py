@@ -112,7 +112,7 @@ def test_rotation_through_a_sphere_is_refused():
     ):
         posture_to(s0, FOUR, tilt, L)
     yaw = body_motion_target(V0, rotation=rotation_from_rpy(np.deg2rad([0.0, 0.0, 8.0])))
-    with pytest.raises(InvalidInputError, match="e12 = .*point pair"):
+    with pytest.raises(InvalidInputError, match=r"e12 = .*point pair"):
         posture_to(s0, FOUR, yaw, L)
     # with the explicit option: the carried part runs, reported not converged, the refused rows named
     res = posture_to(s0, FOUR, tilt, L, PostureOptions(uncontrollable="report", gain=50.0, max_steps=60))
@@ -146,22 +146,22 @@ def test_flat_sphere_becomes_a_plane_visibly_and_refuses_in_plane_motion():
 def test_other_refusals():
     s0 = uneven_state()
     # yaw (e12) through a plane, in its own frame
-    with pytest.raises(InvalidInputError, match="e12 = 0.3 .rotation about the plane's normal"):
+    with pytest.raises(InvalidInputError, match=r"e12 = 0.3 .rotation about the plane's normal"):
         posture_step(s0, TRIPOD, [0.3, 0, 0, 0, 0, 0, 0], L, PostureOptions(kind="plane"))
     # a radius change through a sphere
-    with pytest.raises(InvalidInputError, match="e0∞ = 0.2 .a radius change"):
+    with pytest.raises(InvalidInputError, match=r"e0∞ = 0.2 .a radius change"):
         posture_step(s0, FOUR, [0, 0, 0, 0.2, 0, 0, 0], L)
     # a body-frame dilation (the old 'crouch') through any primitive
     with pytest.raises(InvalidInputError, match="cannot dilate"):
         posture_step(s0, FOUR, [0, 0, 0, 0.2, 0, 0, 0], L, PostureOptions(frame="body"))
     # the issue's 6-DOF motion through a sphere and a circle: the rotation about the circle's axis is seen by neither
-    with pytest.raises(InvalidInputError, match="no stance primitive of sphere.*circle"):
+    with pytest.raises(InvalidInputError, match=r"no stance primitive of sphere.*circle"):
         posture_to(s0, FOUR, MOTION, L, primitives=("sphere", "circle"))
     # fewer than three stance feet
     with pytest.raises(InvalidInputError, match="≥ 3 stance_legs"):
         posture_to(s0, ("lf", "rm"), MOTION, L, primitives="point_pair")
     # report mode: the refused body twist is named and not executed
-    s, info = posture_step(
+    _, info = posture_step(
         s0, FOUR, command_from_body_twist([0.01, 0, 0], [0, 0, 0.2]), L,
         PostureOptions(frame="body", uncontrollable="report"),
     )  # fmt: skip
@@ -258,7 +258,7 @@ def test_six_dof_with_pinocchio(ground, primitives):
 
 def test_motion_beyond_reach_is_refused_before_the_run():
     s0 = flat_state()
-    with pytest.raises(UnreachableError, match="beyond the legs' reach or joint limits .*leg"):
+    with pytest.raises(UnreachableError, match=r"beyond the legs' reach or joint limits .*leg"):
         posture_to(s0, FOUR, BodyMotion.from_rotvec([0.0, 0.0, 0.12]), L, primitives=("circle", "point_pair"))
     with pytest.raises(InvalidInputError, match="Similarity or a BodyMotion"):
         posture_to(s0, FOUR, np.zeros(7), L)
