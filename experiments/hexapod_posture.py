@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -133,7 +134,7 @@ def refusals(legs: Any, s0: Any) -> dict[str, str]:
     from coop_ga.legged.posture import stance_posture_task as spt
 
     V = spt(legs, s0.q, STANCE, "sphere").similarity(s0.q)
-    flat = BodyState([0.0, 0.0, 0.1], np.eye(3), np.tile([0.0, 0.3, -1.4], 6))
+    flat = BodyState(np.array([0.0, 0.0, 0.1]), np.eye(3), np.tile([0.0, 0.3, -1.4], 6))
     Vf = spt(legs, flat.q, STANCE).similarity(flat.q)
     cases = {
         "tilt_through_sphere": lambda: posture_to(s0, STANCE, body_motion_target(V, rotation=rotation_from_rpy([*RPY[:2], 0])), legs),
@@ -317,8 +318,8 @@ def render_gif(log: Any, prims: list[tuple[str, Any, tuple[str, ...]]], body0: n
 
     colors = {"sphere": (0.85, 0.35, 0.1, 1.0), "circle": (0.1, 0.55, 0.9, 1.0), "point_pair": (0.2, 0.7, 0.3, 1.0)}
 
-    def overlays(k: int, data: Any) -> list[Any]:
-        out = []
+    def overlays(k: int, data: Any) -> list[Callable[..., None]]:
+        out: list[Callable[..., None]] = []
         for kind, X, _ in prims:
             if kind == "sphere":
                 c, r = np.asarray(center(X), float).reshape(3), float(radius(X))
@@ -429,7 +430,8 @@ def scene_png(exp: Any, legs: Any, states: list[Any], prims: list[Any], ends: li
         label = f"{kind.replace('_', ' ')} of {', '.join(lg)}"
         if kind == "sphere":
             c, r = np.asarray(center(X), float).reshape(3), float(radius(X))
-            X = cg.circle(*(c + r * np.array([np.cos(a), np.sin(a), 0.0]) for a in (0.0, 2.1, 4.2)))
+            e = [c + r * np.array([np.cos(a), np.sin(a), 0.0]) for a in (0.0, 2.1, 4.2)]
+            X = cg.circle(e[0], e[1], e[2])
             label += f" (its equator, r = {1e3 * r:.0f} mm)"
         scene.primitive(X, "neutral", label, style={"color": colors[kind], "lw": 2.0})
     scene.curve(np.array([x.position for x in states]), "trajectory", "body origin path")

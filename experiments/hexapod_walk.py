@@ -16,10 +16,10 @@ trajectories differ).
 
 Defaults (WalkOptions): stride 0.08 m, cycle time 1.6 / 2.4 / 4.0 s (tripod / ripple / wave: 0.10 / 0.05 / 0.024
 m/s), the ball's lowest point lifted 0.02 m above the highest terrain under the swing, ride height 0.109 m above
-the ground (the ball centres 0.1 m below the body), footholds 0.16 m out from each coxa axis, Δt ≈ 0.02 s (0.04 s
-with ``--fast``).  The walk covers ``--distance`` (1 m; 0.3 m with ``--fast``; the gallery's entries walk 0.3 m,
-the wave 0.2 m, at Δt 0.04 s: ``paper_figures.FIGURES``).  Terrain ``slope``: 0.1 rad up
-along +x; ``steps``: 0.03 m rises every 0.25 m from x = 0.15 m; ``random``: 0.08 m tiles of height U[0, 0.025] m
+the ground (the ball centres 0.1 m below the body), footholds 0.16 m out from each coxa axis, Δt ≈ 0.02 s (0.08 s
+with ``--fast``, the grid of the unit tests).  The walk covers ``--distance`` (1 m; 0.3 m with ``--fast``; the
+gallery's entries walk 0.3 m, the wave 0.2 m, at Δt 0.04 s: ``paper_figures.FIGURES``).  Terrain ``slope``: 0.1 rad
+up along +x; ``steps``: 0.03 m rises every 0.25 m from x = 0.15 m; ``random``: 0.08 m tiles of height U[0, 0.025] m
 (seed ``--seed``).
 
 Writes to ``--out``: ``metrics.json`` (distance, the stance-reference deviation, stability margin, slip, rolling,
@@ -184,9 +184,9 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--gait", choices=GAITS, default="tripod", help="gait of the phase table")
     exp.add("--terrain", choices=TERRAINS, default="flat", help="terrain kind (random: tiles under --seed)")
     exp.add("--distance", type=positive_float, default=1.0, help="distance to walk [m] (--fast: 0.3 m)")
-    exp.add("--dt", type=positive_float, default=0.02, help="time step [s] (rounded to the gait's grid; --fast 0.04)")
+    exp.add("--dt", type=positive_float, default=0.02, help="time step [s] (rounded to the gait's grid; --fast 0.08)")
     exp.add("--frames", type=int_at_least(2), default=60, help="frames of walk.gif (--fast: 12)")
-    exp.add("--fast", action="store_true", help="0.3 m at Δt 0.04 s and a 12-frame GIF (CI)")
+    exp.add("--fast", action="store_true", help="0.3 m at Δt 0.08 s and a 12-frame GIF (CI)")
     args = exp.parse(argv)
     t_start = time.perf_counter()
     from dataclasses import replace
@@ -196,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
     from coop_ga.legged.walk import WalkOptions, walk
 
     distance = 0.3 if args.fast else float(args.distance)
-    dt = 0.04 if args.fast else float(args.dt)
+    dt = 0.08 if args.fast else float(args.dt)
     frames = 12 if args.fast else int(args.frames)
     terrain = Terrain.make(args.terrain, seed=int(exp.seed if exp.seed is not None else 0))
     legs = hexapod_legs()
