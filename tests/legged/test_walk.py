@@ -36,6 +36,7 @@ from coop_ga.legged.walk import (
 DT = 0.08
 DIST = 0.3
 R_FOOT = 0.009
+STEPS_NEAR = Terrain.steps(start_x=0.05, n_steps=2)  # the rear legs cross the first riser within 0.3 m
 
 
 @pytest.fixture(scope="module")
@@ -128,12 +129,12 @@ def test_ball_contact_on_flat_ground(walks):
 
 @pytest.fixture(scope="module")
 def ripple_steps(legs):
-    """0.45 m of ripple over the first two risers: the default planner, and with footholds and arcs for the foot
-    ball alone (no capsule check, the former planner)."""
-    steps = Terrain.make("steps")
+    """0.3 m of ripple over two risers starting 5 cm ahead of the body (every leg crosses the first): the default
+    planner, and with footholds and arcs for the foot ball alone (no capsule check, the former planner)."""
+    steps = STEPS_NEAR
     return (
-        walk(steps, WalkOptions(gait="ripple", dt=DT), distance=0.45, legs=legs),
-        walk(steps, WalkOptions(gait="ripple", dt=DT, clearance_margin=None), distance=0.45, legs=legs),
+        walk(steps, WalkOptions(gait="ripple", dt=DT), distance=DIST, legs=legs),
+        walk(steps, WalkOptions(gait="ripple", dt=DT, clearance_margin=None), distance=DIST, legs=legs),
     )
 
 
@@ -160,9 +161,8 @@ def test_posture_changes_the_plan(legs, ripple_steps):
     """The body's height and attitude come from the stance plane's error (closed loop, gain 8 /s) with
     use_posture=True and from the low-pass filtered support plane (0.25 s) without: on steps the joint trajectories
     differ, and the body stays closer to the stance reference (smaller RMS height and tilt deviation)."""
-    terrain = Terrain.make("steps")
     a = ripple_steps[0]
-    b = walk(terrain, WalkOptions(gait="ripple", dt=DT, use_posture=False), distance=0.45, legs=legs)
+    b = walk(STEPS_NEAR, WalkOptions(gait="ripple", dt=DT, use_posture=False), distance=DIST, legs=legs)
     assert a.posture and not b.posture and b.notes
     assert np.abs(a.q - b.q).max() > 0.02
     rms = [np.sqrt(np.mean(x.tracking_error**2, axis=0)) for x in (a, b)]
