@@ -1,4 +1,4 @@
-"""The stance feet as a cooperative primitive (issue 13, item 4; seed 003 §3, §5.3, §5.6).
+"""The stance feet as a cooperative primitive (seed 003 §3, §5.3, §5.6).
 
 :func:`stance_primitive` turns the k stance feet into one CGA primitive, and :func:`stance_task` gives the
 :class:`~coop_ga.cooperative.CooperativeTask` of that primitive over the named feet of the fixed-base

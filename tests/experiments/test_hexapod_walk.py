@@ -1,4 +1,4 @@
-"""experiments/hexapod_walk.py (issue 13): --fast runs, each gait once and each terrain once, assert on metrics."""
+"""experiments/hexapod_walk.py: --fast runs, each gait once and each terrain once, assert on metrics."""
 
 from __future__ import annotations
 
