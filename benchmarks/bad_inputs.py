@@ -841,7 +841,7 @@ def legged_cases() -> list[Case]:
         swing_feet_W={"lm": [NAN, 0.0, 0.0]},
     )
     b.add("posture_to", "state", "None", G.posture_to, None, legs3, lambda fx: _identity_similarity())
-    b.add("posture_to", "target_relative", "a string", G.posture_to, lambda fx: fx.state, legs3, "target")
+    b.add("posture_to", "target", "a string", G.posture_to, lambda fx: fx.state, legs3, "target")
     b.add(
         "posture_to",
         "options",

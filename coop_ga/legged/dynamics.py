@@ -1,4 +1,4 @@
-"""Optional physics check of a walking plan: rigid-contact forward dynamics under joint PD (issue 13 item 8).
+"""Optional physics check of a walking plan: rigid-contact forward dynamics under joint PD.
 
 The kinematic planners (:mod:`coop_ga.legged.walk`, :mod:`coop_ga.legged.posture`) produce a plan:
 times ``t`` (T,) [s], leg joints ``q`` (T, 18) [rad] (URDF order), body pose ``body`` (T, 7)

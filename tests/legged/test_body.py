@@ -1,4 +1,4 @@
-"""The floating body (coop_ga.legged.body) and the ``hexapod_floating`` system (issue 13 item 2)."""
+"""The floating body (coop_ga.legged.body) and the ``hexapod_floating`` system."""
 
 from __future__ import annotations
 
