@@ -203,6 +203,10 @@ class WalkingOptions:
     tilt_follow: desired body z axis between world up (0: level) and the support normal (1).
     posture_gain: gain [1/s] of the stance-primitive error; max_correction: (m/s, rad/s) caps of its body twist.
     path_gain: pull [1/s] of D's horizontal pose to the reference path.
+    max_accel: the reference velocity follows the command with at most this acceleration [m/s²] (the yaw rate
+        with max_accel / 0.3 m, the corner feet's radius); None: the gait's nominal speed (a stance stroke of
+        0.08 m) reached in one cycle.  A robot standing on its nominal footholds must not be dragged a whole
+        stroke by its first stance legs.
     control_rate: planning rate [Hz] (a divisor of the physics rate).
     kp, kd: joint PD gains [N m/rad, N m s/rad] per joint kind (coxa, femur, tibia).
     touch_threshold: a foot is in contact above this normal force [N]; touchdown_depth: with feedback the swing
@@ -225,6 +229,7 @@ class WalkingOptions:
     posture_gain: float = 6.0
     max_correction: tuple[float, float] = (0.05, 0.5)
     path_gain: float = 2.0
+    max_accel: float | None = None
     control_rate: float = 200.0
     kp: tuple[float, float, float] = (12.0, 12.0, 12.0)
     kd: tuple[float, float, float] = (0.1, 0.1, 0.08)
@@ -252,6 +257,8 @@ class WalkingOptions:
             validation.nonnegative(getattr(self, name), name)
         if self.cycle_time is not None:
             validation.positive(self.cycle_time, "cycle_time")
+        if self.max_accel is not None:
+            validation.positive(self.max_accel, "max_accel")
         tf = validation.scalar(self.tilt_follow, "tilt_follow")
         if not 0.0 <= tf <= 1.0:
             raise InvalidInputError(f"tilt_follow must be in [0, 1], got {tf}")
@@ -272,6 +279,14 @@ class WalkingOptions:
         from ..legged.walk import CYCLE_TIME
 
         return float(self.cycle_time) if self.cycle_time is not None else CYCLE_TIME[self.gait]
+
+    @property
+    def accel(self) -> float:
+        """The reference's acceleration limit [m/s²] (``max_accel`` or its default)."""
+        if self.max_accel is not None:
+            return float(self.max_accel)
+        tab = self.table()
+        return 0.08 / (tab.duty * tab.period * tab.period)
 
     def table(self) -> Any:
         """The gait's :class:`~coop_ga.legged.gait.GaitTable`."""
@@ -335,6 +350,18 @@ def _expm_so3(w: np.ndarray) -> np.ndarray:
     if a < 1e-10:
         return np.eye(3) + K
     return np.eye(3) + math.sin(a) / a * K + (1.0 - math.cos(a)) / (a * a) * K @ K
+
+
+def _limited(v: np.ndarray, cmd: np.ndarray, a: float, dt: float) -> np.ndarray:
+    """The velocity (vx, vy, wz) one step of ``dt`` later, moved toward ``cmd`` by at most ``a dt`` (linear,
+    as a vector) and ``a dt / 0.3`` (yaw rate)."""
+    out = v.copy()
+    d = cmd[:2] - v[:2]
+    n = float(np.hypot(d[0], d[1]))
+    out[:2] = cmd[:2] if n <= a * dt else v[:2] + d * (a * dt / n)
+    w = a * dt / 0.3
+    out[2] = v[2] + min(max(cmd[2] - v[2], -w), w)
+    return out
 
 
 def _rotvec(R: np.ndarray) -> np.ndarray:
@@ -545,6 +572,7 @@ class HexapodWalker:
         self.every = round(1.0 / k)
         self.dt = self.every * ts
         self.table = opt.table()
+        self._accel = opt.accel
         self.nominal = nominal_feet(self.legs, opt)
         self.localize = localize or self._true_pose
         system = self.legs.system
@@ -561,6 +589,9 @@ class HexapodWalker:
         # the servos' back-EMF damping (hexapod module docstring, "Servos"): τ must also supply b q̇_D
         self._b = np.asarray(hs.model.dof_damping, float)[hs.scene.qvel_index].copy()
         self._tasks: dict[tuple[str, ...], Any] = {}
+        if opt.feedback and opt.posture_gain > 0:  # the stance planes' pose functions, built once per process
+            for k in range(3, 7):
+                stance_pose(self.nominal, range(k))
         self.records: list[tuple[Any, ...]] = []
         self.timing = {"plan_s": 0.0, "servo_s": 0.0, "plans": 0, "servo_calls": 0}
         self.counts = {"touchdowns": 0, "early_touchdowns": 0, "searches": 0, "lost_feet": 0, "unsupported_plans": 0}
@@ -602,6 +633,7 @@ class HexapodWalker:
             self._roll_reference(i)
         self._tau_g, self._tau_prev = 0.0, -1e-9
         self._ref = np.array([pos[0], pos[1], _yaw_of(R)])
+        self._vel = np.zeros(3)  # the reference velocity (the command through the acceleration limit)
         self._ref_z = pos[2]
         self._started = True
 
@@ -614,7 +646,7 @@ class HexapodWalker:
         touch = data.sensordata[self.hs.touch_adr] > opt.touch_threshold
         cmd = self.command.at(t)
         waiting = self._clock(t, q, data, touch, cmd)
-        u = self._gait_twist(cmd if not waiting else np.zeros(3))
+        u = self._gait_twist(self._vel if not waiting else np.zeros(3))
         err = np.zeros(3)
         stance = self._support(t, touch)
         feet, J = self.fast.fk_jac(q)
@@ -639,14 +671,16 @@ class HexapodWalker:
     def _clock(self, t: float, q: np.ndarray, data: Any, touch: np.ndarray, cmd: np.ndarray) -> bool:
         """Advance the gait clock and the reference path (not while a foot is late, nor while standing still)
         and run the gait's events; returns whether the gait waits for a foot."""
-        moving = bool(np.any(np.abs(cmd) > 1e-9))
+        moving = bool(np.any(np.abs(cmd) > 1e-9) or np.any(np.abs(self._vel) > 1e-9))
         waiting = any(leg.mode == _MODES["search"] for leg in self._legs)
         airborne = any(leg.mode != 0 for leg in self._legs)
         advanced = not waiting and (moving or airborne)
         if advanced:
             self._tau_g += self.dt
+            self._vel = _limited(self._vel, cmd, self._accel, self.dt)
+            v = self._vel
             c, s = math.cos(self._ref[2]), math.sin(self._ref[2])
-            self._ref += self.dt * np.array([c * cmd[0] - s * cmd[1], s * cmd[0] + c * cmd[1], cmd[2]])
+            self._ref += self.dt * np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
         if advanced or waiting:  # the gait clock ran (or waits for a foot): lift-offs, swings, searches
             self._gait_events(t, q, data, touch, cmd if moving else None)
         return waiting
@@ -705,15 +739,17 @@ class HexapodWalker:
         leg.path = swing_arc(p0, p1, lift, _ARC_S)[0]  # sampled once; interpolated at each plan
         leg.mode = 1
 
-    def _predict(self, t: float, horizon: float, steps: int = 8) -> np.ndarray:
-        """The reference pose (x, y, yaw) ``horizon`` [s] ahead: the command schedule integrated from the
-        current reference (midpoint rule)."""
-        x = self._ref.copy()
-        h = horizon / steps
-        for k in range(steps):
-            c = self.command.at(t + (k + 0.5) * h)
-            yaw = x[2] + 0.5 * c[2] * h
-            x += h * np.array([math.cos(yaw) * c[0] - math.sin(yaw) * c[1], math.sin(yaw) * c[0] + math.cos(yaw) * c[1], c[2]])
+    def _predict(self, t: float, horizon: float) -> np.ndarray:
+        """The reference pose (x, y, yaw) ``horizon`` [s] ahead: the command schedule through the acceleration
+        limit, integrated from the current reference (steps of 4 plans)."""
+        x, v = self._ref.copy(), self._vel.copy()
+        h = 4.0 * self.dt
+        n = math.ceil(horizon / h - 1e-9)
+        for k in range(n):
+            hk = min(h, horizon - k * h)
+            v = _limited(v, self.command.at(t + (k + 1) * h), self._accel, hk)
+            yaw = x[2] + 0.5 * v[2] * hk
+            x += hk * np.array([math.cos(yaw) * v[0] - math.sin(yaw) * v[1], math.sin(yaw) * v[0] + math.cos(yaw) * v[1], v[2]])
         return x
 
     def _map_foothold(self, xy_o: np.ndarray, p0: np.ndarray, data: Any) -> tuple[np.ndarray, float]:
@@ -808,12 +844,15 @@ class HexapodWalker:
         leg Jacobians of ``J^G L`` cancel: ``J^G = G ∂p/∂q`` and ``∂p/∂q · L = [−I, [p]×]``)."""
         opt = self.options
         order, log_m, G = stance_pose(feet, stance)
-        n_m = rotation_from_tangent(log_m[:3])[:, 2]
-        n_w = R_M @ n_m
-        z_des = (1.0 - opt.tilt_follow) * np.array([0.0, 0.0, 1.0]) + opt.tilt_follow * n_w
-        R_des = _frame_with_z(z_des / np.linalg.norm(z_des), _yaw_of(R_M))
+        R_pl = rotation_from_tangent(log_m[:3])  # B ← plane frame (its z: the measured normal n_m)
+        n_w = R_M @ R_pl[:, 2]
+        if opt.tilt_follow > 0.0:
+            z_des = (1.0 - opt.tilt_follow) * np.array([0.0, 0.0, 1.0]) + opt.tilt_follow * n_w
+            R_des = _frame_with_z(z_des / np.linalg.norm(z_des), _yaw_of(R_M))
+        else:
+            R_des = _rot_z(_yaw_of(R_M))
         n_ref = R_des.T @ n_w  # the support normal seen from the desired attitude
-        e = plane_error(log_m, plane_log(n_ref, -opt.ride_height))
+        e = plane_error(log_m, plane_log(n_ref, -opt.ride_height), R_pl)
         A = stance_map(G, feet[list(order)])[_PLANE_ROWS]
         r = opt.posture_gain * e[_PLANE_ROWS] - A @ u_gait
         du = A.T @ np.linalg.solve(A @ A.T + 1e-8 * np.eye(3), r)
@@ -830,10 +869,12 @@ class HexapodWalker:
         ``r δ × n`` when it turns by the rotation vector δ (here the tibia's rotation in W_o since touchdown,
         from the previous q_D, n = +z of W_o), so the foot-ball contact model keeps the contact point, not the
         ball centre, fixed on the ground."""
-        R_tib = self._RD @ self.fast.tibia_rotations(self._qD)
-        r = self.hs.geometry.foot_radius
-        for i, leg in enumerate(self._legs):
-            if leg.mode == 0:
+        stance = [i for i, leg in enumerate(self._legs) if leg.mode == 0]
+        if stance:
+            R_tib = self._RD @ self.fast.tibia_rotations(self._qD)
+            r = self.hs.geometry.foot_radius
+            for i in stance:
+                leg = self._legs[i]
                 d = _rotvec(R_tib[i] @ leg.tibia0.T)
                 leg.target = leg.anchor + r * np.array([d[1], -d[0], 0.0])  # r δ × e_z
         feet = np.array([leg.target for leg in self._legs])

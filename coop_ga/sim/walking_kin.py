@@ -174,10 +174,10 @@ def plane_log(normal: np.ndarray, offset: float) -> np.ndarray:
     return np.array([w[2], -w[1], w[0], 0.0, *(offset * n)])
 
 
-def plane_error(log_v: np.ndarray, log_ref: np.ndarray) -> np.ndarray:
+def plane_error(log_v: np.ndarray, log_ref: np.ndarray, R: np.ndarray | None = None) -> np.ndarray:
     """``log(Ṽ V_ref)`` (7,) of two plane similarities given by their log coordinates (module docstring):
-    ``[tangent of RᵀR_ref, 0, Rᵀ(t_ref − t)]`` (primitive frame of V)."""
-    R = rotation_from_tangent(log_v[:3])
+    ``[tangent of RᵀR_ref, 0, Rᵀ(t_ref − t)]`` (primitive frame of V); ``R``: V's rotation if already known."""
+    R = rotation_from_tangent(log_v[:3]) if R is None else R
     Rr = rotation_from_tangent(log_ref[:3])
     return np.array([*tangent_of_rotation(R.T @ Rr), 0.0, *(R.T @ (log_ref[4:7] - log_v[4:7]))])
 

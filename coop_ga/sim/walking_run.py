@@ -6,8 +6,8 @@ Ground truth (recorded beside the controller, at every physics step; the control
 ------------------------------------------------------------------------------------------------------------
 * **terrain contacts by robot part** (:meth:`~coop_ga.sim.hexapod.HexapodScene.terrain_contacts`): a step with a
   shin (tibia capsule), femur or body touching the terrain counts;
-* **foot slip**: while a foot's touch sensor reads more than the contact threshold, the velocity of the ball's
-  material point at the contact, ``v_c = v + ω × (−r n)`` (v, ω: the foot site's linear and angular velocity,
+* **foot slip** (sampled at the plans' rate, 200 Hz): while a foot's touch sensor reads more than the contact
+  threshold, the velocity of the ball's material point at the contact, ``v_c = v + ω × (−r n)`` (v, ω: the foot site's linear and angular velocity,
   ``mujoco.mj_objectVelocity``; n the terrain normal under the foot), is integrated in the tangent plane: the
   sliding distance of that stance.  Rolling is not slip (v_c = 0 for a ball that rolls); the ball centre's
   horizontal drift over the stance (rolling included) is reported beside it.  The slip of a stance is the
@@ -41,7 +41,7 @@ import numpy as np
 from .. import validation
 from ..errors import InvalidInputError
 from ._mujoco import mj
-from .hexapod import HEXAPOD_LEGS, HexapodScene, default_region, hexapod_scene
+from .hexapod import HEXAPOD_LEGS, HexapodScene, hexapod_scene
 from .simulation import Disturbance, Simulation, SimulationLog
 from .walking import HexapodWalker, VelocityCommand, WalkingOptions, _fit_plane, standing_start
 
@@ -87,21 +87,24 @@ class GroundTruth:
         self._open: dict[int, _Stance] = {}
         self._v = np.zeros(6)
         self._steps = 0
+        P = self.hs.terrain.planes
+        #: the terrain's normal where it is one for all cells (flat, slope, horizontal grids), else None
+        self._normal = P[0, 0, :3].copy() if np.all(P[..., :3] == P[0, 0, :3]) else None
 
     def __call__(self, t: float, q: np.ndarray, qd: np.ndarray, sensors: Any) -> np.ndarray:
         d = sensors.data
         c = self.hs.terrain_contacts(d)
         self.contacts.append((c["shin"], c["femur"], c["body"]))
-        touch = np.asarray(d.sensordata[self.hs.touch_adr])
-        self._slip(t, d, touch)
-        if self._steps % self.walker.every == 0:
+        if self._steps % self.walker.every == 0:  # slip integrated and feet sampled at the plans' rate
+            touch = np.asarray(d.sensordata[self.hs.touch_adr])
+            self._slip(t, d, touch)
             self.plans.append((t, self.hs.feet_world(d), touch.copy()))
         self._steps += 1
         return self.walker(t, q, qd, sensors)
 
     def _slip(self, t: float, d: Any, touch: np.ndarray) -> None:
         m = self.hs.model
-        dt = float(m.opt.timestep)
+        dt = float(m.opt.timestep) * self.walker.every
         for i in range(6):
             st = self._open.get(i)
             if touch[i] <= self.threshold:
@@ -111,8 +114,10 @@ class GroundTruth:
             sid = int(self.hs.foot_sites[i])
             mj().mj_objectVelocity(m, d, mj().mjtObj.mjOBJ_SITE, sid, self._v, 0)
             p = np.array(d.site_xpos[sid])
-            n = self.hs.terrain.normal(p[:2])
-            vc = self._v[3:] + np.cross(self._v[:3], -self.r * n)  # the ball's material point at the contact
+            n = self._normal if self._normal is not None else self.hs.terrain.normal(p[:2])
+            w, r = self._v[:3], -self.r * n
+            vc = self._v[3:] + np.array([w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]])
+            # (the velocity of the ball's material point at the contact: v + ω × (−r n))
             vt = vc - (vc @ n) * n
             if st is None:
                 self._open[i] = _Stance(t, p)
@@ -160,11 +165,13 @@ class WalkRun:
         return self.log.qpos[:, a : a + 3], self.log.qpos[:, a + 3 : a + 7]
 
     def rpy(self) -> np.ndarray:
-        """(T, 3) roll, pitch, yaw [rad] of the body (R = Rz Ry Rx)."""
-        from ..legged.body import rpy_from_rotation
-        from .walking import _quat_to_R
-
-        return np.array([rpy_from_rotation(_quat_to_R(q)) for q in self.base[1]])
+        """(T, 3) roll, pitch, yaw [rad] of the body (R = Rz(yaw) Ry(pitch) Rx(roll), as
+        :func:`coop_ga.legged.body.rpy_from_rotation`; pitch in [−π/2, π/2])."""
+        w, x, y, z = self.base[1].T
+        r20 = 2.0 * (x * z - w * y)
+        r21, r22 = 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)
+        r10, r00 = 2.0 * (x * y + w * z), 1.0 - 2.0 * (y * y + z * z)
+        return np.column_stack([np.arctan2(r21, r22), np.arcsin(np.clip(-r20, -1.0, 1.0)), np.arctan2(r10, r00)])
 
     def height_errors(self) -> tuple[np.ndarray, np.ndarray]:
         """(t (P,), error (P,) [m]): the body's distance from the plane of the touching feet's centres minus
@@ -292,13 +299,15 @@ def simulate_walk(
     disturbances: Sequence[Disturbance] = (),
     region: Any = None,
     visuals: bool = False,
+    timestep: float = 1e-3,
     label: str = "",
     progress: bool = False,
 ) -> WalkRun:
     """Stand the hexapod on ``terrain`` (:func:`~coop_ga.sim.walking.standing_start` at the origin), walk it
     with ``command`` for ``duration`` [s] (default: to the command's last knot + one cycle) under
     ``disturbances`` (e.g. ``Disturbance("base_link_free", force=(0, 10, 0), start=2, stop=2.2)``), and return
-    the :class:`WalkRun`.  ``region``: the terrain's extent (default: the commanded path ± 0.6 m)."""
+    the :class:`WalkRun`.  ``region``: the terrain's extent (default: the commanded path ± 0.6 m); ``timestep``: the
+    physics step [s] (the servo loop's period; ``options.control_rate`` must divide its rate)."""
     import time
 
     from ..legged.terrain import Terrain
@@ -313,7 +322,7 @@ def simulate_walk(
         path = command.path(dur)
         lo, hi = path[:, :2].min(axis=0), path[:, :2].max(axis=0)
         region = ((float(lo[0]) - 0.6, float(hi[0]) + 0.6), (float(lo[1]) - 0.6, float(hi[1]) + 0.6))
-    hs = hexapod_scene(terrain, region=region if region is not None else default_region(terrain), visuals=visuals)
+    hs = hexapod_scene(terrain, region=region, visuals=visuals, timestep=timestep)
     walker = HexapodWalker(hs, command, opt)
     truth = GroundTruth(walker, opt.touch_threshold)
     q0, pose = standing_start(hs, opt)
