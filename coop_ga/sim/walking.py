@@ -381,6 +381,7 @@ def _fit_plane(P: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 _POSE_FUNCTIONS: dict[int, Any] = {}
+_STANCE_ORDERS: dict[tuple[int, ...], tuple[int, ...]] = {}
 
 
 def stance_pose(feet: np.ndarray, stance: Sequence[int]) -> tuple[tuple[int, ...], np.ndarray, np.ndarray]:
@@ -393,17 +394,23 @@ def stance_pose(feet: np.ndarray, stance: Sequence[int]) -> tuple[tuple[int, ...
     depends only on the number of feet, so one per k serves every stance set (built once per process, CasADi
     VM); ``J^G = G ∂p/∂q`` is the task's Jacobian (``tests/sim/test_hexapod_walking.py`` compares both with
     ``stance_task(...).evaluate``)."""
-    from ..legged.stance import STANCE_ORDER, stance_task
+    key = tuple(stance)
+    hit = _STANCE_ORDERS.get(key)
+    if hit is None:
+        from ..legged.stance import STANCE_ORDER
 
-    names = posture_legs(stance)
-    order = tuple(HEXAPOD_LEGS.index(n) for n in STANCE_ORDER if n in names)
+        names = posture_legs(stance)
+        hit = _STANCE_ORDERS[key] = tuple(HEXAPOD_LEGS.index(n) for n in STANCE_ORDER if n in names)
+    order = hit
     k = len(order)
     fn = _POSE_FUNCTIONS.get(k)
     if fn is None:
-        legs = tuple(n for n in STANCE_ORDER if n in names)
+        from ..legged.stance import stance_task
+
+        legs = tuple(HEXAPOD_LEGS[i] for i in order)
         task = stance_task("hexapod", legs, "plane" if k == 3 else "plane_fit", codegen=False)
         fn = _POSE_FUNCTIONS[k] = task.graph.pose_function
-    out = fn(np.ascontiguousarray(feet[list(order)]).reshape(-1))
+    out = fn(feet[list(order)].reshape(-1))
     return order, np.asarray(out[1], float).reshape(7), np.asarray(out[2], float)
 
 
@@ -662,8 +669,9 @@ class HexapodWalker:
         self._qdD = (q_new - self._qD) / self.dt
         self._qD = q_new
         self._t_plan = t
-        if opt.feedback:
-            self._tau_ff = self._feedforward(t, q, feet, J, R_M, stance)
+        if opt.feedback:  # with fewer than three touching feet, the plan's stance legs are about to carry it
+            carry = stance if len(stance) >= 3 else tuple(i for i, leg in enumerate(self._legs) if leg.mode == 0)
+            self._tau_ff = self._feedforward(t, q, feet, J, R_M, carry)
         else:  # the plan's own torques (open loop)
             self._tau_ff = self._feedforward(t, q_new, *self.fast.fk_jac(q_new), self._RD, stance)
         self._record(t, stance, touch, err, u, waiting)
@@ -926,8 +934,7 @@ class HexapodWalker:
         f = np.maximum(f, 0.0)
         f *= self._mass * G / max(float(f.sum()), 1e-9)
         zB = R[2]  # world z in B (the third row of R_WB)
-        for k, i in enumerate(idx):
-            tau[self.fast.q_index[i]] -= J[i].T @ (f[k] * zB)
+        tau[self.fast.q_index[idx]] -= np.einsum("kji,j->ki", J[idx], zB) * f[:, None]
         return tau
 
     # ------------------------------------------------------------------ records
@@ -937,8 +944,7 @@ class HexapodWalker:
         mask = np.zeros(6, bool)
         mask[list(stance)] = True
         modes = np.array([leg.mode for leg in self._legs], np.int8)
-        pose = np.concatenate([self._pD, _R_to_quat(self._RD)])
-        self.records.append((t, mask, touch.copy(), modes, err.copy(), u.copy(), pose, self._qD.copy(), waiting))
+        self.records.append((t, mask, touch.copy(), modes, err.copy(), u.copy(), (self._pD, self._RD), self._qD.copy(), waiting))
 
     #: names of :meth:`records_arrays`
     RECORD_FIELDS = ("t", "stance", "contact", "mode", "posture_error", "body_twist", "plan_pose", "q_plan", "waiting")
@@ -951,4 +957,7 @@ class HexapodWalker:
         ``plan_pose`` (P, 7) D's body pose (position [m], quaternion w, x, y, z) in W_o; ``q_plan`` (P, 18);
         ``waiting`` (P,) bool: the gait waited for a late foot."""
         cols = list(zip(*self.records)) if self.records else [[] for _ in self.RECORD_FIELDS]
-        return {name: np.array(col) for name, col in zip(self.RECORD_FIELDS, cols)}
+        out = {name: np.array(col) for name, col in zip(self.RECORD_FIELDS, cols) if name != "plan_pose"}
+        poses = cols[6] if self.records else []
+        out["plan_pose"] = np.array([np.concatenate([p, _R_to_quat(R)]) for p, R in poses]).reshape(-1, 7)
+        return {name: out[name] for name in self.RECORD_FIELDS}

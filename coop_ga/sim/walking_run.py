@@ -290,6 +290,62 @@ class WalkRun:
         )
 
 
+def stance_overlays(run: WalkRun, k: int, data: Any) -> list[Any]:
+    """The overlays of log row ``k`` (:func:`render_walk`): the stance primitive of the plan in force — the
+    plane of its stance feet drawn only over their support polygon (a ~1 m square or sphere would hide the
+    robot), with its normal at the centroid — and the body's z axis."""
+    from ..legged.walk import convex_hull
+    from . import render as R
+
+    rec = run.walker.records_arrays() if not hasattr(run, "_rec") else run._rec  # type: ignore[attr-defined]
+    run._rec = rec  # type: ignore[attr-defined]
+    j = int(np.clip(np.searchsorted(rec["t"], run.log.time[k], side="right") - 1, 0, len(rec["t"]) - 1))
+    st = rec["stance"][j]
+    feet = np.array(data.site_xpos[run.hs.foot_sites])
+    out: list[Any] = []
+    if st.sum() >= 3:
+        P = feet[st]
+        n, d = _fit_plane(P)
+        H = convex_hull(P[:, :2])
+        ring = np.column_stack([H, (d - H @ n[:2]) / n[2]]) - run.hs.geometry.foot_radius * n  # on the ground
+        c = ring.mean(axis=0)
+        out.append(lambda scn, ring=ring: R.add_polyline(scn, ring, (0.1, 0.65, 0.35, 1.0), 0.003, closed=True))
+        out.append(lambda scn, c=c, n=n: R.add_arrow(scn, c, 0.06 * n, (0.1, 0.65, 0.35, 1.0), 0.004))
+    b = run.hs.scene.base_qpos
+    assert b is not None
+    pos = np.array(data.qpos[b : b + 3])
+    zb = np.array(data.xmat[run.hs.scene.id_of("body", run.hs.scene.base_body)]).reshape(3, 3)[:, 2]
+    out.append(lambda scn: R.add_arrow(scn, pos, 0.08 * zb, (0.85, 0.3, 0.1, 1.0), 0.004))
+    return out
+
+
+def render_walk(
+    run: WalkRun, path: str | Path, *, fps: float = 10.0, width: int = 480, height: int = 360, frames: int | None = None
+) -> Path:
+    """A MuJoCo-rendered GIF/MP4 of ``run`` (its scene built with ``visuals=True``) with the stance primitive
+    drawn (:func:`stance_overlays`), the camera following the body at 0.75 m; ``frames`` caps the number of
+    frames (evenly spaced over the run), else one every 1/``fps`` s."""
+    from . import render as R
+
+    m = run.hs.model
+    d = mj().MjData(m)
+    T = len(run.log.time)
+    step = max(1, round(1.0 / (validation.positive(fps, "fps") * float(m.opt.timestep))))
+    rows = np.arange(0, T, step)
+    if frames is not None and len(rows) > frames:
+        rows = np.unique(np.linspace(0, T - 1, validation.integer(frames, "frames", minimum=2)).round().astype(int))
+    imgs = []
+    with R.Renderer(run.hs.scene, width, height) as ren:
+        for k in rows:
+            d.qpos[:], d.qvel[:], d.time = run.log.qpos[k], run.log.qvel[k], float(run.log.time[k])
+            mj().mj_forward(m, d)
+            b = run.hs.scene.base_qpos
+            cam = R.Camera(lookat=np.array(d.qpos[b : b + 3]) - np.array([0.0, 0.0, 0.05]), distance=0.75, azimuth=130.0,
+                           elevation=-28.0)  # fmt: skip
+            imgs.append(ren.frame(d, stance_overlays(run, int(k), d), camera=cam))
+    return R.write_video(path, imgs, fps=len(rows) / max(float(run.log.time[-1] - run.log.time[0]), 1e-9))
+
+
 def simulate_walk(
     terrain: Any,
     command: VelocityCommand,
