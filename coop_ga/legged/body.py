@@ -167,9 +167,7 @@ def stance_indices(stance_legs: Any) -> tuple[int, ...]:
         elif isinstance(leg, int | np.integer) and not isinstance(leg, bool) and 0 <= int(leg) < 6:
             out.add(int(leg))
         else:
-            raise InvalidInputError(
-                f"stance_legs: {leg!r} is neither a leg name from {LEG_ORDER} nor an index 0..5"
-            )
+            raise InvalidInputError(f"stance_legs: {leg!r} is neither a leg name from {LEG_ORDER} nor an index 0..5")
     return tuple(sorted(out))
 
 

@@ -87,7 +87,9 @@ class RolloutOptions:
                 raise InvalidInputError(f"RolloutOptions.{name} must be True or False, got {getattr(self, name)!r}")
         b = validation.array(self.baumgarte, "RolloutOptions.baumgarte")
         if b.shape != (2,) or np.any(b < 0.0):
-            raise InvalidInputError(f"RolloutOptions.baumgarte must be (K_p, K_d) ≥ 0 [1/s², 1/s], got {self.baumgarte!r}")
+            raise InvalidInputError(
+                f"RolloutOptions.baumgarte must be (K_p, K_d) ≥ 0 [1/s², 1/s], got {self.baumgarte!r}"
+            )
 
 
 @dataclass(frozen=True)

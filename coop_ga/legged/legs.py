@@ -174,6 +174,10 @@ class LegModel:
     femur_link: (6, 2) tibia joint (x, z) in the femur frame [m].
     tibia_link: (6, 2) foot (x, z) in the tibia frame [m].
     system: the :class:`~coop_ga.systems.System` it was read from.
+    foot_radius: [m] radius of the foot ball: the URDF's sphere (visual or collision geometry) centred on the
+        ``{leg}_foot`` frame of every leg (0.009 m for the hexapod); 0 if the model has none (a point foot).
+        The foot frame is the ball's **centre**: a foot on the ground has its centre one radius above the
+        terrain along the normal, and touches it at :meth:`contact_points` (:mod:`coop_ga.legged.contact`).
     """
 
     legs: tuple[str, ...]
@@ -197,6 +201,7 @@ class LegModel:
     _tree: Any = field(repr=False)
     _joint_ids: np.ndarray = field(repr=False)
     _foot_frames: tuple[str, ...] = field(repr=False)
+    foot_radius: float = 0.0
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -316,6 +321,7 @@ class LegModel:
             _tree=tree,
             _joint_ids=ro(jids),
             _foot_frames=foot_frames,
+            foot_radius=_foot_ball_radius(system, legs, foot_frames),
         )
 
     # ------------------------------------------------------------------ derived geometry
@@ -507,6 +513,48 @@ class LegModel:
         linear rows of Pinocchio's ``LOCAL_WORLD_ALIGNED`` frame Jacobian of ``{leg}_foot``.
         """
         return self._kin(self.per_leg(q))[1]
+
+    def link_frames(self, q: Any) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """The joint frames of every leg in B: ``{"coxa" | "femur" | "tibia": (R (..., 6, 3, 3), o (..., 6, 3))}``
+        (rotation B ← joint frame, origin [m]) of joint vectors ``q`` (..., 18) — the frames the links (and their
+        collision capsules) are attached to; equal to Pinocchio's ``oMi`` of the fixed-base model (tests)."""
+        Q = self.per_leg(q)
+        psi = self.coxa_sign * Q[..., 0]
+        phi2 = self.femur_sign * Q[..., 1]
+        phi3 = self.tibia_sign * Q[..., 2]
+
+        def rot(axis: int, a: np.ndarray) -> np.ndarray:
+            c, s_ = np.cos(a), np.sin(a)
+            R = np.zeros((*a.shape, 3, 3))
+            i, j = (0, 1) if axis == 2 else (2, 0)  # Rz: x → y; Ry: z → x
+            R[..., axis, axis] = 1.0
+            R[..., i, i], R[..., j, j], R[..., j, i], R[..., i, j] = c, c, s_, -s_
+            return R
+
+        def pt(xz: np.ndarray) -> np.ndarray:
+            return np.stack((xz[..., 0], np.zeros_like(xz[..., 0]), xz[..., 1]), axis=-1)
+
+        R_c = self.mount_rotation @ rot(2, psi)
+        o_c = np.broadcast_to(self.mount_position, R_c.shape[:-1]).copy()
+        R_f = R_c @ rot(1, -phi2)  # about −y by φ: the leg's x turns toward +z
+        o_f = o_c + np.einsum("...ij,...j->...i", R_c, pt(np.broadcast_to(self.femur_joint, (*psi.shape, 2))))
+        R_t = R_f @ rot(1, -phi3)
+        o_t = o_f + np.einsum("...ij,...j->...i", R_f, pt(np.broadcast_to(self.femur_link, (*psi.shape, 2))))
+        return {"coxa": (R_c, o_c), "femur": (R_f, o_f), "tibia": (R_t, o_t)}
+
+    def contact_points(self, q: Any, normals: Any = (0.0, 0.0, 1.0)) -> np.ndarray:
+        """Where the foot balls touch the ground: ``fk(q) − foot_radius · n`` (..., 6, 3) [m] in B, for the
+        unit ground normals ``normals`` (3,) or (..., 6, 3) expressed in B (default +z of B, level ground under a
+        level body).  The foot frame is the ball's centre; a ball resting on a plane with normal n touches it
+        one radius below its centre along −n (:mod:`coop_ga.legged.contact`)."""
+        feet = self.fk(q)
+        n = validation.array(normals, "normals")
+        if n.shape[-1:] != (3,):
+            raise InvalidInputError(f"normals must have shape (3,) or (..., 6, 3) (unit vectors in B), got {n.shape}")
+        norm = np.linalg.norm(n, axis=-1, keepdims=True)
+        if not np.all(norm > 1e-12):
+            raise InvalidInputError("normals must be non-zero (unit ground normals in B)")
+        return feet - self.foot_radius * np.broadcast_to(n / norm, feet.shape)
 
     # ------------------------------------------------------------------ limits and reach
     def within_limits(self, q: Any, tol: float = 0.0) -> np.ndarray:
@@ -821,6 +869,47 @@ class LegModel:
             f"(worst error {float(err.max()):.3g} m, at most {int(it.max())} iterations, λ = {lam:g})"
         )
         return DLSResult(q=q, converged=conv, error=err, iterations=it, within_limits=inside, message=msg)
+
+
+def _foot_ball_radius(system: Any, legs: tuple[str, ...], foot_frames: tuple[str, ...]) -> float:
+    """The radius [m] of the sphere the robot's URDF puts on every foot frame (0.0 without one): a sphere
+    geometry object of the tibia joint whose placement is the foot frame's.  Raises
+    :class:`~coop_ga.errors.UnsupportedJointError` if the legs' balls differ."""
+    import pinocchio as pin
+
+    model = system.model
+    found: dict[str, float] = {}
+    for src in getattr(system, "visuals", ()):
+        if getattr(src, "urdf", None) is None:
+            continue
+        for gtype in (pin.GeometryType.COLLISION, pin.GeometryType.VISUAL):
+            smodel = pin.buildModelFromUrdf(str(src.urdf))
+            try:
+                geom = pin.buildGeomFromUrdf(smodel, str(src.urdf), gtype, None, list(src.package_dirs))
+            except (ValueError, RuntimeError):  # pragma: no cover - a URDF that loads for kinematics loads here
+                continue
+            for leg, ff in zip(legs, foot_frames):
+                if leg in found or not model.existFrame(ff):
+                    continue
+                foot = np.asarray(model.frames[model.getFrameId(ff)].placement.translation, float)
+                for obj in geom.geometryObjects:
+                    jname = src.prefix + smodel.names[int(obj.parentJoint)]
+                    if (
+                        jname == f"{leg}_tibia_joint"
+                        and type(obj.geometry).__name__ == "Sphere"
+                        and np.abs(np.asarray(obj.placement.translation, float) - foot).max() < _GEOM_TOL
+                    ):
+                        found[leg] = float(obj.geometry.radius)
+                        break
+    if not found:
+        return 0.0
+    radii = set(found.values())
+    if len(radii) > 1 or len(found) != len(legs):
+        raise UnsupportedJointError(
+            f"the feet of system '{getattr(system, 'name', '?')}' are not equal balls: {found} (legs without one "
+            f"are missing); the contact model needs the same foot ball on every leg"
+        )
+    return radii.pop()
 
 
 def check_legs(legs: Any, what: str = "legs") -> LegModel:

@@ -53,15 +53,122 @@ from ..cooperative.task import CooperativeTask, cooperative_task
 from ..errors import DegeneratePrimitiveError, InvalidInputError
 from ..geometry.primitives import Primitive, center, circle, normal, plane, radius, sphere, well_definedness
 
-__all__ = ["LEGS", "STANCE_KINDS", "STANCE_ORDER", "StancePrimitive", "stance_order", "stance_primitive", "stance_task"]
+__all__ = [
+    "CARRIED",
+    "LEGS",
+    "ROWS",
+    "STANCE_KINDS",
+    "STANCE_ORDER",
+    "StancePrimitive",
+    "carried_rows",
+    "stance_order",
+    "stance_primitive",
+    "stance_task",
+    "uncarried",
+]
 
 #: the legs of this package, in its order (URDF order)
 LEGS: tuple[str, ...] = ("lf", "lm", "lr", "rf", "rm", "rr")
 #: the legs counter-clockwise seen from above (+z of B), starting at the left front: the order of the stance
 #: feet in :func:`stance_task` (so circles and planes of the stance feet have their normal up, +z)
 STANCE_ORDER: tuple[str, ...] = ("lf", "lm", "lr", "rr", "rm", "rf")
-#: the kinds :func:`stance_primitive` and :func:`stance_task` accept
-STANCE_KINDS: tuple[str, ...] = ("sphere", "plane", "circle", "sphere_fit", "plane_fit")
+#: the kinds :func:`stance_task` accepts (:func:`stance_primitive` chooses among sphere, plane and circle; a point
+#: pair of two stance feet carries the rotations about axes across it, e.g. the yaw)
+STANCE_KINDS: tuple[str, ...] = ("sphere", "plane", "circle", "sphere_fit", "plane_fit", "point_pair")
+
+#: the rows of a similarity twist, ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]`` (the tangent convention of
+#: :mod:`coop_ga.geometry`; e12 turns x toward y, i.e. about +z)
+ROWS: tuple[str, ...] = ("e12", "e13", "e23", "e0∞", "e1∞", "e2∞", "e3∞")
+
+_T, _F = True, False
+#: What a stance primitive can carry when the body moves over **fixed** feet: the rows of a primitive-frame
+#: twist (unit primitive of :func:`coop_ga.geometry.similarity.unit_primitive`: sphere and circle about the
+#: origin, the circle and plane with normal +e3, the point pair along e2) that a rigid body motion changes.
+#: Seed 003, Table 1 lists the controllable blades of each primitive; with the feet fixed the distances
+#: between them are fixed too, so the e0∞ row (radius, length) is never carried.  The other rows leave the
+#: unit primitive where it is (its stabiliser): a command along them cannot be seen by that primitive.
+#:
+#: ==========  =========================  ============================================================
+#: kind        carries (feet fixed)       cannot carry
+#: ==========  =========================  ============================================================
+#: sphere      e1∞ e2∞ e3∞ (centre)       e12 e13 e23 (any rotation about its centre), e0∞ (radius)
+#: circle      e13 e23 (tilt) e1∞–e3∞     e12 (rotation about its axis), e0∞ (radius)
+#: plane       e13 e23 (tilt) e3∞         e12 (rotation about its normal), e1∞ e2∞ (in-plane
+#:             (offset)                   translation), e0∞ (a plane has no scale)
+#: point_pair  e12 e23 (turns across the  e13 (rotation about its own axis), e0∞ (length)
+#:             pair) e1∞–e3∞ (midpoint)
+#: ==========  =========================  ============================================================
+CARRIED: dict[str, tuple[bool, ...]] = {
+    "sphere": (_F, _F, _F, _F, _T, _T, _T),
+    "circle": (_F, _T, _T, _F, _T, _T, _T),
+    "plane": (_F, _T, _T, _F, _F, _F, _T),
+    "point_pair": (_T, _F, _T, _F, _T, _T, _T),
+}
+
+_ROTATIONS = (
+    "a circle or plane of 3 stance feet carries the tilt (e13, e23 about its normal), a point pair of 2 stance "
+    "feet the rotation about the vertical (e12 across the pair)"
+)
+_NO_SCALE = (
+    "no stance primitive: the distances between fixed feet cannot change (command a translation of the body "
+    "instead, e.g. toward the primitive's centre to crouch)"
+)
+#: (kind, row) → (what the row is for that primitive, which stance primitive carries that motion instead)
+_UNCARRIED: dict[tuple[str, int], tuple[str, str]] = {
+    **{
+        ("sphere", i): ("rotation about the sphere's centre (a sphere has no rotation rows)", _ROTATIONS)
+        for i in range(3)
+    },
+    ("sphere", 3): ("a radius change", _NO_SCALE),
+    ("circle", 0): (
+        "rotation about the circle's axis",
+        "a point pair of 2 stance feet (its e12 turns about an axis across the pair, e.g. the vertical)",
+    ),
+    ("circle", 3): ("a radius change", _NO_SCALE),
+    ("plane", 0): (
+        "rotation about the plane's normal (yaw)",
+        "a point pair of 2 stance feet (its e12 turns about an axis across the pair, e.g. the vertical)",
+    ),
+    ("plane", 3): (
+        "a dilation, which does not change a plane",
+        "the plane's offset e3∞ (translation along its normal)",
+    ),
+    ("plane", 4): (
+        "translation in the plane",
+        "a circle of 3 stance feet or a sphere of 4 non-coplanar feet (their centre)",
+    ),
+    ("plane", 5): (
+        "translation in the plane",
+        "a circle of 3 stance feet or a sphere of 4 non-coplanar feet (their centre)",
+    ),
+    ("point_pair", 1): ("rotation about the pair's own axis", "a circle or plane of 3 stance feet (tilt, e13 / e23)"),
+    ("point_pair", 3): ("a length change", _NO_SCALE),
+}
+
+
+def _base(kind: str) -> str:
+    k = kind[:-4] if kind.endswith("_fit") else kind
+    if k not in CARRIED:
+        raise InvalidInputError(f"kind must be one of {tuple(CARRIED)} (or their _fit kinds), got {kind!r}")
+    return k
+
+
+def carried_rows(kind: str) -> np.ndarray:
+    """(7,) bool: the rows of a primitive-frame twist that a stance primitive of ``kind`` (``"sphere"``,
+    ``"circle"``, ``"plane"``, ``"point_pair"`` or a ``_fit`` kind) carries with the feet fixed (:data:`CARRIED`)."""
+    return np.array(CARRIED[_base(kind)], dtype=bool)
+
+
+def uncarried(kind: str, row: int) -> tuple[str, str]:
+    """``(meaning, alternative)`` of a row (index into :data:`ROWS`) that a stance primitive of ``kind`` cannot
+    carry: what that row means for the primitive, and which stance primitive carries the motion instead.
+    Raises :class:`~coop_ga.errors.InvalidInputError` for a carried row."""
+    k = _base(kind)
+    if not 0 <= int(row) < 7 or CARRIED[k][int(row)]:
+        raise InvalidInputError(f"row {row!r} is not an uncarried row of a {k} (uncarried: "
+                                f"{[ROWS[i] for i in range(7) if not CARRIED[k][i]]})")  # fmt: skip
+    return _UNCARRIED[(k, int(row))]
+
 
 #: well-definedness at or below which a stance plane or circle (collinear feet) raises
 _RAISE_BELOW = 1e-6
@@ -246,10 +353,11 @@ def _task_kind(kind: str | None, k: int, legs: tuple[str, ...]) -> str:
     if kind is None:
         kind = "plane" if k == 3 else "sphere"
     validation.choice(kind, STANCE_KINDS, "kind")
-    need = {"sphere": 4, "sphere_fit": 4, "plane": 3, "plane_fit": 3, "circle": 3}[kind]
-    if k < need or (kind == "circle" and k != 3):
+    need = {"sphere": 4, "sphere_fit": 4, "plane": 3, "plane_fit": 3, "circle": 3, "point_pair": 2}[kind]
+    exact = kind in ("circle", "point_pair")
+    if k < need or (exact and k != need):
         raise InvalidInputError(
-            f"a stance {kind} needs {'exactly 3' if kind == 'circle' else f'at least {need}'} stance feet, "
+            f"a stance {kind} needs {f'exactly {need}' if exact else f'at least {need}'} stance feet, "
             f"got {k} in stance_legs ({', '.join(legs)})"
         )
     if kind == "sphere" and k > 4:
@@ -258,6 +366,9 @@ def _task_kind(kind: str | None, k: int, legs: tuple[str, ...]) -> str:
         return "plane_fit"
     return kind
 
+
+#: the order of a point pair's two feet in :func:`stance_task` (right side first, rear to front)
+_PAIR_ORDER: tuple[str, ...] = ("rr", "rm", "rf", "lr", "lm", "lf")
 
 _CACHE: dict[tuple[Any, ...], CooperativeTask] = {}
 _LOCK = threading.Lock()
@@ -271,7 +382,8 @@ def stance_task(
     registered name, normally the fixed-base ``"hexapod"``: end frames ``{leg}_foot``, body frame B).
 
     The feet are taken in :data:`STANCE_ORDER` (counter-clockwise from above: plane and circle normals up,
-    near the unit axis +e3, far from the chart's half-turn).  ``kind``: one of :data:`STANCE_KINDS` or None
+    near the unit axis +e3, far from the chart's half-turn); the two feet of a ``"point_pair"`` right before
+    left and rear before front (the pair points toward +y or +x of B, never near −e2, the cut of its chart).  ``kind``: one of :data:`STANCE_KINDS` or None
     (3 feet → ``"plane"``, 4 → ``"sphere"``, more → ``"sphere_fit"``); ``"sphere"`` with more than 4 feet
     is the least-squares ``"sphere_fit"``, ``"plane"`` with more than 3 the ``"plane_fit"`` — so
     ``stance_task(sys, legs, stance_primitive(feet).task_kind)`` or ``… .kind`` give the task of the chosen
@@ -290,6 +402,8 @@ def stance_task(
     legs = stance_order(stance_legs)
     k = len(legs)
     tk = _task_kind(kind, k, legs)
+    if tk == "point_pair":  # right before left, rear before front: the pair points toward +y (or +x), far from
+        legs = tuple(sorted(legs, key=_PAIR_ORDER.index))  # the −e2 antipode of the unit pair's axis (the chart's cut)
     frames = tuple(system.end_frames)
     missing = [f"{leg}_foot" for leg in legs if f"{leg}_foot" not in frames]
     if missing:

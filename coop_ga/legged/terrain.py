@@ -192,7 +192,7 @@ class Terrain:
         edges = x0 + L * np.arange(n)
         if not np.all(np.isfinite(edges)) or not np.isfinite(H * n):
             raise InvalidInputError(
-                f"the staircase overflows: start_x + n_steps·step_length or n_steps·step_height is not finite"
+                "the staircase overflows: start_x + n_steps·step_length or n_steps·step_height is not finite"
             )
         planes = np.zeros((1, n + 1, 4))
         planes[0, :, 2] = 1.0
@@ -328,6 +328,98 @@ class Terrain:
         ts = np.concatenate(s)
         return float(np.max(self.height(a + ts[:, None] * d)))
 
+    # ================================================================== clearance of bodies
+    def _cell_boxes(self, iy: np.ndarray, ix: np.ndarray) -> tuple[np.ndarray, ...]:
+        """x/y bounds (±inf outside the grid) of cells (iy, ix) (indices into the grid)."""
+        xe = np.concatenate([[-np.inf], self.x_edges, [np.inf]])
+        ye = np.concatenate([[-np.inf], self.y_edges, [np.inf]])
+        return xe[ix], xe[ix + 1], ye[iy], ye[iy + 1]
+
+    def solid_distance(self, points: Any) -> np.ndarray:
+        """Signed Euclidean distance [m] of ``points`` (..., 3) in W from the terrain *solid* (the cells'
+        prisms ``{xy in the cell, z ≤ its plane}``, risers included): > 0 in the air, < 0 inside.
+
+        One-cell terrains (flat, slope): the plane's signed distance, exact.  Several cells: the distance to the
+        union of the prisms of the cells within two cells of each point's own, exact for horizontal cells (the
+        kinds ``steps`` and ``random``) up to ``2 · min(cell size)``, and capped there (a lower bound beyond);
+        a tilted finite cell's top is taken at its height over the point's nearest xy of the cell.  Inside a
+        prism the value is minus the smaller of the depth below its top and the horizontal distance to a
+        side whose neighbour lies below the point (the way out)."""
+        p = self._pts(points)
+        flat = p.reshape(-1, 3)
+        if self.planes.shape[:2] == (1, 1):
+            n, d = self.planes[0, 0, :3], self.planes[0, 0, 3]
+            return (flat @ n - d).reshape(p.shape[:-1])
+        out = np.empty(flat.shape[0])
+        for a in range(0, flat.shape[0], 20_000):
+            out[a : a + 20_000] = self._grid_distance(flat[a : a + 20_000])
+        return out.reshape(p.shape[:-1])
+
+    def _grid_distance(self, P: np.ndarray) -> np.ndarray:
+        """:meth:`solid_distance` of points (n, 3) on a multi-cell terrain."""
+        ny, nx = self.planes.shape[:2]
+        iy0, ix0 = self._cells(P[:, :2])
+        sizes = [np.diff(e) for e in (self.x_edges, self.y_edges) if e.size > 1]
+        cap = 2.0 * float(min(float(np.min(z)) for z in sizes)) if sizes else np.inf
+        d = np.arange(-2, 3)
+        iy = np.clip(iy0[:, None, None] + d[None, :, None], 0, ny - 1)  # (n, 5, 1)
+        ix = np.clip(ix0[:, None, None] + d[None, None, :], 0, nx - 1)  # (n, 1, 5)
+        x0, x1, y0, y1 = self._cell_boxes(iy, ix)
+        X, Y, Z = (P[:, k, None, None] for k in range(3))
+        cx, cy = np.clip(X, x0, x1), np.clip(Y, y0, y1)
+        pl = self.planes[iy, ix]  # (n, 5, 5, 4)
+        top = (pl[..., 3] - pl[..., 0] * cx - pl[..., 1] * cy) / pl[..., 2]
+        gap = (X - cx) ** 2 + (Y - cy) ** 2 + np.maximum(Z - top, 0.0) ** 2
+        best = np.sqrt(gap.reshape(len(P), -1).min(axis=1))
+        out = np.minimum(best, cap)
+        inside = best == 0.0
+        if np.any(inside):
+            out[inside] = -self._depth(P[inside], iy0[inside], ix0[inside])
+        return out
+
+    def _depth(self, P: np.ndarray, iy: np.ndarray, ix: np.ndarray) -> np.ndarray:
+        """How deep points (n, 3) lie inside their own cell's prism: the smaller of the depth below its top and
+        the horizontal distance to a side whose neighbour's top is below the point."""
+        ny, nx = self.planes.shape[:2]
+        h = self.height(P[:, :2])
+        depth = h - P[:, 2]
+        x0, x1, y0, y1 = self._cell_boxes(iy, ix)
+        for dist, jy, jx in (
+            (P[:, 0] - x0, iy, ix - 1),
+            (x1 - P[:, 0], iy, ix + 1),
+            (P[:, 1] - y0, iy - 1, ix),
+            (y1 - P[:, 1], iy + 1, ix),
+        ):
+            ok = (jy >= 0) & (jy < ny) & (jx >= 0) & (jx < nx)
+            jy_, jx_ = np.clip(jy, 0, ny - 1), np.clip(jx, 0, nx - 1)
+            pl = self.planes[jy_, jx_]
+            h_n = (pl[:, 3] - pl[:, 0] * P[:, 0] - pl[:, 1] * P[:, 1]) / pl[:, 2]
+            lower = ok & (h_n < P[:, 2])
+            depth = np.where(lower, np.minimum(depth, dist), depth)
+        return depth
+
+    def capsule_clearance(self, a: Any, b: Any, radius: Any, spacing: float = 0.002) -> np.ndarray:
+        """A lower bound of the clearance [m] of capsules (segments a → b (..., 3) in W, ``radius`` (...) [m])
+        above the terrain solid (:meth:`solid_distance`): the smallest distance of points ``spacing`` [m] apart
+        on the segment, minus the radius and minus ``spacing / 2`` (a point of the segment is at most that far
+        from a sample, and the distance is 1-Lipschitz).  < 0: the capsule may touch or cut the terrain."""
+        A = self._pts(a, "a")
+        B = self._pts(b, "b")
+        r = validation.array(radius, "radius")
+        h = validation.positive(spacing, "spacing")
+        A, B = np.broadcast_arrays(A, B)
+        length = float(np.max(np.linalg.norm(B - A, axis=-1))) if A.size else 0.0
+        n = max(2, math.ceil(length / h) + 1)
+        if n * max(A.size // 3, 1) > 50 * MAX_CELLS:
+            raise InvalidInputError(
+                f"capsule_clearance: {n} samples on {A.size // 3} segments is too many; raise spacing"
+            )
+        s = np.linspace(0.0, 1.0, n)
+        pts = A[..., None, :] + s[:, None] * (B - A)[..., None, :]
+        d = self.solid_distance(pts).min(axis=-1)
+        step = np.linalg.norm(B - A, axis=-1) / (n - 1)
+        return d - np.broadcast_to(r, d.shape) - 0.5 * step
+
     # ================================================================== arrays
     def to_arrays(self) -> dict[str, np.ndarray]:
         """The terrain as flat arrays with keys prefixed ``terrain_`` (module docstring), for ``np.savez``."""
@@ -344,7 +436,9 @@ class Terrain:
     def from_arrays(cls, d: Mapping[str, Any]) -> Terrain:
         """The terrain from :meth:`to_arrays` output (a dict or an ``np.load`` NpzFile; extra keys ignored)."""
         if not isinstance(d, Mapping):
-            raise InvalidInputError(f"d must be a dict of terrain arrays (Terrain.to_arrays(), np.load(...)), got {d!r}")
+            raise InvalidInputError(
+                f"d must be a dict of terrain arrays (Terrain.to_arrays(), np.load(...)), got {d!r}"
+            )
         need = ("terrain_kind", "terrain_x_edges", "terrain_y_edges", "terrain_planes")
         missing = [k for k in need if k not in d]
         if missing:

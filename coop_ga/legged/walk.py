@@ -1,70 +1,68 @@
-"""Walking: a phase-table gait, stance legs through the posture task of the stance primitive, swing feet
-on arcs to footholds on the terrain, and the per-step checks (static stability, limits, slip, torques).
+"""Walking: a phase-table gait, body height and attitude through the stance plane, swing feet on arcs to
+footholds that keep the legs off the terrain, and the per-step checks (static stability, limits, slip, clearance,
+torques).
 
-One step Δt of :func:`walk` (all positions in the world frame W unless said otherwise):
+The foot is a ball (:mod:`coop_ga.legged.contact`): the planner places the ball *centres* (the
+``{leg}_foot`` frames) one radius above the terrain along its normal, so the ball touches the ground where
+the planner's contact point is (``WalkResult.contacts``).  One step Δt of :func:`walk` (positions in W):
 
 1. **Gait** (:func:`~coop_ga.legged.gait.phase_table`): leg i's phase counter w_i = (k − o_i) mod N on
    an integer grid of N knots per cycle, N a multiple of 6 (Δt is rounded to T / N so that every
    lift-off and touch-down falls on a knot, exactly).  Leg i swings during [t_k, t_{k+1}] when
    w_i(k) < S = σN and stands otherwise (the table's u ≥ σ): a stance foot stays at its touch-down
    point in W.  Legs that the table has in mid-swing at t = 0 swing over the rest of their swing.
-2. **Body reference** at t_{k+1}: the horizontal pose (x, y, yaw) integrates the velocity command
-   ``(v_x, v_y, ω_z)`` (body forward, body left, yaw rate; ramped in over ``ramp_time`` from rest with a
-   smoothstep).  Height and tilt come from the **support plane**, the least-squares plane of the stance
-   feet, low-pass filtered with ``terrain_filter`` [s] so that the body does not jump when the stance set
-   changes: the body's z axis is its normal n (``tilt_follow`` ∈ [0, 1] blends toward the world z), the
-   body x axis is the heading projected on the plane, and the body origin rides at ``ride_height``
-   above the plane along n.
-3. **Stance legs and body through the cooperative task** (:func:`~coop_ga.legged.posture.posture_step`,
-   issue items 2 and 5): the body twist (v, ω) in B that reaches the reference in Δt is handed over as the
-   body-frame twist of the stance primitive it causes (``command_from_body_twist(v, ω) = −ξ``: feet fixed
-   in W appear to move by the inverse motion), with (v, ω) also as the ``nullspace_twist`` for the motions
-   the primitive cannot see (for a plane: in-plane translation and yaw about its normal; for a circle:
-   the rotation about its axis; for a sphere: every rotation about its centre).  The posture step picks the
-   stance primitive (a sphere when ≥ 4 stance feet span one — ripple or wave on uneven ground — else the
-   plane), solves body twist and stance joint velocities together inside the joint limits, moves the body
-   and re-solves the stance legs by closed-form IK for the same world feet.  The body takes the pose the
-   posture step reached; its residual against the reference (along the support normal [m] and of the body
-   z axis [rad]) is the reported tracking error, and the next step's command closes the loop on it.  So
-   the body keeps its posture relative to the support primitive (ride height and tilt follow the ground)
-   and walks where it is told.  With ``use_posture=False`` (or no ``posture`` module) the body is put at
-   its reference pose directly (kinematic baseline).
-4. **Swing legs**: at lift-off the foothold is planned: ``terrain.land`` of the nominal foothold (B:
-   ``foot_reach`` out from the coxa axis along the mounting direction, ``ride_height`` below the body)
-   placed at the reference body pose of mid-stance (touch-down + βT/2), so that each stance foot sweeps
-   the stride symmetrically about its nominal point, and kept ``edge_clearance`` away from the terrain's
-   cell edges (a foot on a riser's edge has no single support plane).  The foot follows
-   :func:`~coop_ga.legged.gait.swing_arc` from its lift-off point with the apex ``lift_height`` above the
-   highest terrain under the straight line between them (``Terrain.max_height``: risers are never
-   missed).  All legs by closed-form IK in the body frame at the new body pose (``knee_up``, limits
-   enforced).  Should a target be unreachable inside the limits, DLS IK with every iterate clipped to
-   the limits is used instead (counted in ``fallback_steps``; the foot then misses its target, which
-   shows as slip for a stance foot): the joint limits hold by construction.
-5. **Checks** at every knot: the static stability margin (:func:`static_stability_margin`: the
-   whole-robot COM's ground projection inside the convex hull of the stance feet, in metres, for the
-   supports of the steps before and after the knot), joint-limit violation (0 by construction), foot
-   slip (drift of a stance foot from its touch-down point, from the FK of the joint angles), terrain
-   contact of the stance feet and clearance of the swing feet, the workspace margin of the foot targets,
-   the static joint torques for equal load sharing (:func:`static_torques`) against the servo stall
-   torque (URDF effort), and the posture tracking error.
+2. **Reference**: the horizontal pose (x, y, yaw) integrates the velocity command ``(v_x, v_y, ω_z)``
+   (body forward, body left, yaw rate; ramped in over ``ramp_time`` from rest with a smoothstep).  Height
+   and attitude are referred to the **stance plane**, the ground contact plane of the stance feet (the
+   least-squares plane of their ball centres, a radius lower): the body z along its normal (``tilt_follow``
+   blends toward world z), the body origin ``ride_height`` above it.
+3. **Body through the stance primitive** (``use_posture=True``, the default): the plane of the stance feet
+   is a cooperative primitive (:func:`~coop_ga.legged.stance.stance_task`, kind ``plane`` / ``plane_fit``),
+   and seed 003 Table 1 says what it carries: its tilt (e13, e23) and its offset (e3∞) — exactly the body's
+   attitude and ride height — and nothing of the walking motion (in-plane translation and yaw are its
+   geometric null space).  Each step measures the plane in B from the joints (FK), takes the error
+   ``e = log(Ṽ V_ref)`` against the reference plane in B (the stance plane where step 2 wants it seen from
+   the body), commands ``c = min(posture_gain, 1/Δt) · e`` on the carried rows through
+   :func:`~coop_ga.legged.posture.posture_step` and hands it the reference's horizontal motion and yaw as the
+   ``nullspace_twist``: the posture QP moves the body (joint limits and speeds inside its box), the stance
+   legs are re-solved for their fixed ball centres.  So the body's height and attitude close on the
+   *measured* stance primitive with the time constant 1 / posture_gain (0.125 s), while it walks where it
+   is told.  With ``use_posture=False`` (kinematic baseline) the body is put directly at ride height on the
+   stance plane low-pass filtered with ``terrain_filter`` (0.25 s).  The two differ on uneven ground
+   (``tracking_error`` is the body's deviation from the instantaneous stance reference in either mode).
+   A sphere of ≥ 4 stance feet would carry no attitude at all (no rotation rows), so it is not used here.
+4. **Swing legs**: at lift-off the foothold is planned: the ball resting on the terrain at the nominal
+   foothold (B: ``foot_reach`` out from the coxa axis along the mounting direction) placed at the reference
+   body pose of mid-stance, its contact kept ``edge_clearance`` away from the terrain's cell edges, and —
+   where a leg capsule (coxa, femur, shin: :func:`~coop_ga.legged.contact.leg_clearance`) would come closer
+   than ``clearance_margin`` to the terrain at the predicted body poses of touch-down, mid-stance and
+   lift-off (a rear shin leaning over a riser) — moved to the nearest foothold that keeps it (``foothold_shifts``).
+   The foot follows :func:`~coop_ga.legged.gait.swing_arc` with the ball's lowest point ``lift_height``
+   above the highest terrain under the straight line between its ends, the apex raised until every leg
+   capsule and the moving ball keep ``clearance_margin`` at the predicted body poses (``raised_swings``).
+   All legs by closed-form IK in the body frame at the new body pose (``knee_up``, limits enforced); should a
+   target be unreachable inside the limits, DLS IK with every iterate clipped to the limits is used instead
+   (``fallback_steps``; the foot then misses its target, which shows as slip).
+5. **Checks** at every knot: static stability margin (:func:`static_stability_margin`, the supports before and
+   after the knot), joint-limit violation (0 by construction), slip (drift of a stance ball centre from its
+   touch-down point), contact (distance of a stance ball from the terrain solid), swing-ball clearance, leg
+   capsule clearance (``segment_clearance``), rolling (``rolling``: how far a stance ball must slide or roll
+   because its centre is held while the tibia turns — the contact model's error, a few mm per stance), the
+   workspace margin of the foot targets, static torques for equal load sharing against the stall torque.
 
-Gait parameters (:class:`WalkOptions` defaults), chosen for the PhantomX-size robot (feet 0.1 m below
-the body, leg reach 0.2 m): footholds 0.16 m out from the coxa axes (at the stand pose's 0.174 m the
-corner legs come within 1 cm of full extension at the ends of the stride, and closer on steps), stride
-0.08 m, cycle times 1.6 / 2.4 / 4.0 s (tripod / ripple / wave: 0.10 / 0.05 / 0.024 m/s), lift 0.03 m
-(the steps rise 0.03 m, the random tiles ≤ 0.025 m).  With these, over a 1 m walk (Δt ≈ 0.02 s,
-``experiments/hexapod_walk.py``) the minimum static stability margin is 82–88 / 110–115 / 122–123 mm
-(tripod / ripple / wave, over flat, steps and random ground), the foot targets keep ≥ 5.6 mm of
-workspace margin, the static torques stay ≤ 0.57 × stall, stance-foot slip is ≤ 4e-16 m and no joint
-leaves its position limits.  The plan is kinematic; its joint speeds are checked against the URDF's
-speed limit (6.18 rad/s, the AX-12A's no-load speed): the default cycle times keep the peak below it
-(``max_velocity_violation`` 0; with the earlier 1.0 / 1.2 / 1.5 s the swings reached 8.6–14.2 rad/s).
+A velocity command the legs cannot walk is refused before the run (:func:`check_command`: one cycle on flat
+ground must stay inside the reach, the joint limits and the URDF speed limits).
 
-Model assumptions, said once: the COM is the whole robot's (Pinocchio, base link included: 1.873 kg);
-torques treat the legs as massless with the full weight shared equally by the stance feet (the
-issue's "equal load sharing"), the foot is the point ``{leg}_foot`` (the 9 mm foot ball is drawn but
-not collided), and the plan is kinematic (quasi-static): an optional rigid-contact roll-out is the
-check of the dynamics.
+Gait parameters (:class:`WalkOptions` defaults), chosen for the PhantomX-size robot (leg reach 0.2 m):
+ball centres 0.1 m below the body (ride height 0.109 m above the ground), footholds 0.16 m out from the coxa
+axes, stride 0.08 m, cycle times 1.6 / 2.4 / 4.0 s (tripod / ripple / wave: 0.10 / 0.05 / 0.024 m/s), lift
+0.02 m for the ball's lowest point (its centre 0.029 m).  The measured numbers of the 1 m walks are in the
+README and the ``hexapod_walk`` experiment's metrics.
+
+Model assumptions, said once: the COM is the whole robot's (Pinocchio, base link included: 1.873 kg); torques
+treat the legs as massless with the full weight shared equally by the stance feet; the plan is kinematic
+(quasi-static): an optional rigid-contact roll-out (:mod:`coop_ga.legged.dynamics`) and the MuJoCo scenes of
+:mod:`coop_ga.sim` are the checks of the dynamics.
 """
 
 from __future__ import annotations
@@ -90,6 +88,7 @@ __all__ = [
     "SERVO_SPEED",
     "WalkOptions",
     "WalkResult",
+    "check_command",
     "convex_hull",
     "robot_com",
     "robot_mass",
@@ -236,17 +235,22 @@ def static_torques(state: BodyState, stance_legs: object, legs: LegModel, mass: 
 
 
 # ====================================================================== options and result
-#: default cycle times T [s] per gait (module docstring of :class:`WalkOptions`).
-#: default gait periods [s], chosen so that the plan's peak joint speed stays below the URDF's speed
-#: limit (6.18 rad/s, the AX-12A's no-load speed) on flat, steps and random ground: measured peaks over
-#: 1 m on steps 5.4 / 5.4 / 5.6 rad/s (tripod / ripple / wave); with 1.0 / 1.2 / 1.5 s they were 8.6 /
-#: 10.3 / 14.2 rad/s (the swing speed scales like 1 / period)
+#: default gait periods [s], chosen so that the plan's peak joint speed stays below the URDF's speed limit
+#: (6.18 rad/s, the AX-12A's no-load speed) on flat, steps and random ground (with 1.0 / 1.2 / 1.5 s the
+#: swings reached 8.6 / 10.3 / 14.2 rad/s: the swing speed scales like 1 / period)
 CYCLE_TIME: dict[str, float] = {"tripod": 1.6, "ripple": 2.4, "wave": 4.0}
 #: :class:`WalkOptions` refuses a ``dt`` that gives more knots per cycle, :func:`walk` a walk of more knots
 MAX_KNOTS_PER_CYCLE = 100_000
 MAX_KNOTS = 1_000_000
 #: the servo's no-load speed [rad/s] (AX-12A at 12 V: 59 rev/min, robot README [AX]); reported, not enforced.
 SERVO_SPEED = 59.0 * 2.0 * math.pi / 60.0
+#: [m] foothold shifts tried when a leg capsule would touch the terrain during the stance (nearest first)
+_SHIFTS = tuple(sorted(
+    {(dx, dy) for dx in np.arange(-0.06, 0.0601, 0.01) for dy in np.arange(-0.03, 0.0301, 0.01)},
+    key=lambda d: (math.hypot(*d), d),
+))[1:]  # fmt: skip
+#: [m] a swing arc is raised at most this far above its nominal apex to clear the legs' capsules
+_MAX_EXTRA_LIFT = 0.05
 
 
 @dataclass(frozen=True)
@@ -259,23 +263,31 @@ class WalkOptions:
     speed: the velocity command ``(v_x, v_y, ω_z)`` [m/s, m/s, rad/s] in the body frame (forward, left,
         yaw rate); ``None``: straight ahead at ``stride / (β T)``, the speed at which each stance foot
         travels ``stride`` relative to the body.
-    stride: stance stroke [m] of the default forward speed (0.08 m: the corner legs of the PhantomX-size
-        robot reach about ±0.06 m along x from their stand foothold at 0.1 m below the body).
+    stride: stance stroke [m] of the default forward speed (0.08 m).
     cycle_time: T [s]; ``None``: :data:`CYCLE_TIME` (tripod 1.6, ripple 2.4, wave 4.0 s).
     duty: duty factor β; ``None``: the gait's (1/2, 2/3, 5/6).
-    lift_height: swing apex above the highest terrain under the swing [m].
-    ride_height: body origin above the support plane along its normal [m] (stand pose: 0.0993 m).
-    dt: requested time step [s]; rounded so that a cycle is a whole multiple of the gait's phase grid
-        (every lift-off and touch-down on a step).
+    lift_height: [m] the swing apex: the foot ball's lowest point this far above the highest terrain under
+        the swing (raised where a leg capsule needs it, ``clearance_margin``).
+    ride_height: [m] the body origin above the ground contact plane of the stance feet, along the body z
+        (0.109 m: the foot-ball centres 0.1 m below the body, the stand pose's 0.0993 m).
+    dt: requested time step [s]; rounded so that a cycle is a whole multiple of the gait's phase grid.
     ramp_time: the command ramps in from rest over this time [s] (smoothstep); ``None``: one cycle.
-    terrain_filter: time constant [s] of the low-pass filter on the support plane (height and tilt).
+    terrain_filter: time constant [s] of the low-pass filter on the support plane of the kinematic baseline
+        (``use_posture=False``).
+    posture_gain: [1/s] gain of the stance-plane posture loop (``use_posture=True``, module docstring).
     tilt_follow: 1 = body z along the support plane normal, 0 = stays level (world z).
     foot_reach: horizontal distance [m] of the nominal foothold from its coxa axis, along the mounting
-        direction (0.16 m, module docstring); ``None``: the stand pose's (0.174 m).
-    edge_clearance: footholds keep at least this distance [m] from the terrain's cell edges (step risers,
-        tile borders), moved inside their cell: a foot on an edge has no well-defined support plane.
-    use_posture: drive the stance legs through :func:`~coop_ga.legged.posture.posture_step` (the default);
-        False: the body is put at its reference pose directly (kinematic baseline, for comparison).
+        direction (0.16 m); ``None``: the stand pose's (0.174 m).
+    edge_clearance: the foot's contact point keeps at least this distance [m] from the terrain's cell edges
+        (a foot on a riser's edge has no single support plane): 16 mm = the 9 mm ball, the ≤ 5 mm it rolls in a
+        stance and 2 mm, so the ball rests on its own tread and never touches the riser of a higher neighbour.
+    clearance_margin: [m] the footholds and swing arcs keep every leg capsule this far above the terrain, as
+        predicted from the reference body path (module docstring; the walk measures the result).
+    rolling: the stance balls roll with their tibias (their centres move by ``r Δθ × n``, no sliding; the
+        default), or their centres are held fixed (then the ball must slide by ``rolling``, the error of a
+        point-contact plan).
+    use_posture: drive body height and attitude through the stance plane (:func:`~coop_ga.legged.posture.posture_step`,
+        the default); False: the body is put at the filtered support-plane pose directly (kinematic baseline).
     """
 
     gait: str = "tripod"
@@ -283,14 +295,17 @@ class WalkOptions:
     stride: float = 0.08
     cycle_time: float | None = None
     duty: float | None = None
-    lift_height: float = 0.03
-    ride_height: float = 0.1
+    lift_height: float = 0.02
+    ride_height: float = 0.109
     dt: float = 0.02
     ramp_time: float | None = None
     terrain_filter: float = 0.25
+    posture_gain: float = 8.0
     tilt_follow: float = 1.0
     foot_reach: float | None = 0.16
-    edge_clearance: float = 0.01
+    edge_clearance: float = 0.016
+    clearance_margin: float = 0.004
+    rolling: bool = True
     use_posture: bool = True
 
     def __post_init__(self) -> None:
@@ -308,14 +323,17 @@ class WalkOptions:
         if self.ramp_time is not None:
             nonnegative(self.ramp_time, "ramp_time")
         nonnegative(self.terrain_filter, "terrain_filter")
+        positive(self.posture_gain, "posture_gain")
         tf = scalar(self.tilt_follow, "tilt_follow")
         if not 0.0 <= tf <= 1.0:
             raise InvalidInputError(f"tilt_follow must be in [0, 1], got {tf}")
         if self.foot_reach is not None:
             positive(self.foot_reach, "foot_reach")
         nonnegative(self.edge_clearance, "edge_clearance")
-        if not isinstance(self.use_posture, (bool, np.bool_)):
-            raise InvalidInputError(f"use_posture must be True or False, got {self.use_posture!r}")
+        nonnegative(self.clearance_margin, "clearance_margin")
+        for flag in ("use_posture", "rolling"):
+            if not isinstance(getattr(self, flag), (bool, np.bool_)):
+                raise InvalidInputError(f"{flag} must be True or False, got {getattr(self, flag)!r}")
         tab = self.table()  # checks duty and cycle_time against the gait
         if not self.dt <= tab.period / 6.0:
             raise InvalidInputError(
@@ -352,33 +370,40 @@ class WalkResult:
     Arrays (W: world frame; legs in LEG ORDER lf, lm, lr, rf, rm, rr)
     ------------------------------------------------------------------
     t (T,) [s]; q (T, 18) leg joints [rad], URDF order; body (T, 7) position [m] + quaternion xyzw (W);
-    body_ref (T, 7) the reference body pose; stance (T, 6) bool: the legs that carry the robot during
+    body_ref (T, 7) the reference body pose (horizontal pose from the command; height and tilt from the
+    stance plane, :attr:`tracking_error`); stance (T, 6) bool: the legs that carry the robot during
     [t_k, t_{k+1}] (the gait table's u ≥ σ: a foot touching down at t_k is in stance, one lifting off is
-    not); feet (T, 6, 3) [m] W (from the joint angles by FK); com (T, 3) [m] W;
+    not); feet (T, 6, 3) [m] W: the foot-ball centres (the ``{leg}_foot`` frames, from the joint angles by FK);
+    contacts (T, 6, 3) [m] W: where the balls touch the terrain (centre − r n; for a swing foot the point
+    under it); com (T, 3) [m] W;
     margin (T,) [m]: static stability margin (the smaller of the supports before and after t_k);
-    slip (T,) [m]: largest drift of a stance foot from its touch-down point;
+    slip (T,) [m]: largest drift of a stance ball centre from where it rests (its touch-down point, rolled
+    along with ``rolling=True``): sliding on the ground;
+    rolling (T, 6) [m]: per stance foot, how far its ball has turned since touch-down as a rolling distance
+    r |Δθ_⊥| (:func:`~coop_ga.legged.contact.rolling_distance`): with ``rolling=True`` how far it rolled (its
+    centre and contact point moved that far, without sliding), with ``rolling=False`` how far it must slide
+    because the plan holds its centre (the error of a fixed-contact plan);
     torque_ratio (T,): max |τ| / stall over the joints (equal load sharing);
-    tracking_error (T, 2): the posture step's residual against the reference body pose
-    [m along the support normal, rad of body-z tilt]; body_error (T,) [m]: final body position vs reference;
-    ground_height (T,) [m]: terrain height under the body origin; support_height (T,): the filtered
-    support plane's height under it; swing_clearance (T,) [m]: min height of a swing foot above the
-    terrain (inf with no swing foot); contact_error (T,) [m]: max |signed distance| of a stance foot;
-    yaw (T,) [rad] the reference heading; reach_margin (T,) [m]: the smallest workspace margin of a foot
-    target (:meth:`~coop_ga.legged.legs.LegModel.workspace_margin`); primitive_kind (T,) str: the stance
-    primitive the posture step used to reach knot k ("plane", "circle", "sphere", …; "" at k = 0 or
-    without posture), well_definedness (T,) its well-definedness (NaN where none).
+    tracking_error (T, 2): the body against the stance reference — the ground contact plane of the stance
+    feet at knot k (least squares, unfiltered), ride height above it, body z along its normal (with
+    ``tilt_follow``) — [m along the normal (signed), rad of body-z tilt]; body_error (T,) [m]: body position vs
+    ``body_ref``; ground_height (T,) [m]: terrain under the body origin; support_height (T,): the stance
+    plane under it (the baseline: its filtered plane); swing_clearance (T,) [m]: smallest clearance of a swing
+    foot ball above the terrain solid (inf with no swing foot); segment_clearance (T, 6) [m]: per leg the
+    smallest clearance of its capsules (coxa, femur, shin; :func:`~coop_ga.legged.contact.leg_clearance`, a
+    lower bound) above the terrain solid; contact_error (T,) [m]: max |distance of a stance ball from the
+    terrain| (0: resting on it); yaw (T,) [rad] the reference heading; reach_margin (T,) [m]: the smallest
+    workspace margin of a foot target; primitive_kind (T,) str: the stance primitive that carried the posture
+    command into knot k ("plane"; "" at k = 0 or without posture), well_definedness (T,) its well-definedness.
 
-    Scalars: ``distance`` [m] horizontal distance of the body from its start; ``yaw`` [rad] the
-    body's final heading (unwrapped); ``min_margin``, ``max_slip``, ``max_torque_ratio``,
-    ``max_tracking_error`` (2,), ``max_limit_violation`` [rad] (0: inside the limits everywhere),
-    ``max_joint_speed`` [rad/s]; ``posture`` True if the stance legs went through ``posture_step``;
-    ``fallback_steps``: knots where closed-form IK failed and the DLS fallback (clipped to the limits)
-    was used; ``posture_failures``: steps where ``posture_step`` raised a
-    :class:`~coop_ga.errors.CoopGAError` and the body was put at its reference pose instead (0 in every
-    run we know of); ``q_lower``, ``q_upper`` (18,) the joint limits [rad]; ``velocity_limit`` (18,) the
-    URDF's joint speed limits [rad/s] (``max_velocity_violation``, ``max_velocity_ratio`` measure the plan's
-    finite-difference joint speeds against them); ``table`` the gait table,
-    ``options``, ``dt``.
+    Scalars: ``distance`` [m]; ``min_margin``, ``max_slip``, ``max_rolling``, ``max_torque_ratio``,
+    ``max_tracking_error`` (2,) (absolute), ``min_segment_clearance``, ``max_limit_violation`` [rad],
+    ``max_joint_speed`` [rad/s]; ``posture`` True if the body went through ``posture_step``;
+    ``fallback_steps``: knots where closed-form IK failed and the clipped DLS fallback was used;
+    ``posture_failures``: steps where ``posture_step`` raised and the body was put at its reference pose;
+    ``foothold_shifts``: footholds moved (by up to ``max_foothold_shift`` [m]) to keep the leg capsules off the
+    terrain; ``raised_swings``: swing arcs raised for the same; ``q_lower``, ``q_upper``, ``velocity_limit``
+    (18,); ``table``, ``options``, ``dt``.
     """
 
     t: np.ndarray
@@ -387,15 +412,18 @@ class WalkResult:
     body_ref: np.ndarray
     stance: np.ndarray
     feet: np.ndarray
+    contacts: np.ndarray
     com: np.ndarray
     margin: np.ndarray
     slip: np.ndarray
+    rolling: np.ndarray
     torque_ratio: np.ndarray
     tracking_error: np.ndarray
     body_error: np.ndarray
     ground_height: np.ndarray
     support_height: np.ndarray
     swing_clearance: np.ndarray
+    segment_clearance: np.ndarray
     contact_error: np.ndarray
     yaw: np.ndarray
     reach_margin: np.ndarray
@@ -410,6 +438,9 @@ class WalkResult:
     velocity_limit: np.ndarray | None = None
     fallback_steps: int = 0
     posture_failures: int = 0
+    foothold_shifts: int = 0
+    max_foothold_shift: float = 0.0
+    raised_swings: int = 0
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -426,12 +457,22 @@ class WalkResult:
         return float(self.slip.max())
 
     @property
+    def max_rolling(self) -> float:
+        """Largest rolling distance [m] of a stance foot ball over one stance."""
+        return float(self.rolling.max())
+
+    @property
+    def min_segment_clearance(self) -> float:
+        """Smallest clearance [m] of a leg capsule above the terrain over the walk (≥ 0: no leg cuts it)."""
+        return float(self.segment_clearance.min())
+
+    @property
     def max_torque_ratio(self) -> float:
         return float(self.torque_ratio.max())
 
     @property
     def max_tracking_error(self) -> np.ndarray:
-        return np.asarray(self.tracking_error.max(axis=0), dtype=float)
+        return np.asarray(np.abs(self.tracking_error).max(axis=0), dtype=float)
 
     @property
     def max_limit_violation(self) -> float:
@@ -484,6 +525,12 @@ def _fit_plane(P: np.ndarray) -> tuple[np.ndarray, float]:
     return n, float(n @ c)
 
 
+def _contact_plane(centres: np.ndarray, radius: float) -> tuple[np.ndarray, float]:
+    """The ground contact plane n·x = d of resting foot balls: the centres' least-squares plane moved down a radius."""
+    n, d = _fit_plane(centres)
+    return n, d - radius
+
+
 def _rotation_log(R: np.ndarray) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
@@ -505,15 +552,15 @@ def _smoothstep(x: float) -> float:
 
 
 def _nominal_feet(legs: LegModel, options: WalkOptions) -> np.ndarray:
-    """(6, 3) nominal footholds in B: the stand feet (or ``foot_reach`` out from the coxa axis along the
-    mounting direction) at z = −ride_height."""
+    """(6, 3) nominal foot-ball centres in B: the stand feet (or ``foot_reach`` out from the coxa axis along the
+    mounting direction) a ride height minus a ball radius below the body."""
     feet = np.asarray(legs.fk(legs.q_stand), dtype=float).reshape(6, 3).copy()
     if options.foot_reach is not None:
         yaw = np.asarray(legs.mount_yaw, dtype=float)
         mount = np.asarray(legs.mount_position, dtype=float)
         feet[:, 0] = mount[:, 0] + options.foot_reach * np.cos(yaw)
         feet[:, 1] = mount[:, 1] + options.foot_reach * np.sin(yaw)
-    feet[:, 2] = -options.ride_height
+    feet[:, 2] = legs.foot_radius - options.ride_height
     return feet
 
 
@@ -544,303 +591,17 @@ def _reference_path(cmd: np.ndarray, dt: float, n_knots: int, ramp: float) -> np
     return out
 
 
-def _posture_module() -> Any:
-    try:
-        from . import posture
-    except ImportError:  # pragma: no cover - posture.py is another engineer's module
-        return None
-    return posture
+def _tilt(n: np.ndarray, follow: float) -> np.ndarray:
+    """The body z axis: the support normal n blended toward world z (``tilt_follow``)."""
+    z = follow * n + (1.0 - follow) * np.array([0.0, 0.0, 1.0])
+    return z / np.linalg.norm(z)
 
 
-def _posture_update(
-    posture: Any,
-    state: BodyState,
-    stance_idx: tuple[int, ...],
-    p_ref: np.ndarray,
-    R_ref: np.ndarray,
-    legs: LegModel,
-    dt: float,
-) -> tuple[BodyState, np.ndarray, Any]:
-    """Step 3 of the module docstring: the stance legs and the body through ``posture_step``.
-
-    The command is the velocity of the stance primitive in B that the reference body motion causes: a
-    world-fixed primitive seen from a body moving with the tangent ξ (``M ← M exp(Δt ξ)``, body.py)
-    moves by ``exp(−Δt ξ)``, so the command is −ξ with ξ the body twist that reaches (p_ref, R_ref)
-    in Δt.  Returns the new state (body at the posture step's pose; stance legs as it solved them) and
-    the residual [m along the body z, rad of z tilt] of that pose against the reference, and the
-    ``PostureStep``.
-    """
-    v = state.rotation.T @ (p_ref - state.position) / dt
-    w = _rotation_log(state.rotation.T @ R_ref) / dt
-    command = posture.command_from_body_twist(v, w)
-    opts = posture.PostureOptions(dt=dt, frame="body")
-    stance_names = tuple(LEG_ORDER[i] for i in stance_idx)
-    new, info = posture.posture_step(state, stance_names, command, legs, opts, nullspace_twist=np.concatenate([v, w]))
-    n_ref = R_ref[:, 2]
-    err_h = abs(float(n_ref @ (new.position - p_ref)))
-    err_t = float(math.acos(float(np.clip(new.rotation[:, 2] @ n_ref, -1.0, 1.0))))
-    return new, np.array([err_h, err_t]), info
-
-
-# ====================================================================== walking
-def walk(
-    terrain: Terrain,
-    options: WalkOptions | None = None,
-    distance: float | None = None,
-    duration: float | None = None,
-    legs: LegModel | None = None,
-) -> WalkResult:
-    """Walk the hexapod over ``terrain`` (module docstring: gait, body reference, stance legs through the
-    posture task, swing arcs to landed footholds, checks at every step).
-
-    Parameters
-    ----------
-    terrain: a :class:`~coop_ga.legged.terrain.Terrain` (any object with ``height(xy)`` and ``land(xy)``).
-    options: :class:`WalkOptions` (default: the tripod at its default speed).
-    distance: walk until the reference has travelled this far [m] (needs a translation command);
-    duration: or for this long [s]; exactly one of the two (``distance`` wins if both are given).
-    legs: the :class:`~coop_ga.legged.legs.LegModel` (default :func:`~coop_ga.legged.legs.hexapod_legs`).
-
-    Returns a :class:`WalkResult`.  Raises :class:`~coop_ga.errors.InvalidInputError` for bad arguments.
-    """
-    from .legs import hexapod_legs
-
-    opts = options if options is not None else WalkOptions()
-    if not isinstance(opts, WalkOptions):
-        raise InvalidInputError(f"options must be a WalkOptions, got {type(opts).__name__}")
-    if not all(callable(getattr(terrain, f, None)) for f in ("height", "land")):
-        raise InvalidInputError(
-            f"terrain must be a coop_ga.legged.Terrain (or have height(xy) and land(xy)), got {type(terrain).__name__}"
-        )
-    lm = check_legs(legs) if legs is not None else hexapod_legs()
-    tab = opts.table()
-    cmd = opts.command()
-    T = tab.period
-    # ---- the integer phase grid: N knots per cycle, a multiple of 6 (all table offsets are k/6)
-    N = max(6, 6 * round(T / opts.dt / 6))
-    dt = T / N
-    S = round(tab.swing_fraction * N)
-    if abs(S - tab.swing_fraction * N) > 1e-9 or S < 1:
-        raise InvalidInputError(
-            f"duty {tab.duty} does not put touch-down on the {N}-step grid of a cycle; choose a duty with "
-            f"(1 − duty)·{N} integer"
-        )
-    offsets = np.round(tab.offsets * N).astype(int)
-    ramp = T if opts.ramp_time is None else float(opts.ramp_time)
-    speed = float(np.linalg.norm(cmd[:2]))
-    if distance is not None:
-        dist = positive(distance, "distance")
-        if speed <= 1e-12:
-            raise InvalidInputError("walk(distance=…) needs a translation command; give duration for a turn in place")
-        t_end = dist / speed + 0.5 * ramp if dist / speed >= 0.5 * ramp else math.sqrt(dist / speed * ramp)
-    elif duration is not None:
-        t_end = positive(duration, "duration")
-    else:
-        raise InvalidInputError("walk needs distance [m] or duration [s]")
-    if not t_end / dt <= MAX_KNOTS:
-        raise InvalidInputError(
-            f"the walk ({'distance' if distance is not None else 'duration'}) would take {t_end:.4g} s = "
-            f"{t_end / dt:.3g} knots of {dt:.4g} s, above {MAX_KNOTS}; walk a shorter distance or duration"
-        )
-    K = math.ceil(t_end / dt - 1e-9)
-    mid = round(0.5 * tab.duty * N)
-    ref = _reference_path(cmd, dt, K + N + mid + 2, ramp)
-
-    nominal = _nominal_feet(lm, opts)
-    posture = _posture_module() if opts.use_posture else None
-
-    def phase(k: int) -> np.ndarray:
-        return np.mod(k - offsets, N)
-
-    def foothold(i: int, k_td: int) -> np.ndarray:
-        x, y, yaw = ref[min(k_td + mid, len(ref) - 1)]
-        xy = np.array([x, y]) + _rot_z(yaw)[:2, :2] @ nominal[i, :2]
-        return np.asarray(terrain.land(_off_edges(terrain, xy, opts.edge_clearance)), dtype=float).reshape(3)
-
-    # ---- initial state: all six feet on the ground at the nominal footholds, body at ride height
-    feet_W = np.array(
-        [
-            np.asarray(terrain.land(_off_edges(terrain, nominal[i, :2], opts.edge_clearance)), dtype=float).reshape(3)
-            for i in range(6)
-        ]
-    )
-    n_pl, d_pl = _fit_plane(feet_W)
-    R0 = _body_rotation(_tilt(n_pl, opts.tilt_follow), 0.0)
-    p0 = _on_plane(n_pl, d_pl, np.zeros(2), opts.ride_height, R0[:, 2])
-    q0, _ = _solve_legs(lm, (feet_W - p0) @ R0, lm.q_stand)
-    state = BodyState(p0, R0, q0)
-    feet_W = state.feet_world(lm)
-    touchdown = feet_W.copy()
-    arcs: dict[int, tuple[np.ndarray, np.ndarray, float, int]] = {}
-    mass = robot_mass(lm)
-    alpha = dt / (opts.terrain_filter + dt) if opts.terrain_filter > 0 else 1.0
-
-    rows: dict[str, list[Any]] = {k: [] for k in _ROWS}
-    fallback = 0
-    failures = 0
-    posture_used = False
-    err_track = np.zeros(2)
-    p_ref, R_ref = p0, R0
-    reach = float(np.min(lm.workspace_margin(state.feet_body(lm))))
-    kind, wdef = "", math.nan
-
-    def record(k: int, stance_prev: np.ndarray | None) -> None:
-        st = phase(k) >= S
-        fw = state.feet_world(lm)
-        com_W = state.to_world(robot_com(state.q, lm))
-        sets = [st] if stance_prev is None else [st, stance_prev]
-        margin = min(static_stability_margin(com_W[:2], fw[s][:, :2]) for s in sets)
-        slip = float(np.linalg.norm(fw[st] - touchdown[st], axis=1).max()) if st.any() else 0.0
-        tau = static_torques(state, st, lm, mass)
-        h_ground = float(np.asarray(terrain.height(state.position[:2])))
-        sw = ~st
-        if sw.any():
-            hs = np.asarray(terrain.height(fw[sw][:, :2]), dtype=float)
-            clear = float((fw[sw][:, 2] - hs).min())
-        else:
-            clear = math.inf
-        hc = np.asarray(terrain.height(fw[st][:, :2]), dtype=float) if st.any() else np.zeros(0)
-        contact = float(np.abs(fw[st][:, 2] - hc).max()) if st.any() else 0.0
-        n_f = n_pl / np.linalg.norm(n_pl)
-        support = (d_pl - n_f[0] * state.position[0] - n_f[1] * state.position[1]) / n_f[2]
-        rows["t"].append(k * dt)
-        rows["q"].append(state.q.copy())
-        rows["body"].append(state.pose7())
-        rows["body_ref"].append(BodyState(p_ref, R_ref, state.q).pose7())
-        rows["stance"].append(st)
-        rows["feet"].append(fw)
-        rows["com"].append(com_W)
-        rows["margin"].append(margin)
-        rows["slip"].append(slip)
-        rows["torque_ratio"].append(float(np.max(np.abs(tau) / np.asarray(lm.effort_limit))))
-        rows["tracking_error"].append(err_track.copy())
-        rows["body_error"].append(float(np.linalg.norm(state.position - p_ref)))
-        rows["ground_height"].append(h_ground)
-        rows["support_height"].append(float(support))
-        rows["swing_clearance"].append(clear)
-        rows["contact_error"].append(contact)
-        rows["yaw"].append(float(ref[k, 2]))
-        rows["reach_margin"].append(reach)
-        rows["primitive_kind"].append(kind)
-        rows["well_definedness"].append(wdef)
-
-    record(0, None)
-    for k in range(K):
-        w = phase(k)
-        st = w >= S
-        idx = tuple(int(i) for i in np.flatnonzero(st))
-        # plan the arcs of the legs lifting off now (w = 0; at k = 0 also the legs the table has in mid-swing,
-        # over the rest of their swing): from where the foot is to its foothold
-        for i in np.flatnonzero((w == 0) | ((k == 0) & (w < S))):
-            p_lo = feet_W[i].copy()
-            p_td = foothold(int(i), k + S - int(w[i]))
-            top = _max_height(terrain, p_lo[:2], p_td[:2])
-            lift = max(top, p_lo[2], p_td[2]) - max(p_lo[2], p_td[2]) + opts.lift_height
-            arcs[int(i)] = (p_lo, p_td, lift, int(w[i]))
-        # body reference at t_{k+1}: horizontal pose from the command, height/tilt from the support plane
-        n_new, d_new = _fit_plane(feet_W[list(idx)]) if len(idx) >= 3 else (n_pl, d_pl)
-        n_pl = (1.0 - alpha) * n_pl + alpha * n_new
-        d_pl = (1.0 - alpha) * d_pl + alpha * d_new
-        nn = np.linalg.norm(n_pl)
-        n_unit, d_unit = n_pl / nn, float(d_pl / nn)
-        x, y, yaw = ref[k + 1]
-        R_ref = _body_rotation(_tilt(n_unit, opts.tilt_follow), yaw)
-        p_ref = _on_plane(n_unit, d_unit, np.array([x, y]), opts.ride_height, R_ref[:, 2])
-        # stance legs and body through the posture task (the body moves, the stance feet stay in W)
-        p_new, R_new = p_ref, R_ref
-        kind, wdef = "", math.nan
-        if posture is not None and len(idx) >= 3:
-            try:
-                moved, err_track, info = _posture_update(posture, state, idx, p_ref, R_ref, lm, dt)
-            except CoopGAError:
-                failures += 1
-            else:
-                p_new, R_new = moved.position, moved.rotation
-                kind, wdef = str(info.kind), float(info.well_definedness)
-                posture_used = True
-        # swing feet on their arcs; every leg by closed-form IK at the new body pose (the stance legs get
-        # the posture step's own re-solve: the same world feet, the same branch)
-        targets = touchdown.copy()  # stance feet: fixed at their touch-down points in W
-        w1 = phase(k + 1)
-        for i in np.flatnonzero(~st):
-            a, b, lift, w0 = arcs[int(i)]
-            targets[i] = swing_arc(a, b, lift, (w1[i] - w0) / (S - w0))[0]
-        targets_B = (targets - p_new) @ R_new
-        reach = float(np.min(lm.workspace_margin(targets_B)))
-        q_new, fb = _solve_legs(lm, targets_B, state.q)
-        fallback += int(fb)
-        state = BodyState(p_new, R_new, q_new)
-        new_feet = state.feet_world(lm)
-        # touch-downs at k + 1 register their contact point
-        for i in np.flatnonzero(w1 == S):
-            touchdown[i] = new_feet[i]
-        record(k + 1, st)
-        feet_W = new_feet
-    data = {key: np.asarray(val) for key, val in rows.items()}
-    lo, hi = np.empty(18), np.empty(18)
-    lo[np.asarray(lm.q_index).ravel()] = np.asarray(lm.q_lower).ravel()
-    hi[np.asarray(lm.q_index).ravel()] = np.asarray(lm.q_upper).ravel()
-    vmax = np.empty(18)
-    vmax[np.asarray(lm.q_index).ravel()] = np.asarray(lm.system.limits.velocity)[np.asarray(lm.model_q_index).ravel()]
-    notes = []
-    if posture is None:
-        notes.append("posture_step unavailable or disabled: body set to its reference pose directly")
-    return WalkResult(
-        t=data["t"].astype(float),
-        q=data["q"],
-        body=data["body"],
-        body_ref=data["body_ref"],
-        stance=data["stance"].astype(bool),
-        feet=data["feet"],
-        com=data["com"],
-        margin=data["margin"],
-        slip=data["slip"],
-        torque_ratio=data["torque_ratio"],
-        tracking_error=data["tracking_error"],
-        body_error=data["body_error"],
-        ground_height=data["ground_height"],
-        support_height=data["support_height"],
-        swing_clearance=data["swing_clearance"],
-        contact_error=data["contact_error"],
-        yaw=data["yaw"],
-        reach_margin=data["reach_margin"],
-        primitive_kind=data["primitive_kind"].astype(str),
-        well_definedness=data["well_definedness"].astype(float),
-        table=tab,
-        options=opts,
-        dt=dt,
-        posture=posture_used,
-        q_lower=lo,
-        q_upper=hi,
-        velocity_limit=vmax,
-        fallback_steps=fallback,
-        posture_failures=failures,
-        notes=notes,
-    )
-
-
-_ROWS = (
-    "t",
-    "q",
-    "body",
-    "body_ref",
-    "stance",
-    "feet",
-    "com",
-    "margin",
-    "slip",
-    "torque_ratio",
-    "tracking_error",
-    "body_error",
-    "ground_height",
-    "support_height",
-    "swing_clearance",
-    "contact_error",
-    "yaw",
-    "reach_margin",
-    "primitive_kind",
-    "well_definedness",
-)
+def _on_plane(n: np.ndarray, d: float, xy: np.ndarray, ride: float, z_axis: np.ndarray) -> np.ndarray:
+    """The body origin with horizontal position ``xy`` at ``ride`` along ``z_axis`` above the plane n·x = d."""
+    # x = (xy, Z), x − ride z_axis on the plane: n·x − ride n·z_axis = d
+    Z = (d + ride * float(n @ z_axis) - n[0] * xy[0] - n[1] * xy[1]) / n[2]
+    return np.array([xy[0], xy[1], Z])
 
 
 def _off_edges(terrain: Any, xy: np.ndarray, clearance: float) -> np.ndarray:
@@ -871,14 +632,499 @@ def _max_height(terrain: Any, a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.asarray(terrain.height(line), dtype=float)))
 
 
-def _tilt(n: np.ndarray, follow: float) -> np.ndarray:
-    """The body z axis: the support normal n blended toward world z (``tilt_follow``)."""
-    z = follow * n + (1.0 - follow) * np.array([0.0, 0.0, 1.0])
-    return z / np.linalg.norm(z)
+def _violation_legs(legs: LegModel, q: np.ndarray) -> np.ndarray:
+    """(..., 6) largest joint-limit violation [rad] per leg of q (..., 18)."""
+    Q = legs.per_leg(q)
+    return np.maximum(np.maximum(legs.q_lower - Q, Q - legs.q_upper), 0.0).max(axis=-1)
 
 
-def _on_plane(n: np.ndarray, d: float, xy: np.ndarray, ride: float, z_axis: np.ndarray) -> np.ndarray:
-    """The body origin with horizontal position ``xy`` at ``ride`` along ``z_axis`` above the plane n·x = d."""
-    # x = (xy, Z), x − ride z_axis on the plane: n·x − ride n·z_axis = d
-    Z = (d + ride * float(n @ z_axis) - n[0] * xy[0] - n[1] * xy[1]) / n[2]
-    return np.array([xy[0], xy[1], Z])
+# ====================================================================== the planner
+@dataclass
+class _Grid:
+    """The walk's integer phase grid and reference path (module docstring, step 1–2)."""
+
+    N: int
+    dt: float
+    S: int
+    offsets: np.ndarray
+    K: int
+    mid: int
+    stance_knots: int
+    ref: np.ndarray
+
+    def phase(self, k: int) -> np.ndarray:
+        return np.mod(k - self.offsets, self.N)
+
+
+def _grid(opts: WalkOptions, distance: float | None, duration: float | None) -> _Grid:
+    tab = opts.table()
+    cmd = opts.command()
+    T = tab.period
+    N = max(6, 6 * round(T / opts.dt / 6))
+    dt = T / N
+    S = round(tab.swing_fraction * N)
+    if abs(S - tab.swing_fraction * N) > 1e-9 or S < 1:
+        raise InvalidInputError(
+            f"duty {tab.duty} does not put touch-down on the {N}-step grid of a cycle; choose a duty with "
+            f"(1 − duty)·{N} integer"
+        )
+    ramp = T if opts.ramp_time is None else float(opts.ramp_time)
+    speed = float(np.linalg.norm(cmd[:2]))
+    if distance is not None:
+        dist = positive(distance, "distance")
+        if speed <= 1e-12:
+            raise InvalidInputError("walk(distance=…) needs a translation command; give duration for a turn in place")
+        t_end = dist / speed + 0.5 * ramp if dist / speed >= 0.5 * ramp else math.sqrt(dist / speed * ramp)
+    elif duration is not None:
+        t_end = positive(duration, "duration")
+    else:
+        raise InvalidInputError("walk needs distance [m] or duration [s]")
+    if not t_end / dt <= MAX_KNOTS:
+        raise InvalidInputError(
+            f"the walk ({'distance' if distance is not None else 'duration'}) would take {t_end:.4g} s = "
+            f"{t_end / dt:.3g} knots of {dt:.4g} s, above {MAX_KNOTS}; walk a shorter distance or duration"
+        )
+    K = math.ceil(t_end / dt - 1e-9)
+    mid = round(0.5 * tab.duty * N)
+    offsets = np.round(tab.offsets * N).astype(int)
+    ref = _reference_path(cmd, dt, K + 2 * N + 2, ramp)
+    return _Grid(N, dt, S, offsets, K, mid, N - S, ref)
+
+
+class _Walker:
+    """The state of one :func:`walk` between knots (module docstring)."""
+
+    def __init__(self, terrain: Any, opts: WalkOptions, lm: LegModel, g: _Grid, light: bool = False) -> None:
+        self.terrain, self.opts, self.lm, self.g, self.light = terrain, opts, lm, g, light
+        self.r = float(lm.foot_radius)
+        self.nominal = _nominal_feet(lm, opts)
+        self.alpha = g.dt / (opts.terrain_filter + g.dt) if opts.terrain_filter > 0 else 1.0
+        self._pred: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        feet0 = np.array([self.centre(self.nominal[i, :2]) for i in range(6)])
+        p0, R0 = self.predicted_body(0, feet0)
+        q0, _ = _solve_legs(lm, (feet0 - p0) @ R0, lm.q_stand)
+        self.state = BodyState(p0, R0, q0)
+        self.feet_W = self.state.feet_world(lm)
+        self.touchdown = self.feet_W.copy()
+        self.n_pl, self.d_pl = _contact_plane(self.feet_W, self.r)
+        self.arcs: dict[int, tuple[np.ndarray, np.ndarray, float, int]] = {}
+        self.mass = robot_mass(lm)
+        self.rows: dict[str, list[Any]] = {k: [] for k in _ROWS}
+        self.fallback = self.failures = self.shifts = self.raised = 0
+        self.max_shift = 0.0
+        self.posture_used = False
+        self.reach = float(np.min(lm.workspace_margin(self.state.feet_body(lm))))
+        self.kind, self.wdef = "", math.nan
+        self.ref_pose = (p0, R0)
+
+    # ------------------------------------------------------------------ terrain and prediction
+    def centre(self, xy: np.ndarray) -> np.ndarray:
+        """The ball centre (3,) resting on the terrain with its contact at ``xy`` kept off the cell edges."""
+        from .contact import ball_on_terrain
+
+        return ball_on_terrain(self.terrain, _off_edges(self.terrain, xy, self.opts.edge_clearance), self.r)
+
+    def predicted_body(self, k: int, feet: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The reference body pose at knot k: the horizontal pose of the command, height and tilt from the contact
+        plane of the six nominal footholds landed at that pose (or of ``feet``)."""
+        k = min(k, len(self.g.ref) - 1)
+        if feet is None and k in self._pred:
+            return self._pred[k]
+        x, y, yaw = self.g.ref[k]
+        if feet is None:
+            xy = np.array([x, y]) + self.nominal[:, :2] @ _rot_z(yaw)[:2, :2].T
+            feet = np.array([self.centre(v) for v in xy])
+        n, d = _contact_plane(feet, self.r)
+        R = _body_rotation(_tilt(n, self.opts.tilt_follow), yaw)
+        out = (_on_plane(n, d, np.array([x, y]), self.opts.ride_height, R[:, 2]), R)
+        self._pred[k] = out
+        return out
+
+    def _clearance(self, i: int, targets: np.ndarray, knots: list[int]) -> tuple[np.ndarray, np.ndarray]:
+        """For leg i with its ball at ``targets`` (C, m, 3) at the predicted body poses of ``knots`` (m): the leg
+        capsules' smallest clearance (C,) [m] and whether every pose is reachable inside the limits (C,) bool."""
+        from .contact import leg_clearance
+
+        poses = [self.predicted_body(k) for k in knots]
+        P = np.array([p for p, _ in poses])
+        R = np.array([r for _, r in poses])
+        C, m = targets.shape[:2]
+        feet = np.broadcast_to(self.nominal, (C, m, 6, 3)).copy()
+        feet[:, :, i] = np.einsum("mji,cmj->cmi", R, targets - P[None])
+        ok = (self.lm.workspace_margin(feet)[..., i] > 0.002).all(axis=1)
+        clear = np.full(C, -np.inf)
+        idx = np.flatnonzero(ok)
+        if idx.size == 0:
+            return clear, ok
+        q = self.lm.ik(feet[idx], "knee_up", check_limits=False)  # (c, m, 18)
+        ok[idx] = (_violation_legs(self.lm, q)[..., i] <= 1e-9).all(axis=1)
+        shape = (idx.size, m)
+        c = leg_clearance(self.terrain, self.lm, np.broadcast_to(P, (*shape, 3)), np.broadcast_to(R, (*shape, 3, 3)), q)
+        clear[idx] = c[..., i].min(axis=1)
+        return clear, ok
+
+    def foothold(self, i: int, k_td: int) -> np.ndarray:
+        """The ball centre of leg i's next stance (touch-down at knot k_td): the nominal foothold at the reference
+        pose of mid-stance, moved (nearest first, :data:`_SHIFTS`) if a leg capsule would come closer than
+        ``clearance_margin`` to the terrain at the predicted body poses of touch-down, mid-stance and lift-off."""
+        g = self.g
+        x, y, yaw = g.ref[min(k_td + g.mid, len(g.ref) - 1)]
+        xy = np.array([x, y]) + _rot_z(yaw)[:2, :2] @ self.nominal[i, :2]
+        knots = [k_td, k_td + g.stance_knots // 2, k_td + g.stance_knots]
+        c0 = self.centre(xy)
+        if self.light:
+            return c0
+        clear, ok = self._clearance(i, np.broadcast_to(c0, (1, 3, 3)), knots)
+        if ok[0] and clear[0] >= self.opts.clearance_margin:
+            return c0
+        cands = np.array([self.centre(xy + np.array(d)) for d in _SHIFTS])
+        cl, okc = self._clearance(i, np.broadcast_to(cands[:, None, :], (len(cands), 3, 3)), knots)
+        good = np.flatnonzero(okc & (cl >= self.opts.clearance_margin))
+        j = int(good[0]) if good.size else int(np.argmax(np.where(okc, cl, -np.inf)))
+        if not good.size and not (okc[j] and cl[j] > clear[0]):
+            return c0
+        self.shifts += 1
+        self.max_shift = max(self.max_shift, float(np.linalg.norm(cands[j, :2] - c0[:2])))
+        return cands[j]
+
+    def swing_lift(self, i: int, a: np.ndarray, b: np.ndarray, lift: float, w0: int, k: int) -> float:
+        """The apex lift of leg i's swing a → b (starting at phase w0 at knot k), raised until the leg capsules and
+        the ball (while it moves across) stay ``clearance_margin`` off the terrain at the predicted poses."""
+        from .contact import leg_clearance
+
+        g, margin = self.g, self.opts.clearance_margin
+        n = g.S - w0
+        knots = [k + j for j in range(1, n)]
+        if not knots or self.light:
+            return lift
+        s = np.array([j / n for j in range(1, n)])
+        poses = [self.predicted_body(kk) for kk in knots]
+        P = np.array([p for p, _ in poses])
+        R = np.array([r for _, r in poses])
+        lift0 = lift
+        for _ in range(8):
+            pts = swing_arc(a, b, lift, s)[0]
+            feet = np.broadcast_to(self.nominal, (len(s), 6, 3)).copy()
+            feet[:, i] = np.einsum("mji,mj->mi", R, pts - P)
+            if np.any(self.lm.workspace_margin(feet)[:, i] < 0.0):
+                return lift if lift > lift0 else lift0
+            q = self.lm.ik(feet, "knee_up", check_limits=False)
+            caps = leg_clearance(self.terrain, self.lm, P, R, q)[:, i]
+            moving = (s > 0.15) & (s < 0.85)
+            ball = self.terrain.solid_distance(pts[moving]) - self.r if moving.any() else np.array([np.inf])
+            worst = float(min(caps.min(), ball.min()))
+            if worst >= margin or lift - lift0 >= _MAX_EXTRA_LIFT:
+                break
+            lift += margin - worst + 0.002
+        if lift > lift0:
+            self.raised += 1
+        return lift
+
+    # ------------------------------------------------------------------ one knot
+    def plan_swings(self, k: int, w: np.ndarray) -> None:
+        """Arcs of the legs lifting off at knot k (w = 0; at k = 0 also the legs the table has in mid-swing)."""
+        g = self.g
+        for i in np.flatnonzero((w == 0) | ((k == 0) & (w < g.S))):
+            i = int(i)
+            p_lo = self.feet_W[i].copy()
+            p_td = self.foothold(i, k + g.S - int(w[i]))
+            top = _max_height(self.terrain, p_lo[:2], p_td[:2]) + self.r
+            lift = max(top, p_lo[2], p_td[2]) - max(p_lo[2], p_td[2]) + self.opts.lift_height
+            lift = self.swing_lift(i, p_lo, p_td, lift, int(w[i]), k)
+            self.arcs[i] = (p_lo, p_td, lift, int(w[i]))
+
+    def stance_reference(self, feet: np.ndarray, xyyaw: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """The body reference on the contact plane of the stance ball centres ``feet``: (p, R, n, d)."""
+        n, d = _contact_plane(feet, self.r)
+        R = _body_rotation(_tilt(n, self.opts.tilt_follow), float(xyyaw[2]))
+        return _on_plane(n, d, xyyaw[:2], self.opts.ride_height, R[:, 2]), R, n, d
+
+    def body_baseline(self, k: int, idx: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """The kinematic baseline: the body at ride height above the low-pass filtered contact plane."""
+        n_new, d_new = _contact_plane(self.feet_W[list(idx)], self.r) if len(idx) >= 3 else (self.n_pl, self.d_pl)
+        self.n_pl = (1.0 - self.alpha) * self.n_pl + self.alpha * n_new
+        self.d_pl = (1.0 - self.alpha) * self.d_pl + self.alpha * d_new
+        nn = np.linalg.norm(self.n_pl)
+        n_unit, d_unit = self.n_pl / nn, float(self.d_pl / nn)
+        x, y, yaw = self.g.ref[k + 1]
+        R_ref = _body_rotation(_tilt(n_unit, self.opts.tilt_follow), yaw)
+        return _on_plane(n_unit, d_unit, np.array([x, y]), self.opts.ride_height, R_ref[:, 2]), R_ref
+
+    def body_posture(self, k: int, idx: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """Height and attitude through the stance plane (module docstring, step 3)."""
+        from . import posture
+        from .stance import stance_task
+
+        st, lm, dt = self.state, self.lm, self.g.dt
+        names = tuple(LEG_ORDER[i] for i in idx)
+        task = stance_task(lm.system, names, "plane")
+        V = task.similarity(st.q)
+        n_B, d_B = _fit_plane(st.feet_body(lm)[list(idx)])
+        p_ref, R_ref, _, _ = self.stance_reference(self.feet_W[list(idx)], self.g.ref[k + 1])
+        R_M = st.rotation.T @ R_ref  # the body correction M = T(t) R_M (in B) that puts the plane at its reference
+        n_ref = R_M.T @ n_B
+        o_ref = -self.opts.ride_height * float(n_ref[2]) + self.r
+        target = posture.body_motion_target(V, (d_B - o_ref) * n_B, R_M)
+        e = task.error(st.q, target)
+        c = min(self.opts.posture_gain, 1.0 / dt) * np.where(posture.OBSERVABLE["plane"], e, 0.0)
+        u_ref = np.concatenate([st.rotation.T @ (p_ref - st.position) / dt, _rotation_log(R_M) / dt])
+        opts = posture.PostureOptions(dt=dt, frame="primitive")
+        new, info = posture.posture_step(st, names, c, lm, opts, nullspace_twist=u_ref, task=task)
+        self.kind, self.wdef = str(info.kind), float(info.well_definedness)
+        self.posture_used = True
+        return new.position, new.rotation
+
+    def step(self, k: int) -> None:
+        g = self.g
+        w = g.phase(k)
+        st = w >= g.S
+        idx = tuple(int(i) for i in np.flatnonzero(st))
+        self.plan_swings(k, w)
+        self.kind, self.wdef = "", math.nan
+        p_new, R_new = self.body_baseline(k, idx)
+        if self.opts.use_posture:
+            try:
+                p_new, R_new = self.body_posture(k, idx)
+            except CoopGAError:
+                self.failures += 1
+        targets = self.touchdown.copy()  # stance feet: fixed at their touch-down points in W
+        w1 = g.phase(k + 1)
+        for i in np.flatnonzero(~st):
+            a, b, lift, w0 = self.arcs[int(i)]
+            targets[i] = swing_arc(a, b, lift, (w1[i] - w0) / (g.S - w0))[0]
+        targets_B = (targets - p_new) @ R_new
+        self.reach = float(np.min(self.lm.workspace_margin(targets_B)))
+        q_new, fb = _solve_legs(self.lm, targets_B, self.state.q)
+        both = st & (w1 >= g.S)
+        if self.opts.rolling and self.r > 0 and both.any():  # the stance balls roll with their tibias (no sliding)
+            targets[both] = self.touchdown[both] = self.rolled(R_new, q_new, both)
+            q_new, fb2 = _solve_legs(self.lm, (targets - p_new) @ R_new, q_new)
+            fb = fb or fb2
+        self.fallback += int(fb)
+        self.state = BodyState(p_new, R_new, q_new)
+        new_feet = self.state.feet_world(self.lm)
+        for i in np.flatnonzero(w1 == g.S):  # touch-downs at k + 1 register their contact point
+            self.touchdown[i] = new_feet[i]
+        if not self.light:  # (check_command's dry run needs only q and the reach)
+            self.record(k + 1, st)
+        self.feet_W = new_feet
+
+    def rolled(self, R_new: np.ndarray, q_new: np.ndarray, legs: np.ndarray) -> np.ndarray:
+        """The centres (m, 3) of the stance balls ``legs`` (6,) bool after the step, rolled without sliding: a ball
+        whose tibia turns by Δθ (in W) moves its centre by ``r Δθ × n`` (n the ground normal; the contact point's
+        velocity ``v_c + ω × (−r n)`` is then 0).  Δθ is taken from the step solved with the centres held, so the
+        centre is right to second order in Δθ (the extra turn of the re-solve is ~r Δθ / L)."""
+        from scipy.spatial.transform import Rotation
+
+        R0 = self.state.rotation @ self.lm.link_frames(self.state.q)["tibia"][0][legs]
+        R1 = R_new @ self.lm.link_frames(q_new)["tibia"][0][legs]
+        dth = Rotation.from_matrix(R1 @ np.swapaxes(R0, -1, -2)).as_rotvec()
+        c = self.touchdown[legs]
+        n = np.asarray(self.terrain.normal(c[:, :2]), float)
+        return c + self.r * np.cross(dth, n)
+
+    def record(self, k: int, stance_prev: np.ndarray | None) -> None:
+        lm, state, rows, g = self.lm, self.state, self.rows, self.g
+        st = g.phase(k) >= g.S
+        fw = state.feet_world(lm)
+        com_W = state.to_world(robot_com(state.q, lm))
+        sets = [st] if stance_prev is None else [st, stance_prev]
+        p_ref, R_ref, n, d = self.stance_reference(fw[st], np.array([*state.position[:2], g.ref[k, 2]]))
+        z_ref = R_ref[:, 2]
+        rows["tracking_error"].append([float(n @ state.position - d - self.opts.ride_height * (n @ z_ref)),
+                                       math.acos(float(np.clip(state.rotation[:, 2] @ z_ref, -1.0, 1.0)))])  # fmt: skip
+        dist = self.terrain.solid_distance(fw) - self.r
+        rows["t"].append(k * g.dt)
+        rows["q"].append(state.q.copy())
+        rows["body"].append(state.pose7())
+        rows["body_ref"].append(BodyState(p_ref, R_ref, state.q).pose7())
+        rows["stance"].append(st)
+        rows["feet"].append(fw)
+        rows["contacts"].append(fw - self.r * np.asarray(self.terrain.normal(fw[:, :2]), float))
+        rows["com"].append(com_W)
+        rows["margin"].append(min(static_stability_margin(com_W[:2], fw[s][:, :2]) for s in sets))
+        rows["slip"].append(float(np.linalg.norm(fw[st] - self.touchdown[st], axis=1).max()) if st.any() else 0.0)
+        tau = static_torques(state, st, lm, self.mass)
+        rows["torque_ratio"].append(float(np.max(np.abs(tau) / np.asarray(lm.effort_limit))))
+        rows["body_error"].append(float(np.linalg.norm(state.position - p_ref)))
+        rows["ground_height"].append(float(np.asarray(self.terrain.height(state.position[:2]))))
+        rows["support_height"].append(float((d - n[0] * state.position[0] - n[1] * state.position[1]) / n[2]))
+        rows["swing_clearance"].append(float(dist[~st].min()) if (~st).any() else math.inf)
+        rows["contact_error"].append(float(np.abs(dist[st]).max()) if st.any() else 0.0)
+        rows["yaw"].append(float(g.ref[k, 2]))
+        rows["reach_margin"].append(self.reach)
+        rows["primitive_kind"].append(self.kind)
+        rows["well_definedness"].append(self.wdef)
+
+    def result(self) -> WalkResult:
+        from .contact import leg_clearance, rolling_distance
+
+        lm, data = self.lm, {key: np.asarray(val) for key, val in self.rows.items()}
+        lo, hi, vmax = np.empty(18), np.empty(18), np.empty(18)
+        lo[np.asarray(lm.q_index).ravel()] = np.asarray(lm.q_lower).ravel()
+        hi[np.asarray(lm.q_index).ravel()] = np.asarray(lm.q_upper).ravel()
+        vmax[np.asarray(lm.q_index).ravel()] = np.asarray(lm.velocity_limit).ravel()
+        states = [BodyState.from_quaternion(b[:3], b[3:], q) for b, q in zip(data["body"], data["q"])]
+        P = np.array([s.position for s in states])
+        R = np.array([s.rotation for s in states])
+        seg = leg_clearance(self.terrain, lm, P, R, data["q"])
+        normals = np.asarray(self.terrain.normal(data["feet"][..., :2]), float)
+        roll = rolling_distance(lm, R, data["q"], normals, data["stance"])
+        notes = [] if self.opts.use_posture else ["use_posture=False: body set to the filtered support-plane pose"]
+        return WalkResult(
+            t=data["t"].astype(float), q=data["q"], body=data["body"], body_ref=data["body_ref"],
+            stance=data["stance"].astype(bool), feet=data["feet"], contacts=data["contacts"], com=data["com"],
+            margin=data["margin"], slip=data["slip"], rolling=roll, torque_ratio=data["torque_ratio"],
+            tracking_error=data["tracking_error"], body_error=data["body_error"],
+            ground_height=data["ground_height"], support_height=data["support_height"],
+            swing_clearance=data["swing_clearance"], segment_clearance=seg, contact_error=data["contact_error"],
+            yaw=data["yaw"], reach_margin=data["reach_margin"], primitive_kind=data["primitive_kind"].astype(str),
+            well_definedness=data["well_definedness"].astype(float), table=self.opts.table(), options=self.opts,
+            dt=self.g.dt, posture=self.posture_used, q_lower=lo, q_upper=hi, velocity_limit=vmax,
+            fallback_steps=self.fallback, posture_failures=self.failures, foothold_shifts=self.shifts,
+            max_foothold_shift=self.max_shift, raised_swings=self.raised, notes=notes,
+        )  # fmt: skip
+
+
+_ROWS = (
+    "t",
+    "q",
+    "body",
+    "body_ref",
+    "stance",
+    "feet",
+    "contacts",
+    "com",
+    "margin",
+    "slip",
+    "torque_ratio",
+    "tracking_error",
+    "body_error",
+    "ground_height",
+    "support_height",
+    "swing_clearance",
+    "contact_error",
+    "yaw",
+    "reach_margin",
+    "primitive_kind",
+    "well_definedness",
+)
+
+
+# ====================================================================== walking
+def _walk_args(terrain: Any, options: Any, legs: Any) -> tuple[WalkOptions, LegModel]:
+    from .legs import hexapod_legs
+
+    opts = options if options is not None else WalkOptions()
+    if not isinstance(opts, WalkOptions):
+        raise InvalidInputError(f"options must be a WalkOptions, got {type(opts).__name__}")
+    need = ("height", "land", "normal", "solid_distance", "capsule_clearance")
+    if not all(callable(getattr(terrain, f, None)) for f in need):
+        raise InvalidInputError(
+            f"terrain must be a coop_ga.legged.Terrain (Terrain.make(kind) with kind in flat, slope, steps, random), "
+            f"got {type(terrain).__name__}"
+        )
+    return opts, (check_legs(legs) if legs is not None else hexapod_legs())
+
+
+#: check_command's verdicts on commands that passed, per (options, legs)
+_CHECKED: dict[tuple[WalkOptions, int], tuple[Any, dict[str, float]]] = {}
+
+
+def check_command(options: WalkOptions | None = None, legs: LegModel | None = None) -> dict[str, float]:
+    """Refuse a velocity command the legs cannot walk, before a walk: one cycle of the gait at full command
+    on flat ground (the kinematic baseline, no posture loop) must keep every foot target inside the legs'
+    reach and joint limits and every joint below its URDF speed limit.
+
+    Args:
+        options: the :class:`WalkOptions` (gait, speed, cycle time, …).
+        legs: the :class:`~coop_ga.legged.legs.LegModel` (default the hexapod's).
+
+    Returns:
+        ``{"reach_margin_m", "velocity_ratio"}``: the smallest workspace margin of a foot target [m] and the
+        largest joint speed as a fraction of its limit over that cycle.
+
+    Raises:
+        InvalidInputError: a foot target beyond the reach or the joint limits, or a joint faster than its
+            speed limit; the message names the leg / joint, the limit and the speed that would pass.
+    """
+    from dataclasses import replace
+
+    from .terrain import Terrain
+
+    opts, lm = _walk_args(Terrain.flat(), options, legs)
+    key = (opts, id(lm))
+    hit = _CHECKED.get(key)
+    if hit is not None and hit[0] is lm:
+        return dict(hit[1])
+    dry = replace(opts, use_posture=False)
+    g = _grid(dry, None, (dry.period if dry.ramp_time is None else float(dry.ramp_time)) + 1.25 * dry.period)
+    w = _Walker(Terrain.flat(), dry, lm, g, light=True)
+    qs, reaches = [w.state.q], [w.reach]
+    for k in range(g.K):
+        w.step(k)
+        qs.append(w.state.q)
+        reaches.append(w.reach)
+        if w.fallback or w.reach < 0.0:  # out of reach: no need to walk on
+            break
+    q = np.asarray(qs)
+    reach = float(np.min(reaches))
+    cmd = opts.command()
+    if w.fallback or reach < 0.0:
+        raise InvalidInputError(
+            f"the velocity command {np.round(cmd, 4).tolist()} (vx, vy, ωz) is beyond the legs' reach: over one "
+            f"{opts.gait} cycle of {opts.period:g} s a foot target leaves the workspace or the joint limits (smallest "
+            f"reach margin {1e3 * reach:.1f} mm, {w.fallback} knots without an IK solution inside the limits); "
+            "lower the speed or shorten cycle_time"
+        )
+    speeds = np.abs(np.diff(q, axis=0)) / g.dt
+    vmax = np.empty(18)
+    vmax[np.asarray(lm.q_index).ravel()] = np.asarray(lm.velocity_limit).ravel()
+    ratio = speeds / vmax
+    j = int(np.argmax(ratio.max(axis=0)))
+    top = float(ratio.max())
+    if top > 1.0:
+        name = [n for leg in lm.joint_names for n in leg][list(np.asarray(lm.q_index).ravel()).index(j)]
+        raise InvalidInputError(
+            f"the velocity command {np.round(cmd, 4).tolist()} (vx, vy, ωz) with a {opts.period:g} s {opts.gait} "
+            f"cycle needs {name} to turn at {top * vmax[j]:.2f} rad/s, beyond its URDF speed limit {vmax[j]:.2f} "
+            f"rad/s ({top:.2f}×); lengthen cycle_time to ≥ {opts.period * top:.3g} s or lower the speed"
+        )
+    out = {"reach_margin_m": reach, "velocity_ratio": top}
+    _CHECKED[key] = (lm, out)
+    return dict(out)
+
+
+def walk(
+    terrain: Terrain,
+    options: WalkOptions | None = None,
+    distance: float | None = None,
+    duration: float | None = None,
+    legs: LegModel | None = None,
+) -> WalkResult:
+    """Walk the hexapod over ``terrain`` (module docstring: gait, body reference, the posture loop through the
+    stance plane, swing arcs to footholds that keep the legs off the terrain, checks at every step).
+
+    Args:
+        terrain: a :class:`~coop_ga.legged.terrain.Terrain`.
+        options: :class:`WalkOptions` (default: the tripod at its default speed).
+        distance: walk until the reference has travelled this far [m] (needs a translation command);
+        duration: or for this long [s]; exactly one of the two (``distance`` wins if both are given).
+        legs: the :class:`~coop_ga.legged.legs.LegModel` (default :func:`~coop_ga.legged.legs.hexapod_legs`).
+
+    Returns:
+        A :class:`WalkResult`.
+
+    Raises:
+        InvalidInputError: bad arguments (an unknown gait is refused by :class:`WalkOptions`, an unknown terrain
+            kind by :meth:`Terrain.make`), or a command beyond the legs' reach or speed limits
+            (:func:`check_command`, before the run).
+    """
+    opts, lm = _walk_args(terrain, options, legs)
+    check_command(opts, lm)
+    g = _grid(opts, distance, duration)
+    w = _Walker(terrain, opts, lm, g)
+    w.record(0, None)
+    for k in range(g.K):
+        w.step(k)
+    return w.result()
