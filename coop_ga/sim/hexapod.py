@@ -8,25 +8,24 @@ The same robot as the registered ``hexapod_floating`` (whose six virtual joints 
 here the free joint): ``tests/sim/test_hexapod.py`` checks the feet and the body against Pinocchio's FK of
 ``hexapod_floating`` at random poses.
 
-Collision geometry (:class:`HexapodGeometry`, what the robot touches the world with)
------------------------------------------------------------------------------------
-* **feet**: a ball of radius :data:`FOOT_RADIUS` = 9 mm centred on each ``{leg}_foot`` frame — the foot sphere of
-  the URDF's visual model (:func:`urdf_foot_radius` reads it; a test keeps the two equal; the URDF has no
-  collision geometry).  The foot frame is the ball's
-  centre; on a terrain patch with unit normal n the ball touches the plane at ``foot − r n``, so a planner that
-  puts the *ball centre* at ``r`` above the ground (``r / n_z`` above it vertically) puts the point the physics
-  touches exactly on the ground;
-* **tibias** ("shins"): a capsule of radius :data:`TIBIA_RADIUS` = 6 mm on the segment from the tibia joint to
-  the foot centre — the leg segment itself.  Thinner than the foot ball, it can never touch a plane before the
-  ball does while the tibia points down (its lowest point is at least 3 mm above the ball's), so any
-  tibia–terrain contact is a real shin collision (a riser or a tile edge), never the foot;
-* **femurs**: a capsule of radius 16 mm from the femur joint to the tibia joint (half the femur servo box's
-  cross-section diagonal, 40 × 32 mm);
-* **body**: the URDF's body box, 0.24 × 0.16 × 0.04 m.
+Collision geometry (what the robot touches the world with)
+----------------------------------------------------------
+The legs' capsules are the planner's contact model, :func:`coop_ga.legged.contact.leg_capsules` — the one
+source of both the planner's leg–terrain clearance and this scene's contacts:
 
-Every robot geom touches the terrain; robot–robot contacts are off (the legs of this gait do not meet; a self
-collision check would cost more than the rest of a step).  Contacts between the terrain and anything but a
-foot ball are counted by :meth:`HexapodScene.terrain_contacts` (the walking metrics' "shin contacts").
+* **feet**: a ball of radius ``legs.foot_radius`` = 9 mm (the URDF's foot sphere) centred on each
+  ``{leg}_foot`` frame: on a terrain patch with unit normal n it touches the plane at ``foot − r n``, where the
+  planner puts the contact point;
+* **shins**: the tibia capsule fitted to the URDF's geometry (radius 24.7 mm), shortened so that its end cap stays
+  above the ball's lowest point for tibia tilts up to 60° (:func:`~coop_ga.legged.contact.shin_capsule`): a
+  shin–terrain contact is a real shin collision (a riser, a tile edge), never the foot;
+* **coxas, femurs**: the fitted capsules of their servo boxes;
+* **body**: the URDF's body box, 0.24 × 0.16 × 0.04 m (the fitted body capsule, radius 82 mm, would hang 27 mm
+  above the ground at the ride height; the planner does not use it).
+
+Every robot geom touches the terrain; robot–robot contacts are off (the legs of these gaits do not meet; a
+self-collision check would cost more than the rest of a step).  Contacts between the terrain and anything
+but a foot ball are counted by :meth:`HexapodScene.terrain_contacts` (the walking metrics' "shin contacts").
 
 Terrain (:func:`terrain_geoms`)
 -------------------------------
@@ -62,8 +61,9 @@ addresses in :class:`HexapodScene`)
 * ``imu_gyro`` (``gyro``): the body's angular velocity in B [rad/s];
 * ``imu_acc`` (``accelerometer``): specific force in B [m/s²] (+9.81 along body z at rest);
 * ``{leg}_touch`` (``touch``, one per leg): the normal force [N] of the contacts inside the sphere of radius
-  1.5 r around the foot centre — the foot ball's contacts only (the tibia capsule ends at the foot centre with
-  a smaller radius, its contacts with a plane lie ≥ 4.5 mm above the ball's).
+  r + 1 mm around the foot centre — the foot ball's contacts (MuJoCo puts a contact point between the two
+  surfaces, so within r of the centre for the ball); the shin's end cap cannot touch the ground that close to
+  the foot centre while the ball is on it (its lowest point is above the ball's for tilts ≤ 60°).
 
 Values are those of the last physics step (MuJoCo computes sensors before it integrates).
 """
@@ -83,100 +83,56 @@ from ._mujoco import mj
 from .scene import GROUP_SCENE, GROUP_SITES, Scene, build_scene
 
 __all__ = [
-    "FOOT_RADIUS",
+    "BODY_BOX",
     "HEXAPOD_LEGS",
     "IMU_SENSORS",
-    "TIBIA_RADIUS",
     "HexapodGeometry",
     "HexapodScene",
     "default_region",
     "hexapod_capsules",
     "hexapod_scene",
     "terrain_geoms",
-    "urdf_foot_radius",
 ]
 
 #: the legs in the order of :mod:`coop_ga.legged` (URDF order); arrays over legs here use it.
 HEXAPOD_LEGS: tuple[str, ...] = ("lf", "lm", "lr", "rf", "rm", "rr")
 #: names of the IMU's sensors: orientation (framequat), angular velocity (gyro), specific force (accelerometer)
 IMU_SENSORS: tuple[str, str, str] = ("imu_quat", "imu_gyro", "imu_acc")
-#: shin capsule radius [m] (module docstring)
-TIBIA_RADIUS = 0.006
-#: femur capsule radius [m]: half the diagonal of the femur servo box's 40 × 32 mm cross-section
-FEMUR_RADIUS = 0.016
 #: the body box [m] (the URDF's body visual and inertia box)
 BODY_BOX = (0.24, 0.16, 0.04)
-#: touch-sensor sphere around the foot centre, in foot radii
-TOUCH_SITE_SCALE = 1.5
+#: the touch sensor's sphere reaches this far [m] beyond the foot ball (its contacts lie within the ball)
+TOUCH_MARGIN = 0.001
 #: thickness [m] of the terrain boxes below the lowest cell (no thin boxes: contacts stay well conditioned)
 _BOX_DEPTH = 0.1
 
 
-def urdf_foot_radius() -> float:
-    """The radius [m] of the URDF's visual foot sphere at ``lf_foot`` (0.009)."""
-    from .. import systems
-
-    s = systems.load("hexapod")
-    m = s.model
-    foot = m.frames[m.getFrameId("lf_foot")]
-    for obj in s.visual_model().geometryObjects:
-        if type(obj.geometry).__name__ == "Sphere" and int(obj.parentJoint) == int(foot.parentJoint):
-            offset = np.asarray((obj.placement.inverse() * foot.placement).translation, float)
-            if float(np.linalg.norm(offset)) < 1e-9:
-                return float(obj.geometry.radius)
-    raise InvalidInputError("the hexapod URDF has no visual foot sphere at lf_foot to take the foot radius from")
-
-
-#: the foot ball's radius [m]: the URDF's visual foot sphere (:func:`urdf_foot_radius`, module docstring)
-FOOT_RADIUS = 0.009
-
-
 @dataclass(frozen=True)
 class HexapodGeometry:
-    """The robot's collision geometry (module docstring); radii [m], ``body_box`` edge lengths [m].
+    """Physical options of the scene (module docstring): ``body_box`` edge lengths [m]; ``friction``: MuJoCo's
+    (sliding, torsional, rolling) coefficients of every robot geom, or one number; ``servo_damping``: give
+    every joint the back-EMF damping of its servo ("Servos").  The legs' capsules and the foot radius are the
+    planner's (:func:`coop_ga.legged.contact.leg_capsules`)."""
 
-    ``friction``: MuJoCo (sliding, torsional, rolling) coefficients of every robot geom, or one number.
-    ``servo_damping``: give every joint the back-EMF damping of its servo (module docstring, "Servos")."""
-
-    foot_radius: float = FOOT_RADIUS
-    tibia_radius: float = TIBIA_RADIUS
-    femur_radius: float = FEMUR_RADIUS
     body_box: tuple[float, float, float] = BODY_BOX
     friction: Any = 1.0
     servo_damping: bool = True
 
     def __post_init__(self) -> None:
-        f = validation.positive(self.foot_radius, "HexapodGeometry.foot_radius")
-        t = validation.positive(self.tibia_radius, "HexapodGeometry.tibia_radius")
-        validation.positive(self.femur_radius, "HexapodGeometry.femur_radius")
-        if not t < f:
-            raise InvalidInputError(
-                f"HexapodGeometry.tibia_radius ({t} m) must be below foot_radius ({f} m): the shin capsule ends at the "
-                "foot centre, so a thicker shin would touch the ground before the foot"
-            )
         box = validation.vector(self.body_box, 3, "HexapodGeometry.body_box")
         if np.any(box <= 0):
             raise InvalidInputError(f"HexapodGeometry.body_box must be 3 edge lengths > 0 [m], got {self.body_box}")
         object.__setattr__(self, "body_box", tuple(float(x) for x in box))
+        if not isinstance(self.servo_damping, (bool, np.bool_)):
+            raise InvalidInputError(f"HexapodGeometry.servo_damping must be True or False, got {self.servo_damping!r}")
 
 
-def hexapod_capsules(system: Any, geometry: HexapodGeometry | None = None) -> tuple[Any, ...]:
-    """The robot's capsules for :func:`~coop_ga.sim.build_scene` (module docstring), three per leg in
-    :data:`HEXAPOD_LEGS` order: the foot ball (a capsule of zero length, link ``{leg}_foot``), the shin
-    (``{leg}_tibia``) and the femur (``{leg}_femur``); segment ends read from the model's placements."""
-    from ..collision import Capsule
+def hexapod_capsules(system: Any) -> tuple[Any, ...]:
+    """The legs' capsules of ``system`` for :func:`~coop_ga.sim.build_scene` (module docstring):
+    :func:`coop_ga.legged.contact.leg_capsules` without the body's capsule (the scene gives the body its box)."""
+    from ..legged.contact import leg_capsules
+    from ..legged.legs import hexapod_legs
 
-    g = geometry or HexapodGeometry()
-    m = system.model
-    out = []
-    for i, leg in enumerate(HEXAPOD_LEGS):
-        foot = m.frames[m.getFrameId(f"{leg}_foot")].placement.translation
-        knee = m.jointPlacements[m.getJointId(f"{leg}_tibia_joint")].translation
-        zero = np.zeros(3)
-        out.append(Capsule(f"{leg}_foot", zero, zero, g.foot_radius, i, f"{leg}_foot"))
-        out.append(Capsule(f"{leg}_tibia", zero, np.asarray(foot, float), g.tibia_radius, i, f"{leg}_tibia"))
-        out.append(Capsule(f"{leg}_femur", zero, np.asarray(knee, float), g.femur_radius, i, f"{leg}_femur"))
-    return tuple(out)
+    return tuple(c for c in leg_capsules(hexapod_legs(), system) if c.link != "base_link")
 
 
 # ====================================================================== terrain
@@ -287,7 +243,8 @@ class HexapodScene:
     foot_sites: (6,) site ids of ``{leg}_foot`` in :data:`HEXAPOD_LEGS` order.
     touch_adr: (6,) ``sensordata`` address of each ``{leg}_touch``; imu_adr: addresses of ``imu_quat`` (4),
         ``imu_gyro`` (3), ``imu_acc`` (3).
-    foot_geoms, tibia_geoms, femur_geoms: (6,) geom ids per leg; body_geom: the body box's geom.
+    foot_radius: [m] the foot balls' radius (``legs.foot_radius``).
+    foot_geoms, tibia_geoms, femur_geoms, coxa_geoms: (6,) geom ids per leg; body_geom: the body box's geom.
     terrain_geom_ids: (m,) ids of the terrain geoms.
     """
 
@@ -301,6 +258,8 @@ class HexapodScene:
     foot_geoms: np.ndarray = field(init=False)
     tibia_geoms: np.ndarray = field(init=False)
     femur_geoms: np.ndarray = field(init=False)
+    coxa_geoms: np.ndarray = field(init=False)
+    foot_radius: float = field(init=False)
     body_geom: int = field(init=False)
     terrain_geom_ids: np.ndarray = field(init=False)
     _kind: np.ndarray = field(init=False, repr=False)
@@ -311,16 +270,19 @@ class HexapodScene:
         self.touch_adr = np.array([m.sensor_adr[s.id_of("sensor", f"{leg}_touch")] for leg in HEXAPOD_LEGS])
         q, g, a = (int(m.sensor_adr[s.id_of("sensor", n)]) for n in IMU_SENSORS)
         self.imu_adr = (q, g, a)
-        cg = s.capsule_geoms.reshape(6, 3)
-        self.foot_geoms, self.tibia_geoms, self.femur_geoms = cg[:, 0].copy(), cg[:, 1].copy(), cg[:, 2].copy()
+        link = {c.link: int(g) for c, g in zip(s.capsules, s.capsule_geoms)}
+        self.foot_geoms, self.tibia_geoms, self.femur_geoms, self.coxa_geoms = (
+            np.array([link[f"{leg}_{part}"] for leg in HEXAPOD_LEGS]) for part in ("foot", "tibia", "femur", "coxa")
+        )
+        self.foot_radius = float(m.geom_size[self.foot_geoms[0], 0])
         self.body_geom = s.id_of("geom", "body_box")
         self.terrain_geom_ids = np.array(
             [i for i in range(m.ngeom) if (mj().mj_id2name(m, mj().mjtObj.mjOBJ_GEOM, i) or "").startswith("terrain")]
         )
-        # geom class: 0 other, 1 terrain, 2 foot, 3 shin (tibia), 4 femur, 5 body
+        # geom class: 0 other, 1 terrain, 2 foot, 3 shin (tibia), 4 femur or coxa, 5 body
         kind = np.zeros(m.ngeom, dtype=np.int8)
         kind[self.terrain_geom_ids] = 1
-        kind[self.foot_geoms], kind[self.tibia_geoms], kind[self.femur_geoms] = 2, 3, 4
+        kind[self.foot_geoms], kind[self.tibia_geoms], kind[self.femur_geoms], kind[self.coxa_geoms] = 2, 3, 4, 4
         kind[self.body_geom] = 5
         self._kind = kind
 
@@ -348,7 +310,7 @@ class HexapodScene:
 
     def terrain_contacts(self, data: Any) -> dict[str, int]:
         """Contacts in ``data`` between the terrain and the robot, counted by robot part: ``foot``, ``shin``
-        (tibia capsules), ``femur``, ``body``."""
+        (tibia capsules), ``femur`` (femur and coxa capsules), ``body``."""
         n = int(data.ncon)
         out = {"foot": 0, "shin": 0, "femur": 0, "body": 0}
         if n == 0:
@@ -425,7 +387,7 @@ def hexapod_scene(
     base = build_scene(
         system,
         floor=None,
-        capsules=hexapod_capsules(system, g),
+        capsules=hexapod_capsules(system),
         self_collision=False,
         robot_friction=g.friction,
         visuals=visuals,
@@ -437,10 +399,16 @@ def hexapod_scene(
     )
     _add_body_box(base.spec, base.base_body, g)
     _add_terrain(base.spec, geoms)
-    _add_sensors(base.spec, base.base_body, base.system, g)
+    _add_sensors(base.spec, base.base_body, base.system)
     base.spec.option.cone = mj().mjtCone.mjCONE_ELLIPTIC
     base.spec.option.impratio = validation.positive(impratio, "impratio")
     return HexapodScene(base.recompile(), terrain, reg, g)
+
+
+def _foot_radius() -> float:
+    from ..legged.legs import hexapod_legs
+
+    return float(hexapod_legs().foot_radius)
 
 
 def _add_body_box(spec: Any, base_body: str | None, g: HexapodGeometry) -> None:
@@ -464,7 +432,7 @@ def _add_terrain(spec: Any, geoms: Sequence[dict[str, Any]]) -> None:
         spec.worldbody.add_geom(contype=1, conaffinity=1, group=GROUP_SCENE, **kw)
 
 
-def _add_sensors(spec: Any, base_body: str | None, system: Any, g: HexapodGeometry) -> None:
+def _add_sensors(spec: Any, base_body: str | None, system: Any) -> None:
     """The IMU at the body origin and a touch sphere at every foot (module docstring)."""
     m = mj()
     S, O = m.mjtSensor, m.mjtObj
@@ -478,7 +446,7 @@ def _add_sensors(spec: Any, base_body: str | None, system: Any, g: HexapodGeomet
         parent.add_site(
             name=f"{leg}_touch",
             pos=np.array(foot.pos),
-            size=[TOUCH_SITE_SCALE * g.foot_radius, 0, 0],
+            size=[_foot_radius() + TOUCH_MARGIN, 0, 0],
             group=GROUP_SITES,
             type=m.mjtGeom.mjGEOM_SPHERE,
         )

@@ -500,7 +500,7 @@ def standing_start(hs: HexapodScene, options: WalkingOptions, xy: Any = (0.0, 0.
     nom = nominal_feet(lm, options)
     feet_xy = p + nom[:, :2] @ Rz[:2, :2].T
     P = hs.terrain.plane_params(feet_xy)
-    r = hs.geometry.foot_radius
+    r = hs.foot_radius
     feet = np.column_stack([feet_xy, hs.terrain.height(feet_xy) + r / P[:, 2]])
     n, d = _fit_plane(feet)
     z = (1.0 - options.tilt_follow) * np.array([0.0, 0.0, 1.0]) + options.tilt_follow * n
@@ -770,7 +770,7 @@ class HexapodWalker:
 
         pos, R = self.localize(data)
         Ro = _rot_z(_yaw_of(self._RD) - _yaw_of(R))
-        terrain, r = self.hs.terrain, self.hs.geometry.foot_radius
+        terrain, r = self.hs.terrain, self.hs.foot_radius
         p0_w = (Ro.T @ (p0 - self._pD) + pos)[:2]
         xy_w = (Ro.T @ (np.array([xy_o[0], xy_o[1], self._pD[2]]) - self._pD) + pos)[:2]
         xy_w = _off_edges(terrain, xy_w, 0.015)
@@ -880,7 +880,7 @@ class HexapodWalker:
         stance = [i for i, leg in enumerate(self._legs) if leg.mode == 0]
         if stance:
             R_tib = self._RD @ self.fast.tibia_rotations(self._qD)
-            r = self.hs.geometry.foot_radius
+            r = self.hs.foot_radius
             for i in stance:
                 leg = self._legs[i]
                 d = _rotvec(R_tib[i] @ leg.tibia0.T)

@@ -79,7 +79,7 @@ class GroundTruth:
         self.walker = walker
         self.hs: HexapodScene = walker.hs
         self.threshold = float(threshold)
-        self.r = self.hs.geometry.foot_radius
+        self.r = self.hs.foot_radius
         self.contacts: list[tuple[int, int, int]] = []  # per physics step: (shin, femur, body) contacts
         self.plans: list[tuple[float, np.ndarray, np.ndarray]] = []  # (t, feet (6, 3), touch (6,))
         #: (leg, t0, t1, slip = |∫ v_t dt|, drift of the ball centre, sliding path ∫ |v_t| dt) per stance
@@ -307,7 +307,7 @@ def stance_overlays(run: WalkRun, k: int, data: Any) -> list[Any]:
         P = feet[st]
         n, d = _fit_plane(P)
         H = convex_hull(P[:, :2])
-        ring = np.column_stack([H, (d - H @ n[:2]) / n[2]]) - run.hs.geometry.foot_radius * n  # on the ground
+        ring = np.column_stack([H, (d - H @ n[:2]) / n[2]]) - run.hs.foot_radius * n  # on the ground
         c = ring.mean(axis=0)
         out.append(lambda scn, ring=ring: R.add_polyline(scn, ring, (0.1, 0.65, 0.35, 1.0), 0.003, closed=True))
         out.append(lambda scn, c=c, n=n: R.add_arrow(scn, c, 0.06 * n, (0.1, 0.65, 0.35, 1.0), 0.004))
