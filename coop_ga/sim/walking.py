@@ -196,8 +196,10 @@ class WalkingOptions:
     ride_height: body origin above the plane of the foot-ball centres [m] (0.1: the legged planner's feet 0.1 m
         below the body; the body is then 0.109 m above the ground).
     foot_reach: nominal foothold's distance from the coxa axis along the mounting direction [m].
-    lift_height: swing apex above the highest terrain under the swing, with the map [m]; blind_lift: above the
-        higher end of the swing, blind [m].
+    lift_height: swing apex above the highest terrain under the swing, with the map [m] (raised where a leg
+        capsule needs it); blind_lift: above the higher end of the swing, blind [m].
+    edge_clearance, clearance_margin: with the map, footholds keep their contact this far [m] from the terrain's
+        cell edges, and the leg capsules this far above the terrain (:mod:`coop_ga.sim.walking_map`).
     blind: plan without the terrain and the localisation; feedback: False for the open-loop replay (module
         docstring).
     tilt_follow: desired body z axis between world up (0: level) and the support normal (1).
@@ -221,8 +223,10 @@ class WalkingOptions:
     duty: float | None = None
     ride_height: float = 0.1
     foot_reach: float = 0.16
-    lift_height: float = 0.03
+    lift_height: float = 0.02
     blind_lift: float = 0.05
+    edge_clearance: float = 0.016
+    clearance_margin: float = 0.004
     blind: bool = False
     feedback: bool = True
     tilt_follow: float = 0.0
@@ -247,6 +251,8 @@ class WalkingOptions:
         for name in (
             "lift_height",
             "blind_lift",
+            "edge_clearance",
+            "clearance_margin",
             "posture_gain",
             "path_gain",
             "search_depth",
@@ -582,6 +588,18 @@ class HexapodWalker:
         self._accel = opt.accel
         self.nominal = nominal_feet(self.legs, opt)
         self.localize = localize or self._true_pose
+        from .walking_map import MapFootholds
+
+        self._map = MapFootholds(
+            hs.terrain,
+            self.legs,
+            self.nominal,
+            ride_height=opt.ride_height,
+            tilt_follow=opt.tilt_follow,
+            edge_clearance=opt.edge_clearance,
+            clearance_margin=opt.clearance_margin,
+            lift_height=opt.lift_height,
+        )
         system = self.legs.system
         self._pin = pin
         self._model = pin.Model(system.model)  # own copy: its gravity is set to the body frame's every plan
@@ -729,8 +747,8 @@ class HexapodWalker:
         opt = self.options
         tab = self.table
         T = tab.period
-        t_mid = (tau_lo - self._tau_g) + tab.swing_fraction * T + 0.5 * tab.duty * T  # from now to mid-stance
-        ref_mid = self._predict(t, max(t_mid, 0.0))
+        t_td = (tau_lo - self._tau_g) + tab.swing_fraction * T  # from now to its touchdown
+        ref_mid = self._predict(t, max(t_td + 0.5 * tab.duty * T, 0.0))
         xy = ref_mid[:2] + _rot_z(ref_mid[2])[:2, :2] @ self.nominal[i, :2]
         p0 = leg.target.copy()  # where its foot is commanded now (the anchor moved by rolling)
         if opt.blind:
@@ -739,8 +757,7 @@ class HexapodWalker:
             p1 = np.array([xy[0], xy[1], (d - n[0] * xy[0] - n[1] * xy[1]) / n[2]])
             lift = opt.blind_lift
         else:
-            p1, top = self._map_foothold(xy, p0, data)
-            lift = max(top, p0[2], p1[2]) - max(p0[2], p1[2]) + opt.lift_height
+            p1, lift = self._map_foothold(i, t, max(t_td, 0.0), p0, xy, data)
         if opt.feedback:  # aim below the expected ground: the contact, not the end of the arc, ends the swing
             p1 = p1 - np.array([0.0, 0.0, opt.touchdown_depth])
         leg.arc = (p0, p1, lift, tau_lo)
@@ -760,27 +777,33 @@ class HexapodWalker:
             x += hk * np.array([math.cos(yaw) * v[0] - math.sin(yaw) * v[1], math.sin(yaw) * v[0] + math.cos(yaw) * v[1], v[2]])
         return x
 
-    def _map_foothold(self, xy_o: np.ndarray, p0: np.ndarray, data: Any) -> tuple[np.ndarray, float]:
-        """Foothold (ball centre) in W_o over ``xy_o`` and the highest ball-centre height under the swing from the
-        anchor p0, from the map (module docstring, "Map"): the horizontal positions go to the world through the
-        localisation (W_o = Rz(Δyaw) (W − position) + D's position), the heights are taken *relative to the
-        lift-off point* (p0's height plus the terrain's rise from under p0), so D's height in W_o needs no
-        localisation."""
-        from ..legged.walk import _off_edges
-
+    def _map_foothold(
+        self, i: int, t: float, t_td: float, p0: np.ndarray, xy_o: np.ndarray, data: Any
+    ) -> tuple[np.ndarray, float]:
+        """Leg i's foothold (ball centre) in W_o near ``xy_o`` and its swing's apex lift, from the map
+        (:class:`~coop_ga.sim.walking_map.MapFootholds`; module docstring, "Map"): horizontal positions go to the
+        world through the localisation (W_o = Rz(Δyaw)(W − position) + D's position), heights are taken
+        *relative to the lift-off point* (p0's height plus the terrain's rise from under p0), so D's height in
+        W_o needs no localisation."""
         pos, R = self.localize(data)
-        Ro = _rot_z(_yaw_of(self._RD) - _yaw_of(R))
-        terrain, r = self.hs.terrain, self.hs.foot_radius
-        p0_w = (Ro.T @ (p0 - self._pD) + pos)[:2]
-        xy_w = (Ro.T @ (np.array([xy_o[0], xy_o[1], self._pD[2]]) - self._pD) + pos)[:2]
-        xy_w = _off_edges(terrain, xy_w, 0.015)
-        nz1 = float(terrain.plane_params(xy_w)[2])
-        nz0 = float(terrain.plane_params(p0_w)[2])
-        z0 = float(terrain.height(p0_w)) + r / nz0  # p0's ball centre in the world, from the map
-        z1 = float(terrain.height(xy_w)) + r / nz1
-        top = float(terrain.max_height(p0_w, xy_w)) + r
-        xy1 = (Ro @ np.array([xy_w[0] - pos[0], xy_w[1] - pos[1], 0.0]))[:2] + self._pD[:2]
-        return np.array([xy1[0], xy1[1], p0[2] + z1 - z0]), p0[2] + top - z0
+        dyaw = _yaw_of(self._RD) - _yaw_of(R)
+        Ro = _rot_z(dyaw)
+
+        def to_w(p_o: np.ndarray) -> np.ndarray:  # horizontal pose / point (x, y[, yaw]) W_o → W
+            xy = Ro[:2, :2].T @ (p_o[:2] - self._pD[:2]) + pos[:2]
+            return np.array([*xy, p_o[2] - dyaw]) if len(p_o) == 3 else xy
+
+        tab, T = self.table, self.table.period
+        mf = self._map
+        stance = [to_w(self._predict(t, t_td + f * tab.duty * T)) for f in (0.0, 0.5, 1.0)]
+        c1 = mf.foothold(i, to_w(xy_o), stance)
+        a0 = mf.centre(to_w(p0[:2]))  # the map's ball centre under the lift-off point
+        a = np.array([*a0[:2], a0[2]])
+        lift = mf.swing_lift(
+            i, a, c1, lambda s: [to_w(self._predict(t, max(t_td - (1.0 - x) * tab.swing_fraction * T, 0.0))) for x in s]
+        )
+        xy1 = Ro[:2, :2] @ (c1[:2] - pos[:2]) + self._pD[:2]
+        return np.array([xy1[0], xy1[1], p0[2] + c1[2] - a0[2]]), lift
 
     def _swing(self, i: int, t: float, q: np.ndarray, touch: np.ndarray, T_sw: float) -> None:
         leg = self._legs[i]
