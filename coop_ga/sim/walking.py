@@ -213,7 +213,9 @@ class WalkingOptions:
     kp, kd: joint PD gains [N m/rad, N m s/rad] per joint kind (coxa, femur, tibia).
     touch_threshold: a foot is in contact above this normal force [N]; touchdown_depth: with feedback the swing
         aims this far [m] below the expected ground, so that the contact ends it; contact_hold: a stance foot
-        whose touch sensor read contact within this time [s] still carries load; search_speed [m/s], search_depth [m]:
+        whose touch sensor read contact within this time [s] still carries load; stumble_lift: a swing foot that
+        touches something before mid-swing goes on this far [m] above the higher of where it is and its
+        foothold; search_speed [m/s], search_depth [m]:
         how a late foot looks for the ground.  load_ramp: [s] feed-forward load ramp after touchdown / before
         lift-off.
     """
@@ -239,6 +241,7 @@ class WalkingOptions:
     kd: tuple[float, float, float] = (0.1, 0.1, 0.08)
     touch_threshold: float = 0.5
     touchdown_depth: float = 0.005
+    stumble_lift: float = 0.03
     contact_hold: float = 0.05
     search_speed: float = 0.06
     search_depth: float = 0.05
@@ -258,6 +261,7 @@ class WalkingOptions:
             "search_depth",
             "load_ramp",
             "touchdown_depth",
+            "stumble_lift",
             "contact_hold",
         ):
             validation.nonnegative(getattr(self, name), name)
@@ -535,7 +539,8 @@ class _Leg:
     tibia0: np.ndarray = field(default_factory=lambda: np.eye(3))  # W_o ← tibia rotation at touchdown
     target: np.ndarray = field(default_factory=lambda: np.zeros(3))  # its foot target in W_o
     path: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))  # the swing arc sampled at _ARC_S
-
+    s0: float = 0.0  # the swing progress where ``path`` starts (0, or where a stumble raised it)
+    raises: int = 0  # stumbles of the current swing
 
 class HexapodWalker:
     """The closed-loop walking controller (module docstring) for :class:`~coop_ga.sim.Simulation`.
@@ -619,7 +624,14 @@ class HexapodWalker:
                 stance_pose(self.nominal, range(k))
         self.records: list[tuple[Any, ...]] = []
         self.timing = {"plan_s": 0.0, "servo_s": 0.0, "plans": 0, "servo_calls": 0}
-        self.counts = {"touchdowns": 0, "early_touchdowns": 0, "searches": 0, "lost_feet": 0, "unsupported_plans": 0}
+        self.counts = {
+            "touchdowns": 0,
+            "early_touchdowns": 0,
+            "searches": 0,
+            "lost_feet": 0,
+            "stumbles": 0,
+            "unsupported_plans": 0,
+        }
         self._calls = 0
         self._started = False
 
@@ -762,7 +774,7 @@ class HexapodWalker:
             p1 = p1 - np.array([0.0, 0.0, opt.touchdown_depth])
         leg.arc = (p0, p1, lift, tau_lo)
         leg.path = swing_arc(p0, p1, lift, _ARC_S)[0]  # sampled once; interpolated at each plan
-        leg.mode = 1
+        leg.mode, leg.s0, leg.raises = 1, 0.0, 0
 
     def _predict(self, t: float, horizon: float) -> np.ndarray:
         """The reference pose (x, y, yaw) ``horizon`` [s] ahead: the command schedule through the acceleration
@@ -806,15 +818,25 @@ class HexapodWalker:
         return np.array([xy1[0], xy1[1], p0[2] + c1[2] - a0[2]]), lift
 
     def _swing(self, i: int, t: float, q: np.ndarray, touch: np.ndarray, T_sw: float) -> None:
+        """Leg i's swing at progress s: touchdown at contact from mid-swing on; a contact before mid-swing (the foot
+        stubbed a riser or a tile edge) raises the rest of the arc by ``stumble_lift`` (at most twice);
+        the end of the arc without contact starts the search (feedback) or is the touchdown (open loop)."""
+        from ..legged.gait import swing_arc
+
         leg = self._legs[i]
         assert leg.arc is not None
         p0, p1, lift, tau_lo = leg.arc
         s = min(max((self._tau_g - tau_lo) / T_sw, 0.0), 1.0)
         fb = self.options.feedback
-        if fb and s >= 0.5 and touch[i]:
+        if fb and touch[i] and s >= 0.5:
             self._touchdown(i, t, q, early=s < 1.0)
             return
-        x = s * (len(_ARC_S) - 1)
+        if fb and touch[i] and leg.raises < 2 and s > 0.1:
+            top = max(leg.target[2], p1[2]) + self.options.stumble_lift
+            leg.path = swing_arc(leg.target, p1, top - max(leg.target[2], p1[2]), _ARC_S)[0]
+            leg.s0, leg.raises = s, leg.raises + 1
+            self.counts["stumbles"] += 1
+        x = (s - leg.s0) / (1.0 - leg.s0) * (len(_ARC_S) - 1)
         k = min(int(x), len(_ARC_S) - 2)
         leg.target = leg.path[k] + (x - k) * (leg.path[k + 1] - leg.path[k])
         if s >= 1.0:
