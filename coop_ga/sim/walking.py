@@ -136,8 +136,11 @@ class VelocityCommand:
             d = validation.positive(duration, "duration")
             if d < 2 * r:
                 raise InvalidInputError(f"duration ({d} s) must be at least two ramps ({2 * r} s)")
-            ts += [s + d - r, s + d]
-            vs += [v, np.zeros(3)]
+            if d > 2 * r:
+                ts.append(s + d - r)
+                vs.append(v)
+            ts.append(s + d)
+            vs.append(np.zeros(3))
         return cls(np.array(ts), np.array(vs))
 
     @classmethod
@@ -782,11 +785,18 @@ class HexapodWalker:
         x, v = self._ref.copy(), self._vel.copy()
         h = 4.0 * self.dt
         n = math.ceil(horizon / h - 1e-9)
+        if n <= 0:
+            return x
+        ts = t + h * np.arange(1, n + 1)
+        C = np.column_stack([np.interp(ts, self.command.times, self.command.values[:, k]) for k in range(3)])
         for k in range(n):
             hk = min(h, horizon - k * h)
-            v = _limited(v, self.command.at(t + (k + 1) * h), self._accel, hk)
+            v = _limited(v, C[k], self._accel, hk)
             yaw = x[2] + 0.5 * v[2] * hk
-            x += hk * np.array([math.cos(yaw) * v[0] - math.sin(yaw) * v[1], math.sin(yaw) * v[0] + math.cos(yaw) * v[1], v[2]])
+            c, s = math.cos(yaw), math.sin(yaw)
+            x[0] += hk * (c * v[0] - s * v[1])
+            x[1] += hk * (s * v[0] + c * v[1])
+            x[2] += hk * v[2]
         return x
 
     def _map_foothold(
@@ -810,10 +820,7 @@ class HexapodWalker:
         stance = [to_w(self._predict(t, t_td + f * tab.duty * T)) for f in (0.0, 0.5, 1.0)]
         c1 = mf.foothold(i, to_w(xy_o), stance)
         a0 = mf.centre(to_w(p0[:2]))  # the map's ball centre under the lift-off point
-        a = np.array([*a0[:2], a0[2]])
-        lift = mf.swing_lift(
-            i, a, c1, lambda s: [to_w(self._predict(t, max(t_td - (1.0 - x) * tab.swing_fraction * T, 0.0))) for x in s]
-        )
+        lift = mf.swing_lift(i, a0, c1, (to_w(self._ref.copy()), stance[0]))
         xy1 = Ro[:2, :2] @ (c1[:2] - pos[:2]) + self._pD[:2]
         return np.array([xy1[0], xy1[1], p0[2] + c1[2] - a0[2]]), lift
 

@@ -21,7 +21,6 @@ centres), level (``tilt_follow`` toward that plane).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -38,7 +37,7 @@ SHIFTS: tuple[tuple[float, float], ...] = tuple(
 #: [m] the most a swing apex is raised to clear the leg's capsules
 MAX_EXTRA_LIFT = 0.05
 #: swing progress samples checked for clearance
-_SWING_S = np.linspace(0.1, 0.9, 9)
+_SWING_S = np.linspace(0.15, 0.85, 6)
 
 
 class MapFootholds:
@@ -130,19 +129,23 @@ class MapFootholds:
         self.shifts += int(best is not c0)
         return best
 
-    def swing_lift(self, i: int, a: np.ndarray, b: np.ndarray, swing_poses: Callable[[np.ndarray], list[Any]]) -> float:
+    def swing_lift(self, i: int, a: np.ndarray, b: np.ndarray, poses_ab: tuple[np.ndarray, np.ndarray]) -> float:
         """The apex lift [m] of leg i's swing a → b (world): ``lift_height`` above the highest terrain under it,
         raised until the ball (while it moves across) and the leg's capsules stay ``clearance_margin`` off the
-        terrain; ``swing_poses(s)`` gives the predicted body poses at swing progress s (module docstring)."""
+        terrain; the body moves from the horizontal pose ``poses_ab[0]`` (lift-off) to ``poses_ab[1]``
+        (touchdown) during the swing (interpolated between the two predicted bodies)."""
         from ..legged.gait import swing_arc
+        from .walking import _expm_so3, _rotvec
 
         top = float(self.terrain.max_height(a[:2], b[:2])) + self.r
         lift = max(top, a[2], b[2]) - max(a[2], b[2]) + self.lift
         lift0 = lift
-        poses = [self.body(p) for p in swing_poses(_SWING_S)]
+        (p0, R0), (p1, R1) = (self.body(p) for p in poses_ab)
+        w = _rotvec(R0.T @ R1)
+        poses = [(p0 + s * (p1 - p0), R0 @ _expm_so3(s * w)) for s in _SWING_S]
+        moving = (_SWING_S > 0.15) & (_SWING_S < 0.85)
         for _ in range(6):
             pts = swing_arc(a, b, lift, _SWING_S)[0]
-            moving = (_SWING_S > 0.15) & (_SWING_S < 0.85)
             ball = float(np.min(self.terrain.solid_distance(pts[moving]))) - self.r
             worst = min(self.clearance(i, pts, poses), ball)
             if worst >= self.margin or lift - lift0 >= MAX_EXTRA_LIFT or worst == -math.inf:
