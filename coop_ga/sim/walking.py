@@ -200,7 +200,10 @@ class WalkingOptions:
         below the body; the body is then 0.109 m above the ground).
     foot_reach: nominal foothold's distance from the coxa axis along the mounting direction [m].
     lift_height: swing apex above the highest terrain under the swing, with the map [m] (raised where a leg
-        capsule needs it); blind_lift: above the higher end of the swing, blind [m].
+        capsule needs it); blind_lift: above the higher end of the swing, blind [m]; blind_reach: blind, the
+        expected foothold height (the stance anchors' plane extrapolated) stays within this of the lift-off
+        height [m]; foot_drop: a swing's apex stays at least this far [m] below the body (higher, the femur
+        reaches its limit).
     edge_clearance, clearance_margin: with the map, footholds keep their contact this far [m] from the terrain's
         cell edges, and the leg capsules this far above the terrain (:mod:`coop_ga.sim.walking_map`).
     blind: plan without the terrain and the localisation; feedback: False for the open-loop replay (module
@@ -229,7 +232,9 @@ class WalkingOptions:
     ride_height: float = 0.1
     foot_reach: float = 0.16
     lift_height: float = 0.02
-    blind_lift: float = 0.05
+    blind_lift: float = 0.04
+    blind_reach: float = 0.01
+    foot_drop: float = 0.035
     edge_clearance: float = 0.016
     clearance_margin: float = 0.004
     blind: bool = False
@@ -257,6 +262,8 @@ class WalkingOptions:
         for name in (
             "lift_height",
             "blind_lift",
+            "blind_reach",
+            "foot_drop",
             "edge_clearance",
             "clearance_margin",
             "posture_gain",
@@ -633,6 +640,7 @@ class HexapodWalker:
             "searches": 0,
             "lost_feet": 0,
             "stumbles": 0,
+            "held_lift_offs": 0,
             "unsupported_plans": 0,
         }
         self._calls = 0
@@ -716,14 +724,16 @@ class HexapodWalker:
         waiting = any(leg.mode == _MODES["search"] for leg in self._legs)
         airborne = any(leg.mode != 0 for leg in self._legs)
         advanced = not waiting and (moving or airborne)
+        saved = (self._tau_g, self._ref.copy(), self._vel.copy())
         if advanced:
             self._tau_g += self.dt
             self._vel = _limited(self._vel, cmd, self._accel, self.dt)
             v = self._vel
             c, s = math.cos(self._ref[2]), math.sin(self._ref[2])
             self._ref += self.dt * np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
-        if advanced or waiting:  # the gait clock ran (or waits for a foot): lift-offs, swings, searches
-            self._gait_events(t, q, data, touch, cmd if moving else None)
+        if (advanced or waiting) and not self._gait_events(t, q, data, touch, cmd if moving else None):
+            self._tau_g, self._ref, self._vel = saved  # the clock waits for the support
+            return True
         return waiting
 
     def _support(self, t: float, touch: np.ndarray) -> tuple[int, ...]:
@@ -739,21 +749,29 @@ class HexapodWalker:
         return tuple(i for i, leg in enumerate(self._legs) if leg.mode == 0 and t - leg.last_touch <= hold)
 
     # ------------------------------------------------------------------ gait
-    def _gait_events(self, t: float, q: np.ndarray, data: Any, touch: np.ndarray, cmd: np.ndarray | None) -> None:
-        """Lift-offs where the gait clock crossed a leg's lift-off phase this plan (none while the command is
-        zero: a stopped robot keeps its feet down), then the swings and searches."""
+    def _gait_events(self, t: float, q: np.ndarray, data: Any, touch: np.ndarray, cmd: np.ndarray | None) -> bool:
+        """The swings and searches, then the lift-offs where the gait clock crossed a leg's lift-off phase this
+        plan (none while the command is zero: a stopped robot keeps its feet down).  Returns False if a lift-off
+        must wait (a foot is late, or the support would drop below three feet): the clock is then set back."""
         tab = self.table
         T, sigma = tab.period, tab.swing_fraction
-        for i, leg in enumerate(self._legs):
-            before = math.floor(self._tau_prev / T - tab.offsets[i])
-            now = math.floor(self._tau_g / T - tab.offsets[i])
-            if leg.mode == 0 and now > before and cmd is not None and t - leg.touchdown > 0.5 * sigma * T:
-                self._lift_off(i, (now + tab.offsets[i]) * T, t, data)
-            elif leg.mode == 1:
+        for i, leg in enumerate(self._legs):  # swings and searches first: a late foot holds the lift-offs
+            if leg.mode == 1:
                 self._swing(i, t, q, touch, sigma * T)
             elif leg.mode == 2:
                 self._search(i, t, q, touch)
+        late = any(leg.mode == 2 for leg in self._legs)
+        for i, leg in enumerate(self._legs):
+            before = math.floor(self._tau_prev / T - tab.offsets[i])
+            now = math.floor(self._tau_g / T - tab.offsets[i])
+            support = sum(1 for j, o in enumerate(self._legs) if j != i and o.mode == 0)
+            if leg.mode == 0 and now > before and cmd is not None and t - leg.touchdown > 0.5 * sigma * T:
+                if late or support < 3:  # never lift a leg off a support of fewer than three feet: wait
+                    self.counts["held_lift_offs"] += 1
+                    return False
+                self._lift_off(i, (now + tab.offsets[i]) * T, t, data)
         self._tau_prev = self._tau_g
+        return True
 
     def _lift_off(self, i: int, tau_lo: float, t: float, data: Any) -> None:
         from ..legged.gait import swing_arc
@@ -767,12 +785,18 @@ class HexapodWalker:
         xy = ref_mid[:2] + _rot_z(ref_mid[2])[:2, :2] @ self.nominal[i, :2]
         p0 = leg.target.copy()  # where its foot is commanded now (the anchor moved by rolling)
         if opt.blind:
+            # the plane of the other stance anchors extrapolated to the foothold, at most blind_reach off the
+            # lift-off height (anchors straddling a step tilt that plane)
             P = np.array([self._legs[j].anchor for j in range(6) if j != i and self._legs[j].mode == 0])
             n, d = _fit_plane(P) if len(P) >= 3 else (np.array([0.0, 0.0, 1.0]), float(p0[2]))
-            p1 = np.array([xy[0], xy[1], (d - n[0] * xy[0] - n[1] * xy[1]) / n[2]])
+            z = (d - n[0] * xy[0] - n[1] * xy[1]) / n[2]
+            p1 = np.array([xy[0], xy[1], p0[2] + min(max(z - p0[2], -opt.blind_reach), opt.blind_reach)])
             lift = opt.blind_lift
         else:
             p1, lift = self._map_foothold(i, t, max(t_td, 0.0), p0, xy, data)
+        # the apex stays foot_drop below the body: a swing higher than that bends the femur onto its limit
+        top = max(p0[2], p1[2])
+        lift = max(min(lift, self._pD[2] - opt.foot_drop - top), 0.01)
         if opt.feedback:  # aim below the expected ground: the contact, not the end of the arc, ends the swing
             p1 = p1 - np.array([0.0, 0.0, opt.touchdown_depth])
         leg.arc = (p0, p1, lift, tau_lo)
