@@ -27,73 +27,20 @@ height error over time, the three variants, per disturbance) and ``timing.json``
 
 from __future__ import annotations
 
-import math
 import sys
 import time
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from coop_ga.harness import Experiment, int_at_least, positive_float
-
-VARIANTS = ("feedback", "contacts_only", "open_loop")
-DISTURBANCES = ("step", "push", "slope")
+from coop_ga.sim.walking_experiments import DISTURBANCES, VARIANTS
 
 
-def _options(variant: str, base: Any) -> Any:
-    if variant == "feedback":
-        return replace(base, blind=True)
-    if variant == "contacts_only":
-        return replace(base, blind=True, posture_gain=0.0)
-    return replace(base, blind=True, feedback=False)
+def _row(spec: tuple[str, str, float]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    from coop_ga.sim.walking_experiments import ablation_row
 
-
-def scenario(disturbance: str, t_push: float) -> tuple[Any, tuple[Any, ...]]:
-    """(terrain, disturbances) of a disturbance (module docstring)."""
-    from coop_ga.legged import Terrain
-    from coop_ga.sim import Disturbance
-
-    if disturbance == "step":
-        return Terrain.steps(step_height=0.03, step_length=10.0, start_x=0.15, n_steps=1), ()
-    if disturbance == "slope":
-        return Terrain.slope(math.radians(5.0)), ()
-    push = Disturbance("base_link_free", force=(0.0, 10.0, 0.0), start=t_push, stop=t_push + 0.3)
-    return Terrain.flat(), (push,)
-
-
-def one_run(spec: tuple[str, str, float, bool]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """One (variant, disturbance) walk; returns its metrics and its time series (t, roll, pitch, height error)."""
-    from coop_ga.sim.walking import VelocityCommand, WalkingOptions
-    from coop_ga.sim.walking_run import simulate_walk
-
-    variant, disturbance, distance, fast = spec
-    base = WalkingOptions(gait="tripod")
-    tab = base.table()
-    v = 0.08 / (tab.duty * tab.period)
-    ramp = tab.period
-    cruise = max(distance / v - ramp, 0.0)
-    cmd = VelocityCommand.constant(v, ramp=ramp, duration=cruise + 2 * ramp)
-    terrain, dist = scenario(disturbance, t_push=0.3 + ramp + 0.5 * cruise)
-    t0 = time.perf_counter()
-    run = simulate_walk(
-        terrain, cmd, _options(variant, base), duration=cmd.end + 0.5 * tab.period, disturbances=dist,
-        label=f"{variant}_{disturbance}",
-    )  # fmt: skip
-    m = dict(run.metrics())
-    m["wall_s"] = time.perf_counter() - t0
-    m["variant"], m["disturbance"] = variant, disturbance
-    rpy = np.degrees(run.rpy())
-    th, he = run.height_errors()
-    step = max(1, len(run.log.time) // 600)
-    series = {
-        "t": run.log.time[::step],
-        "roll": rpy[::step, 0],
-        "pitch": rpy[::step, 1],
-        "t_plan": th,
-        "height_error": he,
-    }
-    return m, series
+    return ablation_row(*spec)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -104,16 +51,18 @@ def main(argv: list[str] | None = None) -> int:
     args = exp.parse(argv)
     t_start = time.perf_counter()
     distance = 0.25 if args.fast else float(args.distance)
-    specs = [(v, d, distance, bool(args.fast)) for d in DISTURBANCES for v in VARIANTS]
+    specs = [(v, d, distance) for d in DISTURBANCES for v in VARIANTS]
     with exp.stage(f"{len(specs)} walks in MuJoCo"):
         if args.jobs > 1:
             import multiprocessing as mp
             from concurrent.futures import ProcessPoolExecutor
 
+            from coop_ga.sim.walking_experiments import ablation_row
+
             with ProcessPoolExecutor(max_workers=args.jobs, mp_context=mp.get_context("spawn")) as pool:
-                results = list(pool.map(one_run, specs))
+                results = [f.result() for f in [pool.submit(ablation_row, *s) for s in specs]]
         else:
-            results = [one_run(s) for s in exp.progress(specs, "runs")]
+            results = [_row(s) for s in exp.progress(specs, "runs")]
     rows = [m for m, _ in results]
     _plot(exp, results)
     (exp.out / "table.md").write_text(_table(rows))
@@ -180,12 +129,16 @@ def _metrics(rows: list[dict[str, Any]], fast: bool) -> dict[str, Any]:
             "fell_open_loop": ol["fell"],
         }
     helps = [d for d in DISTURBANCES if comp[d]["feedback_better_tilt"] and comp[d]["feedback_better_height"]]
-    evidence = "; ".join(
-        f"{d}: tilt {c['tilt_feedback_deg']:.2f}° with feedback vs {c['tilt_open_loop_deg']:.2f}° open loop, height "
-        f"error {1e3 * c['height_error_feedback_m']:.1f} vs {1e3 * c['height_error_open_loop_m']:.1f} mm"
-        f"{', open loop fell' if c['fell_open_loop'] else ''}{', feedback fell' if c['fell_feedback'] else ''}"
-        for d, c in comp.items()
-    ) + "." + (" Fast mode: 0.25 m walks." if fast else "")
+    evidence = (
+        "; ".join(
+            f"{d}: tilt {c['tilt_feedback_deg']:.2f}° with feedback vs {c['tilt_open_loop_deg']:.2f}° open loop, height "
+            f"error {1e3 * c['height_error_feedback_m']:.1f} vs {1e3 * c['height_error_open_loop_m']:.1f} mm"
+            f"{', open loop fell' if c['fell_open_loop'] else ''}{', feedback fell' if c['fell_feedback'] else ''}"
+            for d, c in comp.items()
+        )
+        + "."
+        + (" Fast mode: 0.25 m walks." if fast else "")
+    )
     return {
         "fast": fast,
         "runs": {m["label"]: m for m in rows},

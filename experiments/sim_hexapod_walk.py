@@ -32,10 +32,10 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 from coop_ga.harness import Experiment, int_at_least, positive_float
+from coop_ga.sim.walking_experiments import run_name
 
 GAITS = ("tripod", "ripple", "wave")
 TERRAINS = ("flat", "slope", "steps", "random")
@@ -43,52 +43,11 @@ TERRAINS = ("flat", "slope", "steps", "random")
 DEFAULT_GIFS = ("tripod_flat_map", "ripple_steps_blind", "wave_random_map")
 
 
-def run_name(gait: str, terrain: str, blind: bool) -> str:
-    return f"{gait}_{terrain}_{'blind' if blind else 'map'}"
+def _row(spec: tuple[str, str, bool, dict[str, Any]]) -> dict[str, Any]:
+    from coop_ga.sim.walking_experiments import walk_row
 
-
-def command_for(gait: str, distance: float, fast: bool) -> tuple[Any, Any, float]:
-    """(VelocityCommand, WalkingOptions, duration [s]) of a straight walk of ``distance`` [m] at the gait's
-    nominal speed, ramped in and out over one cycle (half a cycle with ``fast``, the acceleration limit
-    raised to match)."""
-    from coop_ga.sim.walking import VelocityCommand, WalkingOptions
-
-    opt = WalkingOptions(gait=gait)
-    tab = opt.table()
-    v = 0.08 / (tab.duty * tab.period)
-    ramp = (0.5 if fast else 1.0) * tab.period
-    if fast:
-        opt = WalkingOptions(gait=gait, max_accel=v / ramp)
-    cruise = max(distance / v - ramp, 0.0)
-    cmd = VelocityCommand.constant(v, ramp=ramp, duration=cruise + 2 * ramp)
-    return cmd, opt, float(cmd.end + (0.3 if fast else 0.5 * tab.period))
-
-
-def one_run(spec: tuple[str, str, bool, float, bool, str, str, bool, int]) -> dict[str, Any]:
-    """Simulate one run (in a worker process with --jobs) and write its files; returns its metrics."""
-    from dataclasses import replace
-
-    from coop_ga.legged import Terrain
-    from coop_ga.sim.walking import VelocityCommand
-    from coop_ga.sim.walking_run import render_walk, simulate_walk
-
-    gait, terrain, blind, distance, fast, command, out, gif, seed = spec
-    name = run_name(gait, terrain, blind)
-    cmd, opt, duration = command_for(gait, distance, fast)
-    if command == "tour":
-        v = float(cmd.values[1, 0])
-        cmd = VelocityCommand.tour(v, 0.1, leg=2.0 if fast else 4.0)
-        duration = cmd.end + opt.period
-    opt = replace(opt, blind=blind)
-    t0 = time.perf_counter()
-    run = simulate_walk(Terrain.make(terrain, seed=seed), cmd, opt, duration=duration, label=name, visuals=gif)
-    m = dict(run.metrics())
-    m["wall_s"] = time.perf_counter() - t0
-    if not fast:
-        run.save(Path(out) / name)
-    if gif:
-        render_walk(run, Path(out) / f"walk_{name}.gif", fps=8.0 if fast else 5.0, width=400, height=300)
-    return m
+    gait, terrain, blind, kw = spec
+    return walk_row(gait, terrain, blind, **kw)
 
 
 TABLE_COLS = (
@@ -142,19 +101,21 @@ def main(argv: list[str] | None = None) -> int:
     )
     gifs = set(DEFAULT_GIFS if args.gifs is None else args.gifs) if args.all else {run_name(*combos[0])}
     seed = int(exp.seed if exp.seed is not None else 0)
-    specs = [
-        (g, t, b, 0.0 if args.fast else args.distance, args.fast, args.command, str(exp.out), run_name(g, t, b) in gifs, seed)
-        for g, t, b in combos
-    ]
+    kw = {"distance": 0.0 if args.fast else args.distance, "fast": args.fast, "tour": args.command == "tour"}
+    kw |= {"out": str(exp.out), "save": not args.fast, "seed": seed}
+    specs = [(g, t, b, {**kw, "gif": run_name(g, t, b) in gifs}) for g, t, b in combos]
     with exp.stage(f"walking {len(specs)} run(s) in MuJoCo"):
         if args.jobs > 1 and len(specs) > 1:
             import multiprocessing as mp
             from concurrent.futures import ProcessPoolExecutor
 
+            from coop_ga.sim.walking_experiments import walk_row
+
             with ProcessPoolExecutor(max_workers=args.jobs, mp_context=mp.get_context("spawn")) as pool:
-                rows = list(pool.map(one_run, specs))
+                futs = [pool.submit(walk_row, g, t, b, **k) for g, t, b, k in specs]
+                rows = [f.result() for f in futs]
         else:
-            rows = [one_run(s) for s in exp.progress(specs, "runs")]
+            rows = [_row(s) for s in exp.progress(specs, "runs")]
     for m in rows:
         print(f"{m['label']:24s} walked {m['walked_fraction']:.1%}, tilt ≤ {max(m['max_roll_deg'], m['max_pitch_deg']):.2f}°, "
               f"height err {1e3 * m['max_height_error_m']:.1f} mm, slip {1e3 * m['max_slip_m']:.2f} mm, clipped "

@@ -92,6 +92,20 @@ FIGURES: tuple[Figure, ...] = (
     Figure("obstacles", "ours_obstacle_circle", "experiments/obstacle_circle.py", addition=True),
     Figure("potential_field", "ours_potential_field", "experiments/potential_field.py", addition=True),
     Figure("linkages", "ours_linkages", "experiments/linkages.py", addition=True),
+    Figure(
+        "sim_hexapod_walk",
+        "ours_sim_hexapod_walk",
+        "experiments/sim_hexapod_walk.py",
+        ("--all", "--fast", "--jobs", "2"),
+        addition=True,
+    ),
+    Figure(
+        "sim_hexapod_ablation",
+        "ours_sim_hexapod_ablation",
+        "experiments/sim_hexapod_ablation.py",
+        ("--fast", "--jobs", "2"),
+        addition=True,
+    ),
 )
 
 

@@ -205,7 +205,7 @@ def terrain_geoms(terrain: Any, region: Any) -> list[dict[str, Any]]:
     xs, ys = _cells(terrain.x_edges, x0, x1), _cells(terrain.y_edges, y0, y1)
     bottom = float(min(heights[iy, ix] for iy, _, _ in ys for ix, _, _ in xs)) - _BOX_DEPTH
     span = float(np.ptp(heights)) or 1.0
-    out = []
+    out: list[dict[str, Any]] = []
     for ix, a, b in xs:
         k = 0
         while k < len(ys):  # merge runs of equal height along y
@@ -384,6 +384,7 @@ def hexapod_scene(
         raise InvalidInputError(f"geometry must be a HexapodGeometry, got {type(g).__name__}")
     system = systems.load("hexapod")
     lim = system.limits
+    assert lim is not None  # a registered system has its URDF limits
     base = build_scene(
         system,
         floor=None,

@@ -552,6 +552,7 @@ class _Leg:
     s0: float = 0.0  # the swing progress where ``path`` starts (0, or where a stumble raised it)
     raises: int = 0  # stumbles of the current swing
 
+
 class HexapodWalker:
     """The closed-loop walking controller (module docstring) for :class:`~coop_ga.sim.Simulation`.
 
@@ -658,13 +659,16 @@ class HexapodWalker:
         self._calls += 1
         t0 = _time.perf_counter()
         h = min(t - self._t_plan, self.dt)
-        tau = self._tau_ff + self._kp * (self._qD + self._qdD * h - q) + (self._kd + self._b) * self._qdD - self._kd * qd
+        tau = (
+            self._tau_ff + self._kp * (self._qD + self._qdD * h - q) + (self._kd + self._b) * self._qdD - self._kd * qd
+        )
         self.timing["servo_s"] += _time.perf_counter() - t0
         self.timing["servo_calls"] += 1
         return tau
 
     def _true_pose(self, data: Any) -> tuple[np.ndarray, np.ndarray]:
         a = self.hs.scene.base_qpos
+        assert a is not None  # the hexapod scene has a free base
         return np.array(data.qpos[a : a + 3]), _quat_to_R(np.array(data.qpos[a + 3 : a + 7]))
 
     def _start(self, t: float, q: np.ndarray, data: Any) -> None:
@@ -856,7 +860,7 @@ class HexapodWalker:
 
         leg = self._legs[i]
         assert leg.arc is not None
-        p0, p1, lift, tau_lo = leg.arc
+        _p0, p1, _lift, tau_lo = leg.arc
         s = min(max((self._tau_g - tau_lo) / T_sw, 0.0), 1.0)
         fb = self.options.feedback
         if fb and touch[i] and s >= 0.5:
@@ -1020,7 +1024,9 @@ class HexapodWalker:
         mask = np.zeros(6, bool)
         mask[list(stance)] = True
         modes = np.array([leg.mode for leg in self._legs], np.int8)
-        self.records.append((t, mask, touch.copy(), modes, err.copy(), u.copy(), (self._pD, self._RD), self._qD.copy(), waiting))
+        self.records.append(
+            (t, mask, touch.copy(), modes, err.copy(), u.copy(), (self._pD, self._RD), self._qD.copy(), waiting)
+        )
 
     #: names of :meth:`records_arrays`
     RECORD_FIELDS = ("t", "stance", "contact", "mode", "posture_error", "body_twist", "plan_pose", "q_plan", "waiting")
@@ -1032,7 +1038,7 @@ class HexapodWalker:
         the stance plane's error rows (e13, e23 [rad], e3∞ [m]); ``body_twist`` (P, 6) u = (v, ω) of D in B;
         ``plan_pose`` (P, 7) D's body pose (position [m], quaternion w, x, y, z) in W_o; ``q_plan`` (P, 18);
         ``waiting`` (P,) bool: the gait waited for a late foot."""
-        cols = list(zip(*self.records)) if self.records else [[] for _ in self.RECORD_FIELDS]
+        cols: list[Any] = list(zip(*self.records)) if self.records else [[] for _ in self.RECORD_FIELDS]
         out = {name: np.array(col) for name, col in zip(self.RECORD_FIELDS, cols) if name != "plan_pose"}
         poses = cols[6] if self.records else []
         out["plan_pose"] = np.array([np.concatenate([p, _R_to_quat(R)]) for p, R in poses]).reshape(-1, 7)

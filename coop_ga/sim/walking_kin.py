@@ -24,6 +24,8 @@ yaws of every leg, batches); this module recomputes the same numbers for one con
 from __future__ import annotations
 
 import math
+from typing import Any
+
 import numpy as np
 
 __all__ = ["FastLegs", "plane_error", "plane_log", "rotation_from_tangent", "stance_map", "tangent_of_rotation"]

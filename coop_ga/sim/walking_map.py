@@ -30,7 +30,11 @@ __all__ = ["MAX_EXTRA_LIFT", "SHIFTS", "MapFootholds"]
 #: foothold shifts (dx, dy) [m] in the world tried when a leg capsule would touch the terrain, nearest first
 SHIFTS: tuple[tuple[float, float], ...] = tuple(
     sorted(
-        {(round(dx, 3), round(dy, 3)) for dx in np.arange(-0.05, 0.0501, 0.01) for dy in np.arange(-0.03, 0.0301, 0.01)},
+        {
+            (round(dx, 3), round(dy, 3))
+            for dx in np.arange(-0.05, 0.0501, 0.01)
+            for dy in np.arange(-0.03, 0.0301, 0.01)
+        },
         key=lambda d: (math.hypot(*d), d),
     )
 )[1:]
@@ -67,6 +71,7 @@ class MapFootholds:
         self.edge, self.margin, self.lift = float(edge_clearance), float(clearance_margin), float(lift_height)
         self.shifts = 0
         self.raised = 0
+        self._fl: Any = None
 
     # ------------------------------------------------------------------ geometry
     def centre(self, xy: np.ndarray) -> np.ndarray:
@@ -94,8 +99,9 @@ class MapFootholds:
         from ..legged.contact import leg_clearance
         from .walking_kin import FastLegs
 
-        fl = FastLegs(self.legs) if not hasattr(self, "_fl") else self._fl
-        self._fl = fl
+        if self._fl is None:
+            self._fl = FastLegs(self.legs)
+        fl = self._fl
         P = np.array([p for p, _ in poses])
         R = np.array([r for _, r in poses])
         qs = []

@@ -116,7 +116,9 @@ class GroundTruth:
             p = np.array(d.site_xpos[sid])
             n = self._normal if self._normal is not None else self.hs.terrain.normal(p[:2])
             w, r = self._v[:3], -self.r * n
-            vc = self._v[3:] + np.array([w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]])
+            vc = self._v[3:] + np.array(
+                [w[1] * r[2] - w[2] * r[1], w[2] * r[0] - w[0] * r[2], w[0] * r[1] - w[1] * r[0]]
+            )
             # (the velocity of the ball's material point at the contact: v + ω × (−r n))
             vt = vc - (vc @ n) * n
             if st is None:
@@ -155,6 +157,13 @@ class WalkRun:
     wall_s: float = 0.0
     settle: float = 0.3
     _metrics: dict[str, Any] | None = field(default=None, repr=False)
+    _records: dict[str, np.ndarray] | None = field(default=None, repr=False)
+
+    def records(self) -> dict[str, np.ndarray]:
+        """The walker's plan records (:meth:`~coop_ga.sim.walking.HexapodWalker.records_arrays`), computed once."""
+        if self._records is None:
+            self._records = self.walker.records_arrays()
+        return self._records
 
     # ------------------------------------------------------------------ body
     @property
@@ -184,7 +193,7 @@ class WalkRun:
             on = touch > thr
             if on.sum() >= 3:
                 n, d = _fit_plane(feet[on])
-                i = min(int(round(t / float(self.hs.model.opt.timestep))), len(pos) - 1)
+                i = min(round(t / float(self.hs.model.opt.timestep)), len(pos) - 1)
                 err[k] = float(n @ pos[i] - d) - self.options.ride_height
         return ts, err
 
@@ -258,7 +267,7 @@ class WalkRun:
         """Per physics step: ``body_pose`` (T, 7) position [m] + quaternion (w, x, y, z) of the body, ``stance``
         (T, 6) bool — the stance set of the plan in force at that step (legs in :data:`HEXAPOD_LEGS` order)."""
         pos, quat = self.base
-        rec = self.walker.records_arrays()
+        rec = self.records()
         T = len(self.log.time)
         idx = np.clip(np.searchsorted(rec["t"], self.log.time, side="right") - 1, 0, len(rec["t"]) - 1)
         return {"body_pose": np.hstack([pos, quat]), "stance": rec["stance"][idx][:T]}
@@ -273,7 +282,7 @@ class WalkRun:
         with np.load(out / "log.npz") as z:
             arrays = {k: z[k] for k in z.files}
         arrays |= self.step_arrays()
-        arrays |= {f"plan_{k}": v for k, v in self.walker.records_arrays().items()}
+        arrays |= {f"plan_{k}": v for k, v in self.records().items()}
         arrays |= self.hs.terrain.to_arrays()
         arrays["legs"] = np.array(HEXAPOD_LEGS)
         np.savez_compressed(out / "log.npz", **arrays)
@@ -297,8 +306,7 @@ def stance_overlays(run: WalkRun, k: int, data: Any) -> list[Any]:
     from ..legged.walk import convex_hull
     from . import render as R
 
-    rec = run.walker.records_arrays() if not hasattr(run, "_rec") else run._rec  # type: ignore[attr-defined]
-    run._rec = rec  # type: ignore[attr-defined]
+    rec = run.records()
     j = int(np.clip(np.searchsorted(rec["t"], run.log.time[k], side="right") - 1, 0, len(rec["t"]) - 1))
     st = rec["stance"][j]
     feet = np.array(data.site_xpos[run.hs.foot_sites])
@@ -311,11 +319,11 @@ def stance_overlays(run: WalkRun, k: int, data: Any) -> list[Any]:
         c = ring.mean(axis=0)
         out.append(lambda scn, ring=ring: R.add_polyline(scn, ring, (0.1, 0.65, 0.35, 1.0), 0.003, closed=True))
         out.append(lambda scn, c=c, n=n: R.add_arrow(scn, c, 0.06 * n, (0.1, 0.65, 0.35, 1.0), 0.004))
-    b = run.hs.scene.base_qpos
-    assert b is not None
-    pos = np.array(data.qpos[b : b + 3])
-    zb = np.array(data.xmat[run.hs.scene.id_of("body", run.hs.scene.base_body)]).reshape(3, 3)[:, 2]
-    out.append(lambda scn: R.add_arrow(scn, pos, 0.08 * zb, (0.85, 0.3, 0.1, 1.0), 0.004))
+    b, body = run.hs.scene.base_qpos, run.hs.scene.base_body
+    assert b is not None and body is not None
+    zb = np.array(data.xmat[run.hs.scene.id_of("body", body)]).reshape(3, 3)[:, 2]
+    top = np.array(data.qpos[b : b + 3]) + 0.02 * zb  # on the body's top face
+    out.append(lambda scn: R.add_arrow(scn, top, 0.08 * zb, (0.85, 0.3, 0.1, 1.0), 0.004))
     return out
 
 
@@ -340,6 +348,7 @@ def render_walk(
             d.qpos[:], d.qvel[:], d.time = run.log.qpos[k], run.log.qvel[k], float(run.log.time[k])
             mj().mj_forward(m, d)
             b = run.hs.scene.base_qpos
+            assert b is not None
             cam = R.Camera(lookat=np.array(d.qpos[b : b + 3]) - np.array([0.0, 0.0, 0.05]), distance=0.75, azimuth=130.0,
                            elevation=-28.0)  # fmt: skip
             imgs.append(ren.frame(d, stance_overlays(run, int(k), d), camera=cam))

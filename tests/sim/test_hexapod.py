@@ -50,7 +50,10 @@ def test_feet_and_body_equal_pinocchio_fk_of_hexapod_floating() -> None:
         hs.scene.set_base_pose(data, state.position, np.roll(state.quaternion_xyzw(), 1))
         mujoco.mj_kinematics(hs.model, data)
         for i, leg in enumerate(HEXAPOD_LEGS):
-            err_feet = max(err_feet, float(np.abs(data.site_xpos[hs.foot_sites[i]] - d.oMf[m.getFrameId(f"{leg}_foot")].translation).max()))
+            err_feet = max(
+                err_feet,
+                float(np.abs(data.site_xpos[hs.foot_sites[i]] - d.oMf[m.getFrameId(f"{leg}_foot")].translation).max()),
+            )
         b = hs.scene.id_of("body", hs.scene.base_body)
         M = d.oMf[m.getFrameId("base_link")]
         err_body = max(err_body, float(np.abs(data.xpos[b] - M.translation).max()))

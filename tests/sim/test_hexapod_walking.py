@@ -56,7 +56,10 @@ def test_fast_legs_equal_the_leg_model_and_pinocchio() -> None:
         worst[2] = max(worst[2], np.abs(qi - legs.ik(p, check_limits=False)).max())
         pin.forwardKinematics(m, d, q)
         R = fl.tibia_rotations(q)
-        worst[3] = max(worst[3], max(np.abs(R[i] - d.oMi[m.getJointId(f"{leg}_tibia_joint")].rotation).max() for i, leg in enumerate(LEGS)))
+        worst[3] = max(
+            worst[3],
+            max(np.abs(R[i] - d.oMi[m.getJointId(f"{leg}_tibia_joint")].rotation).max() for i, leg in enumerate(LEGS)),
+        )
     assert np.all(worst < 1e-12), worst
 
 
