@@ -20,7 +20,7 @@ the terrain), contact slip ≤ 5 mm per stance, no torque clipped at the URDF ef
 Writes to ``--out``: per run a folder ``<gait>_<terrain>_<map|blind>/`` with ``model.xml``, ``log.npz`` (the
 simulation's log — ``time``, ``qpos``, ``qvel``, ``ctrl`` — plus ``body_pose`` and ``stance`` per step, the
 plans as ``plan_*``, the terrain as ``terrain_*``; :func:`coop_ga.sim.replay` replays it) and ``metrics.json``
-(not with ``--fast``: the logs are MBs); ``metrics.json`` with every run's numbers and the gallery block,
+(with ``--fast`` only for the GIF runs: the logs are MBs); ``metrics.json`` with every run's numbers and the gallery block,
 ``table.md`` (the table of the runs) and MuJoCo-rendered GIFs of the ``--gifs`` runs (stance primitive drawn
 over its support polygon, the body's z axis in orange).
 
@@ -102,8 +102,11 @@ def main(argv: list[str] | None = None) -> int:
     gifs = set(DEFAULT_GIFS if args.gifs is None else args.gifs) if args.all else {run_name(*combos[0])}
     seed = int(exp.seed if exp.seed is not None else 0)
     kw = {"distance": 0.0 if args.fast else args.distance, "fast": args.fast, "tour": args.command == "tour"}
-    kw |= {"out": str(exp.out), "save": not args.fast, "seed": seed}
-    specs = [(g, t, b, {**kw, "gif": run_name(g, t, b) in gifs}) for g, t, b in combos]
+    kw |= {"out": str(exp.out), "seed": seed}
+    specs = [
+        (g, t, b, {**kw, "gif": run_name(g, t, b) in gifs, "save": not args.fast or run_name(g, t, b) in gifs})
+        for g, t, b in combos
+    ]
     with exp.stage(f"walking {len(specs)} run(s) in MuJoCo"):
         if args.jobs > 1 and len(specs) > 1:
             import multiprocessing as mp
