@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from .. import validation
+from ..errors import InvalidInputError
 from .walking import VelocityCommand, WalkingOptions
 from .walking_run import render_walk, simulate_walk
 
@@ -94,13 +96,22 @@ def disturbance_scenario(disturbance: str, t_push: float) -> tuple[Any, tuple[An
         return Terrain.slope(math.radians(5.0)), ()
     if disturbance == "push":
         return Terrain.flat(), (Disturbance("base_link_free", force=(0.0, 10.0, 0.0), start=t_push, stop=t_push + 0.3),)
-    raise ValueError(f"unknown disturbance {disturbance!r}; choose from {DISTURBANCES}")
+    raise InvalidInputError(f"disturbance must be one of {DISTURBANCES}, got {disturbance!r}")
 
 
-def ablation_row(variant: str, disturbance: str, distance: float) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """One blind tripod walk of ``distance`` [m] of the ablation (module docstring): its metrics and its time
-    series (``t``, ``roll``, ``pitch`` [°] every few steps, ``t_plan``, ``height_error`` [m] per plan)."""
-    cmd, base, duration = straight_command("tripod", distance)
+def ablation_row(
+    variant: str, disturbance: str, distance: float, fast: bool = False
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """One blind tripod walk of ``distance`` [m] of the ablation (module docstring; ``fast``: the short ramps of
+    :func:`straight_command`): its metrics and its time series (``t``, ``roll``, ``pitch`` [°] every few steps,
+    ``t_plan``, ``height_error`` [m] per plan).
+
+    Raises:
+        InvalidInputError: an unknown variant or disturbance.
+    """
+    validation.choice(variant, VARIANTS, "variant")
+    validation.choice(disturbance, DISTURBANCES, "disturbance")
+    cmd, base, duration = straight_command("tripod", distance, fast)
     opt = {
         "feedback": replace(base, blind=True),
         "contacts_only": replace(base, blind=True, posture_gain=0.0),
