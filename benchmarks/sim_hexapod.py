@@ -53,9 +53,11 @@ def _setup(gait: str) -> tuple[Any, Any, Any, Any]:
 
 def _bare(hs: Any, walker: Any, q0: Any, pose: Any, steps: int) -> float:
     """Wall time [s] of ``steps`` plain ``mj_step`` calls (the walker's first torques held)."""
-    import mujoco
     import numpy as np
 
+    from coop_ga.sim._mujoco import mj
+
+    mujoco = mj()
     m, d = hs.model, hs.scene.make_data(q0, base_pose=pose)
     d.ctrl[hs.scene.actuator_index] = np.clip(walker._tau_ff if walker._started else 0.0, -1.5, 1.5)
     t0 = time.perf_counter()
