@@ -10,7 +10,8 @@ Controller: :class:`coop_ga.sim.walking.HexapodWalker` at 200 Hz (joint PD at 1 
 sensors, body roll, pitch and height through the stance plane's similarity error (encoders + IMU),
 feed-forward torques; blind runs get neither the terrain nor a localisation.  Each run walks straight ahead at
 the gait's nominal speed (stride 0.08 m: 0.10 / 0.05 / 0.024 m/s for tripod / ripple / wave) for
-``--distance`` (1 m), ramping in and out over one gait cycle; ``--command tour`` instead runs the tour
+``--distance`` (1 m), ramping in and out over one gait cycle (``--fast``: 0.05–0.08 m ramped in and out over
+half a cycle, on a staircase that starts at x = 0.05 m so that the middle and front feet meet a riser); ``--command tour`` instead runs the tour
 (start, speed change, turn while walking, stop).
 
 The bar (the issue's, :data:`coop_ga.sim.walking_run.BAR`): walked ≥ 95 % of the commanded distance, no fall
@@ -176,10 +177,10 @@ def _metrics(rows: list[dict[str, Any]], args: Any, gifs: set[str]) -> dict[str,
                 "within the issue's bar. The GIFs draw the stance primitive (the plane of the stance feet) over its "
                 "support polygon only, so that the robot stays visible."
                 + (
-                    " These are the fast walks (ramped up and down over half a cycle each: 0.05–0.08 m; on steps "
-                    "the front feet start on the first tread and no foot meets a riser); the issue's 1 m walks are "
-                    "the script's default (not in the gallery: minutes per run), and the blind tripod has been seen "
-                    "to fail there on steps."
+                    " These are the fast walks (ramped up and down over half a cycle each: 0.05–0.08 m; their "
+                    "staircase starts at x = 0.05 m, so that the middle feet climb the first riser and the front "
+                    "feet the second); the issue's 1 m walks are the script's default (not in the gallery: minutes "
+                    "per run)."
                     if args.fast
                     else ""
                 )

@@ -4,6 +4,7 @@ one function per row, importable, so that the scripts can spread rows over worke
 * :func:`straight_command` — a straight walk at the gait's nominal speed (a stance stroke of 0.08 m: 0.10 /
   0.05 / 0.024 m/s for tripod / ripple / wave) over a distance, ramped in and out over one gait cycle (half a
   cycle, with the acceleration limit raised to match, for the short ``fast`` walks);
+* :func:`row_terrain` — a row's terrain (the short walks' staircase starts at :data:`FAST_STEPS_START`);
 * :func:`walk_row` — one gait × terrain × (map | blind) run: simulated, saved (``model.xml``, ``log.npz``,
   ``metrics.json``) and rendered to a GIF on request; returns its metrics;
 * :func:`ablation_row` — one (variant, disturbance) run of the ablation (:data:`VARIANTS`, :data:`DISTURBANCES`).
@@ -24,7 +25,16 @@ from ..errors import InvalidInputError
 from .walking import VelocityCommand, WalkingOptions
 from .walking_run import render_walk, simulate_walk
 
-__all__ = ["DISTURBANCES", "VARIANTS", "ablation_row", "disturbance_scenario", "straight_command", "walk_row"]
+__all__ = [
+    "DISTURBANCES",
+    "FAST_STEPS_START",
+    "VARIANTS",
+    "ablation_row",
+    "disturbance_scenario",
+    "row_terrain",
+    "straight_command",
+    "walk_row",
+]
 
 #: the ablation's variants: the closed-loop walker, touchdown from contacts without the stance primitive's
 #: feedback, the open-loop replay of the kinematic plan
@@ -51,6 +61,22 @@ def run_name(gait: str, terrain: str, blind: bool) -> str:
     return f"{gait}_{terrain}_{'blind' if blind else 'map'}"
 
 
+#: the first riser of the short walks' staircase [m]: the middle feet (x = 0) climb it and the front feet (x = 0.233 m,
+#: on the first tread from the start) the second riser within their first swing; the default staircase's first
+#: riser (x = 0.15 m) would meet no foot in a 0.08 m walk
+FAST_STEPS_START = 0.05
+
+
+def row_terrain(terrain: str, seed: int = 0, fast: bool = False) -> Any:
+    """The :class:`~coop_ga.legged.Terrain` of a row: ``Terrain.make(terrain, seed=seed)``, except the short walks'
+    steps, which start at :data:`FAST_STEPS_START`."""
+    from ..legged import Terrain
+
+    if fast and terrain == "steps":
+        return Terrain.steps(start_x=FAST_STEPS_START)
+    return Terrain.make(terrain, seed=seed)
+
+
 def walk_row(
     gait: str,
     terrain: str,
@@ -64,9 +90,8 @@ def walk_row(
     gif: bool = False,
     seed: int = 0,
 ) -> dict[str, Any]:
-    """Simulate one row (module docstring) into ``out``; returns its metrics (plus ``wall_s``)."""
-    from ..legged import Terrain
-
+    """Simulate one row (module docstring) on :func:`row_terrain` into ``out``; returns its metrics (plus
+    ``wall_s``)."""
     name = run_name(gait, terrain, blind)
     cmd, opt, duration = straight_command(gait, distance, fast)
     if tour:
@@ -74,7 +99,7 @@ def walk_row(
         duration = cmd.end + opt.period
     opt = replace(opt, blind=blind)
     t0 = time.perf_counter()
-    run = simulate_walk(Terrain.make(terrain, seed=seed), cmd, opt, duration=duration, label=name, visuals=gif)
+    run = simulate_walk(row_terrain(terrain, seed, fast), cmd, opt, duration=duration, label=name, visuals=gif)
     m = dict(run.metrics())
     m["wall_s"] = time.perf_counter() - t0
     if out is not None and save:
