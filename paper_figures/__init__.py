@@ -108,6 +108,20 @@ FIGURES: tuple[Figure, ...] = (
         addition=True,
     ),
     Figure("sim_ball_hold", "ours_sim_ball_hold", "experiments/sim_ball_hold.py", ("--fast",), addition=True),
+    Figure(
+        "sim_hexapod_walk",
+        "ours_sim_hexapod_walk",
+        "experiments/sim_hexapod_walk.py",
+        ("--all", "--fast", "--jobs", "2"),
+        addition=True,
+    ),
+    Figure(
+        "sim_hexapod_ablation",
+        "ours_sim_hexapod_ablation",
+        "experiments/sim_hexapod_ablation.py",
+        ("--fast", "--jobs", "2"),
+        addition=True,
+    ),
 )
 
 

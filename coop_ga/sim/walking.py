@@ -1,0 +1,1046 @@
+"""Closed-loop walking of the hexapod in MuJoCo: the stance legs as a cooperative primitive that regulates the body.
+
+:class:`HexapodWalker` is a :class:`~coop_ga.sim.Simulation` controller ``(t, q, q̇, sensors) → τ`` for the scene
+of :func:`~coop_ga.sim.hexapod.hexapod_scene`.  It is called at every physics step (1 kHz: the servos' joint
+PD, as a Dynamixel runs its position loop internally) and plans at ``control_rate`` (200 Hz).  What it reads:
+the 18 joint encoders (q, q̇), the IMU (``imu_quat``: R_WB; ``imu_gyro``) and the six foot touch sensors — and,
+with the map only, a localisation of the body (module section "Map").  It never reads the terrain in blind
+mode.
+
+The plan (every 1/``control_rate`` s)
+-------------------------------------
+The controller keeps a *desired state* D — a body pose in its odometry frame W_o (started at the robot's
+known initial pose) and the 18 joint targets q_D — and the stance feet's anchors in W_o.
+
+1. **Gait** (:func:`coop_ga.legged.gait.phase_table`, tripod / ripple / wave): a gait clock τ_g runs the phase
+   table; at a leg's lift-off phase it swings (if the command is not zero: a stopped robot lifts no leg),
+   on :func:`~coop_ga.legged.gait.swing_arc` from its anchor to a foothold: the nominal foothold (``foot_reach``
+   out from the coxa axis, ``ride_height`` below the body) at the reference body pose of mid-stance.  The
+   foothold's height: with the map, the terrain under it (+ the foot radius: the ball's centre); blind, the
+   plane of the current stance anchors extrapolated to it.  Apex: ``lift_height`` above the highest terrain
+   under the swing (map) or ``blind_lift`` above the higher end (blind).
+2. **Touchdown from the touch sensors** (the stance set follows the contacts): from mid-swing on, a swing foot
+   whose touch sensor reads more than ``touch_threshold`` stops — it is in stance, its anchor is where the
+   encoders put it (``D · fk(q)``).  A foot that reaches the end of its arc without contact keeps descending at
+   ``search_speed`` (for at most ``search_depth``) while the gait clock and the reference wait for it.  The
+   stance primitive is built from the feet that are in stance *and* in contact.
+3. **Body posture through the stance primitive**: the stance feet's plane seen from the body, from the joint
+   encoders — the similarity V(q) of :func:`coop_ga.legged.stance.stance_task` (exact plane of 3 feet,
+   least-squares plane of more; CasADi VM) with its body-frame Jacobian J^G — is compared with its reference
+   V_ref: the same plane as seen from a body with the desired attitude (level, or ``tilt_follow`` toward the
+   support; yaw kept) at ``ride_height``: with R_c = R_IMUᵀ R_des the correction rotation in B,
+   ``n_ref = R_cᵀ n`` and ``t_ref = −ride_height · n_ref``.  Its error ``e = log(Ṽ V_ref)`` (seed 003 Eq 44;
+   :func:`~coop_ga.sim.walking_kin.plane_error`) has three observable rows — the plane's tilt (e13, e23) and
+   offset (e3∞) (Table 1: a plane cannot see yaw, in-plane translation or dilation), i.e. the body's roll,
+   pitch and height over the support.  The command ``c = posture_gain · e`` goes through the posture map of
+   :mod:`coop_ga.legged.posture` (``A = J^G L``: body twist → primitive twist with the stance feet fixed,
+   :func:`~coop_ga.sim.walking_kin.stance_map`): the body twist u = u_gait + δ with δ the smallest twist whose
+   observable primitive rows give c (u_gait: the commanded (v_x, v_y, ω_z) plus a pull of D to the reference
+   path; it decides what the plane cannot see).  D moves by u; the stance legs' targets are the closed-form
+   IK of their anchors from D's new pose.  Integrated through D, the primitive error acts as an integral
+   controller on the measured posture (the joint PD's sag under load is removed too).
+4. **Torques**: joint PD on q_D (interpolated between plans at q̇_D) + feed-forward: the legs' gravity torques
+   and −Jᵀ F for vertical foot forces F that carry the robot's weight with no moment about its centre of mass
+   (weighted least norm, loads ramped in after touchdown and out before lift-off), from the measured state.
+   The simulation clips at the URDF effort (1.5 N m) and counts it.
+
+``feedback=False`` is the ablation's **open-loop replay of the kinematic plan**: the same gait, footholds and
+swing arcs, but touchdown on schedule (no touch sensors), the stance set from the phase table, no posture
+correction, feed-forward from the plan: q_D(t) is then a function of time alone (the test checks that it is
+the same whatever happens to the robot).
+
+Map
+---
+With ``blind=False`` the planner gets the terrain and a localisation (``localize(data) → (position, R_WB)``,
+default: MuJoCo's free-joint pose, i.e. perfect localisation, as a motion-capture system gives): footholds
+and swing apexes use the terrain at the localised position (converted to W_o).  ``blind=True`` uses neither.
+
+Bad input: an unknown gait, a velocity command the legs cannot follow (:func:`check_command`: the stance stroke
+beyond the legs' reach, or a swing needing more than the URDF's joint speed — refused before the run, naming
+the leg, the limit and the fix) and a stance set with fewer than three feet for a posture command raise
+:class:`~coop_ga.errors.CoopGAError` subclasses.
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .. import validation
+from ..errors import InvalidInputError
+from .hexapod import HEXAPOD_LEGS, HexapodScene
+from .walking_kin import FastLegs, plane_error, plane_log, rotation_from_tangent, stance_map
+
+__all__ = [
+    "GAIT_NAMES",
+    "HexapodWalker",
+    "VelocityCommand",
+    "WalkingOptions",
+    "check_command",
+    "nominal_feet",
+    "posture_legs",
+    "stance_pose",
+    "standing_start",
+]
+
+#: the gaits of :func:`coop_ga.legged.gait.phase_table`
+GAIT_NAMES: tuple[str, ...] = ("tripod", "ripple", "wave")
+G = 9.81
+_MODES = {"stance": 0, "swing": 1, "search": 2}
+#: plane rows of a similarity twist the stance plane can see (Table 1): e13, e23 (tilt), e3∞ (offset)
+_PLANE_ROWS = np.array([1, 2, 6])
+#: swing progress samples of an arc (linear interpolation between them is within 1e-5 m of swing_arc)
+_ARC_S = np.linspace(0.0, 1.0, 201)
+
+
+# ====================================================================== commands
+@dataclass(frozen=True)
+class VelocityCommand:
+    """A time-varying velocity command: (v_x, v_y, ω_z) [m/s, m/s, rad/s] in the heading frame (forward, left,
+    yaw rate), piecewise linear through ``values`` (n, 3) at ``times`` (n,) [s] (ascending), held before the first
+    and after the last knot."""
+
+    times: Any
+    values: Any
+
+    def __post_init__(self) -> None:
+        t = validation.array(self.times, "VelocityCommand.times").reshape(-1)
+        v = validation.array(self.values, "VelocityCommand.values")
+        if t.size == 0 or v.shape != (t.size, 3):
+            raise InvalidInputError(
+                f"VelocityCommand: values must have shape (len(times), 3) = ({t.size}, 3) of (vx, vy, wz), got {v.shape}"
+            )
+        if np.any(np.diff(t) <= 0) or t[0] < 0:
+            raise InvalidInputError(f"VelocityCommand.times must be ≥ 0 and strictly ascending, got {t.tolist()}")
+        for a in (t, v):
+            a.setflags(write=False)
+        object.__setattr__(self, "times", t)
+        object.__setattr__(self, "values", v)
+
+    @classmethod
+    def constant(
+        cls, vx: float, vy: float = 0.0, wz: float = 0.0, *, start: float = 0.3, ramp: float = 0.5, duration: Any = None
+    ) -> VelocityCommand:
+        """Rest until ``start`` [s], ramp linearly to (vx, vy, wz) over ``ramp`` [s]; with ``duration`` [s] (from
+        ``start``) ramp back down to rest at its end (a stop)."""
+        v = validation.vector([vx, vy, wz], 3, "velocity (vx, vy, wz)")
+        s = validation.nonnegative(start, "start")
+        r = validation.positive(ramp, "ramp")
+        ts, vs = [s, s + r], [np.zeros(3), v]
+        if duration is not None:
+            d = validation.positive(duration, "duration")
+            if d < 2 * r:
+                raise InvalidInputError(f"duration ({d} s) must be at least two ramps ({2 * r} s)")
+            if d > 2 * r:
+                ts.append(s + d - r)
+                vs.append(v)
+            ts.append(s + d)
+            vs.append(np.zeros(3))
+        return cls(np.array(ts), np.array(vs))
+
+    @classmethod
+    def tour(cls, speed: float, turn_rate: float, *, start: float = 0.3, leg: float = 2.0) -> VelocityCommand:
+        """Start, speed change, turn while walking, stop — within one run: ramp to ``speed`` [m/s]; after ``leg``
+        [s] change to 0.6 ``speed``; after another ``leg`` turn at ``turn_rate`` [rad/s] while walking at 0.6
+        ``speed``; after another ``leg`` straight again, then stop (each change ramped over 0.5 s)."""
+        v = validation.positive(speed, "speed")
+        w = validation.scalar(turn_rate, "turn_rate")
+        L = validation.positive(leg, "leg")
+        r = 0.5
+        knots = [
+            (start, (0.0, 0.0, 0.0)),
+            (start + r, (v, 0.0, 0.0)),
+            (start + L, (v, 0.0, 0.0)),
+            (start + L + r, (0.6 * v, 0.0, 0.0)),
+            (start + 2 * L, (0.6 * v, 0.0, 0.0)),
+            (start + 2 * L + r, (0.6 * v, 0.0, w)),
+            (start + 3 * L, (0.6 * v, 0.0, w)),
+            (start + 3 * L + r, (0.6 * v, 0.0, 0.0)),
+            (start + 4 * L, (0.6 * v, 0.0, 0.0)),
+            (start + 4 * L + r, (0.0, 0.0, 0.0)),
+        ]
+        return cls(np.array([k[0] for k in knots]), np.array([k[1] for k in knots]))
+
+    @property
+    def end(self) -> float:
+        """Time [s] of the last knot."""
+        return float(self.times[-1])
+
+    def at(self, t: float) -> np.ndarray:
+        """The command (3,) at time t [s]."""
+        return np.array([np.interp(t, self.times, self.values[:, k]) for k in range(3)])
+
+    def path(self, t_end: float, dt: float = 0.005) -> np.ndarray:
+        """The commanded pose (x, y, yaw) (n, 3) [m, m, rad] from rest at the origin, on a grid of ``dt`` [s]
+        up to ``t_end`` (midpoint rule)."""
+        n = max(1, math.ceil(validation.nonnegative(t_end, "t_end") / validation.positive(dt, "dt")))
+        out = np.zeros((n + 1, 3))
+        for k in range(n):
+            c = self.at((k + 0.5) * dt)
+            yaw = out[k, 2] + 0.5 * c[2] * dt
+            out[k + 1, 0] = out[k, 0] + (math.cos(yaw) * c[0] - math.sin(yaw) * c[1]) * dt
+            out[k + 1, 1] = out[k, 1] + (math.sin(yaw) * c[0] + math.cos(yaw) * c[1]) * dt
+            out[k + 1, 2] = out[k, 2] + c[2] * dt
+        return out
+
+
+# ====================================================================== options
+@dataclass(frozen=True)
+class WalkingOptions:
+    """Options of :class:`HexapodWalker` (module docstring).
+
+    gait: "tripod" | "ripple" | "wave"; cycle_time: T [s] (None: :data:`coop_ga.legged.walk.CYCLE_TIME`, 1.6 /
+        2.4 / 4.0 s); duty: β (None: the gait's).
+    ride_height: body origin above the plane of the foot-ball centres [m] (0.1: the legged planner's feet 0.1 m
+        below the body; the body is then 0.109 m above the ground).
+    foot_reach: nominal foothold's distance from the coxa axis along the mounting direction [m].
+    lift_height: swing apex above the highest terrain under the swing, with the map [m] (raised where a leg
+        capsule needs it); blind_lift: above the higher end of the swing, blind [m]; blind_reach: blind, the
+        expected foothold height (the stance anchors' plane extrapolated) stays within this of the lift-off
+        height [m]; foot_drop: a swing's apex stays at least this far [m] below the body (0.055: at 0.035 a
+        blind tripod swing from the top of a 3 cm step bent the femur to 1.5 rad and clipped its torque at the
+        effort limit for 0.14 s; measured in the fast tripod/ripple steps runs).
+    edge_clearance, clearance_margin: with the map, footholds keep their contact this far [m] from the terrain's
+        cell edges, and the leg capsules this far above the terrain (:mod:`coop_ga.sim.walking_map`).
+    blind: plan without the terrain and the localisation; feedback: False for the open-loop replay (module
+        docstring).
+    tilt_follow: desired body z axis between world up (0: level) and the support normal (1).
+    posture_gain: gain [1/s] of the stance-primitive error; max_correction: (m/s, rad/s) caps of its body twist.
+    path_gain: pull [1/s] of D's horizontal pose to the reference path.
+    max_accel: the reference velocity follows the command with at most this acceleration [m/s²] (the yaw rate
+        with max_accel / 0.3 m, the corner feet's radius); None: the gait's nominal speed (a stance stroke of
+        0.08 m) reached in one cycle.  A robot standing on its nominal footholds must not be dragged a whole
+        stroke by its first stance legs.
+    control_rate: planning rate [Hz] (a divisor of the physics rate).
+    kp, kd: joint PD gains [N m/rad, N m s/rad] per joint kind (coxa, femur, tibia).
+    touch_threshold: a foot is in contact above this normal force [N]; touchdown_depth: with feedback the swing
+        aims this far [m] below the expected ground, so that the contact ends it; contact_hold: a stance foot
+        whose touch sensor read contact within this time [s] still carries load; stumble_lift: a swing foot that
+        touches something before mid-swing goes on this far [m] above the higher of where it is and its
+        foothold; search_speed [m/s], search_depth [m]:
+        how a late foot looks for the ground.  load_ramp: [s] feed-forward load ramp after touchdown / before
+        lift-off.
+    """
+
+    gait: str = "tripod"
+    cycle_time: float | None = None
+    duty: float | None = None
+    ride_height: float = 0.1
+    foot_reach: float = 0.16
+    lift_height: float = 0.02
+    blind_lift: float = 0.04
+    blind_reach: float = 0.01
+    foot_drop: float = 0.055
+    edge_clearance: float = 0.016
+    clearance_margin: float = 0.004
+    blind: bool = False
+    feedback: bool = True
+    tilt_follow: float = 0.0
+    posture_gain: float = 6.0
+    max_correction: tuple[float, float] = (0.05, 0.5)
+    path_gain: float = 2.0
+    max_accel: float | None = None
+    control_rate: float = 200.0
+    kp: tuple[float, float, float] = (12.0, 12.0, 12.0)
+    kd: tuple[float, float, float] = (0.1, 0.1, 0.08)
+    touch_threshold: float = 0.5
+    touchdown_depth: float = 0.005
+    stumble_lift: float = 0.03
+    contact_hold: float = 0.05
+    search_speed: float = 0.06
+    search_depth: float = 0.05
+    load_ramp: float = 0.05
+
+    def __post_init__(self) -> None:
+        validation.choice(self.gait, GAIT_NAMES, "gait")
+        for name in ("ride_height", "foot_reach", "control_rate", "touch_threshold", "search_speed"):
+            validation.positive(getattr(self, name), name)
+        for name in (
+            "lift_height",
+            "blind_lift",
+            "blind_reach",
+            "foot_drop",
+            "edge_clearance",
+            "clearance_margin",
+            "posture_gain",
+            "path_gain",
+            "search_depth",
+            "load_ramp",
+            "touchdown_depth",
+            "stumble_lift",
+            "contact_hold",
+        ):
+            validation.nonnegative(getattr(self, name), name)
+        if self.cycle_time is not None:
+            validation.positive(self.cycle_time, "cycle_time")
+        if self.max_accel is not None:
+            validation.positive(self.max_accel, "max_accel")
+        tf = validation.scalar(self.tilt_follow, "tilt_follow")
+        if not 0.0 <= tf <= 1.0:
+            raise InvalidInputError(f"tilt_follow must be in [0, 1], got {tf}")
+        for name in ("kp", "kd"):
+            a = validation.vector(getattr(self, name), 3, f"{name} (coxa, femur, tibia)")
+            if np.any(a < 0):
+                raise InvalidInputError(f"{name} must be ≥ 0, got {a.tolist()}")
+            object.__setattr__(self, name, tuple(float(x) for x in a))
+        mc = validation.vector(self.max_correction, 2, "max_correction (m/s, rad/s)")
+        object.__setattr__(self, "max_correction", (float(mc[0]), float(mc[1])))
+        for name in ("blind", "feedback"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise InvalidInputError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        self.table()
+
+    @property
+    def period(self) -> float:
+        from ..legged.walk import CYCLE_TIME
+
+        return float(self.cycle_time) if self.cycle_time is not None else CYCLE_TIME[self.gait]
+
+    @property
+    def accel(self) -> float:
+        """The reference's acceleration limit [m/s²] (``max_accel`` or its default)."""
+        if self.max_accel is not None:
+            return float(self.max_accel)
+        tab = self.table()
+        return 0.08 / (tab.duty * tab.period * tab.period)
+
+    def table(self) -> Any:
+        """The gait's :class:`~coop_ga.legged.gait.GaitTable`."""
+        from ..legged.gait import phase_table
+
+        return phase_table(self.gait, 6, self.duty, period=self.period)
+
+
+# ====================================================================== geometry helpers
+def nominal_feet(legs: Any, options: WalkingOptions) -> np.ndarray:
+    """(6, 3) nominal foot-ball centres in B: ``foot_reach`` out from each coxa axis along its mounting
+    direction, ``ride_height`` below the body."""
+    yaw = np.asarray(legs.mount_yaw, float)
+    mount = np.asarray(legs.mount_position, float)
+    out = np.empty((6, 3))
+    out[:, 0] = mount[:, 0] + options.foot_reach * np.cos(yaw)
+    out[:, 1] = mount[:, 1] + options.foot_reach * np.sin(yaw)
+    out[:, 2] = -options.ride_height
+    return out
+
+
+def _rot_z(yaw: float) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _yaw_of(R: np.ndarray) -> float:
+    return math.atan2(float(R[1, 0]), float(R[0, 0]))
+
+
+def _quat_to_R(q: np.ndarray) -> np.ndarray:
+    w, x, y, z = (float(v) for v in q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _R_to_quat(R: np.ndarray) -> np.ndarray:
+    from ._mujoco import mj
+
+    q = np.empty(4)
+    mj().mju_mat2Quat(q, np.ascontiguousarray(R, float).reshape(9))
+    return q
+
+
+def _frame_with_z(z: np.ndarray, yaw: float) -> np.ndarray:
+    """R_WB with body z = z (unit) and body x the heading (cos yaw, sin yaw, 0) projected ⊥ z."""
+    h = np.array([math.cos(yaw), math.sin(yaw), 0.0])
+    x = h - (h @ z) * z
+    x /= np.linalg.norm(x)
+    return np.column_stack((x, np.cross(z, x), z))
+
+
+def _expm_so3(w: np.ndarray) -> np.ndarray:
+    a = float(np.linalg.norm(w))
+    K = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+    if a < 1e-10:
+        return np.eye(3) + K
+    return np.eye(3) + math.sin(a) / a * K + (1.0 - math.cos(a)) / (a * a) * K @ K
+
+
+def _limited(v: np.ndarray, cmd: np.ndarray, a: float, dt: float) -> np.ndarray:
+    """The velocity (vx, vy, wz) one step of ``dt`` later, moved toward ``cmd`` by at most ``a dt`` (linear,
+    as a vector) and ``a dt / 0.3`` (yaw rate)."""
+    out = v.copy()
+    d = cmd[:2] - v[:2]
+    n = float(np.hypot(d[0], d[1]))
+    out[:2] = cmd[:2] if n <= a * dt else v[:2] + d * (a * dt / n)
+    w = a * dt / 0.3
+    out[2] = v[2] + min(max(cmd[2] - v[2], -w), w)
+    return out
+
+
+def _rotvec(R: np.ndarray) -> np.ndarray:
+    """Rotation vector (3,) of a rotation matrix (angle < π)."""
+    c = max(-1.0, min(1.0, 0.5 * (float(R[0, 0] + R[1, 1] + R[2, 2]) - 1.0)))
+    a = math.acos(c)
+    v = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    return 0.5 * v if a < 1e-8 else a / (2.0 * math.sin(a)) * v
+
+
+def _fit_plane(P: np.ndarray) -> tuple[np.ndarray, float]:
+    """Least-squares plane n · x = d (n_z > 0) of points (k ≥ 3, 3)."""
+    c = P.mean(axis=0)
+    n = np.linalg.svd(P - c)[2][-1]
+    n = -n if n[2] < 0 else n
+    return n, float(n @ c)
+
+
+_POSE_FUNCTIONS: dict[int, Any] = {}
+_STANCE_ORDERS: dict[tuple[int, ...], tuple[int, ...]] = {}
+
+
+def stance_pose(feet: np.ndarray, stance: Sequence[int]) -> tuple[tuple[int, ...], np.ndarray, np.ndarray]:
+    """The stance plane of the feet of ``stance`` (leg indices, ≥ 3): ``(order, log V (7,), G (7, 3k))``.
+
+    The feet are taken in :data:`coop_ga.legged.stance.STANCE_ORDER` (counter-clockwise from above: the normal
+    points up) — ``order`` gives their leg indices — and passed to the pose function of the task graph of
+    :func:`coop_ga.legged.stance.stance_task` (the exact plane of 3 feet, the least-squares ``plane_fit`` of
+    more): ``p (3k) → (V, B = log V, G = −2 Ṽ ∂V/∂p, …)`` (:mod:`coop_ga.cooperative.graph`).  That function
+    depends only on the number of feet, so one per k serves every stance set (built once per process, CasADi
+    VM); ``J^G = G ∂p/∂q`` is the task's Jacobian (``tests/sim/test_hexapod_walking.py`` compares both with
+    ``stance_task(...).evaluate``)."""
+    key = tuple(stance)
+    hit = _STANCE_ORDERS.get(key)
+    if hit is None:
+        from ..legged.stance import STANCE_ORDER
+
+        names = posture_legs(stance)
+        hit = _STANCE_ORDERS[key] = tuple(HEXAPOD_LEGS.index(n) for n in STANCE_ORDER if n in names)
+    order = hit
+    k = len(order)
+    fn = _POSE_FUNCTIONS.get(k)
+    if fn is None:
+        from ..legged.stance import stance_task
+
+        legs = tuple(HEXAPOD_LEGS[i] for i in order)
+        task = stance_task("hexapod", legs, "plane" if k == 3 else "plane_fit", codegen=False)
+        fn = _POSE_FUNCTIONS[k] = task.graph.pose_function
+    out = fn(feet[list(order)].reshape(-1))
+    return order, np.asarray(out[1], float).reshape(7), np.asarray(out[2], float)
+
+
+def posture_legs(stance: Any) -> tuple[str, ...]:
+    """The leg names of a stance set for a posture command (indices into :data:`HEXAPOD_LEGS`, or names);
+    :class:`~coop_ga.errors.InvalidInputError` for fewer than three feet (no plane through them)."""
+    names = tuple(HEXAPOD_LEGS[int(i)] if not isinstance(i, str) else i for i in stance)
+    bad = [n for n in names if n not in HEXAPOD_LEGS]
+    if bad:
+        raise InvalidInputError(f"unknown leg(s) {bad} in the stance set; the legs are {HEXAPOD_LEGS}")
+    if len(set(names)) < 3:
+        raise InvalidInputError(
+            f"a posture command needs a stance primitive of at least 3 feet (a plane); the stance set has "
+            f"{len(set(names))} ({', '.join(names) or 'none'}): with fewer feet the body has no support to move on"
+        )
+    return names
+
+
+# ====================================================================== limits of the command
+def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any = None, margin: float = 0.005) -> dict:
+    """Refuse (:class:`~coop_ga.errors.InvalidInputError`) a command the legs cannot follow, before the run.
+
+    For every knot of ``command`` and every leg: the stance stroke ``|v + ω × p_i| β T`` (the nominal foothold
+    p_i) must keep both ends of the stroke (nominal ± half of it) reachable with ``margin`` [m] of workspace
+    and inside the joint limits (the legs' reach), and the swing that brings the foot back over it in (1 − β) T
+    on :func:`~coop_ga.legged.gait.swing_arc` (apex ``max(lift_height, blind_lift)``) must need at most the
+    URDF's joint speed (6.18 rad/s).  Returns the worst ratios {"stroke_m", "reach_margin_m",
+    "joint_speed_ratio"}."""
+    from ..legged.gait import swing_arc
+    from ..legged.legs import hexapod_legs
+
+    lm = hexapod_legs() if legs is None else legs
+    fl = FastLegs(lm)
+    tab = options.table()
+    T, beta = tab.period, tab.duty
+    nom = nominal_feet(lm, options)
+    vlim = np.empty(18)
+    vlim[fl.q_index] = np.asarray(lm.velocity_limit, float)
+    s = np.linspace(0.0, 1.0, 41)
+    worst = {"stroke_m": 0.0, "reach_margin_m": math.inf, "joint_speed_ratio": 0.0}
+    lift = max(options.lift_height, options.blind_lift)
+    for c in np.asarray(command.values, float):
+        for i, leg in enumerate(HEXAPOD_LEGS):
+            v_foot = -(np.array([c[0], c[1], 0.0]) + np.cross([0.0, 0.0, c[2]], nom[i]))  # foot velocity in B
+            stroke = v_foot * beta * T
+            ends = np.stack([nom[i] - 0.5 * stroke, nom[i] + 0.5 * stroke])
+            worst["stroke_m"] = max(worst["stroke_m"], float(np.linalg.norm(stroke)))
+            feet = np.repeat(nom[None], 2, axis=0)
+            feet[:, i] = ends
+            for k in range(2):
+                q, m = fl.ik(feet[k])
+                worst["reach_margin_m"] = min(worst["reach_margin_m"], float(m[i]))
+                if m[i] < margin or fl.violation(q) > 1e-9:
+                    raise InvalidInputError(
+                        f"velocity command (vx, vy, wz) = {tuple(np.round(c, 4))} needs a stance stroke of "
+                        f"{np.linalg.norm(stroke):.3f} m for leg {leg} ({options.gait}, T = {T:g} s, duty {beta:.3g}): "
+                        f"its end is {'out of the legs reach' if m[i] < margin else 'outside the joint limits'} "
+                        f"(reach margin {1e3 * m[i]:.1f} mm, limit {1e3 * margin:.0f} mm); lower the speed or the "
+                        "cycle time"
+                    )
+            arc = swing_arc(ends[1], ends[0], lift, s)[0]
+            qs = np.array([fl.ik(np.where(np.arange(6)[:, None] == i, a, nom))[0] for a in arc])
+            speed = np.abs(np.diff(qs, axis=0)).max(axis=0) / (np.diff(s)[0] * (1 - beta) * T)
+            ratio = float(np.max(speed / vlim))
+            worst["joint_speed_ratio"] = max(worst["joint_speed_ratio"], ratio)
+            if ratio > 1.0:
+                raise InvalidInputError(
+                    f"velocity command (vx, vy, wz) = {tuple(np.round(c, 4))}: the swing of leg {leg} needs "
+                    f"{ratio:.2f}× the URDF joint speed limit ({vlim.max():.2f} rad/s) at T = {T:g} s; lower the speed "
+                    "or lengthen the cycle (cycle_time)"
+                )
+    return worst
+
+
+# ====================================================================== the start
+def standing_start(hs: HexapodScene, options: WalkingOptions, xy: Any = (0.0, 0.0), yaw: float = 0.0) -> tuple:
+    """The robot standing on the terrain of ``hs``: feet on their nominal footholds, the balls touching the
+    ground (centre r/n_z above it), the body level (``tilt_follow`` toward the support) at ``ride_height`` above
+    the plane of the foot centres.  Returns ``(q (18,) joint angles, (position (3,), quaternion (w, x, y, z)))``
+    for :class:`~coop_ga.sim.Simulation` (``q=``, ``base_pose=``)."""
+    from ..legged.legs import hexapod_legs
+
+    lm = hexapod_legs()
+    fl = FastLegs(lm)
+    p = validation.vector(xy, 2, "xy")
+    Rz = _rot_z(validation.scalar(yaw, "yaw"))
+    nom = nominal_feet(lm, options)
+    feet_xy = p + nom[:, :2] @ Rz[:2, :2].T
+    P = hs.terrain.plane_params(feet_xy)
+    r = hs.foot_radius
+    feet = np.column_stack([feet_xy, hs.terrain.height(feet_xy) + r / P[:, 2]])
+    n, d = _fit_plane(feet)
+    z = (1.0 - options.tilt_follow) * np.array([0.0, 0.0, 1.0]) + options.tilt_follow * n
+    R = _frame_with_z(z / np.linalg.norm(z), yaw)
+    # body origin above (p) at distance ride_height from the plane n·x = d
+    zb = (d + options.ride_height - n[0] * p[0] - n[1] * p[1]) / n[2]
+    pos = np.array([p[0], p[1], zb])
+    q, m = fl.ik((feet - pos) @ R)
+    if np.any(m < 0) or fl.violation(q) > 1e-9:
+        raise InvalidInputError(
+            f"the robot cannot stand at {tuple(p)} on this terrain with ride_height {options.ride_height} m and "
+            f"foot_reach {options.foot_reach} m (reach margins {np.round(m, 4).tolist()} m)"
+        )
+    return q, (pos, _R_to_quat(R))
+
+
+# ====================================================================== the controller
+@dataclass
+class _Leg:
+    mode: int = 0  # _MODES
+    anchor: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    arc: tuple[np.ndarray, np.ndarray, float, float] | None = None  # (p0, p1, lift, τ_lift-off)
+    touchdown: float = -1.0  # sim time of its last touchdown
+    search_from: float = 0.0  # sim time its search began
+    last_touch: float = -math.inf  # sim time its touch sensor last read contact
+    tibia0: np.ndarray = field(default_factory=lambda: np.eye(3))  # W_o ← tibia rotation at touchdown
+    target: np.ndarray = field(default_factory=lambda: np.zeros(3))  # its foot target in W_o
+    path: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))  # the swing arc sampled at _ARC_S
+    s0: float = 0.0  # the swing progress where ``path`` starts (0, or where a stumble raised it)
+    raises: int = 0  # stumbles of the current swing
+
+
+class HexapodWalker:
+    """The closed-loop walking controller (module docstring) for :class:`~coop_ga.sim.Simulation`.
+
+    Args:
+        hs: the :class:`~coop_ga.sim.hexapod.HexapodScene` it runs in (sensor addresses, foot radius; its
+            terrain is used only with ``blind=False``).
+        command: the :class:`VelocityCommand` (checked by :func:`check_command`).
+        options: :class:`WalkingOptions`.
+        localize: with the map, ``localize(data) → (position (3,), R_WB (3, 3))`` (default: MuJoCo's free-joint
+            pose); ignored blind.
+
+    After a run, :attr:`records` holds one row per plan (:meth:`records_arrays`), :attr:`timing` the seconds
+    spent planning and in the servo loop, :attr:`counts` the events (touchdowns, searches, lost feet,
+    plans without three contact feet).
+    """
+
+    def __init__(
+        self,
+        hs: HexapodScene,
+        command: VelocityCommand,
+        options: WalkingOptions | None = None,
+        *,
+        localize: Callable[[Any], tuple[np.ndarray, np.ndarray]] | None = None,
+    ):
+        import pinocchio as pin
+
+        from ..legged.legs import hexapod_legs
+
+        if not isinstance(hs, HexapodScene):
+            raise InvalidInputError(f"hs must be a HexapodScene (hexapod_scene(...)), got {type(hs).__name__}")
+        if not isinstance(command, VelocityCommand):
+            raise InvalidInputError(f"command must be a VelocityCommand, got {type(command).__name__}")
+        self.options = opt = options or WalkingOptions()
+        if not isinstance(opt, WalkingOptions):
+            raise InvalidInputError(f"options must be WalkingOptions, got {type(opt).__name__}")
+        self.hs, self.command = hs, command
+        self.legs = hexapod_legs()
+        self.fast = FastLegs(self.legs)
+        self.limits = check_command(command, opt, self.legs)
+        ts = float(hs.model.opt.timestep)
+        k = opt.control_rate * ts
+        if abs(1.0 / k - round(1.0 / k)) > 1e-9:
+            raise InvalidInputError(
+                f"control_rate {opt.control_rate} Hz must divide the physics rate {1.0 / ts:g} Hz (timestep {ts} s)"
+            )
+        self.every = round(1.0 / k)
+        self.dt = self.every * ts
+        self.table = opt.table()
+        self._accel = opt.accel
+        self.nominal = nominal_feet(self.legs, opt)
+        self.localize = localize or self._true_pose
+        from .walking_map import MapFootholds
+
+        self._map = MapFootholds(
+            hs.terrain,
+            self.legs,
+            self.nominal,
+            ride_height=opt.ride_height,
+            tilt_follow=opt.tilt_follow,
+            edge_clearance=opt.edge_clearance,
+            clearance_margin=opt.clearance_margin,
+            lift_height=opt.lift_height,
+        )
+        system = self.legs.system
+        self._pin = pin
+        self._model = pin.Model(system.model)  # own copy: its gravity is set to the body frame's every plan
+        self._data = self._model.createData()
+        self._mass = float(sum(self._model.inertias[i].mass for i in range(self._model.njoints)))
+        qi = self.fast.q_index
+        self._kp = np.empty(18)
+        self._kd = np.empty(18)
+        for j in range(3):
+            self._kp[qi[:, j]] = opt.kp[j]
+            self._kd[qi[:, j]] = opt.kd[j]
+        # the servos' back-EMF damping (hexapod module docstring, "Servos"): τ must also supply b q̇_D
+        self._b = np.asarray(hs.model.dof_damping, float)[hs.scene.qvel_index].copy()
+        self._tasks: dict[tuple[str, ...], Any] = {}
+        if opt.feedback and opt.posture_gain > 0:  # the stance planes' pose functions, built once per process
+            for k in range(3, 7):
+                stance_pose(self.nominal, range(k))
+        self.records: list[tuple[Any, ...]] = []
+        self.timing = {"plan_s": 0.0, "servo_s": 0.0, "plans": 0, "servo_calls": 0}
+        self.counts = {
+            "touchdowns": 0,
+            "early_touchdowns": 0,
+            "searches": 0,
+            "lost_feet": 0,
+            "stumbles": 0,
+            "held_lift_offs": 0,
+            "unsupported_plans": 0,
+        }
+        self._calls = 0
+        self._started = False
+
+    # ------------------------------------------------------------------ the Simulation callback
+    def __call__(self, t: float, q: np.ndarray, qd: np.ndarray, sensors: Any) -> np.ndarray:
+        if not self._started:
+            self._start(t, q, sensors.data)
+        if self._calls % self.every == 0:
+            t0 = _time.perf_counter()
+            self._plan(t, q, qd, sensors.data)
+            self.timing["plan_s"] += _time.perf_counter() - t0
+            self.timing["plans"] += 1
+        self._calls += 1
+        t0 = _time.perf_counter()
+        h = min(t - self._t_plan, self.dt)
+        tau = (
+            self._tau_ff + self._kp * (self._qD + self._qdD * h - q) + (self._kd + self._b) * self._qdD - self._kd * qd
+        )
+        self.timing["servo_s"] += _time.perf_counter() - t0
+        self.timing["servo_calls"] += 1
+        return tau
+
+    def _true_pose(self, data: Any) -> tuple[np.ndarray, np.ndarray]:
+        a = self.hs.scene.base_qpos
+        assert a is not None  # the hexapod scene has a free base
+        return np.array(data.qpos[a : a + 3]), _quat_to_R(np.array(data.qpos[a + 3 : a + 7]))
+
+    def _start(self, t: float, q: np.ndarray, data: Any) -> None:
+        """D = the measured initial state (odometry starts at the known pose); every leg in stance."""
+        pos, R = self._true_pose(data)
+        self._pD, self._RD = pos.copy(), R.copy()
+        self._qD = q.copy()
+        self._qdD = np.zeros(18)
+        self._tau_ff = np.zeros(18)
+        self._t_plan = t
+        feet = self.fast.fk(q) @ R.T + pos
+        self._legs = [_Leg(anchor=feet[i].copy(), target=feet[i].copy(), touchdown=t - 1.0) for i in range(6)]
+        for i in range(6):
+            self._roll_reference(i)
+        self._tau_g, self._tau_prev = 0.0, -1e-9
+        self._ref = np.array([pos[0], pos[1], _yaw_of(R)])
+        self._vel = np.zeros(3)  # the reference velocity (the command through the acceleration limit)
+        self._ref_z = pos[2]
+        self._started = True
+
+    # ------------------------------------------------------------------ one plan
+    def _plan(self, t: float, q: np.ndarray, qd: np.ndarray, data: Any) -> None:
+        """One plan (module docstring): sensors → gait → posture through the stance plane → D → q_D, τ_ff."""
+        opt = self.options
+        quat, _, _ = self.hs.imu(data)
+        R_M = _quat_to_R(quat)
+        touch = data.sensordata[self.hs.touch_adr] > opt.touch_threshold
+        cmd = self.command.at(t)
+        waiting = self._clock(t, q, data, touch, cmd)
+        u = self._gait_twist(self._vel if not waiting else np.zeros(3))
+        err = np.zeros(3)
+        stance = self._support(t, touch)
+        feet, J = self.fast.fk_jac(q)
+        if opt.feedback and opt.posture_gain > 0:
+            if len(stance) >= 3:
+                du, err = self._posture(feet, R_M, stance, u)
+                u = u + du
+            else:
+                self.counts["unsupported_plans"] += 1
+        self._pD = self._pD + self._RD @ u[:3] * self.dt
+        self._RD = self._RD @ _expm_so3(u[3:] * self.dt)
+        q_new = self._targets()
+        self._qdD = (q_new - self._qD) / self.dt
+        self._qD = q_new
+        self._t_plan = t
+        if opt.feedback:  # with fewer than three touching feet, the plan's stance legs are about to carry it
+            carry = stance if len(stance) >= 3 else tuple(i for i, leg in enumerate(self._legs) if leg.mode == 0)
+            self._tau_ff = self._feedforward(t, q, feet, J, R_M, carry)
+        else:  # the plan's own torques (open loop)
+            self._tau_ff = self._feedforward(t, q_new, *self.fast.fk_jac(q_new), self._RD, stance)
+        self._record(t, stance, touch, err, u, waiting)
+
+    def _clock(self, t: float, q: np.ndarray, data: Any, touch: np.ndarray, cmd: np.ndarray) -> bool:
+        """Advance the gait clock and the reference path (not while a foot is late, nor while standing still)
+        and run the gait's events; returns whether the gait waits for a foot."""
+        moving = bool(np.any(np.abs(cmd) > 1e-9) or np.any(np.abs(self._vel) > 1e-9))
+        waiting = any(leg.mode == _MODES["search"] for leg in self._legs)
+        airborne = any(leg.mode != 0 for leg in self._legs)
+        advanced = not waiting and (moving or airborne)
+        saved = (self._tau_g, self._ref.copy(), self._vel.copy())
+        if advanced:
+            self._tau_g += self.dt
+            self._vel = _limited(self._vel, cmd, self._accel, self.dt)
+            v = self._vel
+            c, s = math.cos(self._ref[2]), math.sin(self._ref[2])
+            self._ref += self.dt * np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
+        if (advanced or waiting) and not self._gait_events(t, q, data, touch, cmd if moving else None):
+            self._tau_g, self._ref, self._vel = saved  # the clock waits for the support
+            return True
+        return waiting
+
+    def _support(self, t: float, touch: np.ndarray) -> tuple[int, ...]:
+        """The legs carrying the robot: in stance and touching — a touch sensor that read contact within the last
+        ``contact_hold`` s still counts (a loaded foot's force dips) — with feedback; in stance by the plan in
+        open loop."""
+        if not self.options.feedback:
+            return tuple(i for i, leg in enumerate(self._legs) if leg.mode == 0)
+        for i, leg in enumerate(self._legs):
+            if touch[i]:
+                leg.last_touch = t
+        hold = self.options.contact_hold
+        return tuple(i for i, leg in enumerate(self._legs) if leg.mode == 0 and t - leg.last_touch <= hold)
+
+    # ------------------------------------------------------------------ gait
+    def _gait_events(self, t: float, q: np.ndarray, data: Any, touch: np.ndarray, cmd: np.ndarray | None) -> bool:
+        """The swings and searches, then the lift-offs where the gait clock crossed a leg's lift-off phase this
+        plan (none while the command is zero: a stopped robot keeps its feet down).  Returns False if a lift-off
+        must wait (a foot is late, or the support would drop below three feet): the clock is then set back."""
+        tab = self.table
+        T, sigma = tab.period, tab.swing_fraction
+        for i, leg in enumerate(self._legs):  # swings and searches first: a late foot holds the lift-offs
+            if leg.mode == 1:
+                self._swing(i, t, q, touch, sigma * T)
+            elif leg.mode == 2:
+                self._search(i, t, q, touch)
+        late = any(leg.mode == 2 for leg in self._legs)
+        for i, leg in enumerate(self._legs):
+            before = math.floor(self._tau_prev / T - tab.offsets[i])
+            now = math.floor(self._tau_g / T - tab.offsets[i])
+            support = sum(1 for j, o in enumerate(self._legs) if j != i and o.mode == 0)
+            if leg.mode == 0 and now > before and cmd is not None and t - leg.touchdown > 0.5 * sigma * T:
+                if late or support < 3:  # never lift a leg off a support of fewer than three feet: wait
+                    self.counts["held_lift_offs"] += 1
+                    return False
+                self._lift_off(i, (now + tab.offsets[i]) * T, t, data)
+        self._tau_prev = self._tau_g
+        return True
+
+    def _lift_off(self, i: int, tau_lo: float, t: float, data: Any) -> None:
+        from ..legged.gait import swing_arc
+
+        leg = self._legs[i]
+        opt = self.options
+        tab = self.table
+        T = tab.period
+        t_td = (tau_lo - self._tau_g) + tab.swing_fraction * T  # from now to its touchdown
+        ref_mid = self._predict(t, max(t_td + 0.5 * tab.duty * T, 0.0))
+        xy = ref_mid[:2] + _rot_z(ref_mid[2])[:2, :2] @ self.nominal[i, :2]
+        p0 = leg.target.copy()  # where its foot is commanded now (the anchor moved by rolling)
+        if opt.blind:
+            # the plane of the other stance anchors extrapolated to the foothold, at most blind_reach off the
+            # lift-off height (anchors straddling a step tilt that plane)
+            P = np.array([self._legs[j].anchor for j in range(6) if j != i and self._legs[j].mode == 0])
+            n, d = _fit_plane(P) if len(P) >= 3 else (np.array([0.0, 0.0, 1.0]), float(p0[2]))
+            z = (d - n[0] * xy[0] - n[1] * xy[1]) / n[2]
+            p1 = np.array([xy[0], xy[1], p0[2] + min(max(z - p0[2], -opt.blind_reach), opt.blind_reach)])
+            lift = opt.blind_lift
+        else:
+            p1, lift = self._map_foothold(i, t, max(t_td, 0.0), p0, xy, data)
+        # the apex stays foot_drop below the body: a swing higher than that bends the femur onto its limit
+        top = max(p0[2], p1[2])
+        lift = max(min(lift, self._pD[2] - opt.foot_drop - top), 0.01)
+        if opt.feedback:  # aim below the expected ground: the contact, not the end of the arc, ends the swing
+            p1 = p1 - np.array([0.0, 0.0, opt.touchdown_depth])
+        leg.arc = (p0, p1, lift, tau_lo)
+        leg.path = swing_arc(p0, p1, lift, _ARC_S)[0]  # sampled once; interpolated at each plan
+        leg.mode, leg.s0, leg.raises = 1, 0.0, 0
+
+    def _predict(self, t: float, horizon: float) -> np.ndarray:
+        """The reference pose (x, y, yaw) ``horizon`` [s] ahead: the command schedule through the acceleration
+        limit, integrated from the current reference (steps of 4 plans)."""
+        x, v = self._ref.copy(), self._vel.copy()
+        h = 4.0 * self.dt
+        n = math.ceil(horizon / h - 1e-9)
+        if n <= 0:
+            return x
+        ts = t + h * np.arange(1, n + 1)
+        C = np.column_stack([np.interp(ts, self.command.times, self.command.values[:, k]) for k in range(3)])
+        for k in range(n):
+            hk = min(h, horizon - k * h)
+            v = _limited(v, C[k], self._accel, hk)
+            yaw = x[2] + 0.5 * v[2] * hk
+            c, s = math.cos(yaw), math.sin(yaw)
+            x[0] += hk * (c * v[0] - s * v[1])
+            x[1] += hk * (s * v[0] + c * v[1])
+            x[2] += hk * v[2]
+        return x
+
+    def _map_foothold(
+        self, i: int, t: float, t_td: float, p0: np.ndarray, xy_o: np.ndarray, data: Any
+    ) -> tuple[np.ndarray, float]:
+        """Leg i's foothold (ball centre) in W_o near ``xy_o`` and its swing's apex lift, from the map
+        (:class:`~coop_ga.sim.walking_map.MapFootholds`; module docstring, "Map"): horizontal positions go to the
+        world through the localisation (W_o = Rz(Δyaw)(W − position) + D's position), heights are taken
+        *relative to the lift-off point* (p0's height plus the terrain's rise from under p0), so D's height in
+        W_o needs no localisation."""
+        pos, R = self.localize(data)
+        dyaw = _yaw_of(self._RD) - _yaw_of(R)
+        Ro = _rot_z(dyaw)
+
+        def to_w(p_o: np.ndarray) -> np.ndarray:  # horizontal pose / point (x, y[, yaw]) W_o → W
+            xy = Ro[:2, :2].T @ (p_o[:2] - self._pD[:2]) + pos[:2]
+            return np.array([*xy, p_o[2] - dyaw]) if len(p_o) == 3 else xy
+
+        tab, T = self.table, self.table.period
+        mf = self._map
+        stance = [to_w(self._predict(t, t_td + f * tab.duty * T)) for f in (0.0, 0.5, 1.0)]
+        c1 = mf.foothold(i, to_w(xy_o), stance)
+        a0 = mf.centre(to_w(p0[:2]))  # the map's ball centre under the lift-off point
+        lift = mf.swing_lift(i, a0, c1, (to_w(self._ref.copy()), stance[0]))
+        xy1 = Ro[:2, :2] @ (c1[:2] - pos[:2]) + self._pD[:2]
+        return np.array([xy1[0], xy1[1], p0[2] + c1[2] - a0[2]]), lift
+
+    def _swing(self, i: int, t: float, q: np.ndarray, touch: np.ndarray, T_sw: float) -> None:
+        """Leg i's swing at progress s: touchdown at contact from mid-swing on; a contact before mid-swing (the foot
+        stubbed a riser or a tile edge) raises the rest of the arc by ``stumble_lift`` (at most twice);
+        the end of the arc without contact starts the search (feedback) or is the touchdown (open loop)."""
+        from ..legged.gait import swing_arc
+
+        leg = self._legs[i]
+        assert leg.arc is not None
+        _p0, p1, _lift, tau_lo = leg.arc
+        s = min(max((self._tau_g - tau_lo) / T_sw, 0.0), 1.0)
+        fb = self.options.feedback
+        if fb and touch[i] and s >= 0.5:
+            self._touchdown(i, t, q, early=s < 1.0)
+            return
+        if fb and touch[i] and leg.raises < 2 and s > 0.1:
+            top = max(leg.target[2], p1[2]) + self.options.stumble_lift
+            leg.path = swing_arc(leg.target, p1, top - max(leg.target[2], p1[2]), _ARC_S)[0]
+            leg.s0, leg.raises = s, leg.raises + 1
+            self.counts["stumbles"] += 1
+        x = (s - leg.s0) / (1.0 - leg.s0) * (len(_ARC_S) - 1)
+        k = min(int(x), len(_ARC_S) - 2)
+        leg.target = leg.path[k] + (x - k) * (leg.path[k + 1] - leg.path[k])
+        if s >= 1.0:
+            if fb:
+                leg.mode, leg.search_from = 2, t
+                self.counts["searches"] += 1
+            else:
+                leg.mode, leg.anchor, leg.touchdown = 0, p1.copy(), t
+                self._roll_reference(i)
+                self.counts["touchdowns"] += 1
+
+    def _search(self, i: int, t: float, q: np.ndarray, touch: np.ndarray) -> None:
+        leg = self._legs[i]
+        assert leg.arc is not None
+        if touch[i]:
+            self._touchdown(i, t, q, early=False)
+            return
+        depth = self.options.search_speed * (t - leg.search_from)
+        if depth > self.options.search_depth:
+            leg.mode, leg.anchor, leg.touchdown = 0, leg.target.copy(), t  # no ground found: stand on the target
+            self._roll_reference(i)
+            self.counts["lost_feet"] += 1
+            return
+        leg.target = leg.arc[1] - np.array([0.0, 0.0, depth])
+
+    def _touchdown(self, i: int, t: float, q: np.ndarray, early: bool) -> None:
+        """The foot stops where it is commanded now: its anchor is its current target (continuous q_D)."""
+        leg = self._legs[i]
+        leg.anchor = leg.target.copy()
+        leg.mode, leg.touchdown = 0, t
+        self._roll_reference(i)
+        self.counts["touchdowns"] += 1
+        self.counts["early_touchdowns"] += int(early)
+
+    def _gait_twist(self, cmd: np.ndarray) -> np.ndarray:
+        """u_gait (6,) in B: the command plus a pull of D's horizontal pose to the reference path."""
+        k = self.options.path_gain
+        yaw = _yaw_of(self._RD)
+        v_w = _rot_z(yaw) @ np.array([cmd[0], cmd[1], 0.0])
+        v_w[:2] += k * (self._ref[:2] - self._pD[:2])
+        dyaw = (self._ref[2] - yaw + math.pi) % (2 * math.pi) - math.pi
+        w_w = np.array([0.0, 0.0, cmd[2] + k * dyaw])
+        if not self.options.feedback:  # the plan also holds the body at its start height and level
+            v_w[2] += k * (self._ref_z - self._pD[2])
+            tilt = np.cross(self._RD[:, 2], np.array([0.0, 0.0, 1.0]))
+            w_w += k * tilt
+        return np.concatenate([self._RD.T @ v_w, self._RD.T @ w_w])
+
+    # ------------------------------------------------------------------ the stance primitive
+    def _posture(
+        self, feet: np.ndarray, R_M: np.ndarray, stance: Sequence[int], u_gait: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The body twist δ (6,) from the stance primitive's error, and the error's observable rows (3,).
+
+        ``feet`` (6, 3): the feet in B from the encoders.  The stance plane's similarity and its Jacobian
+        G = ∂(body-frame twist)/∂p come from the task graph's pose function (:func:`stance_pose`); the map from
+        a body twist to the primitive's twist with the feet fixed in W is ``A = Σ_j G_j [−I, [p_j]×]`` (the
+        leg Jacobians of ``J^G L`` cancel: ``J^G = G ∂p/∂q`` and ``∂p/∂q · L = [−I, [p]×]``)."""
+        opt = self.options
+        order, log_m, G = stance_pose(feet, stance)
+        R_pl = rotation_from_tangent(log_m[:3])  # B ← plane frame (its z: the measured normal n_m)
+        n_w = R_M @ R_pl[:, 2]
+        if opt.tilt_follow > 0.0:
+            z_des = (1.0 - opt.tilt_follow) * np.array([0.0, 0.0, 1.0]) + opt.tilt_follow * n_w
+            R_des = _frame_with_z(z_des / np.linalg.norm(z_des), _yaw_of(R_M))
+        else:
+            R_des = _rot_z(_yaw_of(R_M))
+        n_ref = R_des.T @ n_w  # the support normal seen from the desired attitude
+        e = plane_error(log_m, plane_log(n_ref, -opt.ride_height), R_pl)
+        A = stance_map(G, feet[list(order)])[_PLANE_ROWS]
+        r = opt.posture_gain * e[_PLANE_ROWS] - A @ u_gait
+        du = A.T @ np.linalg.solve(A @ A.T + 1e-8 * np.eye(3), r)
+        vmax, wmax = opt.max_correction
+        nv, nw = float(np.linalg.norm(du[:3])), float(np.linalg.norm(du[3:]))
+        du[:3] *= min(1.0, vmax / nv) if nv > 0 else 1.0
+        du[3:] *= min(1.0, wmax / nw) if nw > 0 else 1.0
+        return du, e[_PLANE_ROWS]
+
+    # ------------------------------------------------------------------ joint targets and torques
+    def _targets(self) -> np.ndarray:
+        """q_D: closed-form IK of every leg's target from D — the swing arc (or search) point in swing, and in
+        stance the anchor moved by the ball's rolling: a ball that rolls without slipping moves its centre by
+        ``r δ × n`` when it turns by the rotation vector δ (here the tibia's rotation in W_o since touchdown,
+        from the previous q_D, n = +z of W_o), so the foot-ball contact model keeps the contact point, not the
+        ball centre, fixed on the ground."""
+        stance = [i for i, leg in enumerate(self._legs) if leg.mode == 0]
+        if stance:
+            R_tib = self._RD @ self.fast.tibia_rotations(self._qD)
+            r = self.hs.foot_radius
+            for i in stance:
+                leg = self._legs[i]
+                d = _rotvec(R_tib[i] @ leg.tibia0.T)
+                leg.target = leg.anchor + r * np.array([d[1], -d[0], 0.0])  # r δ × e_z
+        feet = np.array([leg.target for leg in self._legs])
+        q, _ = self.fast.ik((feet - self._pD) @ self._RD)
+        return self.fast.clip(q)
+
+    def _roll_reference(self, i: int) -> None:
+        """The tibia's rotation in W_o now (D and q_D): the start of leg i's rolling (touchdown)."""
+        self._legs[i].tibia0 = self._RD @ self.fast.tibia_rotations(self._qD)[i]
+
+    def _weights(self, t: float, stance: Sequence[int]) -> np.ndarray:
+        """Load weights (6,) in [0, 1]: ramped in after touchdown and out before the next scheduled lift-off."""
+        tab = self.table
+        ramp = self.options.load_ramp
+        w = np.zeros(6)
+        for i in stance:
+            leg = self._legs[i]
+            a = 1.0 if ramp <= 0 else min(1.0, (t - leg.touchdown) / ramp + 0.05)
+            u = (self._tau_g / tab.period - tab.offsets[i]) % 1.0
+            to_lift = (1.0 - u) * tab.period
+            b = 1.0 if ramp <= 0 else min(1.0, to_lift / ramp + 0.05)
+            w[i] = max(min(a, b), 0.05)
+        return w
+
+    def _feedforward(
+        self, t: float, q: np.ndarray, feet: np.ndarray, J: np.ndarray, R: np.ndarray, stance: Sequence[int]
+    ) -> np.ndarray:
+        """Gravity of the legs and −Jᵀ F for the vertical foot forces that carry the weight with no moment about
+        the centre of mass (module docstring); ``feet`` (6, 3) and leg Jacobians ``J`` (6, 3, 3) in B at q."""
+        pin = self._pin
+        m, d = self._model, self._data
+        m.gravity.linear = R.T @ np.array([0.0, 0.0, -G])
+        tau = np.array(pin.computeGeneralizedGravity(m, d, q))
+        if len(stance) == 0:
+            return tau
+        pin.centerOfMass(m, d, q, False)
+        base = m.inertias[0]
+        com = (base.mass * np.asarray(base.lever) + d.mass[0] * np.asarray(d.com[0])) / self._mass
+        idx = list(stance)
+        xy = ((feet[idx] - com) @ R.T)[:, :2]
+        w = self._weights(t, stance)[idx]
+        A = np.vstack([np.ones(len(idx)), xy.T])
+        b = np.array([self._mass * G, 0.0, 0.0])
+        AW = A * w
+        try:
+            f = w * (A.T @ np.linalg.solve(AW @ A.T, b))
+        except np.linalg.LinAlgError:
+            f = w / w.sum() * self._mass * G
+        f = np.maximum(f, 0.0)
+        f *= self._mass * G / max(float(f.sum()), 1e-9)
+        zB = R[2]  # world z in B (the third row of R_WB)
+        tau[self.fast.q_index[idx]] -= np.einsum("kji,j->ki", J[idx], zB) * f[:, None]
+        return tau
+
+    # ------------------------------------------------------------------ records
+    def _record(
+        self, t: float, stance: Sequence[int], touch: np.ndarray, err: np.ndarray, u: np.ndarray, waiting: bool
+    ) -> None:
+        mask = np.zeros(6, bool)
+        mask[list(stance)] = True
+        modes = np.array([leg.mode for leg in self._legs], np.int8)
+        self.records.append(
+            (t, mask, touch.copy(), modes, err.copy(), u.copy(), (self._pD, self._RD), self._qD.copy(), waiting)
+        )
+
+    #: names of :meth:`records_arrays`
+    RECORD_FIELDS = ("t", "stance", "contact", "mode", "posture_error", "body_twist", "plan_pose", "q_plan", "waiting")
+
+    def records_arrays(self) -> dict[str, np.ndarray]:
+        """The plans' records as arrays (P = number of plans): ``t`` (P,) [s]; ``stance`` (P, 6) bool — the
+        stance set the plan used (in stance and touching; the plan's stance legs in open loop); ``contact``
+        (P, 6) bool (touch sensors); ``mode`` (P, 6) 0 stance / 1 swing / 2 searching; ``posture_error`` (P, 3)
+        the stance plane's error rows (e13, e23 [rad], e3∞ [m]); ``body_twist`` (P, 6) u = (v, ω) of D in B;
+        ``plan_pose`` (P, 7) D's body pose (position [m], quaternion w, x, y, z) in W_o; ``q_plan`` (P, 18);
+        ``waiting`` (P,) bool: the gait waited for a late foot."""
+        cols: list[Any] = list(zip(*self.records)) if self.records else [[] for _ in self.RECORD_FIELDS]
+        out = {name: np.array(col) for name, col in zip(self.RECORD_FIELDS, cols) if name != "plan_pose"}
+        poses = cols[6] if self.records else []
+        out["plan_pose"] = np.array([np.concatenate([p, _R_to_quat(R)]) for p, R in poses]).reshape(-1, 7)
+        return {name: out[name] for name in self.RECORD_FIELDS}

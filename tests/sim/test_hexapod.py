@@ -1,0 +1,121 @@
+"""The hexapod's MuJoCo scene: the gate against Pinocchio (hexapod_floating), terrain heights against Terrain,
+the planner's leg capsules, sensors and servo damping, bad input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+import mujoco
+import pinocchio as pin
+
+from coop_ga import systems
+from coop_ga.errors import InvalidInputError
+from coop_ga.legged import Terrain
+from coop_ga.legged.body import BodyState
+from coop_ga.legged.contact import leg_capsules
+from coop_ga.legged.legs import hexapod_legs
+from coop_ga.sim.hexapod import HEXAPOD_LEGS, HexapodGeometry, hexapod_scene, terrain_geoms
+
+_SCENES: dict[str, object] = {}
+
+
+def scene(kind: str = "flat"):
+    if kind not in _SCENES:
+        _SCENES[kind] = hexapod_scene(Terrain.make(kind), visuals=False)
+    return _SCENES[kind]
+
+
+def test_feet_and_body_equal_pinocchio_fk_of_hexapod_floating() -> None:
+    """The gate: at random body poses and in-limit leg joints the MuJoCo feet and body equal Pinocchio's FK of the
+    registered hexapod_floating (its six virtual joints are the free joint here)."""
+    hs = scene()
+    fl = systems.load("hexapod_floating")
+    m, d = fl.model, fl.model.createData()
+    legs = hexapod_legs()
+    rng = np.random.default_rng(3)
+    data = mujoco.MjData(hs.model)
+    err_feet = err_body = 0.0
+    for _ in range(25):
+        q = np.empty(18)
+        q[legs.q_index.ravel()] = rng.uniform(legs.q_lower, legs.q_upper).ravel()
+        state = BodyState.from_rpy(rng.uniform(-1, 1, 3), rng.uniform(-0.6, 0.6, 3), q)
+        q24 = state.floating_q()
+        pin.framesForwardKinematics(m, d, q24)
+        hs.scene.set_q(data, q)
+        hs.scene.set_base_pose(data, state.position, np.roll(state.quaternion_xyzw(), 1))
+        mujoco.mj_kinematics(hs.model, data)
+        for i, leg in enumerate(HEXAPOD_LEGS):
+            err_feet = max(
+                err_feet,
+                float(np.abs(data.site_xpos[hs.foot_sites[i]] - d.oMf[m.getFrameId(f"{leg}_foot")].translation).max()),
+            )
+        b = hs.scene.id_of("body", hs.scene.base_body)
+        M = d.oMf[m.getFrameId("base_link")]
+        err_body = max(err_body, float(np.abs(data.xpos[b] - M.translation).max()))
+        err_body = max(err_body, float(np.abs(data.xmat[b].reshape(3, 3) - M.rotation).max()))
+    assert err_feet < 1e-9 and err_body < 1e-9, (err_feet, err_body)
+
+
+@pytest.mark.parametrize("kind", ["flat", "slope", "steps", "random"])
+def test_terrain_surface_equals_terrain_height(kind: str) -> None:
+    hs = scene(kind)
+    (x0, x1), (y0, y1) = hs.region
+    rng = np.random.default_rng(7)
+    xy = np.column_stack([rng.uniform(x0 + 1e-3, x1 - 1e-3, 300), rng.uniform(y0 + 1e-3, y1 - 1e-3, 300)])
+    err = np.abs(hs.surface_height(xy) - hs.terrain.height(xy))
+    assert np.all(np.isfinite(err)) and float(err.max()) < 1e-9
+    if kind in ("steps", "random"):  # grid terrains end at the region: no ground beyond it
+        assert math.isnan(float(hs.surface_height(np.array([x1 + 0.5, 0.0]))))
+
+
+def test_collision_geometry_is_the_planners_and_the_body_box() -> None:
+    hs = scene()
+    caps = {c.link: c for c in hs.scene.capsules}
+    planner = {c.link: c for c in leg_capsules(hexapod_legs(), systems.load("hexapod"))}
+    assert set(caps) == set(planner) - {"base_link"}
+    for name, c in caps.items():
+        p = planner[name]
+        assert c.radius == p.radius and np.array_equal(c.a, p.a) and np.array_equal(c.b, p.b)
+    assert hs.foot_radius == pytest.approx(0.009) == hexapod_legs().foot_radius
+    assert np.allclose(2 * hs.model.geom_size[hs.body_geom], (0.24, 0.16, 0.04))
+    # servo back-EMF damping: stall torque / no-load speed
+    lim = hs.scene.system.limits
+    assert np.allclose(hs.model.dof_damping[hs.scene.qvel_index], lim.effort / lim.velocity)
+
+
+def test_sensors_of_a_robot_standing_still() -> None:
+    """Standing on its six feet: the touch sensors carry the weight, the IMU reads R_WB, zero rate and +g."""
+    from coop_ga.sim import Simulation
+    from coop_ga.sim.walking import HexapodWalker, VelocityCommand, WalkingOptions, standing_start
+
+    hs = scene()
+    opt = WalkingOptions()
+    q0, pose = standing_start(hs, opt)
+    sim = Simulation(hs.scene, HexapodWalker(hs, VelocityCommand.constant(0.0), opt), q=q0, base_pose=pose)
+    sim.run(0.5)
+    mass = float(sum(hs.model.body_mass))
+    touch = hs.touch(sim.data)
+    assert touch.sum() == pytest.approx(mass * 9.81, rel=0.02) and np.all(touch > 0.5)
+    quat, gyro, acc = hs.imu(sim.data)
+    assert np.allclose(quat, hs.scene.base_pose(sim.data)[1], atol=1e-9)
+    assert np.abs(gyro).max() < 1e-3 and acc == pytest.approx([0.0, 0.0, 9.81], abs=0.02)
+    assert hs.terrain_contacts(sim.data) == {"foot": 6, "shin": 0, "femur": 0, "body": 0}
+
+
+def test_bad_input_is_refused() -> None:
+    with pytest.raises(InvalidInputError, match="Terrain"):
+        terrain_geoms("flat", ((0, 1), (0, 1)))
+    tilted = Terrain("random", np.array([0.0]), np.zeros(0), np.array([[[0.1, 0.0, 1.0, 0.0], [0.0, 0.0, 1.0, 0.0]]]))
+    with pytest.raises(InvalidInputError, match="tilted"):
+        terrain_geoms(tilted, ((-1, 1), (-1, 1)))
+    with pytest.raises(InvalidInputError, match="region"):
+        hexapod_scene(Terrain.flat(), region=((1, 0), (0, 1)))
+    with pytest.raises(InvalidInputError, match="impratio"):
+        hexapod_scene(Terrain.flat(), impratio=0.0)
+    with pytest.raises(InvalidInputError, match="body_box"):
+        HexapodGeometry(body_box=(0.1, 0.0, 0.1))

@@ -1,0 +1,172 @@
+"""The closed-loop walker's pieces against the library's (leg kinematics, the stance task's error and Jacobian, the
+posture map), posture regulation through the stance primitive in physics, the open-loop replay, a time-varying
+command, the log's replay, and bad input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+
+import pinocchio as pin
+
+import coop_ga as cg
+from coop_ga.errors import InvalidInputError
+from coop_ga.geometry.groups import Similarity
+from coop_ga.legged import Terrain
+from coop_ga.legged.legs import LEGS, hexapod_legs
+from coop_ga.legged.stance import STANCE_ORDER, stance_task
+from coop_ga.sim import Disturbance, Simulation, replay
+from coop_ga.sim.hexapod import hexapod_scene
+from coop_ga.sim.walking import (
+    HexapodWalker,
+    VelocityCommand,
+    WalkingOptions,
+    check_command,
+    nominal_feet,
+    posture_legs,
+    stance_pose,
+    standing_start,
+)
+from coop_ga.sim.walking_kin import FastLegs, plane_error, plane_log, stance_map
+from coop_ga.sim.walking_run import simulate_walk
+
+
+def _random_q(rng: np.random.Generator, legs, spread: float = 0.35) -> np.ndarray:
+    return legs.q_stand + rng.uniform(-spread, spread, 18)
+
+
+def test_fast_legs_equal_the_leg_model_and_pinocchio() -> None:
+    legs = hexapod_legs()
+    fl = FastLegs(legs)
+    system = cg.systems.load("hexapod")
+    m, d = system.model, system.model.createData()
+    rng = np.random.default_rng(0)
+    worst = np.zeros(4)
+    for _ in range(100):
+        q = _random_q(rng, legs)
+        p, J = fl.fk_jac(q)
+        worst[0] = max(worst[0], np.abs(p - legs.fk(q)).max(), np.abs(fl.fk(q) - p).max())
+        worst[1] = max(worst[1], np.abs(J - legs.jacobians(q)).max())
+        qi, margin = fl.ik(p)
+        assert np.all(margin > 0)
+        worst[2] = max(worst[2], np.abs(qi - legs.ik(p, check_limits=False)).max())
+        pin.forwardKinematics(m, d, q)
+        R = fl.tibia_rotations(q)
+        worst[3] = max(
+            worst[3],
+            max(np.abs(R[i] - d.oMi[m.getJointId(f"{leg}_tibia_joint")].rotation).max() for i, leg in enumerate(LEGS)),
+        )
+    assert np.all(worst < 1e-12), worst
+
+
+@pytest.mark.parametrize("k", [3, 4, 6])
+def test_stance_plane_error_and_jacobian_equal_the_tasks(k: int) -> None:
+    """stance_pose (the task graph's pose function on the feet) gives the task's log V and J^G = G ∂p/∂q;
+    plane_error (the motor identity) equals the compiled GA error log(Ṽ V_ref); stance_map equals J^G L."""
+    legs = hexapod_legs()
+    fl = FastLegs(legs)
+    stance = tuple(LEGS.index(n) for n in STANCE_ORDER[:k])
+    task = stance_task("hexapod", [LEGS[i] for i in stance], "plane" if k == 3 else "plane_fit", codegen=False)
+    rng = np.random.default_rng(k)
+    for _ in range(5):
+        q = _random_q(rng, legs, 0.25)
+        feet, Jl = fl.fk_jac(q)
+        order, log_m, G = stance_pose(feet, stance)
+        st = task.evaluate(q)
+        assert np.abs(log_m - st.log).max() < 1e-12
+        Jg = np.zeros((7, 18))
+        for j, i in enumerate(order):
+            Jg[:, fl.q_index[i]] = G[:, 3 * j : 3 * j + 3] @ Jl[i]
+        assert np.abs(Jg - st.jacobian).max() < 1e-10
+        n = rng.normal(size=3) * 0.1 + np.array([0.0, 0.0, 1.0])
+        log_ref = plane_log(n / np.linalg.norm(n), -0.1 - 0.01 * rng.random())
+        ref = Similarity(cg.exp(log_ref))
+        assert np.abs(plane_error(log_m, log_ref) - task.error(q, ref)).max() < 1e-12
+        # A = J^G L: q̇_i = J_i⁻¹ (−v + [p_i]× ω) for the stance legs
+        L = np.zeros((18, 6))
+        for i in stance:
+            px = np.array([[0, -feet[i, 2], feet[i, 1]], [feet[i, 2], 0, -feet[i, 0]], [-feet[i, 1], feet[i, 0], 0]])
+            L[fl.q_index[i]] = np.linalg.solve(Jl[i], np.hstack([-np.eye(3), px]))
+        assert np.abs(stance_map(G, feet[list(order)]) - st.jacobian @ L).max() < 1e-10
+
+
+def _stand(ride: float, gain: float, seconds: float = 1.0) -> tuple[float, float]:
+    """(measured body height over the plane of the feet centres [m] at the end, its start value)."""
+    from dataclasses import replace
+
+    hs = hexapod_scene(Terrain.flat(), visuals=False)
+    opt = WalkingOptions()
+    q0, pose = standing_start(hs, opt)
+    walker = HexapodWalker(hs, VelocityCommand.constant(0.0), replace(opt, ride_height=ride, posture_gain=gain))
+    sim = Simulation(hs.scene, walker, q=q0, base_pose=pose)
+    sim.run(seconds)
+    feet = hs.feet_world(sim.data)
+    pos = hs.scene.base_pose(sim.data)[0]
+    return float(pos[2] - feet[:, 2].mean()), opt.ride_height
+
+
+def test_posture_follows_the_stance_primitives_reference_in_physics() -> None:
+    """Raising the ride height by 1 cm moves the body 1 cm up through the stance plane's error; without the
+    primitive's feedback (gain 0) the body stays where the joint PD holds it."""
+    h_fb, h0 = _stand(0.11, 6.0)
+    h_off, _ = _stand(0.11, 0.0)
+    assert h_fb == pytest.approx(0.11, abs=1e-3)
+    assert h_off == pytest.approx(h0, abs=2e-3) and h_off < 0.103
+
+
+def test_open_loop_replay_is_a_function_of_time() -> None:
+    """feedback=False replays the kinematic plan: its joint targets do not depend on what happens to the robot
+    (a 10 N push changes the motion, not the plan)."""
+    opt = WalkingOptions(feedback=False)
+    cmd = VelocityCommand.constant(0.1, ramp=0.8, duration=1.6)
+    a = simulate_walk(Terrain.flat(), cmd, opt, duration=0.8)
+    push = Disturbance("base_link_free", force=(0.0, 10.0, 0.0), start=0.4, stop=0.7)
+    b = simulate_walk(Terrain.flat(), cmd, opt, duration=0.8, disturbances=[push])
+    qa, qb = a.walker.records_arrays()["q_plan"], b.walker.records_arrays()["q_plan"]
+    assert np.array_equal(qa, qb)
+    assert np.abs(a.base[0] - b.base[0]).max() > 1e-3  # the robot itself was pushed
+
+
+def test_tour_start_speed_change_turn_stop_and_replay(tmp_path) -> None:
+    """One run: start, speed change, turn while walking, stop (VelocityCommand.tour); it ends at rest, turned by
+    the commanded yaw; its log replays with MuJoCo alone and carries the body pose and stance set per step."""
+    opt = WalkingOptions(max_accel=0.25)
+    cmd = VelocityCommand.tour(0.08, 0.35, leg=0.8)
+    run = simulate_walk(Terrain.flat(), cmd, opt, duration=cmd.end + 0.6, label="tour")
+    m = run.metrics()
+    assert m["passed"], run.summary()
+    assert abs(m["final_yaw_deg"] - m["commanded_yaw_deg"]) < 2.0 and m["commanded_yaw_deg"] > 10.0
+    speeds = np.linalg.norm(np.diff(run.base[0][-100:, :2], axis=0), axis=1) / 1e-3
+    assert speeds.max() < 0.01  # at rest at the end
+    folder = run.save(tmp_path / "tour")
+    assert replay(folder) == 0.0
+    z = np.load(folder / "log.npz")
+    T = len(z["time"])
+    assert z["body_pose"].shape == (T, 7) and z["stance"].shape == (T, 6) and z["stance"].dtype == bool
+    assert {"qpos", "qvel", "ctrl", "plan_t", "terrain_planes"} <= set(z.files)
+
+
+def test_bad_input_names_the_problem() -> None:
+    with pytest.raises(InvalidInputError, match="gait"):
+        WalkingOptions(gait="gallop")
+    with pytest.raises(InvalidInputError, match=r"reach|joint limits"):
+        check_command(VelocityCommand.constant(0.4), WalkingOptions())
+    with pytest.raises(InvalidInputError, match="speed limit"):
+        check_command(VelocityCommand.constant(0.05), WalkingOptions(cycle_time=0.3))
+    with pytest.raises(InvalidInputError, match="at least 3 feet"):
+        posture_legs((0, 3))
+    with pytest.raises(InvalidInputError, match="values"):
+        VelocityCommand([0.0, 1.0], [[0.0, 0.0, 0.0]])
+    with pytest.raises(InvalidInputError, match="ascending"):
+        VelocityCommand([1.0, 0.5], np.zeros((2, 3)))
+    hs = hexapod_scene(Terrain.flat(), visuals=False)
+    with pytest.raises(InvalidInputError, match="control_rate"):
+        HexapodWalker(hs, VelocityCommand.constant(0.05), WalkingOptions(control_rate=300.0))
+    with pytest.raises(InvalidInputError, match="reach"):  # refused before the run, in the constructor
+        HexapodWalker(hs, VelocityCommand.constant(0.5), WalkingOptions())
+    assert nominal_feet(hexapod_legs(), WalkingOptions()).shape == (6, 3)
+    assert math.isfinite(check_command(VelocityCommand.constant(0.1), WalkingOptions())["joint_speed_ratio"])
