@@ -123,9 +123,9 @@ def test_limits_dynamics_and_motors() -> None:
     with pytest.raises(InvalidInputError, match="integrator"):
         build_scene(s, integrator="verlet")
     # the system's limits, not the URDF's: with_limits reaches MuJoCo
-    s2 = s.with_limits(position={"joint_1.0": (-0.1, 0.2)}, effort=3.0)
+    s2 = s.with_limits(position={"joint_1.0": (0.5, 1.2)}, effort=3.0)
     m2 = build_scene(s2, visuals=False, floor=None, collision=False).model
-    np.testing.assert_array_equal(m2.joint("joint_1.0").range, [-0.1, 0.2])
+    np.testing.assert_array_equal(m2.joint("joint_1.0").range, [0.5, 1.2])
     assert np.all(m2.actuator_ctrlrange[:, 1] == 3.0)
 
 
