@@ -176,9 +176,8 @@ def _output_problems(folder: Path) -> list[str]:
     return problems
 
 
-def _worker(args: tuple[str, str, list[str]]) -> dict[str, Any]:
-    key, out, extra = args
-    fig = next(f for f in FIGURES if f.key == key)
+def _worker(args: tuple[Figure, str, list[str]]) -> dict[str, Any]:
+    fig, out, extra = args  # the Figure itself: a spawned process re-imports FIGURES, not the caller's list
     os.environ.setdefault("MPLBACKEND", "Agg")
     return run_one(fig, Path(out), extra, verbose=False)
 
@@ -308,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
     results: dict[str, dict[str, Any]] = {}
 
     def report(i: int, r: dict[str, Any]) -> None:
-        fig = next(f for f in FIGURES if f.key == r["key"])
+        fig = next(f for f in figs if f.key == r["key"])
         status = "done" if r["ok"] else "FAILED"
         say(f"[{i}/{len(figs)}] {_numbers(fig):14s} {fig.folder:34s} {status} in {r['seconds']:.1f} s")
         for prob in r["problems"]:
@@ -326,7 +325,7 @@ def main(argv: list[str] | None = None) -> int:
         import multiprocessing as mp
 
         with ProcessPoolExecutor(max_workers=args.jobs, mp_context=mp.get_context("spawn")) as pool:
-            futures = [pool.submit(_worker, (f.key, str(out), extra)) for f in figs]
+            futures = [pool.submit(_worker, (f, str(out), extra)) for f in figs]
             for i, fut in enumerate(as_completed(futures), 1):
                 r = fut.result()
                 results[r["key"]] = r

@@ -182,6 +182,24 @@ class Camera:
 Overlay = Callable[[Any], None]
 
 
+def _new_renderer(model: Any, h: int, w: int) -> Any:
+    """``mujoco.Renderer``; with EGL, once more on a fresh display if the cached one was terminated.
+
+    MuJoCo initialises one EGL display per process and keeps it; another EGL user in the same process (VTK's
+    offscreen renderer, when figures run one after another in a worker) can ``eglTerminate`` it, after which
+    ``eglChooseConfig`` fails with ``EGL_NOT_INITIALIZED``.
+    """
+    try:
+        return mj().Renderer(model, h, w)
+    except Exception as e:
+        if os.environ.get("MUJOCO_GL", "").lower() != "egl" or "NOT_INITIALIZED" not in repr(e):
+            raise
+        import mujoco.egl as mj_egl  # only importable with MUJOCO_GL=egl
+
+        mj_egl.EGL_DISPLAY = None  # the next context initialises a display again
+        return mj().Renderer(model, h, w)
+
+
 class Renderer:
     """Offscreen renderer of a scene's model (module docstring).
 
@@ -214,7 +232,7 @@ class Renderer:
                 f"image {w}×{h} is larger than the model's offscreen buffer {vis.offwidth}×{vis.offheight}; "
                 "render smaller or raise spec.visual.global_.offwidth/offheight"
             )
-        self._r = mj().Renderer(self.model, h, w)
+        self._r = _new_renderer(self.model, h, w)
         self.option = mj().MjvOption()
         self.option.geomgroup[GROUP_COLLISION] = int(bool(show_collision))
         self.option.sitegroup[GROUP_SITES] = int(bool(show_sites))
