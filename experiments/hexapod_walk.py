@@ -196,12 +196,13 @@ def main(argv: list[str] | None = None) -> int:
     from coop_ga.legged.walk import WalkOptions, walk
 
     distance, dt, frames = float(args.distance), float(args.dt), int(args.frames)
-    opts = WalkOptions(gait=args.gait, dt=dt)
-    if round(opts.period / dt / 6) < 1:  # walk() would silently use its coarsest grid, T/6, instead
+    period = WalkOptions(gait=args.gait).period  # the gait's cycle [s] (WalkOptions refuses a coarse dt itself)
+    if round(period / dt / 6) < 1:  # Δt is rounded to the gait's grid: a whole sixth of the cycle at most
         exp.parser.error(
             f"argument --dt: {dt:g} s is too coarse for the {args.gait} gait: Δt is rounded to a whole sixth of "
-            f"its {opts.period:g} s cycle, at most {opts.period / 6:.3g} s; give --dt < {opts.period / 3:.3g} s"
+            f"its {period:g} s cycle, at most {period / 6:.3g} s; give --dt < {period / 3:.3g} s"
         )
+    opts = WalkOptions(gait=args.gait, dt=dt)
     terrain = Terrain.make(args.terrain, seed=int(exp.seed if exp.seed is not None else 0))
     legs = hexapod_legs()
     with exp.stage(f"walking {distance} m, {args.gait} on {args.terrain}"):
