@@ -44,10 +44,10 @@ from ..codegen import CompiledFunction
 from ..diagnostics import collect_warnings
 from ..errors import ChartError, InvalidInputError
 from ..geometry.groups import Similarity, log_jacobian, tangent_to_bivector
-from ..geometry.primitives import N_POINTS, Primitive, well_definedness
+from ..geometry.kinds import CooperativeKind, KindSpec, kind_spec
+from ..geometry.primitives import Primitive, well_definedness
 from ..geometry.primitives import point as conformal_point
 from ..geometry.similarity import (
-    UNIT_AXIS,
     primitive_parameters,
     similarity_from_parameters,
     similarity_from_unit,
@@ -56,16 +56,7 @@ from ..geometry.similarity import (
 from ..kinematics.chains import KinematicTree
 from .graph import CHART_WARN_ANGLE, TaskGraph, versor_expr
 from .guard import TaskGuard
-from .primitive import (
-    FIT_KINDS,
-    base_kind,
-    check_kind,
-    cooperative_primitive,
-    fit_parameters,
-    fit_primitive,
-    fit_well_definedness,
-    n_points,
-)
+from .primitive import cooperative_primitive, fit_parameters, fit_primitive, fit_well_definedness
 
 __all__ = ["CHART_WARN_ANGLE", "CooperativeTask", "TaskState", "cooperative_task"]
 
@@ -117,7 +108,7 @@ class CooperativeTask:
         similarity of that sphere / plane (:attr:`primitive_kind`), built in the same task graph.
     points:
         Indices into ``system.end_frames`` giving the end points and their order
-        (default: the first ``N_POINTS[kind]``; for the least-squares kinds all end frames).  The
+        (default: the first :attr:`KindSpec.n_points <coop_ga.geometry.kinds.KindSpec.n_points>`; for the least-squares kinds all end frames).  The
         order fixes the orientation (see :mod:`coop_ga.cooperative.primitive`; for ``plane_fit`` the
         normal follows the points' Newell normal, counter-clockwise seen from its tip).
     codegen:
@@ -146,14 +137,16 @@ class CooperativeTask:
         raise_below: float = 1e-6,
         chart_axis: Any = "auto",
     ):
-        self.kind = check_kind(kind)
+        #: the facts of the task's kind (:data:`~coop_ga.geometry.kinds.KIND_SPECS`)
+        self.spec: KindSpec = kind_spec(kind)
+        self.kind: CooperativeKind = self.spec.name
         #: the kind of the primitive X_c and of V_Sc's unit primitive ("sphere" for "sphere_fit", …)
-        self.primitive_kind = base_kind(self.kind)
+        self.primitive_kind = self.spec.primitive_kind
         self.system = system
         frames = tuple(system.end_frames)
-        if self.kind in FIT_KINDS and points is None:
+        if self.spec.least_squares and points is None:
             points = tuple(range(len(frames)))
-        n = n_points(self.kind, _count(points) if self.kind in FIT_KINDS else None)
+        n = self.spec.points_used(_count(points) if self.spec.least_squares else None)
         if points is None:
             if len(frames) < n:
                 raise InvalidInputError(
@@ -192,18 +185,18 @@ class CooperativeTask:
 
     # ================================================================== the chart of V_Sc
     def _resolve_chart(self, chart_axis: Any) -> tuple[float, float, float] | None:
-        unit_axis = UNIT_AXIS[self.primitive_kind]
+        unit_axis = self.spec.axis
         if unit_axis is None or chart_axis is None:
             return None
         if isinstance(chart_axis, str):
             validation.choice(chart_axis, ("auto",), "chart_axis")
             q0 = validation.configuration(self.system.q0, self.nq, "system.q0")
             pts = self.tree.end_points_array(q0)
-            if self.kind in FIT_KINDS:
+            if self.spec.least_squares:
                 if not fit_well_definedness(self.kind, pts) > self.raise_below:
                     return None
                 o = fit_parameters(self.kind, [tuple(p) for p in pts.tolist()])[3]
-            elif N_POINTS[self.kind] > 1 and not well_definedness(self.kind, pts) > self.raise_below:
+            elif self.spec.n_points > 1 and not well_definedness(self.kind, pts) > self.raise_below:
                 return None  # degenerate at q0: no nominal axis (the guard reports it on use)
             else:
                 _, _, _, o = primitive_parameters(cooperative_primitive(self.kind, [conformal_point(p) for p in pts]))
@@ -243,7 +236,7 @@ class CooperativeTask:
         axis is beyond the chart warning angle (170°) from the chart's reference axis: the path to it would
         cross the chart's half-turn and the error e = log(Ṽ_Sc V_Sd) would jump on the way."""
         V = validation.target(target, what)
-        unit_axis = UNIT_AXIS[self.primitive_kind]
+        unit_axis = self.spec.axis
         if unit_axis is None:
             return V
         ref = np.asarray(self.chart_axis if self.chart_axis is not None else unit_axis)
@@ -370,7 +363,7 @@ class CooperativeTask:
     def primitive(self, q: Any) -> Primitive:
         """X_c(q) = ∧ P_i(q) (∧ e∞) (Eq 14), from the compiled end points (for the least-squares kinds the
         fitted sphere / plane, :func:`~coop_ga.cooperative.primitive.fit_primitive`)."""
-        if self.kind in FIT_KINDS:
+        if self.spec.least_squares:
             return fit_primitive(self.kind, self.points(q), raise_below=self.raise_below)
         return cooperative_primitive(self.kind, [conformal_point(p) for p in self.points(q)])
 
@@ -481,23 +474,23 @@ class CooperativeTask:
                 "the closed forms of Appendix B are for the canonical chart; build the task "
                 "with chart_axis=None to use them"
             )
-        if self.kind in FIT_KINDS:
+        if self.spec.least_squares:
             raise InvalidInputError(
                 f"the closed forms of Appendix B are for primitives spanned by their points; a {self.kind} task has "
                 "none (use jacobian() or jacobian_ad())"
             )
         self._run(q)  # same input checks and guard as every route
         P, dP = self.tree.point_jacobians(np.asarray(q, dtype=float))
-        X = cooperative_primitive(self.kind, P)
-        cols = primitive_jacobian(self.kind, P, dP)
-        _, JA, JG = analytic_similarity_jacobian(self.kind, X, _stack_columns(cols))
+        X = cooperative_primitive(self.primitive_kind, P)
+        cols = primitive_jacobian(self.primitive_kind, P, dP)
+        _, JA, JG = analytic_similarity_jacobian(self.primitive_kind, X, _stack_columns(cols))
         return JA, JG
 
     def similarity_numpy(self, q: Any) -> Similarity:
         """V_Sc from the numpy multivector code (no CasADi, world origin), for cross-checks."""
         qv = validation.configuration(q, self.nq, owner=f"task '{self.name}'")
         pts = self.tree.end_points_array(qv)
-        if self.kind in FIT_KINDS:
+        if self.spec.least_squares:
             w = fit_well_definedness(self.kind, pts)
             if not w > self.warn_below:
                 self.guard.degeneracy(float(w), pts)
@@ -509,7 +502,7 @@ class CooperativeTask:
             return Similarity(
                 similarity_from_parameters(self.primitive_kind, a, r, o, chart_axis=self.chart_axis), check=False
             )
-        w = well_definedness(self.kind, pts) if N_POINTS[self.kind] > 1 else 1.0
+        w = well_definedness(self.kind, pts) if self.spec.n_points > 1 else 1.0
         if not w > self.warn_below:
             self.guard.degeneracy(float(w), pts)
         V = similarity_from_unit(
@@ -559,13 +552,13 @@ def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None
         from .. import systems
 
         system = systems.load(system)
-    k = check_kind(kind)
+    spec = kind_spec(kind)
     pts = (
         None
         if points is None
         else validation.indices(
             points,
-            n_points(k, _count(points) if k in FIT_KINDS else None),
+            spec.points_used(_count(points) if spec.least_squares else None),
             len(system.end_frames),
             "points",
             labels=tuple(system.end_frames),

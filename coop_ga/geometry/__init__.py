@@ -15,9 +15,21 @@ from .groups import (
     log_jacobian,
 )
 from .interpolation import interpolate, reference_trajectory, screw_axis, screw_exp, screw_log
-from .primitives import (
+from .kinds import (
+    COOPERATIVE_KINDS,
+    FIT_KINDS,
+    FLAT_KINDS,
+    KIND_SPECS,
     KINDS,
     N_POINTS,
+    UNIT_AXIS,
+    CooperativeKind,
+    FitKind,
+    Kind,
+    KindSpec,
+    kind_spec,
+)
+from .primitives import (
     Primitive,
     center,
     circle,
@@ -38,14 +50,22 @@ from .primitives import (
     to_euclidean,
     well_definedness,
 )
-from .similarity import UNIT_AXIS, primitive_parameters, rotor_between, similarity, similarity_from_unit, unit_primitive
+from .similarity import primitive_parameters, rotor_between, similarity, similarity_from_unit, unit_primitive
 
 __all__ = [
+    "COOPERATIVE_KINDS",
+    "FIT_KINDS",
+    "FLAT_KINDS",
     "KINDS",
+    "KIND_SPECS",
     "N_POINTS",
     "TANGENT_BASIS",
     "UNIT_AXIS",
+    "CooperativeKind",
     "Dilator",
+    "FitKind",
+    "Kind",
+    "KindSpec",
     "Motor",
     "Primitive",
     "Rotor",
@@ -62,6 +82,7 @@ __all__ = [
     "exp",
     "interpolate",
     "kind_of",
+    "kind_spec",
     "line",
     "log",
     "log_jacobian",

@@ -24,11 +24,10 @@ import pytest
 
 import coop_ga as cg
 from coop_ga.errors import PrecisionWarning
-from coop_ga.geometry import N_POINTS
+from coop_ga.geometry import KIND_SPECS, KINDS, N_POINTS
 from coop_ga.geometry.groups import Similarity, rotor_matrix
 
 sim = importlib.import_module("coop_ga.geometry.similarity")
-KINDS = ("point", "point_pair", "line", "circle", "plane", "sphere")
 EPS = float(np.finfo(float).eps)
 
 
@@ -137,7 +136,7 @@ def far_points(kind, rng, rho, size):
 
 
 def unit_points(kind):
-    return [np.array(p) for p in sim._UNIT_POINTS[kind]]
+    return [np.array(p) for p in KIND_SPECS[kind].unit_points]
 
 
 def _run(f):
