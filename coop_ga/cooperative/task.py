@@ -32,6 +32,7 @@ from __future__ import annotations
 import hashlib
 import math
 import threading
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -58,7 +59,7 @@ from .graph import CHART_WARN_ANGLE, TaskGraph, versor_expr
 from .guard import TaskGuard
 from .primitive import cooperative_primitive, fit_parameters, fit_primitive, fit_well_definedness
 
-__all__ = ["CHART_WARN_ANGLE", "CooperativeTask", "TaskState", "cooperative_task"]
+__all__ = ["CHART_WARN_ANGLE", "TASK_CACHE_SIZE", "CooperativeTask", "TaskState", "cooperative_task"]
 
 _F64 = np.dtype(np.float64)
 
@@ -538,7 +539,11 @@ def _versor_times_tangents(V: Any, J: np.ndarray, s: float) -> np.ndarray:
     return s * np.array([np.broadcast_to(np.asarray(P.get(k), float), (J.shape[1],)) for k in SIMILARITY_BLADES])
 
 
-_TASK_CACHE: dict[tuple[Any, ...], CooperativeTask] = {}
+#: how many tasks :func:`cooperative_task` keeps (least recently used first out): each holds its system, its
+#: symbolic graph and its loaded compiled functions, so a sweep over many systems must not keep them all
+TASK_CACHE_SIZE = 64
+_TASK_CACHE: OrderedDict[tuple[Any, ...], CooperativeTask] = OrderedDict()
+_TASK_CACHE_LOCK = threading.Lock()
 
 
 def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None, **options: Any) -> CooperativeTask:
@@ -546,7 +551,9 @@ def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None
 
     Tasks are cached per (system, kind, points, options), so the compiled functions are
     built once per process (and the generated C once per machine).  The cached task is
-    shared by every caller and safe to use from several threads.
+    shared by every caller and safe to use from several threads.  The cache keeps the
+    :data:`TASK_CACHE_SIZE` most recently used tasks (a task dropped from it stays valid for
+    whoever holds it; asking again builds a new one, whose compiled C comes from the disk cache).
     """
     if isinstance(system, str):
         from .. import systems
@@ -574,8 +581,18 @@ def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None
         hash(key)
     except TypeError:
         raise InvalidInputError(f"task options must be plain values, got {options!r}") from None
-    t = _TASK_CACHE.get(key)
-    if t is None or t.system is not system:
-        t = CooperativeTask(system, kind, pts, **options)
+    with _TASK_CACHE_LOCK:
+        t = _TASK_CACHE.get(key)
+        if t is not None and t.system is system:  # (an id may be reused by a new system once the old one is gone)
+            _TASK_CACHE.move_to_end(key)
+            return t
+    t = CooperativeTask(system, kind, pts, **options)  # outside the lock: building takes up to seconds
+    with _TASK_CACHE_LOCK:
+        other = _TASK_CACHE.get(key)
+        if other is not None and other.system is system:  # another thread built it meanwhile: one task per key
+            t = other
         _TASK_CACHE[key] = t
+        _TASK_CACHE.move_to_end(key)
+        while len(_TASK_CACHE) > max(int(TASK_CACHE_SIZE), 1):
+            _TASK_CACHE.popitem(last=False)
     return t

@@ -162,6 +162,36 @@ def test_task_cache_returns_same_object() -> None:
     assert cooperative_task(sys, "circle") is cooperative_task("three_franka", "circle")
 
 
+def test_task_cache_is_bounded_and_keeps_the_most_recently_used(monkeypatch) -> None:
+    """The cache held every task ever asked for (a sweep over systems grew without bound); it is an LRU of
+    TASK_CACHE_SIZE tasks: the least recently used one goes first, a task dropped stays usable."""
+    import gc
+    import weakref
+
+    from coop_ga.cooperative import task as task_module
+
+    monkeypatch.setattr(task_module, "TASK_CACHE_SIZE", 3)
+    monkeypatch.setattr(task_module, "_TASK_CACHE", task_module.OrderedDict())
+    syss = [systems.cartesian_points(1) for _ in range(5)]
+    opts = {"codegen": False}
+    first = cooperative_task(syss[0], "point", **opts)
+    for s in syss[1:3]:
+        cooperative_task(s, "point", **opts)
+    assert cooperative_task(syss[0], "point", **opts) is first  # a hit makes it the most recent
+    for s in syss[3:]:
+        cooperative_task(s, "point", **opts)  # two more: evicts syss[1] and syss[2], not syss[0]
+    cache = task_module._TASK_CACHE
+    assert len(cache) == 3
+    assert [t.system for t in cache.values()] == [syss[0], syss[3], syss[4]]
+    assert cooperative_task(syss[0], "point", **opts) is first
+    dropped = weakref.ref(cooperative_task(syss[1], "point", **opts))  # rebuilt, evicting syss[3]'s task
+    np.testing.assert_allclose(first.points(np.zeros(3)), [[1.0, 0.0, 0.0]])  # still usable
+    for s in syss[2:]:
+        cooperative_task(s, "point", **opts)
+    gc.collect()
+    assert dropped() is None  # evicted and unreferenced: freed, not kept by the cache
+
+
 def test_overflowing_q_is_reported_as_too_large() -> None:
     task = CooperativeTask(systems.load("three_franka"), "circle", codegen=False)
     with pytest.raises(cg.InvalidInputError, match="too large"):
