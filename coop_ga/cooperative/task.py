@@ -44,7 +44,7 @@ from .. import validation
 from ..codegen import CompiledFunction
 from ..diagnostics import collect_warnings
 from ..errors import ChartError, InvalidInputError
-from ..geometry.groups import Similarity, log_jacobian, tangent_to_bivector
+from ..geometry.groups import Similarity, SimilarityLike, log_jacobian, tangent_to_bivector
 from ..geometry.kinds import CooperativeKind, KindSpec, kind_spec
 from ..geometry.primitives import Primitive, well_definedness
 from ..geometry.primitives import point as conformal_point
@@ -70,23 +70,23 @@ class TaskState:
 
     Attributes
     ----------
-    versor: (12,) V_Sc coefficients on :data:`~coop_ga.geometry.groups.SIMILARITY_BLADES`.
+    similarity: V_Sc (Eq 28), a :class:`~coop_ga.Similarity`.
     log: (7,) B_Sc on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``.
     jacobian: (7, nq) J^G, body frame (Eq 30).
     points: (n, 3) end points [m], world frame.
     well_definedness: scalar in [0, 1] (see module docstring).
     """
 
-    versor: np.ndarray
+    similarity: Similarity
     log: np.ndarray
     jacobian: np.ndarray
     points: np.ndarray
     well_definedness: float
 
     @property
-    def similarity(self) -> Similarity:
-        """V_Sc as a :class:`~coop_ga.Similarity`."""
-        return Similarity(versor_expr(self.versor), check=False)
+    def coeffs(self) -> np.ndarray:
+        """V_Sc's 12 coefficients on :data:`~coop_ga.geometry.groups.SIMILARITY_BLADES` (read-only)."""
+        return self.similarity.coeffs
 
 
 def _binding(cf: CompiledFunction) -> Any:
@@ -118,7 +118,7 @@ class CooperativeTask:
         Well-definedness thresholds (dimensionless) for :class:`~coop_ga.errors.DegeneracyWarning`
         and :class:`~coop_ga.errors.DegeneratePrimitiveError`.
     chart_axis:
-        The axis the minimal rotation of V_Sc is measured from (:func:`coop_ga.similarity_from_unit`):
+        The axis the minimal rotation of V_Sc is measured from (:func:`coop_ga.geometry.similarity_from_unit`):
         ``None`` — the unit primitive's (+e2 for point pairs/lines, +e3 for circles/planes; Eq 26);
         a 3-vector; or ``"auto"`` (default) — the unit primitive's, unless the primitive at
         ``system.q0`` points more than 90° away from it, then its axis at q0.  The chart jumps by a
@@ -232,7 +232,7 @@ class CooperativeTask:
             )
         return Similarity(similarity_from_unit(X, chart_axis=self.chart_axis))
 
-    def check_target(self, target: Any, what: str = "target") -> Similarity:
+    def check_target(self, target: SimilarityLike, what: str = "target") -> Similarity:
         """``target`` as a Similarity, refused with a :class:`~coop_ga.errors.ChartError` when its primitive's
         axis is beyond the chart warning angle (170°) from the chart's reference axis: the path to it would
         cross the chart's half-turn and the error e = log(Ṽ_Sc V_Sd) would jump on the way."""
@@ -316,7 +316,7 @@ class CooperativeTask:
         """V_Sc, B_Sc, J^G, end points and well-definedness at q (nq,) in one compiled call (copies)."""
         out = self._run(q)
         return TaskState(
-            out[0].reshape(-1).copy(),
+            Similarity(versor_expr(out[0].reshape(-1).copy()), check=False),
             out[1].reshape(-1).copy(),
             out[2].copy(),
             out[4].reshape(-1, 3).copy(),
@@ -372,26 +372,26 @@ class CooperativeTask:
     def analytic_jacobian(self, q: Any) -> np.ndarray:
         """J^A = ∂V_Sc/∂q, 12×nq (Eq 29), rows on SIMILARITY_BLADES: ``∂V/∂q_i = −½ V b_i``."""
         st = self.evaluate(q)
-        return _versor_times_tangents(versor_expr(st.versor), st.jacobian, -0.5)
+        return _versor_times_tangents(st.similarity.versor, st.jacobian, -0.5)
 
     def bivector_jacobian(self, q: Any) -> np.ndarray:
         """J^B = ∂B_Sc/∂q = J_{S→B}(V_Sc) J^A, 7×nq (Eq 31)."""
         st = self.evaluate(q)
-        V = versor_expr(st.versor)
+        V = st.similarity.versor
         return log_jacobian(V) @ _versor_times_tangents(V, st.jacobian, -0.5)
 
     # ------------------------------------------------------------------ IK error
-    def error(self, q: Any, target: Any) -> np.ndarray:
+    def error(self, q: Any, target: SimilarityLike) -> np.ndarray:
         """e(q) = log(Ṽ_Sc(q) V_Sd) (Eq 44): the target (a :class:`~coop_ga.Similarity`) seen from
         the current pose, 7-vector on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``."""
         return self.error_and_jacobian(q, target)[0]
 
-    def error_jacobian(self, q: Any, target: Any) -> np.ndarray:
+    def error_jacobian(self, q: Any, target: SimilarityLike) -> np.ndarray:
         """J_e = ∂e/∂q (Eq 47), 7×nq: ``J_{S→B}(W) · [½ b_i W]`` with ``W = Ṽ_Sc V_Sd`` and b_i
         the columns of J^G (near e = 0, J_e → −J^G)."""
         return self.error_and_jacobian(q, target)[1]
 
-    def error_and_jacobian(self, q: Any, target: Any) -> tuple[np.ndarray, np.ndarray]:
+    def error_and_jacobian(self, q: Any, target: SimilarityLike) -> tuple[np.ndarray, np.ndarray]:
         """``(e (7,), J_e (7, nq))`` in one compiled call (copies); ``target`` a :class:`~coop_ga.Similarity`."""
         vd = target.coeffs if type(target) is Similarity else validation.target(target).coeffs
         b = _binding(self._error_compiled)
@@ -404,7 +404,7 @@ class CooperativeTask:
             self.guard.diagnose(out[2], out[3], (("q", qb), ("target", vd)))
         return out[0].reshape(-1).copy(), out[1].copy()
 
-    def error_hessian(self, q: Any, target: Any, w: Any) -> np.ndarray:
+    def error_hessian(self, q: Any, target: SimilarityLike, w: Any) -> np.ndarray:
         """``∇²_q (wᵀ e(q))`` (nq, nq) with w (7,) held constant (for Newton-type solvers; CasADi VM).
 
         Built by :meth:`TaskGraph.error_hessian_function` (structured second derivatives);

@@ -1,4 +1,12 @@
-"""Geometric primitives, versor groups and similarities between primitives."""
+"""Geometric primitives, the kind table, versor groups and similarities between primitives.
+
+This is the multivector layer: besides the group classes (:class:`Similarity`, :class:`Motor`, …) it keeps
+the functions on raw versor multivectors — :func:`exp`, :func:`log`, :func:`log_jacobian`, :func:`apply`,
+:func:`decompose` (:mod:`~coop_ga.geometry.groups`), :func:`similarity` and :func:`similarity_from_unit`
+(:mod:`~coop_ga.geometry.similarity`) — which run unchanged on numpy and CasADi SX coefficients (the task
+graph builds V_Sc with them).  The top-level :mod:`coop_ga` namespace has one similarity type,
+:class:`Similarity`, whose methods wrap them for numeric use.
+"""
 
 from .groups import (
     TANGENT_BASIS,
@@ -6,6 +14,7 @@ from .groups import (
     Motor,
     Rotor,
     Similarity,
+    SimilarityLike,
     Translator,
     VersorGroup,
     apply,
@@ -70,6 +79,7 @@ __all__ = [
     "Primitive",
     "Rotor",
     "Similarity",
+    "SimilarityLike",
     "Translator",
     "VersorGroup",
     "apply",

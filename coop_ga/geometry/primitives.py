@@ -127,7 +127,7 @@ def _degree(b: int) -> int:
 class Primitive(Multivector):
     """A multivector tagged with its primitive ``kind`` (one of :data:`KINDS`).
 
-    Algebraic operations return plain :class:`Multivector`; :func:`coop_ga.apply`
+    Algebraic operations return plain :class:`Multivector`; :func:`coop_ga.geometry.apply`
     keeps the tag because similarities map primitives onto primitives of the same kind.
     """
 

@@ -379,7 +379,7 @@ def similarity_from_unit(X: Multivector, chart_axis: Any = None) -> Multivector:
 def similarity(X_from: Multivector, X_to: Multivector) -> Multivector:
     """Similarity versor V = V_T V_R V_D with ``X_to ∝ V X_from Ṽ`` (§3.3, Eq 20).
 
-    Both primitives must be of the same kind.  Use :func:`coop_ga.decompose` to get
+    Both primitives must be of the same kind.  Use :func:`coop_ga.geometry.decompose` to get
     the factors.  See the module docstring for the orientation and half-turn rules.
 
     Precision: the result is accurate to a few ε relative to the primitives' coordinates

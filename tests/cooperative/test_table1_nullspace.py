@@ -59,11 +59,11 @@ def test_nullspace_motion_leaves_vsc_unchanged_to_first_order() -> None:
     assert np.linalg.norm(w) > 0.5  # the nullspace is large (21 − 6 = 15 dimensions)
     np.testing.assert_allclose(J @ w, 0.0, atol=1e-12)
     V0 = task.similarity(q)
-    d1 = np.linalg.norm(cg.log(~V0 * task.similarity(q + 1e-3 * w)))
-    d2 = np.linalg.norm(cg.log(~V0 * task.similarity(q + 2e-3 * w)))
+    d1 = np.linalg.norm(cg.geometry.log(~V0 * task.similarity(q + 1e-3 * w)))
+    d2 = np.linalg.norm(cg.geometry.log(~V0 * task.similarity(q + 2e-3 * w)))
     assert d1 < 1e-5 and d2 / d1 == pytest.approx(4.0, rel=0.05)  # second order in the step
     # an unprojected motion moves V_Sc to first order
-    d_free = np.linalg.norm(cg.log(~V0 * task.similarity(q + 1e-3 * v)))
+    d_free = np.linalg.norm(cg.geometry.log(~V0 * task.similarity(q + 1e-3 * v)))
     assert d_free > 100 * d1
 
 

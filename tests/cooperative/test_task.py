@@ -21,11 +21,11 @@ def test_definition_of_the_task_api() -> None:
     X = task.primitive(q)
     V = task.similarity(q)
     # X_c = V X_u Ṽ (Eq 28)
-    Y = cg.apply(V, cg.unit_primitive("circle"))
+    Y = cg.geometry.apply(V, cg.unit_primitive("circle"))
     k = (X.to_dense() @ Y.to_dense()) / (Y.to_dense() @ Y.to_dense())
     np.testing.assert_allclose(X.to_dense(), k * Y.to_dense(), atol=1e-12)
     assert k > 0
-    np.testing.assert_allclose(task.log(q), cg.log(V), atol=1e-12)
+    np.testing.assert_allclose(task.log(q), cg.geometry.log(V), atol=1e-12)
     pts = sys.end_points(q)
     np.testing.assert_allclose(task.points(q), pts, atol=1e-12)
     # closed-form circumcircle radius / centre of the three TCPs
@@ -46,7 +46,7 @@ def test_compiled_route_matches_vm() -> None:
     for _ in range(5):
         q = sys.random_q(rng, 0.5)
         a, b = fast.evaluate(q), vm.evaluate(q)
-        np.testing.assert_allclose(a.versor, b.versor, atol=1e-13)
+        np.testing.assert_allclose(a.coeffs, b.coeffs, atol=1e-13)
         np.testing.assert_allclose(a.jacobian, b.jacobian, atol=1e-12)
     assert fast.compiled.codegen
 
@@ -60,7 +60,7 @@ def test_batch_equals_sequential() -> None:
     assert V.shape == (6, 12) and B.shape == (6, 7) and J.shape == (6, 7, sys.nq)
     for i, q in enumerate(Q):
         st = task.evaluate(q)
-        np.testing.assert_allclose(V[i], st.versor, atol=1e-13)
+        np.testing.assert_allclose(V[i], st.coeffs, atol=1e-13)
         np.testing.assert_allclose(B[i], st.log, atol=1e-13)
         np.testing.assert_allclose(J[i], st.jacobian, atol=1e-13)
 
@@ -123,14 +123,14 @@ def test_degeneracy_raises_on_every_route(kind, move, cartesian4) -> None:
         task.jacobian_closed_form,
         task.jacobian_ad,
         task.similarity_numpy,
-        lambda q: task.error(q, cg.exp(np.zeros(7))),
+        lambda q: task.error(q, cg.geometry.exp(np.zeros(7))),
         lambda q: task.evaluate_batch(q[None, :]),
     ]
     for route in routes:
         with pytest.raises(cg.DegeneratePrimitiveError):
             route(q)
     # approaching degeneracy warns, with a finite answer.  For point pairs and lines the measure is
-    # scale-free (d / (d + ε·max|p|), reliability issue item 7): two distinct points a few mm apart are
+    # scale-free (d / (d + ε·max|p|)): two distinct points a few mm apart are
     # a well-defined (small) pair, so only coincidence within the floating-point resolution degenerates
     i, x = next(iter(target.items()))
     q_near = q.copy()

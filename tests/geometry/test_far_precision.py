@@ -185,7 +185,7 @@ def test_the_local_form_is_dropped_by_every_operation():
     assert X.local is not None
     np.testing.assert_array_equal(X.local[0], np.mean([[1e6, 0, 0], [1e6 + 1, 0, 0], [1e6, 1, 0]], axis=0))
     assert not isinstance(X.scale(2.0), cg.Primitive)
-    assert cg.apply(cg.exp(np.zeros(7)), X).local is None
+    assert cg.geometry.apply(cg.geometry.exp(np.zeros(7)), X).local is None
     assert cg.circle([1, 0, 0], [0, 1, 0], [-1, 0, 0]).local is None  # near the origin: nothing to keep
 
 
