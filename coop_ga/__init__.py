@@ -7,10 +7,10 @@ CasADi coefficients), :mod:`coop_ga.geometry` (primitives, the kind table, verso
 chains), :mod:`coop_ga.systems` (multi-chain systems and their registry), ``collision`` (clearances),
 :mod:`coop_ga.viz` (drawing), :mod:`coop_ga.cooperative` (the cooperative task: X_c(q), V_Sc(q), its graph,
 guard and Jacobians), :mod:`coop_ga.control` (tasks, limits, one QP step, the solvers and their registry),
-``legged``, ``sim``, ``sweep`` and :mod:`coop_ga.harness` (the command line of experiments and figures).
-At the bottom, under all of them: :mod:`coop_ga.errors` (one exception and one warning family),
-:mod:`coop_ga.diagnostics` (warnings once per call), :mod:`coop_ga.validation` (argument checks) and
-:mod:`coop_ga.codegen` (compiled CasADi functions).
+``legged``, ``sim``, ``viewer`` (the browser viewer), ``sweep`` and :mod:`coop_ga.harness` (the command
+line of experiments and figures).  At the bottom, under all of them: :mod:`coop_ga.errors` (one exception and
+one warning family), :mod:`coop_ga.diagnostics` (warnings once per call), :mod:`coop_ga.validation` (argument
+checks) and :mod:`coop_ga.codegen` (compiled CasADi functions).
 
 The currency of the API is :class:`coop_ga.Similarity`: cooperative poses, targets and
 ``displaced_target`` are Similarities; every solver takes ``(task, q_init, target: SimilarityLike, …)``.
@@ -172,3 +172,15 @@ __all__ = [
     "validation",
     "well_definedness",
 ]
+
+from types import ModuleType as _ModuleType
+
+
+def __getattr__(name: str) -> _ModuleType:
+    """``coop_ga.viz`` and ``coop_ga.viewer`` are imported on first use (PEP 562): drawing and the
+    browser viewer stay out of ``import coop_ga``."""
+    if name in ("viz", "viewer"):
+        import importlib
+
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -33,6 +33,7 @@ __all__ = [
     "array",
     "choice",
     "configuration",
+    "finite_result",
     "frames",
     "indices",
     "integer",
@@ -74,6 +75,14 @@ def array(x: Any, what: str, *, shape: tuple[int, ...] | None = None, finite: bo
     return a
 
 
+def finite_result(x: Any, what: str) -> Any:
+    """``x`` if every number in it is finite; else :class:`InvalidInputError`: finite arguments whose result
+    overflows (e.g. coordinates of 1e200 m squared) are out of range — ``what`` names them and the fix."""
+    if not np.all(np.isfinite(x)):
+        raise InvalidInputError(f"{what}: the result overflows (inf or NaN); rescale the arguments")
+    return x
+
+
 def vector(x: Any, n: int, what: str) -> np.ndarray:
     """A finite real vector of exactly ``n`` entries, shape (n,) (no column, no scalar: never reshaped)."""
     a = array(x, what, finite=False)
@@ -111,7 +120,10 @@ def scalar(
             x = x.item()
         else:
             raise InvalidInputError(f"{what} must be a real number, got {_describe(x)}")
-    v = float(x)
+    try:
+        v = float(x)
+    except OverflowError:  # an integer beyond the doubles (10**400)
+        raise NonFiniteError(f"{what} must be finite, got an integer of {len(str(abs(int(x))))} digits") from None
     if math.isnan(v) or (math.isinf(v) and not allow_inf):
         raise NonFiniteError(f"{what} must be finite, got {v}")
     if low is not None and (v < low or (low_open and v == low)):

@@ -1,6 +1,6 @@
 """Regenerate every figure of the paper, and the gallery that shows them, in one command.
 
-    python -m paper_figures [--out DIR] [--only fig12 ...] [--fast] [--jobs N]
+    python -m paper_figures [--out DIR] [--only fig12 ...] [--fast] [--jobs N (default: the CPU count, ≤ 4)]
 
 Runs each figure's experiment script (``paper_figures.FIGURES``: Figs. 5–21, Table 1 and
 the drawings of the systems) into ``DIR/figNN_<name>/`` — its PNGs, ``metrics.json`` and,
@@ -276,10 +276,17 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--only", nargs="+", metavar="FIG", help="run only these figures (fig12, fig16_17, table01, ...)")
     p.add_argument("--fast", action="store_true", help="short horizons in every script (CI); not the published numbers")
-    p.add_argument("--jobs", type=positive_int, default=1, help="figures run in parallel processes")
+    p.add_argument(
+        "--jobs",
+        type=positive_int,
+        default=None,
+        help="figures run in parallel processes (default: the CPU count, at most 4; 1 with --verbose)",
+    )
     p.add_argument("--verbose", action="store_true", help="show each script's own output (only with --jobs 1)")
     p.add_argument("--list", action="store_true", help="list the figures and their scripts, then exit")
     args = p.parse_args(argv)
+    if args.jobs is None:
+        args.jobs = 1 if args.verbose else min(os.cpu_count() or 1, 4)
     if args.list:
         kw = max(len(g.key) for g in FIGURES)
         fw = max(len(g.folder) for g in FIGURES)

@@ -32,12 +32,40 @@ from typing import Any
 
 import numpy as np
 
+from .. import validation
 from ..errors import InvalidInputError, UnknownNameError
+from .distance import MAX_COORDINATE
 
 __all__ = ["Capsule", "capsule_chain", "fit_capsule", "fit_capsules", "link_meshes"]
 
 #: radius padding [m] so that enclosure survives floating-point round-off
 _PAD = 1e-9
+#: vertex coordinates [m] beyond this are refused (the vertex covariance XᵀX must not overflow)
+_MAX_VERTEX = 1e100
+
+
+def _points(points: Any, what: str) -> np.ndarray:
+    """Points (n, 3) [m] (one point (3,) gives n = 1), finite (a new array)."""
+    P = validation.array(points, what)
+    if P.ndim == 1 and P.shape == (3,):
+        P = P.reshape(1, 3)
+    if P.ndim != 2 or P.shape[1] != 3:
+        raise InvalidInputError(f"{what} must be points of shape (n, 3) [m] (or one point (3,)), got shape {P.shape}")
+    if P.size and float(np.max(np.abs(P))) > MAX_COORDINATE:
+        raise InvalidInputError(f"{what} reach {float(np.max(np.abs(P))):.3g} m, beyond ±{MAX_COORDINATE:g} m")
+    return P
+
+
+def check_system(system: Any, what: str = "system") -> Any:
+    """``system`` if it is a :class:`coop_ga.systems.System`, else :class:`InvalidInputError` naming ``what``."""
+    from ..systems.system import System
+
+    if not isinstance(system, System):
+        raise InvalidInputError(
+            f"{what} must be a coop_ga.systems.System (coop_ga.systems.load(name) or from_urdf(...)), "
+            f"got {type(system).__name__}"
+        )
+    return system
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,16 +92,19 @@ class Capsule:
         if not isinstance(self.frame, str) or not self.frame:
             raise InvalidInputError(f"Capsule.frame must be a non-empty frame name, got {self.frame!r}")
         for k in ("a", "b"):
-            v = np.array(getattr(self, k), dtype=float).reshape(-1)
-            if v.shape != (3,) or not np.all(np.isfinite(v)):
-                raise InvalidInputError(f"Capsule.{k} must be a finite 3-vector [m], got {getattr(self, k)!r}")
+            v = validation.vector(getattr(self, k), 3, f"Capsule.{k} (a segment end [m])")
+            if float(np.max(np.abs(v))) > MAX_COORDINATE:
+                raise InvalidInputError(f"Capsule.{k} = {v.tolist()} is beyond ±{MAX_COORDINATE:g} m")
             v.setflags(write=False)
             object.__setattr__(self, k, v)
-        r = float(self.radius)
-        if not (np.isfinite(r) and r >= 0.0):
-            raise InvalidInputError(f"Capsule.radius must be finite and ≥ 0 [m], got {self.radius!r}")
+        r = validation.nonnegative(self.radius, "Capsule.radius [m]")
+        if r > MAX_COORDINATE:
+            raise InvalidInputError(f"Capsule.radius = {r:g} m is beyond {MAX_COORDINATE:g} m")
         object.__setattr__(self, "radius", r)
-        object.__setattr__(self, "chain", int(self.chain))
+        object.__setattr__(self, "chain", validation.integer(self.chain, "Capsule.chain (a chain index, −1: none)",
+                                                             minimum=-1))  # fmt: skip
+        if not isinstance(self.link, str):
+            raise InvalidInputError(f"Capsule.link must be a string (a label), got {self.link!r}")
         if not self.link:
             object.__setattr__(self, "link", self.frame)
 
@@ -93,12 +124,14 @@ class Capsule:
         return float(np.linalg.norm(self.b - self.a))
 
     def contains(self, points: Any, tol: float = 0.0) -> np.ndarray:
-        """(n,) bool: points (n, 3) in the frame's coordinates [m] within ``radius + tol`` of the segment."""
-        return self.point_distance(points) <= self.radius + tol
+        """(n,) bool: points (n, 3) in the frame's coordinates [m] within ``radius + tol`` of the segment
+        (``tol`` ≥ 0 [m])."""
+        t = validation.nonnegative(tol, "tol [m]")
+        return self.point_distance(points) <= self.radius + t
 
     def point_distance(self, points: Any) -> np.ndarray:
-        """(n,) distance [m] of points (n, 3) (frame coordinates) from the segment [a, b]."""
-        P = np.asarray(points, float).reshape(-1, 3)
+        """(n,) distance [m] of points (n, 3) or one point (3,) (frame coordinates) from the segment [a, b]."""
+        P = _points(points, "points")
         d = self.b - self.a
         L2 = float(d @ d)
         t = np.zeros(len(P)) if L2 <= 1e-24 else np.clip((P - self.a) @ d / L2, 0.0, 1.0)
@@ -109,11 +142,16 @@ class Capsule:
 def fit_capsule(vertices: Any) -> tuple[np.ndarray, np.ndarray, float]:
     """``(a, b, radius)``: a capsule enclosing every row of ``vertices`` (n, 3) [m] (module docstring).
 
-    Raises :class:`InvalidInputError` for an empty or non-finite vertex array.
+    Raises :class:`InvalidInputError` for an empty or non-finite vertex array, or vertices beyond ±1e100 m.
     """
-    V = np.asarray(vertices, float).reshape(-1, 3)
-    if len(V) == 0 or not np.all(np.isfinite(V)):
-        raise InvalidInputError(f"fit_capsule needs a non-empty finite (n, 3) vertex array, got shape {V.shape}")
+    V = _points(vertices, "vertices")
+    if len(V) == 0:
+        raise InvalidInputError("fit_capsule needs at least one vertex: vertices is empty")
+    if float(np.max(np.abs(V))) > _MAX_VERTEX:
+        raise InvalidInputError(
+            f"vertices reach {float(np.max(np.abs(V))):.3g} m, beyond ±{_MAX_VERTEX:g} m (their covariance would "
+            "overflow); express the mesh in a unit nearer to its size"
+        )
     mean = V.mean(axis=0)
     X = V - mean
     _, E = np.linalg.eigh(X.T @ X)
@@ -175,8 +213,8 @@ def link_meshes(system: Any, source: str = "collision") -> dict[str, np.ndarray]
     """
     from ..systems.meshes import object_mesh
 
-    if source not in ("collision", "visual"):
-        raise InvalidInputError(f"source must be 'collision' or 'visual', got {source!r}")
+    check_system(system)
+    validation.choice(source, ("collision", "visual"), "source")
     model = system.model
     out: dict[str, list[np.ndarray]] = {}
 
@@ -227,7 +265,9 @@ def capsule_chain(system: Any, frame: str) -> int:
     joint; for a body fixed to the world, the only chain whose first joint is mounted on that body
     (an arm's base link belongs to its arm).  −1 if no chain or several chains qualify (a shared
     torso, a base carrying several arms)."""
-    model = system.model
+    model = check_system(system).model
+    if not isinstance(frame, str):
+        raise InvalidInputError(f"frame must be a frame name (str), got {type(frame).__name__} {frame!r}")
     if not model.existFrame(frame):
         raise UnknownNameError(f"unknown frame '{frame}' of system '{system.name}'")
     fid = model.getFrameId(frame)
@@ -260,11 +300,15 @@ def fit_capsules(system: Any, source: str = "collision", links: Iterable[str] | 
     Each capsule encloses every vertex of its link's meshes (PCA axis + extent, module docstring).
     Raises :class:`UnknownNameError` for a requested link without geometry.
     """
+    if links is not None and (isinstance(links, str) or not isinstance(links, Iterable)):
+        raise InvalidInputError(f"links must be a list of frame names (or None: every link), got {links!r}")
     meshes = link_meshes(system, source)
     model = system.model
     names = sorted(meshes, key=lambda n: model.getFrameId(n))
     if links is not None:
         wanted: Sequence[str] = list(links)
+        if not all(isinstance(n, str) for n in wanted):
+            raise InvalidInputError(f"links must be frame names (str), got {wanted!r}")
         missing = [n for n in wanted if n not in meshes]
         if missing:
             raise UnknownNameError(

@@ -97,7 +97,7 @@ from .. import validation
 from ..algebra import backend as Bk
 from ..algebra.basis import blade_index
 from ..algebra.multivector import Multivector
-from ..errors import InvalidInputError
+from ..errors import DegeneratePrimitiveError, InvalidInputError
 
 __all__ = [
     "Obstacle",
@@ -125,6 +125,9 @@ _VEC = (_E0, _E1, _E2, _E3, _EI)
 _TINY2 = 1e-24
 #: ``a e − b²`` below this fraction of ``a e`` counts as parallel segments
 _PARALLEL = 1e-12
+#: coordinates and radii [m] are refused beyond this: the conformal point's ½|x|² (and |x − c|², r²) must not
+#: overflow a double (1.8e308)
+MAX_COORDINATE = 1e150
 
 
 # ====================================================================== obstacles
@@ -142,6 +145,11 @@ class Sphere:
     def __post_init__(self) -> None:
         c = validation.vector(self.center, 3, "sphere center [m]")
         r = validation.positive(self.radius, "sphere radius [m]")
+        if max(float(np.max(np.abs(c))), r) > MAX_COORDINATE:
+            raise InvalidInputError(
+                f"sphere center {c.tolist()} / radius {r:g} [m] beyond ±{MAX_COORDINATE:g} m, where the dual "
+                "sphere's ½(|c|² − r²) overflows; express the scene in a unit nearer to its size"
+            )
         c.setflags(write=False)
         object.__setattr__(self, "center", c)
         object.__setattr__(self, "radius", float(r))
@@ -183,9 +191,12 @@ class Plane:
     def __post_init__(self) -> None:
         n = validation.vector(self.normal, 3, "plane normal")
         d = validation.scalar(self.offset, "plane offset [m]")
-        ln = float(np.linalg.norm(n))
+        big = float(np.max(np.abs(n)))
+        ln = big * float(np.linalg.norm(n / big)) if big > 0.0 else 0.0  # |n| without overflow
         if not ln > 1e-12:
             raise InvalidInputError(f"plane normal must be a non-zero 3-vector, got {n.tolist()}")
+        if abs(d) / ln > MAX_COORDINATE:
+            raise InvalidInputError(f"plane offset {d / ln:.3g} m is beyond ±{MAX_COORDINATE:g} m")
         n = n / ln
         n.setflags(write=False)
         object.__setattr__(self, "normal", n)
@@ -223,13 +234,15 @@ def as_obstacle(x: Any, name: str = "") -> Sphere | Plane:
     ``"sphere"`` / ``"plane"`` (:func:`coop_ga.geometry.sphere`, :func:`coop_ga.geometry.plane`),
     or from a ``{"center": …, "radius": …}`` / ``{"normal": …, "offset": …}`` dict.
     Anything else raises :class:`~coop_ga.errors.InvalidInputError`."""
+    if not isinstance(name, str):
+        raise InvalidInputError(f"obstacle name must be a string, got {type(name).__name__} {name!r}")
     if isinstance(x, (Sphere, Plane)):
         return x
     if isinstance(x, dict):
         if set(x) >= {"center", "radius"}:
-            return Sphere(x["center"], x["radius"], name=str(x.get("name", name)))
+            return Sphere(x["center"], x["radius"], name=x.get("name", name))
         if set(x) >= {"normal", "offset"}:
-            return Plane(x["normal"], x["offset"], name=str(x.get("name", name)))
+            return Plane(x["normal"], x["offset"], name=x.get("name", name))
         raise InvalidInputError(
             f"an obstacle dict needs 'center' and 'radius' (sphere) or 'normal' and 'offset' (plane), got {sorted(x)}"
         )
@@ -301,78 +314,200 @@ def _safe_sqrt(x2: Any) -> Any:
     return _where(pos, Bk.sqrt(_where(pos, x2, 1.0 + 0.0 * x2)), 0.0 * x2)
 
 
+# ====================================================================== argument checks
+def _symbolic(x: Any) -> bool:
+    """A CasADi expression, or a 3-sequence holding one."""
+    return Bk.is_symbolic(x) or (isinstance(x, (tuple, list)) and any(Bk.is_symbolic(v) for v in x))
+
+
 def _vec3(x: Any, what: str) -> Vec3:
-    if isinstance(x, tuple) and len(x) == 3:
-        return x
-    if Bk.is_symbolic(x):
+    """The three coordinates of a point argument [m]: a (3,) vector, a (..., 3) or (3, ...) batch, a tuple of
+    three floats / equally shaped arrays / CasADi scalars, or an SX of 3 entries.  Numeric input is checked
+    (:func:`coop_ga.validation.array`: no NaN/inf, strings, bools, complex or ragged lists) and must stay
+    within ±:data:`MAX_COORDINATE` m."""
+    if _symbolic(x):
+        if isinstance(x, (tuple, list)):
+            if len(x) != 3:
+                raise InvalidInputError(f"{what} must have 3 coordinates, got {len(x)}")
+            return (x[0], x[1], x[2])
         if x.numel() != 3:
             raise InvalidInputError(f"{what} must have 3 entries, got a CasADi expression of shape {x.shape}")
         return (x[0], x[1], x[2])
-    a = np.asarray(x, dtype=float)
-    if a.shape[:1] != (3,) and a.shape[-1:] == (3,):
+    a = validation.array(x, what)
+    if a.size and float(np.max(np.abs(a))) > MAX_COORDINATE:
+        raise InvalidInputError(
+            f"{what} has a coordinate of {float(np.max(np.abs(a))):.3g} m, beyond ±{MAX_COORDINATE:g} m where the "
+            "conformal point's ½|x|² overflows; express the scene in a unit nearer to its size"
+        )
+    if a.ndim >= 1 and a.shape[0] == 3:
+        return (a[0], a[1], a[2])
+    if a.ndim >= 2 and a.shape[-1] == 3:
         return (a[..., 0], a[..., 1], a[..., 2])
-    if a.shape[:1] != (3,):
-        raise InvalidInputError(f"{what} must be a 3-vector (or (..., 3) batch), got shape {a.shape}")
-    return (a[0], a[1], a[2])
+    raise InvalidInputError(
+        f"{what} must be a 3-vector [m] (shape (3,), a (..., 3) or (3, ...) batch, or a tuple of 3 coordinates), "
+        f"got shape {a.shape}"
+    )
+
+
+def _radius(r: Any, what: str) -> Any:
+    """A capsule radius [m]: ≥ 0 and finite, a float, an array (one per pair of a batch) or a CasADi scalar."""
+    if Bk.is_symbolic(r):
+        return r
+    a = validation.array(r, what)
+    if a.size and float(np.min(a)) < 0.0:
+        raise InvalidInputError(f"{what} must be ≥ 0 [m] (a capsule radius), got {float(np.min(a)):g}")
+    if a.size and float(np.max(a)) > MAX_COORDINATE:
+        raise InvalidInputError(f"{what} = {float(np.max(a)):.3g} m is beyond ±{MAX_COORDINATE:g} m")
+    return float(a) if a.ndim == 0 else a
+
+
+def _obstacle(x: Any, kind: type, what: str) -> Any:
+    if not isinstance(x, kind):
+        raise InvalidInputError(
+            f"{what} must be a collision.{kind.__name__} (collision.as_obstacle builds one from a primitive or a "
+            f"dict), got {type(x).__name__}"
+        )
+    return x
+
+
+def _batch(points: dict[str, Vec3], radii: dict[str, Any] | None = None) -> None:
+    """The points' numeric coordinates broadcast to one batch shape (one entry per pair), and each radius is a
+    scalar or fits that shape (a radius never adds a batch dimension)."""
+    shapes = [np.shape(c) for v in points.values() for c in v if not Bk.is_symbolic(c)]
+    try:
+        batch = np.broadcast_shapes(*shapes)
+    except ValueError:
+        raise InvalidInputError(
+            f"the batches of {', '.join(points)} do not broadcast to one shape "
+            f"(shapes {', '.join(str(s) for s in shapes)}): pass one entry per pair, or a single point"
+        ) from None
+    for name, r in (radii or {}).items():
+        if not Bk.is_symbolic(r) and np.ndim(r):
+            try:
+                ok = np.broadcast_shapes(batch, np.shape(r)) == batch
+            except ValueError:
+                ok = False
+            if not ok:
+                raise InvalidInputError(
+                    f"{name} has shape {np.shape(r)}, which does not fit the batch of points {batch}: give one "
+                    "radius (a float) or one per pair"
+                )
+
+
+def _quiet() -> Any:
+    """numpy's floating-point warnings off: the public functions check their results (:func:`_finite_result`)."""
+    return np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore")
+
+
+def _finite_result(value: Any, what: str) -> Any:
+    """Numeric results are finite (the inputs are bounded, so this only fires on an overflow)."""
+    if not Bk.is_symbolic(value) and not np.all(np.isfinite(value)):
+        raise InvalidInputError(f"{what} overflows for these arguments; express the scene in a unit nearer its size")
+    return value
 
 
 # ====================================================================== CGA point measures
 def conformal_point(x: Any) -> Multivector:
-    """``P(x) = e0 + x + ½|x|² e∞`` (Eq 2) with float, numpy-array or SX coordinates."""
+    """``P(x) = e0 + x + ½|x|² e∞`` (Eq 2) with float, numpy-array or SX coordinates ``x`` (3,) [m].
+
+    Raises :class:`~coop_ga.errors.InvalidInputError` (:class:`~coop_ga.errors.NonFiniteError` for NaN/inf)
+    for a bad ``x``.
+    """
     v = _vec3(x, "x")
     return Multivector(_VEC, (1.0 + 0.0 * v[0], v[0], v[1], v[2], 0.5 * _dot(v, v)))
 
 
+def _point_sphere_product(v: Vec3, sphere: Sphere) -> Any:
+    P = Multivector(_VEC, (1.0 + 0.0 * v[0], v[0], v[1], v[2], 0.5 * _dot(v, v)))
+    return P.lc(sphere.dual).get(0)
+
+
+def _point_sphere_distance(v: Vec3, sphere: Sphere) -> Any:
+    r = sphere.radius
+    return _safe_sqrt(r * r - 2.0 * _point_sphere_product(v, sphere)) - r
+
+
+def _point_plane_distance(v: Vec3, plane: Plane) -> Any:
+    P = Multivector(_VEC, (1.0 + 0.0 * v[0], v[0], v[1], v[2], 0.5 * _dot(v, v)))
+    return P.lc(plane.dual).get(0)
+
+
 def point_sphere_product(x: Any, sphere: Sphere) -> Any:
-    """``P(x) · S = ½ (r² − |x − c|²)`` [m²] — the CGA inner product (left contraction of two vectors)."""
-    return conformal_point(x).lc(sphere.dual).get(0)
+    """``P(x) · S = ½ (r² − |x − c|²)`` [m²] — the CGA inner product (left contraction of two vectors) of the
+    point ``x`` (3,) [m] (or a batch) and the dual ``sphere`` (a :class:`Sphere`)."""
+    v = _vec3(x, "x")
+    with _quiet():
+        return _finite_result(_point_sphere_product(v, _obstacle(sphere, Sphere, "sphere")), "P(x)·S")
 
 
 def point_sphere_distance(x: Any, sphere: Sphere) -> Any:
-    """Clearance ``|x − c| − r`` [m] of point x from the sphere, as ``sqrt(r² − 2 P(x)·S) − r`` (Eq 1)."""
-    r = sphere.radius
-    return _safe_sqrt(r * r - 2.0 * point_sphere_product(x, sphere)) - r
+    """Clearance ``|x − c| − r`` [m] of point x (3,) [m] from the :class:`Sphere`, as ``sqrt(r² − 2 P(x)·S) − r``
+    (Eq 1); a (..., 3) batch of points gives one per point."""
+    v = _vec3(x, "x")
+    with _quiet():
+        return _finite_result(_point_sphere_distance(v, _obstacle(sphere, Sphere, "sphere")), "the clearance")
 
 
 def point_plane_distance(x: Any, plane: Plane) -> Any:
-    """Signed distance ``n·x − δ`` [m] of point x from the plane, as ``P(x)·π`` (Eq 2)."""
-    return conformal_point(x).lc(plane.dual).get(0)
+    """Signed distance ``n·x − δ`` [m] of point x (3,) [m] from the :class:`Plane`, as ``P(x)·π`` (Eq 2)."""
+    v = _vec3(x, "x")
+    with _quiet():
+        return _finite_result(_point_plane_distance(v, _obstacle(plane, Plane, "plane")), "the distance")
 
 
 # ====================================================================== segments and capsules
-def segment_point_parameter(a: Any, b: Any, c: Any) -> Any:
-    """``t* = clamp((c − a)·(b − a)/|b − a|², 0, 1)``: the closest point ``a + t*(b − a)`` of segment
-    [a, b] to point c (t* = 0 for a degenerate segment)."""
-    a3, b3, c3 = _vec3(a, "a"), _vec3(b, "b"), _vec3(c, "c")
+def _segment_point_parameter(a3: Vec3, b3: Vec3, c3: Vec3) -> Any:
     d = _sub(b3, a3)
     L2 = _dot(d, d)
     return _clamp01(_safe_div(_dot(_sub(c3, a3), d), L2, L2 > _TINY2))
 
 
+def segment_point_parameter(a: Any, b: Any, c: Any) -> Any:
+    """``t* = clamp((c − a)·(b − a)/|b − a|², 0, 1)``: the closest point ``a + t*(b − a)`` of segment
+    [a, b] to point c (all (3,) [m] or batches; t* = 0 for a degenerate segment)."""
+    a3, b3, c3 = _vec3(a, "a"), _vec3(b, "b"), _vec3(c, "c")
+    _batch({"a": a3, "b": b3, "c": c3})
+    with _quiet():
+        return _finite_result(_segment_point_parameter(a3, b3, c3), "t*")
+
+
+def _capsule_sphere_distance(a3: Vec3, b3: Vec3, radius: Any, sphere: Sphere) -> tuple[Any, Any]:
+    t = _segment_point_parameter(a3, b3, (float(sphere.center[0]), float(sphere.center[1]), float(sphere.center[2])))
+    x = _add(a3, _scale(_sub(b3, a3), t))
+    return _point_sphere_distance(x, sphere) - radius, t
+
+
 def capsule_sphere_distance(a: Any, b: Any, radius: Any, sphere: Sphere) -> tuple[Any, Any]:
-    """``(clearance [m], t*)`` of the capsule (segment [a, b], radius) from the sphere (module docstring).
+    """``(clearance [m], t*)`` of the capsule (segment [a, b] (3,) [m], ``radius`` ≥ 0 [m]) from the
+    :class:`Sphere` (module docstring).
 
     clearance = ``sqrt(r_s² − 2 P(x*)·S) − r_s − radius`` with ``x* = a + t*(b − a)`` the closest
     point of the segment to the centre (Eq 1 at x*).
     """
-    a3, b3 = _vec3(a, "a"), _vec3(b, "b")
-    t = segment_point_parameter(a3, b3, tuple(float(v) for v in sphere.center))
-    x = _add(a3, _scale(_sub(b3, a3), t))
-    return point_sphere_distance(x, sphere) - radius, t
+    a3, b3, r = _vec3(a, "a"), _vec3(b, "b"), _radius(radius, "radius")
+    _batch({"a": a3, "b": b3}, {"radius": r})
+    with _quiet():
+        d, t = _capsule_sphere_distance(a3, b3, r, _obstacle(sphere, Sphere, "sphere"))
+        return _finite_result(d, "the clearance"), _finite_result(t, "t*")
 
 
-def capsule_plane_distance(a: Any, b: Any, radius: Any, plane: Plane) -> tuple[Any, Any]:
-    """``(clearance [m], t*)`` of the capsule from the plane: ``min(P(a)·π, P(b)·π) − radius``, t* ∈ {0, 1}
-    the end that is closer (Eq 2)."""
-    da, db = point_plane_distance(a, plane), point_plane_distance(b, plane)
+def _capsule_plane_distance(a3: Vec3, b3: Vec3, radius: Any, plane: Plane) -> tuple[Any, Any]:
+    da, db = _point_plane_distance(a3, plane), _point_plane_distance(b3, plane)
     first = da <= db
     return _where(first, da, db) - radius, _where(first, 0.0 * da, 1.0 + 0.0 * da)
 
 
-def segment_segment_closest(p0: Any, p1: Any, q0: Any, q1: Any) -> tuple[Any, Any]:
-    """``(s*, t*)`` ∈ [0, 1]²: a closest pair ``p0 + s*(p1 − p0)``, ``q0 + t*(q1 − q0)`` of two segments
-    (Lumelsky's algorithm, clamped form; parallel and degenerate segments handled — module docstring)."""
-    P0, P1, Q0, Q1 = (_vec3(v, n) for v, n in ((p0, "p0"), (p1, "p1"), (q0, "q0"), (q1, "q1")))
+def capsule_plane_distance(a: Any, b: Any, radius: Any, plane: Plane) -> tuple[Any, Any]:
+    """``(clearance [m], t*)`` of the capsule (segment [a, b] (3,) [m], ``radius`` ≥ 0 [m]) from the
+    :class:`Plane`: ``min(P(a)·π, P(b)·π) − radius``, t* ∈ {0, 1} the end that is closer (Eq 2)."""
+    a3, b3, r = _vec3(a, "a"), _vec3(b, "b"), _radius(radius, "radius")
+    _batch({"a": a3, "b": b3}, {"radius": r})
+    with _quiet():
+        d, t = _capsule_plane_distance(a3, b3, r, _obstacle(plane, Plane, "plane"))
+        return _finite_result(d, "the clearance"), t
+
+
+def _segment_segment_closest(P0: Vec3, P1: Vec3, Q0: Vec3, Q1: Vec3) -> tuple[Any, Any]:
     d1, d2, r = _sub(P1, P0), _sub(Q1, Q0), _sub(P0, Q0)
     a, e, f = _dot(d1, d1), _dot(d2, d2), _dot(d2, r)
     c, b = _dot(d1, r), _dot(d1, d2)
@@ -393,17 +528,39 @@ def segment_segment_closest(p0: Any, p1: Any, q0: Any, q1: Any) -> tuple[Any, An
     return s, t
 
 
-def capsule_capsule_distance(
-    a0: Any, a1: Any, ra: Any, b0: Any, b1: Any, rb: Any
+def segment_segment_closest(p0: Any, p1: Any, q0: Any, q1: Any) -> tuple[Any, Any]:
+    """``(s*, t*)`` ∈ [0, 1]²: a closest pair ``p0 + s*(p1 − p0)``, ``q0 + t*(q1 − q0)`` of two segments
+    (end points (3,) [m] or batches; Lumelsky's algorithm, clamped form; parallel and degenerate segments
+    handled — module docstring)."""
+    P0, P1, Q0, Q1 = (_vec3(v, n) for v, n in ((p0, "p0"), (p1, "p1"), (q0, "q0"), (q1, "q1")))
+    _batch({"p0": P0, "p1": P1, "q0": Q0, "q1": Q1})
+    with _quiet():
+        s, t = _segment_segment_closest(P0, P1, Q0, Q1)
+        return _finite_result(s, "s*"), _finite_result(t, "t*")
+
+
+def _capsule_capsule_distance(
+    A0: Vec3, A1: Vec3, ra: Any, B0: Vec3, B1: Vec3, rb: Any
 ) -> tuple[Any, tuple[Any, Any], tuple[Vec3, Vec3]]:
-    """``(clearance [m], (s*, t*), (x, y))`` of capsule A (segment [a0, a1], radius ra) and capsule B:
-    ``|x − y| − ra − rb`` with x, y the closest points of the two segments (:func:`segment_segment_closest`)."""
-    A0, A1, B0, B1 = (_vec3(v, n) for v, n in ((a0, "a0"), (a1, "a1"), (b0, "b0"), (b1, "b1")))
-    s, t = segment_segment_closest(A0, A1, B0, B1)
+    s, t = _segment_segment_closest(A0, A1, B0, B1)
     x = _add(A0, _scale(_sub(A1, A0), s))
     y = _add(B0, _scale(_sub(B1, B0), t))
     w = _sub(x, y)
     return _safe_sqrt(_dot(w, w)) - ra - rb, (s, t), (x, y)
+
+
+def capsule_capsule_distance(
+    a0: Any, a1: Any, ra: Any, b0: Any, b1: Any, rb: Any
+) -> tuple[Any, tuple[Any, Any], tuple[Vec3, Vec3]]:
+    """``(clearance [m], (s*, t*), (x, y))`` of capsule A (segment [a0, a1] (3,) [m], radius ``ra`` ≥ 0 [m]) and
+    capsule B: ``|x − y| − ra − rb`` with x, y the closest points of the two segments
+    (:func:`segment_segment_closest`)."""
+    A0, A1, B0, B1 = (_vec3(v, n) for v, n in ((a0, "a0"), (a1, "a1"), (b0, "b0"), (b1, "b1")))
+    ra_, rb_ = _radius(ra, "ra"), _radius(rb, "rb")
+    _batch({"a0": A0, "a1": A1, "b0": B0, "b1": B1}, {"ra": ra_, "rb": rb_})
+    with _quiet():
+        d, st, xy = _capsule_capsule_distance(A0, A1, ra_, B0, B1, rb_)
+        return _finite_result(d, "the clearance"), st, xy
 
 
 # ====================================================================== seed 002, Eq 28–29
@@ -414,10 +571,20 @@ def seed002_link_sphere_distance(p_i: Any, p_j: Any, r2: float, sphere: Sphere) 
     (:attr:`Sphere.dual`), ``s² = R²``; ``B = (s + ½s² e∞)⌋l*``; ``Y = B (e∞⌋B)⁻¹``;
     ``ρ² = Y²`` (a scalar); ``d = sqrt(ρ²) − sqrt(s²) − r₂`` [m] — the clearance of the sphere from
     the *infinite* cylinder of radius r₂ about the line.
+
+    Raises :class:`~coop_ga.errors.DegeneratePrimitiveError` when p_i and p_j coincide (no line).
     """
     from ..geometry.primitives import line
 
-    L = line(np.asarray(p_i, float), np.asarray(p_j, float))
+    a, b = validation.vector(p_i, 3, "p_i [m]"), validation.vector(p_j, 3, "p_j [m]")
+    r2 = validation.nonnegative(r2, "r2 (the link radius) [m]")
+    _obstacle(sphere, Sphere, "sphere")
+    try:
+        L = line(a, b)
+    except DegeneratePrimitiveError as exc:
+        raise DegeneratePrimitiveError(f"p_i and p_j span no line: {exc}") from None
+    except InvalidInputError as exc:  # e.g. coordinates whose line coefficients overflow
+        raise type(exc)(f"p_i, p_j: {exc}") from None
     s = sphere.dual
     s2 = float((s * s).get(0))  # s² = R² (s ∧ s = 0)
     C = s + Multivector((_EI,), (0.5 * s2,))  # s + ½ s² e∞: the centre point
@@ -425,4 +592,4 @@ def seed002_link_sphere_distance(p_i: Any, p_j: Any, r2: float, sphere: Sphere) 
     v = Multivector((_EI,), (1.0,)).lc(B)  # (l*·C)·e∞ up to a sign that cancels in the square
     Y = B * v.inverse()
     rho2 = float((Y * Y).get(0))
-    return float(np.sqrt(max(rho2, 0.0)) - np.sqrt(s2) - r2)
+    return float(_finite_result(np.sqrt(max(rho2, 0.0)) - np.sqrt(s2) - r2, "the clearance"))

@@ -62,15 +62,16 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InvalidInputError
-from .capsules import Capsule, fit_capsules
+from .. import validation
+from ..errors import CoopGAError, InvalidInputError
+from .capsules import Capsule, check_system, fit_capsules
 from .distance import (
     Plane,
     Sphere,
+    _capsule_capsule_distance,
+    _capsule_plane_distance,
+    _capsule_sphere_distance,
     as_obstacle,
-    capsule_capsule_distance,
-    capsule_plane_distance,
-    capsule_sphere_distance,
 )
 
 __all__ = ["CollisionModel"]
@@ -86,6 +87,44 @@ def _unit(w: np.ndarray) -> np.ndarray:
     """Rows of w (k, 3) normalised; zero rows stay zero."""
     n = np.linalg.norm(w, axis=-1, keepdims=True)
     return np.divide(w, n, out=np.zeros_like(w), where=n > 0.0)
+
+
+def _capsules(system: Any, capsules: Any) -> tuple[Capsule, ...]:
+    """The capsules argument: None (fit to the system's meshes) or a sequence of :class:`Capsule`."""
+    if capsules is None:
+        return tuple(fit_capsules(system))
+    if isinstance(capsules, (str, Capsule)) or not isinstance(capsules, Iterable):
+        raise InvalidInputError(f"capsules must be a list of collision.Capsule (or None: fitted), got {capsules!r}")
+    out = tuple(capsules)
+    if not all(isinstance(c, Capsule) for c in out):
+        raise InvalidInputError(f"capsules must be collision.Capsule objects, got {[type(c).__name__ for c in out]}")
+    return out
+
+
+def _flags(**flags: Any) -> None:
+    for name, value in flags.items():
+        if not isinstance(value, (bool, np.bool_)):
+            raise InvalidInputError(f"{name} must be True or False, got {value!r}")
+
+
+def _obstacles(obstacles: Any) -> tuple[Sphere | Plane, ...]:
+    """The obstacles argument (one obstacle, or an iterable of :func:`as_obstacle` inputs), errors naming the
+    offending one."""
+    from ..geometry.primitives import Primitive
+
+    if isinstance(obstacles, (Sphere, Plane, dict, Primitive)):
+        obstacles = [obstacles]  # one obstacle
+    if isinstance(obstacles, str) or not isinstance(obstacles, Iterable):
+        raise InvalidInputError(
+            f"obstacles must be a list of collision.Sphere / collision.Plane (or primitives, dicts), got {obstacles!r}"
+        )
+    out = []
+    for k, x in enumerate(obstacles):
+        try:
+            out.append(as_obstacle(x))
+        except CoopGAError as exc:
+            raise type(exc)(f"obstacles[{k}]: {exc}") from None
+    return tuple(out)
 
 
 class CollisionModel:
@@ -124,22 +163,15 @@ class CollisionModel:
     ) -> None:
         import pinocchio as pin
 
-        self.system = system
+        self.system = check_system(system)
+        _flags(self_collision=self_collision, exclude_adjacent=exclude_adjacent, exclude_overlapping=exclude_overlapping,
+               srdf=srdf)  # fmt: skip
+        self.margin = validation.nonnegative(margin, "margin [m]")
         model = system.model
         self._model = model
         self._data = model.createData()
-        self.capsules: tuple[Capsule, ...] = tuple(fit_capsules(system) if capsules is None else capsules)
-        if not all(isinstance(c, Capsule) for c in self.capsules):
-            raise InvalidInputError("capsules must be collision.Capsule objects")
-        from ..geometry.primitives import Primitive
-
-        if isinstance(obstacles, (Sphere, Plane, dict, Primitive)):
-            obstacles = [obstacles]  # one obstacle
-        self.obstacles: tuple[Sphere | Plane, ...] = tuple(as_obstacle(o) for o in obstacles)
-        m = float(margin)
-        if not (np.isfinite(m) and m >= 0.0):
-            raise InvalidInputError(f"margin must be finite and ≥ 0 [m], got {margin!r}")
-        self.margin = m
+        self.capsules: tuple[Capsule, ...] = _capsules(system, capsules)
+        self.obstacles: tuple[Sphere | Plane, ...] = _obstacles(obstacles)
         self.nq = int(model.nq)
 
         # ---- per capsule: frame id, parent joint, ends in the parent joint's frame, supporting columns
@@ -152,7 +184,7 @@ class CollisionModel:
         self._mask = np.zeros((nc, self.nq), bool)
         for i, c in enumerate(self.capsules):
             if not model.existFrame(c.frame):
-                raise InvalidInputError(f"capsule frame '{c.frame}' is not a frame of system '{system.name}'")
+                raise InvalidInputError(f"capsules: frame '{c.frame}' is not a frame of system '{system.name}'")
             fid = model.getFrameId(c.frame)
             f = model.frames[fid]
             self._fid[i], self._joint[i] = fid, int(f.parentJoint)
@@ -206,7 +238,7 @@ class CollisionModel:
                 A, B, _ = self._ends(np.asarray(system.q0, float), jac=False)
                 I = np.array([c[0] for c in cand])
                 J = np.array([c[1] for c in cand])
-                d0, _, _ = capsule_capsule_distance(
+                d0, _, _ = _capsule_capsule_distance(
                     _cols(A[I]), _cols(B[I]), self._radius[I], _cols(A[J]), _cols(B[J]), self._radius[J]
                 )
                 d0 = np.atleast_1d(np.asarray(d0, float))
@@ -304,6 +336,10 @@ class CollisionModel:
 
     # ------------------------------------------------------------------ distances
     def _eval(self, q: np.ndarray, jac: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow (a huge prismatic q) is refused below
+            return self._eval_unchecked(q, jac)
+
+    def _eval_unchecked(self, q: np.ndarray, jac: bool) -> tuple[np.ndarray, np.ndarray | None]:
         A, B, J6 = self._ends(q, jac)
         r = self._radius
         ds: list[np.ndarray] = []
@@ -312,21 +348,21 @@ class CollisionModel:
         allc = np.arange(nc)
         for ob in self.obstacles:
             if isinstance(ob, Sphere):
-                d, t = capsule_sphere_distance(_cols(A), _cols(B), r, ob)
+                d, t = _capsule_sphere_distance(_cols(A), _cols(B), r, ob)
                 ds.append(np.asarray(d, float).reshape(nc))
                 if jac:
                     t = np.asarray(t, float).reshape(nc, 1)
                     x = A + t * (B - A)
                     Js.append(self._rows(J6, allc, x, _unit(x - ob.center)))
             else:
-                d, t = capsule_plane_distance(_cols(A), _cols(B), r, ob)
+                d, t = _capsule_plane_distance(_cols(A), _cols(B), r, ob)
                 ds.append(np.asarray(d, float).reshape(nc))
                 if jac:
                     x = np.where(np.asarray(t, float).reshape(nc, 1) > 0.5, B, A)
                     Js.append(self._rows(J6, allc, x, np.tile(ob.normal, (nc, 1))))
         if len(self._si):
             i, j = self._si, self._sj
-            d, _, (x, y) = capsule_capsule_distance(_cols(A[i]), _cols(B[i]), r[i], _cols(A[j]), _cols(B[j]), r[j])
+            d, _, (x, y) = _capsule_capsule_distance(_cols(A[i]), _cols(B[i]), r[i], _cols(A[j]), _cols(B[j]), r[j])
             k = len(i)
             ds.append(np.asarray(d, float).reshape(k))
             if jac:
@@ -335,13 +371,18 @@ class CollisionModel:
                 n = _unit(X - Y)
                 Js.append(self._rows(J6, i, X, n) - self._rows(J6, j, Y, n))
         dist = (np.concatenate(ds) if ds else np.zeros(0)) - self.margin
+        if not np.all(np.isfinite(dist)):
+            raise InvalidInputError(
+                f"q places a capsule where its distances overflow (|q| up to {float(np.max(np.abs(q))):.3g}); "
+                "this configuration is far outside any workspace"
+            )
         if not jac:
             return dist, None
         return dist, (np.concatenate(Js, axis=0) if Js else np.zeros((0, self.nq)))
 
     def distances(self, q: Any) -> np.ndarray:
         """Signed clearances (n,) [m] at q (nq,); a batch q (..., nq) gives (..., n)."""
-        Q = np.asarray(q, float)
+        Q = validation.array(q, "q")
         if Q.ndim >= 2 and Q.shape[-1] == self.nq:
             flat = Q.reshape(-1, self.nq)
             out = np.stack([self._eval(self._q(qq), False)[0] for qq in flat]) if len(flat) else np.zeros((0, self.n))
@@ -374,8 +415,9 @@ class CollisionModel:
         raise InvalidInputError(f"kind must be 'obstacle', 'self' or 'inter_branch', got {kind!r}")
 
     def closest(self, q: Any) -> tuple[str, float]:
-        """``(label, distance [m])`` of the smallest distance at q."""
-        d = self.distances(q)
+        """``(label, distance [m])`` of the smallest distance at one configuration q (nq,) (``("", inf)`` for a
+        model without distances)."""
+        d = self._eval(self._q(q), False)[0]
         if not len(d):
             return "", float("inf")
         k = int(np.argmin(d))
@@ -384,6 +426,13 @@ class CollisionModel:
     # ------------------------------------------------------------------ CasADi
     def symbolic(self, q: Any) -> Any:
         """The distances (n,) [m] as an SX column of the SX column q (nq,): to embed in a larger graph."""
+        from ..algebra import backend as Bk
+
+        if not Bk.is_symbolic(q) or q.numel() != self.nq:
+            raise InvalidInputError(
+                f"q must be a CasADi SX column of {self.nq} entries (casadi.SX.sym('q', {self.nq})); got "
+                f"{type(q).__name__}{'' if not Bk.is_symbolic(q) else f' of shape {q.shape}'} — use distances() for numbers"
+            )
         return self._symbolic(q)
 
     def _symbolic(self, q: Any) -> Any:
@@ -410,12 +459,12 @@ class CollisionModel:
         for ob in self.obstacles:
             for i, c in enumerate(self.capsules):
                 if isinstance(ob, Sphere):
-                    d, _ = capsule_sphere_distance(A[i], B[i], c.radius, ob)
+                    d, _ = _capsule_sphere_distance(A[i], B[i], c.radius, ob)
                 else:
-                    d, _ = capsule_plane_distance(A[i], B[i], c.radius, ob)
+                    d, _ = _capsule_plane_distance(A[i], B[i], c.radius, ob)
                 out.append(d)
         for i, j in zip(self._si, self._sj):
-            d, _, _ = capsule_capsule_distance(A[i], B[i], float(self._radius[i]), A[j], B[j], float(self._radius[j]))
+            d, _, _ = _capsule_capsule_distance(A[i], B[i], float(self._radius[i]), A[j], B[j], float(self._radius[j]))
             out.append(d)
         return (ca.vertcat(*out) if out else ca.SX.zeros(0, 1)) - self.margin
 

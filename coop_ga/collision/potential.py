@@ -79,6 +79,7 @@ Seed discrepancies (checked in ``tests/collision/test_potential.py``)
 from __future__ import annotations
 
 import itertools
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -89,9 +90,11 @@ from ..algebra.basis import blade_index
 from ..algebra.multivector import Multivector
 from ..errors import DegeneratePrimitiveError, InvalidInputError
 from ..geometry.primitives import Primitive, kind_of, point, sphere
+from .distance import MAX_COORDINATE
 
 __all__ = [
     "CHARGE_RULES",
+    "SCENE_DISTANCE",
     "PotentialPath",
     "additive_split",
     "charges",
@@ -118,6 +121,14 @@ _B_E = tuple(blade_index(n)[0] for n in ("e1", "e2", "e3"))
 #: which puts the 3-D field's equilibrium point at distance R behind the obstacle.
 CHARGE_RULES = ("seed", "equilibrium")
 
+#: start–goal distance range [m] of :func:`random_scene`
+SCENE_DISTANCE = (1.0, 2.0)
+#: :func:`potential_path` refuses a larger ``max_iter`` (bounded work: each iteration is one step of the path)
+MAX_ITERATIONS = 10_000_000
+#: :func:`random_scene` gives up after this many rejected draws, and refuses more obstacles than this
+MAX_SCENE_DRAWS = 1_000
+MAX_SCENE_OBSTACLES = 100
+
 #: a step whose segment reaches ``P·s > −_SAFETY·R²`` (i.e. comes within ≈ R(1 + ½·_SAFETY) of the
 #: centre) is refused: a relative margin far above the rounding of P·s.
 _SAFETY = 2e-10
@@ -127,46 +138,58 @@ _SAFETY = 2e-10
 def obstacle(center_: Any, radius_: Any) -> Primitive:
     """The obstacle sphere of centre ``center_`` (3,) [m] and radius ``radius_`` > 0 [m] as a
     coop_ga OPNS primitive (kind ``"sphere"``, the wedge of four of its points, Eq 5)."""
-    c = validation.vector(center_, 3, "center")
+    c = _bounded(validation.vector(center_, 3, "center"), "center")
     r = validation.positive(radius_, "radius")
+    if r > MAX_COORDINATE:
+        raise InvalidInputError(f"radius = {r:g} m is beyond {MAX_COORDINATE:g} m")
     pts = [c + r * np.array(d, dtype=float) for d in ((1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0))]
     return sphere(pts[0], pts[1], pts[2], pts[3])
 
 
-def dual_sphere(S: Multivector) -> Multivector:
+def dual_sphere(S: Multivector, what: str = "S") -> Multivector:
     """The IPNS vector ``s = P(c) − ½ρ² e∞`` (e0 coefficient 1) of a sphere (seed Eq 4).
 
     ``S``: an OPNS sphere (grade 4, e.g. :func:`obstacle`) or an IPNS vector (grade 1) of a real
     sphere.  Raises :class:`InvalidInputError` for other kinds and :class:`DegeneratePrimitiveError`
-    for planes (zero e0 weight) and imaginary spheres.
+    for planes (zero e0 weight) and imaginary spheres; the messages name the argument ``what``.
     """
     if not isinstance(S, Multivector):
-        raise InvalidInputError(f"a sphere must be a coop_ga Multivector, got {type(S).__name__}")
-    S.check_finite("sphere")
+        raise InvalidInputError(
+            f"{what} must be a sphere as a coop_ga Multivector (e.g. collision.potential.obstacle(center, radius)), "
+            f"got {type(S).__name__}"
+        )
+    S.check_finite(what)
+    if S.is_symbolic:
+        raise InvalidInputError(f"{what} must be a numeric sphere, got a symbolic (CasADi) one")
     grades = set(S.prune(0.0).grades)
     if grades == {4}:
         if kind_of(S) != "sphere":
-            raise InvalidInputError("a grade-4 obstacle must be a sphere, got a plane")
+            raise InvalidInputError(f"{what}: a grade-4 obstacle must be a sphere, got a plane")
         s = S.dual().grade(1)
     elif grades == {1}:
         s = S
     else:
         raise InvalidInputError(
-            f"a sphere is a grade-4 OPNS primitive or a grade-1 IPNS vector; got grades {sorted(grades)}"
+            f"{what}: a sphere is a grade-4 OPNS primitive or a grade-1 IPNS vector; got grades {sorted(grades)}"
         )
     w = float(s.get(_B_E0))
     if w == 0.0:
-        raise DegeneratePrimitiveError("the sphere has zero e0 weight: it is a plane (a sphere through infinity)")
-    s = s.scale(1.0 / w)
-    c = np.array([float(s.get(b)) for b in _B_E])
-    r2 = float(c @ c) - 2.0 * float(s.get(_B_EINF))
+        raise DegeneratePrimitiveError(
+            f"{what} has zero e0 weight: it is a plane (a sphere through infinity), not a sphere"
+        )
+    with np.errstate(over="ignore", invalid="ignore"):
+        s = s.scale(1.0 / w)
+        c = np.array([float(s.get(b)) for b in _B_E])
+        r2 = float(c @ c) - 2.0 * float(s.get(_B_EINF))
+    if not np.isfinite(r2) or not np.all(np.isfinite(c)):
+        raise InvalidInputError(f"{what}: its centre or radius overflows (e0 weight {w:.3g}); rescale the scene")
     if not r2 > 0.0:
-        raise DegeneratePrimitiveError(f"the sphere is imaginary or a point (ρ² = {r2:.3g} ≤ 0)")
+        raise DegeneratePrimitiveError(f"{what} is imaginary or a point (ρ² = {r2:.3g} ≤ 0), not a real sphere")
     return s
 
 
-def _center_radius(S: Multivector) -> tuple[np.ndarray, float]:
-    s = dual_sphere(S)
+def _center_radius(S: Multivector, what: str = "S") -> tuple[np.ndarray, float]:
+    s = dual_sphere(S, what)
     c = np.array([float(s.get(b)) for b in _B_E])
     return c, float(np.sqrt(float(c @ c) - 2.0 * float(s.get(_B_EINF))))
 
@@ -177,6 +200,8 @@ def safety_sphere(S: Multivector, margin: float = 0.0) -> Multivector:
     m = validation.nonnegative(margin, "margin")
     c, rho = _center_radius(S)
     R = rho + m
+    if not np.isfinite(R * R):
+        raise InvalidInputError(f"margin = {m:g} m makes the security radius overflow (R² = inf); rescale the scene")
     return point(c) - _EINF.scale(0.5 * R * R)
 
 
@@ -187,7 +212,10 @@ def signed_squared_distance(x: Any, S: Multivector) -> Any:
     Positive inside, zero on the sphere, negative outside.  Returns a float or an (N,) array.
     """
     s = dual_sphere(S)
-    v = (point(x) | s).get(0)
+    with np.errstate(over="ignore", invalid="ignore"):  # checked below
+        v = (point(x) | s).get(0)
+    if not np.all(np.isfinite(v)):
+        raise InvalidInputError("x is too far from the sphere: P(x)·s overflows; express the scene in a nearer unit")
     return float(v) if np.ndim(v) == 0 else np.asarray(v, dtype=float)
 
 
@@ -200,12 +228,14 @@ def charges(security_radii: Any, centers: Any, goal: Any, rule: str = "seed") ->
     (the planar rule); ``"equilibrium"``: q = (R/(R + D))², which places the equilibrium point of
     the 3-D field at distance R behind the obstacle (see :func:`equilibrium_distance`).
     """
-    rule = validation.choice(rule, CHARGE_RULES, "charge_rule")
+    rule = validation.choice(rule, CHARGE_RULES, "rule")
     R = validation.array(security_radii, "security_radii").reshape(-1)
-    C = validation.array(centers, "centers").reshape(-1, 3)
-    g = validation.vector(goal, 3, "goal")
+    if R.size and not float(R.min()) > 0.0:
+        raise InvalidInputError(f"security_radii must be > 0 [m], got {float(R.min()):g}")
+    C = _centers(centers, "centers")
+    g = _bounded(validation.vector(goal, 3, "goal"), "goal")
     if C.shape[0] != R.shape[0]:
-        raise InvalidInputError(f"{R.shape[0]} security radii for {C.shape[0]} centers")
+        raise InvalidInputError(f"{R.shape[0]} security_radii for {C.shape[0]} centers: give one radius per centre")
     D = np.linalg.norm(C - g, axis=1)
     q = R / (R + D)
     return q if rule == "seed" else q * q
@@ -220,20 +250,60 @@ def equilibrium_distance(q: float, D: float) -> float:
     if q >= 1.0:
         raise InvalidInputError(f"an obstacle charge q = {q:g} ≥ 1 has no equilibrium point behind it")
     sq = float(np.sqrt(q))
-    return sq * D / (1.0 - sq)
+    with np.errstate(over="ignore"):
+        return float(validation.finite_result(sq * D / (1.0 - sq), f"equilibrium_distance(q = {q:g}, D = {D:g} m)"))
+
+
+def _bounded(P: np.ndarray, what: str) -> np.ndarray:
+    if P.size and float(np.max(np.abs(P))) > MAX_COORDINATE:
+        raise InvalidInputError(f"{what} reaches {float(np.max(np.abs(P))):.3g} m, beyond ±{MAX_COORDINATE:g} m")
+    return P
+
+
+def _centers(centers: Any, what: str) -> np.ndarray:
+    C = validation.array(centers, what)
+    if C.shape == (3,):
+        C = C.reshape(1, 3)
+    if C.ndim != 2 or C.shape[1] != 3:
+        raise InvalidInputError(f"{what} must have shape (k, 3) [m], got shape {C.shape}")
+    return _bounded(C, what)
+
+
+def _charges_args(x: Any, centers: Any, q: Any, goal: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The checked arguments of the Coulomb potential and field: x (N, 3), centres (k, 3), charges (k,), goal (3,).
+
+    A point on a charge (or on the goal) is refused: the potential and the field are singular there."""
+    X = validation.array(x, "x")
+    if X.shape[-1:] != (3,) or X.ndim > 2:
+        raise InvalidInputError(f"x must have shape (3,) or (N, 3) [m], got shape {X.shape}")
+    X = _bounded(X.reshape(-1, 3), "x")
+    C = _centers(centers, "centers")
+    Q = validation.array(q, "q").reshape(-1)
+    if Q.shape[0] != C.shape[0]:
+        raise InvalidInputError(f"{Q.shape[0]} charges q for {C.shape[0]} centers: give one charge per centre")
+    g = _bounded(validation.vector(goal, 3, "goal"), "goal")
+    for label, P in (("the goal", g[None]), *((f"charge {i} (centre {c.tolist()})", c[None]) for i, c in enumerate(C))):
+        hit = np.flatnonzero(np.all(X == P, axis=1))
+        if hit.size:
+            raise InvalidInputError(
+                f"x[{int(hit[0])}] = {X[hit[0]].tolist()} lies on {label}, where the Coulomb potential and field are "
+                "singular; evaluate elsewhere"
+            )
+    return X, C, Q, g
 
 
 def coulomb_potential(x: Any, centers: Any, q: Any, goal: Any) -> Any:
     """U(x) = Σ q_i/|x − c_i| − 1/|x − goal| (Eq 21, n = 3): positive charges at the obstacle
-    centres, a unit negative charge at the goal.  ``x`` (3,) or (N, 3) [m]; returns float or (N,)."""
-    X = np.atleast_2d(validation.array(x, "x"))
-    C = validation.array(centers, "centers").reshape(-1, 3)
-    Q = validation.array(q, "q").reshape(-1)
-    g = validation.vector(goal, 3, "goal")
-    with np.errstate(divide="ignore"):
+    centres, a unit negative charge at the goal.  ``x`` (3,) or (N, 3) [m]; returns float or (N,).
+
+    Raises :class:`InvalidInputError` for a point on a charge or on the goal (U is singular there)."""
+    X, C, Q, g = _charges_args(x, centers, q, goal)
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):  # checked below
         U = np.sum(Q[None, :] / np.linalg.norm(X[:, None, :] - C[None], axis=2), axis=1) - 1.0 / np.linalg.norm(
             X - g, axis=1
         )
+    if not np.all(np.isfinite(U)):
+        raise InvalidInputError("x lies too close to a charge: the Coulomb potential overflows there")
     return float(U[0]) if np.ndim(x) == 1 else U
 
 
@@ -248,11 +318,19 @@ def _field(x: np.ndarray, C: np.ndarray, Q: np.ndarray, g: np.ndarray) -> np.nda
 
 def coulomb_field(x: Any, centers: Any, q: Any, goal: Any) -> np.ndarray:
     """E(x) = E_obs − E_goal = −∇U (Eq 22 with n = 3, Eq 27): Σ q_i (x − c_i)/|x − c_i|³ −
-    (x − goal)/|x − goal|³ [1/m²], shape (3,)."""
-    X = validation.vector(x, 3, "x")
-    C = validation.array(centers, "centers").reshape(-1, 3)
-    Q = validation.array(q, "q").reshape(-1)
-    return _field(X, C, Q, validation.vector(goal, 3, "goal"))
+    (x − goal)/|x − goal|³ [1/m²], shape (3,).
+
+    Raises :class:`InvalidInputError` for a point on a charge or on the goal (E is singular there)."""
+    validation.vector(x, 3, "x")
+    X, C, Q, g = _charges_args(x, centers, q, goal)
+    try:
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore"):  # checked below
+            E = _field(X[0], C, Q, g)
+    except OverflowError:  # |x − goal|³ beyond the doubles
+        raise InvalidInputError("x is too far from the goal: the Coulomb field's |x − goal|³ overflows") from None
+    if not np.all(np.isfinite(E)):
+        raise InvalidInputError("x lies too close to a charge: the Coulomb field overflows there")
+    return E
 
 
 def additive_split(P: Multivector) -> tuple[Multivector, Multivector]:
@@ -264,7 +342,9 @@ def additive_split(P: Multivector) -> tuple[Multivector, Multivector]:
     if not isinstance(P, Multivector):
         raise InvalidInputError(f"P must be a coop_ga Multivector (a conformal point), got {type(P).__name__}")
     if set(P.prune(0.0).grades) - {1}:
-        raise InvalidInputError(f"the additive split is of vectors (grade 1); got grades {sorted(P.grades)}")
+        raise InvalidInputError(
+            f"P must be a vector (grade 1; the additive split is of conformal points), got grades {sorted(P.grades)}"
+        )
     return ((P | _E) * _E).grade(1), ((P ^ _E) * _E).grade(1)
 
 
@@ -367,6 +447,41 @@ def _project_cone(delta: np.ndarray, normals: list[np.ndarray]) -> np.ndarray:
     return np.zeros(3)
 
 
+def _path_ends(start: Any, goal: Any, step: Any, tol: Any) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """The checked start (3,), goal (3,) [m], step and goal tolerance (default: the step) [m] of a path.
+
+    A tolerance not below the start–goal distance is refused: the start would count as reached."""
+    x0 = validation.vector(start, 3, "start")
+    g = validation.vector(goal, 3, "goal")
+    for name, p in (("start", x0), ("goal", g)):
+        if float(np.max(np.abs(p))) > MAX_COORDINATE:
+            raise InvalidInputError(
+                f"{name} = {p.tolist()} is beyond ±{MAX_COORDINATE:g} m (its conformal point overflows)"
+            )
+    h = validation.positive(step, "step")
+    tol_ = h if tol is None else validation.positive(tol, "tol")
+    d_start = float(np.linalg.norm(g - x0))
+    if 0.0 < d_start <= tol_:
+        which = "tol" if tol is not None else "step (the default goal tolerance tol)"
+        raise InvalidInputError(
+            f"{which} = {tol_:g} m is not smaller than the start–goal distance {d_start:.6g} m: the start would count "
+            f"as reached without a step; pass a step (or tol) below {d_start:.6g} m"
+        )
+    return x0, g, h, tol_
+
+
+def _security_spheres(obstacles: Any, margin: float) -> tuple[np.ndarray, np.ndarray]:
+    """Centres (k, 3) [m] and security radii ρ + margin (k,) [m] of the obstacle spheres (one sphere or a list)."""
+    if isinstance(obstacles, Multivector):
+        obstacles = [obstacles]
+    if isinstance(obstacles, str) or not isinstance(obstacles, Iterable):
+        raise InvalidInputError(
+            f"obstacles must be a list of spheres (collision.potential.obstacle), got {obstacles!r}"
+        )
+    cr = [_center_radius(S, f"obstacles[{i}]") for i, S in enumerate(obstacles)]
+    return np.array([c for c, _ in cr]).reshape(-1, 3), np.array([r + margin for _, r in cr])
+
+
 def potential_path(
     start: Any,
     goal: Any,
@@ -396,24 +511,24 @@ def potential_path(
     point of the new position (Eq 3); the safety guard of the module docstring.  The last step
     lands on the goal exactly once it is within ``step`` and that segment is safe.
 
-    Raises :class:`InvalidInputError` if start or goal lies inside a safety sphere.
+    Raises :class:`InvalidInputError` if start or goal lies inside a safety sphere, and if the goal
+    tolerance (``tol``, default ``step``) is not smaller than the start–goal distance: the start would
+    count as reached without a step (a path of length 0, whatever lies in between).
     Never raises for a failure of the method: see ``status`` and ``message`` of the result.
     """
-    x0 = validation.vector(start, 3, "start")
-    g = validation.vector(goal, 3, "goal")
-    h = validation.positive(step, "step")
-    tol_ = h if tol is None else validation.positive(tol, "tol")
+    x0, g, h, tol_ = _path_ends(start, goal, step, tol)
     max_iter = validation.integer(max_iter, "max_iter", minimum=1)
+    if max_iter > MAX_ITERATIONS:
+        raise InvalidInputError(
+            f"max_iter = {max_iter} is above {MAX_ITERATIONS} (each iteration is a step of the path); "
+            "take a larger step instead"
+        )
     window = validation.integer(window, "window", minimum=2)
     escape = validation.positive(escape, "escape")
     charge_rule = validation.choice(charge_rule, CHARGE_RULES, "charge_rule")
     margin = validation.nonnegative(margin, "margin")
-    if isinstance(obstacles, Multivector):
-        obstacles = [obstacles]
-    obs = list(obstacles)
-    cr = [_center_radius(S) for S in obs]
-    C = np.array([c for c, _ in cr]).reshape(-1, 3)
-    R = np.array([r + margin for _, r in cr])
+    d_start = float(np.linalg.norm(g - x0))
+    C, R = _security_spheres(obstacles, margin)
     S = [point(c) - _EINF.scale(0.5 * r * r) for c, r in zip(C, R)]
     for name, p in (("start", x0), ("goal", g)):
         for i in range(len(S)):
@@ -425,7 +540,6 @@ def potential_path(
                 )
     Q = charges(R, C, g, charge_rule) if len(S) else np.zeros(0)
     guard = _Guard(S, C, R)
-    d_start = float(np.linalg.norm(g - x0))
     Pg = point(g)
     P: Multivector = point(x0)
     x = x0.copy()
@@ -561,14 +675,21 @@ def random_scene(
     """A random test scene: ``(start, goal, obstacles)`` with 1.0–2.0 m between start and goal and
     ``n_obstacles`` spheres (radius 0.08–0.25 m) centred near the start–goal segment (at 25–75 % of
     it, offset laterally by N(0, 0.1 m) per axis); start and goal are at least 5 cm outside every
-    safety sphere (radius + margin).  Deterministic given ``rng``."""
+    safety sphere (radius + margin).  Deterministic given ``rng``.
+
+    Raises :class:`InvalidInputError` when no scene satisfies that in :data:`MAX_SCENE_DRAWS` draws
+    (too many obstacles, or too large a margin)."""
+    if not isinstance(rng, np.random.Generator):
+        raise InvalidInputError(f"rng must be a numpy.random.Generator (numpy.random.default_rng(seed)), got {rng!r}")
     n = validation.integer(n_obstacles, "n_obstacles", minimum=0)
+    if n > MAX_SCENE_OBSTACLES:
+        raise InvalidInputError(f"n_obstacles = {n} is above {MAX_SCENE_OBSTACLES}: that many spheres do not fit")
     m = validation.nonnegative(margin, "margin")
-    while True:
+    for _ in range(MAX_SCENE_DRAWS):
         s = rng.uniform(-1.0, 1.0, 3)
         u = rng.normal(size=3)
         u /= np.linalg.norm(u)
-        g = s + rng.uniform(1.0, 2.0) * u
+        g = s + rng.uniform(*SCENE_DISTANCE) * u
         obs, ok = [], True
         for _ in range(n):
             c = s + rng.uniform(0.25, 0.75) * (g - s) + rng.normal(0.0, 0.1, 3)
@@ -579,3 +700,7 @@ def random_scene(
             obs.append((c, r))
         if ok:
             return s, g, [obstacle(c, r) for c, r in obs]
+    raise InvalidInputError(
+        f"random_scene: no scene with n_obstacles = {n} spheres at least 5 cm (+ margin = {m:g} m) from start and goal "
+        f"in {MAX_SCENE_DRAWS} draws; ask for fewer obstacles or a smaller margin"
+    )

@@ -35,7 +35,7 @@ import numpy as np
 from ..algebra import Multivector
 from ..errors import InvalidInputError
 from ..kinematics.chains import motor_from_se3
-from ..validation import array, vector
+from ..validation import array, scalar, vector
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..systems.system import System
@@ -90,8 +90,10 @@ def rotation_from_rpy(rpy: Any) -> np.ndarray:
 def rpy_from_rotation(R: Any) -> np.ndarray:
     """``(roll, pitch, yaw)`` [rad] (3,) of R_WB = Rz(yaw) Ry(pitch) Rx(roll); pitch in [−π/2, π/2].
 
-    At pitch = ±π/2 (gimbal lock) roll is set to 0 and the rotation about z goes to yaw."""
+    At pitch = ±π/2 (gimbal lock) roll is set to 0 and the rotation about z goes to yaw.  Raises
+    :class:`~coop_ga.errors.InvalidInputError` if R is not a rotation (to 1e-6)."""
     M = array(R, "R", shape=(3, 3))
+    check_rotation(M, "R")
     sp = -float(np.clip(M[2, 0], -1.0, 1.0))
     pitch = float(np.arcsin(sp))
     if abs(sp) < 1.0 - 1e-12:
@@ -103,18 +105,33 @@ def rpy_from_rotation(R: Any) -> np.ndarray:
     return np.array([roll, pitch, yaw])
 
 
-def _orthonormal(R: np.ndarray) -> np.ndarray:
-    """R if it is a rotation (to :data:`_ORTHO_TOL`), re-orthonormalised by the SVD; else InvalidInputError."""
+def check_rotation(R: np.ndarray, what: str) -> float:
+    """|RᵀR − I| (max entry) of a (3, 3) array; :class:`~coop_ga.errors.InvalidInputError` naming ``what`` if R
+    is not a rotation to :data:`_ORTHO_TOL` (orthonormal, det +1)."""
     err = float(np.max(np.abs(R.T @ R - np.eye(3))))
-    if err > _ORTHO_TOL or not np.linalg.det(R) > 0:
+    if not err <= _ORTHO_TOL or not np.linalg.det(R) > 0:
         raise InvalidInputError(
-            f"BodyState.rotation must be a rotation matrix W←B (orthonormal, det +1); |RᵀR − I| = {err:.3g}, "
+            f"{what} must be a rotation matrix (orthonormal, det +1); |RᵀR − I| = {err:.3g}, "
             f"det = {np.linalg.det(R):.3g}"
         )
+    return err
+
+
+def _orthonormal(R: np.ndarray) -> np.ndarray:
+    """R if it is a rotation (to :data:`_ORTHO_TOL`), re-orthonormalised by the SVD; else InvalidInputError."""
+    err = check_rotation(R, "BodyState.rotation (W←B)")
     if err == 0.0:
         return R
     U, _, Vt = np.linalg.svd(R)
     return U @ Vt
+
+
+def _points3(points: Any, what: str) -> np.ndarray:
+    """Points (..., 3) [m], checked (finite, real, last dimension 3)."""
+    p = array(points, what)
+    if p.ndim == 0 or p.shape[-1] != 3:
+        raise InvalidInputError(f"{what} must have shape (..., 3) [m], got shape {p.shape}")
+    return p
 
 
 def body_tangent(v: Any, omega: Any) -> np.ndarray:
@@ -135,7 +152,9 @@ def stance_indices(stance_legs: Any) -> tuple[int, ...]:
         )
     if isinstance(stance_legs, np.ndarray) and stance_legs.dtype == np.bool_:
         if stance_legs.shape != (6,):
-            raise InvalidInputError(f"a stance mask must have shape (6,) (legs {LEG_ORDER}), got {stance_legs.shape}")
+            raise InvalidInputError(
+                f"stance_legs as a mask must have shape (6,) (legs {LEG_ORDER}), got {stance_legs.shape}"
+            )
         return tuple(int(i) for i in np.flatnonzero(stance_legs))
     if not isinstance(stance_legs, Sequence | np.ndarray):
         raise InvalidInputError(f"stance_legs must be a sequence of leg names from {LEG_ORDER}, got {stance_legs!r}")
@@ -143,12 +162,12 @@ def stance_indices(stance_legs: Any) -> tuple[int, ...]:
     for leg in stance_legs:
         if isinstance(leg, str):
             if leg not in LEG_ORDER:
-                raise InvalidInputError(f"unknown leg {leg!r}; the legs are {', '.join(LEG_ORDER)}")
+                raise InvalidInputError(f"stance_legs: unknown leg {leg!r}; the legs are {', '.join(LEG_ORDER)}")
             out.add(LEG_ORDER.index(leg))
         elif isinstance(leg, int | np.integer) and not isinstance(leg, bool) and 0 <= int(leg) < 6:
             out.add(int(leg))
         else:
-            raise InvalidInputError(f"stance leg {leg!r} is neither a leg name from {LEG_ORDER} nor an index 0..5")
+            raise InvalidInputError(f"stance_legs: {leg!r} is neither a leg name from {LEG_ORDER} nor an index 0..5")
     return tuple(sorted(out))
 
 
@@ -226,7 +245,9 @@ class BodyState:
 
     def feet_body(self, legs: LegModel) -> np.ndarray:
         """Feet (6, 3) [m] in B, LEG ORDER: ``legs.fk(q)``."""
-        return np.asarray(legs.fk(self.q), dtype=float).reshape(6, 3)
+        from .legs import check_legs
+
+        return np.asarray(check_legs(legs).fk(self.q), dtype=float).reshape(6, 3)
 
     def feet_world(self, legs: LegModel) -> np.ndarray:
         """Feet (6, 3) [m] in W, LEG ORDER: ``M_body · p_foot(q) = position + R p_foot(q)``."""
@@ -234,13 +255,11 @@ class BodyState:
 
     def to_world(self, points_B: Any) -> np.ndarray:
         """Points (..., 3) in B → W [m]: ``position + R p``."""
-        p = np.asarray(points_B, dtype=float)
-        return p @ self.rotation.T + self.position
+        return _points3(points_B, "points_B") @ self.rotation.T + self.position
 
     def to_body(self, points_W: Any) -> np.ndarray:
         """Points (..., 3) in W → B [m]: ``Rᵀ (p − position)``."""
-        p = np.asarray(points_W, dtype=float)
-        return (p - self.position) @ self.rotation
+        return (_points3(points_W, "points_W") - self.position) @ self.rotation
 
     # ------------------------------------------------------------------ motion
     def moved(self, v: Any, omega: Any, dt: float, q: Any | None = None) -> BodyState:
@@ -250,8 +269,11 @@ class BodyState:
 
         vv = vector(v, 3, "v")
         w = vector(omega, 3, "omega")
-        R_new = self.rotation @ Rotation.from_rotvec(w * float(dt)).as_matrix()
-        return BodyState(self.position + self.rotation @ vv * float(dt), R_new, self.q if q is None else q)
+        h = scalar(dt, "dt [s]")
+        if not np.all(np.isfinite(vv * h)) or not np.all(np.isfinite(w * h)):
+            raise InvalidInputError(f"dt = {h:g} s times the twist overflows; take a shorter step")
+        R_new = self.rotation @ Rotation.from_rotvec(w * h).as_matrix()
+        return BodyState(self.position + self.rotation @ vv * h, R_new, self.q if q is None else q)
 
     def copy(self) -> BodyState:
         return BodyState(self.position, self.rotation, self.q)

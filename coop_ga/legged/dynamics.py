@@ -53,6 +53,8 @@ from .legs import LEGS, LegModel
 
 __all__ = ["FLOATING_SYSTEM", "RolloutOptions", "RolloutResult", "contact_rollout", "plan_to_floating_q"]
 
+#: :func:`contact_rollout` refuses a plan that needs more integration steps (bounded work: ~0.1 ms each)
+MAX_STEPS = 5_000_000
 #: The registered system the roll-out simulates (6 virtual body joints + 18 leg joints).
 FLOATING_SYSTEM = "hexapod_floating"
 G = 9.81  # gravity [m/s²] (the model's default gravity is used; this is only for documentation)
@@ -75,6 +77,19 @@ class RolloutOptions:
     feedforward: bool = True
     saturate: bool = True
     baumgarte: tuple[float, float] = (400.0, 40.0)
+
+    def __post_init__(self) -> None:
+        validation.nonnegative(self.kp, "RolloutOptions.kp")
+        validation.nonnegative(self.kd, "RolloutOptions.kd")
+        validation.positive(self.dt, "RolloutOptions.dt")
+        for name in ("feedforward", "saturate"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise InvalidInputError(f"RolloutOptions.{name} must be True or False, got {getattr(self, name)!r}")
+        b = validation.array(self.baumgarte, "RolloutOptions.baumgarte")
+        if b.shape != (2,) or np.any(b < 0.0):
+            raise InvalidInputError(
+                f"RolloutOptions.baumgarte must be (K_p, K_d) ≥ 0 [1/s², 1/s], got {self.baumgarte!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -164,12 +179,23 @@ def _rx(a: float) -> np.ndarray:
     return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
 
 
-def _check_plan(t: Any, q: Any, body: Any, stance: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _check_plan(
+    t: Any, q: Any, body: Any, stance: Any, dt: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The checked plan arrays; a plan that needs more than :data:`MAX_STEPS` integration steps of ``dt`` [s] is
+    refused (bounded work)."""
     tt = validation.array(t, "t")
     if tt.ndim != 1 or tt.size < 2:
         raise InvalidInputError(f"t must have shape (T,) with T ≥ 2 samples [s], got shape {tt.shape}")
     if np.any(np.diff(tt) <= 0.0):
         raise InvalidInputError("t must be strictly increasing")
+    with np.errstate(over="ignore"):
+        n_steps = float(np.sum(np.maximum(1.0, np.ceil(np.diff(tt) / dt - 1e-9))))
+    if not n_steps <= MAX_STEPS:
+        raise InvalidInputError(
+            f"the plan spans t = {tt[0]:.4g} … {tt[-1]:.4g} s: {n_steps:.3g} integration steps of options.dt = {dt:g} s, "
+            f"above {MAX_STEPS}; simulate a shorter plan or take a longer dt"
+        )
     T = tt.size
     qq = validation.array(q, "q", shape=(T, 18))
     bb = validation.array(body, "body", shape=(T, 7))
@@ -196,7 +222,11 @@ def plan_to_floating_q(q: Any, body: Any) -> np.ndarray:
     bb = validation.array(body, "body")
     if qq.ndim != 2 or qq.shape[1] != 18 or bb.shape != (qq.shape[0], 7):
         raise InvalidInputError(f"need q (T, 18) and body (T, 7), got {qq.shape} and {bb.shape}")
-    R = _quat_to_matrix(bb[:, 3:] / np.linalg.norm(bb[:, 3:], axis=1, keepdims=True))
+    nrm = np.linalg.norm(bb[:, 3:], axis=1, keepdims=True)
+    if not np.all(nrm > 1e-12):
+        k = int(np.argmin(nrm[:, 0]))
+        raise InvalidInputError(f"body[:, 3:] must be quaternions (x, y, z, w); sample {k} is zero")
+    R = _quat_to_matrix(bb[:, 3:] / nrm)
     pitch = np.arcsin(np.clip(-R[:, 2, 0], -1.0, 1.0))
     yaw = np.unwrap(np.arctan2(R[:, 1, 0], R[:, 0, 0]))
     roll = np.arctan2(R[:, 2, 1], R[:, 2, 2])
@@ -236,7 +266,7 @@ def contact_rollout(
     kp = validation.nonnegative(opts.kp, "options.kp")
     kd = validation.nonnegative(opts.kd, "options.kd")
     dt = validation.positive(opts.dt, "options.dt")
-    tt, qq, bb, st = _check_plan(t, q, body, stance)
+    tt, qq, bb, st = _check_plan(t, q, body, stance, dt)
     if system is None:
         if FLOATING_SYSTEM not in names():
             raise UnknownNameError(f"the physics check needs the registered system '{FLOATING_SYSTEM}'")

@@ -47,6 +47,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -62,6 +63,17 @@ GAITS: tuple[str, ...] = ("tripod", "ripple", "wave")
 _SWING_DELAY = 0.2
 #: phases within this of a lift-off / touch-down boundary snap to it (t / T is rarely exact in floats).
 _PHASE_EPS = 1e-9
+
+
+#: :meth:`GaitTable.min_stance` and :meth:`GaitTable.diagram` refuse more samples than this (bounded memory)
+MAX_SAMPLES = 10_000_000
+
+
+def _samples(samples: Any) -> int:
+    n = integer(samples, "samples", minimum=1)
+    if n > MAX_SAMPLES:
+        raise InvalidInputError(f"samples = {n} is above {MAX_SAMPLES} per cycle")
+    return n
 
 
 def leg_names(n_legs: int) -> tuple[str, ...]:
@@ -97,6 +109,23 @@ class GaitTable:
     offsets: np.ndarray
     duty: float
     period: float = 1.0
+
+    def __post_init__(self) -> None:
+        choice(self.gait, GAITS, "gait")
+        if isinstance(self.legs, str) or not all(isinstance(x, str) for x in self.legs) or not self.legs:
+            raise InvalidInputError(f"legs must be a non-empty tuple of leg names, got {self.legs!r}")
+        n = len(self.legs)
+        off = array(self.offsets, "offsets")
+        if off.shape != (n,) or np.any(off < 0.0) or np.any(off >= 1.0):
+            raise InvalidInputError(f"offsets must be {n} lift-off phases in [0, 1) (one per leg), got {off.tolist()}")
+        off.setflags(write=False)
+        duty = scalar(self.duty, "duty")
+        if not 0.0 < duty < 1.0:
+            raise InvalidInputError(f"duty must be in (0, 1) (the stance fraction of a cycle), got {duty}")
+        object.__setattr__(self, "legs", tuple(self.legs))
+        object.__setattr__(self, "offsets", off)
+        object.__setattr__(self, "duty", duty)
+        object.__setattr__(self, "period", positive(self.period, "period"))
 
     @property
     def n_legs(self) -> int:
@@ -139,12 +168,12 @@ class GaitTable:
     def min_stance(self, samples: int = 3600) -> int:
         """The smallest number of stance legs over one cycle (sampled at ``samples`` phases, which include
         every lift-off and touch-down of the default tables)."""
-        t = np.arange(integer(samples, "samples", minimum=1)) * (self.period / samples)
+        t = np.arange(_samples(samples)) * (self.period / samples)
         return int(self.stance(t).sum(axis=-1).min())
 
     def diagram(self, samples: int = 600) -> tuple[np.ndarray, np.ndarray]:
         """The gait diagram over one cycle: (t (samples,) [s], stance (samples, n) bool)."""
-        t = np.arange(integer(samples, "samples", minimum=1)) * (self.period / samples)
+        t = np.arange(_samples(samples)) * (self.period / samples)
         return t, self.stance(t)
 
 
@@ -225,24 +254,27 @@ def swing_arc(p0: object, p1: object, lift: float, s: object) -> tuple[np.ndarra
     ss = array(s, "s")
     if np.any(ss < -1e-12) or np.any(ss > 1.0 + 1e-12):
         raise InvalidInputError(f"s must lie in [0, 1], got values in [{ss.min()}, {ss.max()}]")
-    ss = np.clip(ss, 0.0, 1.0)
-    d = _SWING_DELAY
-    # horizontal: a smoothstep over [d, 1 − d]
-    hx, dhx = _smoothstep((ss - d) / (1.0 - 2.0 * d))
-    dhx = dhx / (1.0 - 2.0 * d)
-    # vertical: z0 → z_top over [0, ½], z_top → z1 over [½, 1]
-    z0, z1 = a[2], b[2]
-    z_top = max(z0, z1) + h_lift
-    up, dup = _smoothstep(2.0 * ss)
-    down, ddown = _smoothstep(2.0 * ss - 1.0)
-    first = ss <= 0.5
-    z = np.where(first, z0 + (z_top - z0) * up, z_top + (z1 - z_top) * down)
-    dz = np.where(first, (z_top - z0) * 2.0 * dup, (z1 - z_top) * 2.0 * ddown)
-    p = np.empty((*ss.shape, 3))
-    v = np.empty((*ss.shape, 3))
-    for k in range(2):
-        p[..., k] = a[k] + (b[k] - a[k]) * hx
-        v[..., k] = (b[k] - a[k]) * dhx
-    p[..., 2] = z
-    v[..., 2] = dz
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused below
+        ss = np.clip(ss, 0.0, 1.0)
+        d = _SWING_DELAY
+        # horizontal: a smoothstep over [d, 1 − d]
+        hx, dhx = _smoothstep((ss - d) / (1.0 - 2.0 * d))
+        dhx = dhx / (1.0 - 2.0 * d)
+        # vertical: z0 → z_top over [0, ½], z_top → z1 over [½, 1]
+        z0, z1 = a[2], b[2]
+        z_top = max(z0, z1) + h_lift
+        up, dup = _smoothstep(2.0 * ss)
+        down, ddown = _smoothstep(2.0 * ss - 1.0)
+        first = ss <= 0.5
+        z = np.where(first, z0 + (z_top - z0) * up, z_top + (z1 - z_top) * down)
+        dz = np.where(first, (z_top - z0) * 2.0 * dup, (z1 - z_top) * 2.0 * ddown)
+        p = np.empty((*ss.shape, 3))
+        v = np.empty((*ss.shape, 3))
+        for k in range(2):
+            p[..., k] = a[k] + (b[k] - a[k]) * hx
+            v[..., k] = (b[k] - a[k]) * dhx
+        p[..., 2] = z
+        v[..., 2] = dz
+    if not (np.all(np.isfinite(p)) and np.all(np.isfinite(v))):
+        raise InvalidInputError("swing_arc(p0, p1, lift): the arc overflows; rescale the end points and the lift")
     return p, v

@@ -94,6 +94,11 @@ LEGS: tuple[str, ...] = ("lf", "lm", "lr", "rf", "rm", "rr")
 JOINTS: tuple[str, ...] = ("coxa", "femur", "tibia")
 #: Knee branches of the closed-form IK (module docstring).
 BRANCHES: tuple[str, ...] = ("knee_up", "knee_down")
+#: joint angles [rad] and foot coordinates [m] beyond these are refused (sums of angles, squared lengths overflow)
+MAX_ANGLE = 1e9
+MAX_COORDINATE = 1e150
+#: :meth:`LegModel.dls_ik` refuses a larger ``max_iter`` (bounded work)
+MAX_DLS_ITERATIONS = 100_000
 #: Joint-limit tolerance of :meth:`LegModel.ik` [rad]: a solution at most this far outside a limit
 #: counts as inside and is clipped onto it (moves the foot by < 0.3 nm).
 LIMIT_TOL = 1e-9
@@ -209,9 +214,7 @@ class LegModel:
         model = getattr(system, "model", None)
         if model is None or not hasattr(model, "getJointId"):
             raise InvalidInputError(f"LegModel.from_system needs a coop_ga System, got {type(system).__name__}")
-        legs = tuple(legs)
-        if len(legs) == 0 or len(set(legs)) != len(legs):
-            raise InvalidInputError(f"legs must be distinct names, got {legs}")
+        legs = _leg_names(legs)
         names = list(model.names)
         frames = [f.name for f in model.frames]
         foot_frames = tuple(f"{leg}_foot" for leg in legs)
@@ -372,10 +375,18 @@ class LegModel:
         a = validation.array(q, what)
         if a.ndim < 1 or a.shape[-1] != self.nq:
             raise InvalidInputError(f"{what} must have shape (..., {self.nq}) (leg joints), got shape {a.shape}")
+        if a.size and float(np.max(np.abs(a))) > MAX_ANGLE:
+            raise InvalidInputError(
+                f"{what} has a joint angle of {float(np.max(np.abs(a))):.3g} rad, beyond ±{MAX_ANGLE:g}"
+            )
         return a
 
     def _feet(self, feet: Any, what: str = "feet") -> np.ndarray:
         a = validation.array(feet, what)
+        if a.size and float(np.max(np.abs(a))) > MAX_COORDINATE:
+            raise InvalidInputError(
+                f"{what} has a coordinate of {float(np.max(np.abs(a))):.3g} m, beyond ±{MAX_COORDINATE:g}"
+            )
         if a.ndim < 2 or a.shape[-2:] != (self.n_legs, 3):
             raise InvalidInputError(
                 f"{what} must have shape (..., {self.n_legs}, 3) (one foot point [m] in B per leg, "
@@ -751,6 +762,8 @@ class LegModel:
         lam = validation.nonnegative(damping, "damping")
         tol = validation.positive(tol, "tol")
         max_iter = validation.integer(max_iter, "max_iter", minimum=1)
+        if max_iter > MAX_DLS_ITERATIONS:
+            raise InvalidInputError(f"max_iter = {max_iter} is above {MAX_DLS_ITERATIONS} damped least-squares steps")
         max_step = validation.positive(max_step, "max_step")
         if not isinstance(clip_to_limits, (bool, np.bool_)):
             raise InvalidInputError(f"clip_to_limits must be a bool, got {type(clip_to_limits).__name__}")
@@ -815,6 +828,26 @@ class LegModel:
             f"(worst error {float(err.max()):.3g} m, at most {int(it.max())} iterations, λ = {lam:g})"
         )
         return DLSResult(q=q, converged=conv, error=err, iterations=it, within_limits=inside, message=msg)
+
+
+def _leg_names(legs: Any) -> tuple[str, ...]:
+    """A non-empty sequence of distinct leg names (not a single string)."""
+    if isinstance(legs, str) or not isinstance(legs, Sequence):
+        raise InvalidInputError(f"legs must be a list of leg names (e.g. {LEGS}), got {legs!r}")
+    out = tuple(legs)
+    if len(out) == 0 or len(set(out)) != len(out) or not all(isinstance(x, str) for x in out):
+        raise InvalidInputError(f"legs must be distinct leg names (str), got {out}")
+    return out
+
+
+def check_legs(legs: Any, what: str = "legs") -> LegModel:
+    """``legs`` if it is a :class:`LegModel`, else :class:`~coop_ga.errors.InvalidInputError` naming ``what``."""
+    if not isinstance(legs, LegModel):
+        raise InvalidInputError(
+            f"{what} must be a coop_ga.legged.LegModel (hexapod_legs() or LegModel.from_system(system)), "
+            f"got {type(legs).__name__}"
+        )
+    return legs
 
 
 _CACHE: dict[int, tuple[Any, LegModel]] = {}

@@ -61,10 +61,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .. import validation
 from ..errors import InvalidInputError, UnreachableError
 from ..geometry.groups import Similarity, bivector_to_tangent, tangent_to_bivector
-from ..validation import choice, integer, nonnegative, positive, vector
-from .body import LEG_ORDER, BodyState, body_tangent, stance_indices
+from ..validation import array, choice, integer, nonnegative, positive, vector
+from .body import LEG_ORDER, BodyState, body_tangent, check_rotation, stance_indices
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..cooperative.task import CooperativeTask
@@ -99,6 +100,8 @@ _CLIP_TOL = 1e-10
 
 def _base_kind(kind: str) -> str:
     """``"sphere_fit"`` → ``"sphere"`` (the LSQ kinds of :mod:`coop_ga.legged.stance` have the stabiliser of their kind)."""
+    if not isinstance(kind, str):
+        raise InvalidInputError(f"kind must be a stance primitive kind (str), got {kind!r}")
     k = kind[:-4] if kind.endswith("_fit") else kind
     if k not in OBSERVABLE:
         raise InvalidInputError(f"posture control needs a stance plane, circle or sphere, got kind {kind!r}")
@@ -249,10 +252,14 @@ def adjoint(V: Any) -> np.ndarray:
 def feet_field(command_B: Any, points_B: Any) -> np.ndarray:
     """Velocity field (k, 3) [m/s] of a body-frame similarity twist on points (k, 3) of B:
     ``ẋ = t + ω × x + β x`` with ``ω = (θ23, −θ13, θ12)`` (the conventions of :mod:`coop_ga.geometry`)."""
-    c = vector(command_B, 7, "command")
-    p = np.asarray(points_B, dtype=float).reshape(-1, 3)
+    c = vector(command_B, 7, "command_B")
+    p = array(points_B, "points_B [m]")
+    if p.shape[-1:] != (3,) or p.ndim > 2:
+        raise InvalidInputError(f"points_B must have shape (k, 3) or (3,) [m], got shape {p.shape}")
+    p = p.reshape(-1, 3)
     w = np.array([c[2], -c[1], c[0]])
-    return c[4:7] + np.cross(w, p) + c[3] * p
+    with np.errstate(over="ignore", invalid="ignore"):
+        return validation.finite_result(c[4:7] + np.cross(w, p) + c[3] * p, "feet_field(command_B, points_B)")
 
 
 def command_from_body_twist(v: Any, omega: Any) -> np.ndarray:
@@ -267,7 +274,10 @@ def body_motion_target(V_B: Any, translation: Any = (0.0, 0.0, 0.0), rotation: A
     from ..kinematics.chains import motor_from_se3
 
     t = vector(translation, 3, "translation")
-    R = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float).reshape(3, 3)
+    R = np.eye(3)
+    if rotation is not None:
+        R = array(rotation, "rotation", shape=(3, 3))
+        check_rotation(R, "rotation")
     M = Similarity(motor_from_se3((R, t)))
     return Similarity.coerce(M.inverse() @ Similarity.coerce(V_B, "V_B"), "M⁻¹ V")
 
@@ -281,8 +291,11 @@ def stance_posture_task(
     exact for 4 feet, least-squares for more — when well defined (w ≥ ``w_min``), else a plane — exact
     for 3 feet, least-squares for more), or of ``kind`` (``"sphere"``, ``"plane"``, ``"circle"``,
     ``"sphere_fit"``, ``"plane_fit"``)."""
+    from .legs import check_legs
     from .stance import stance_order, stance_primitive, stance_task
 
+    check_legs(legs)
+    w_min = nonnegative(w_min, "w_min")
     names = stance_order(stance_legs)
     if kind is None:
         feet = legs.fk(vector(q, 18, "q"))[[LEG_ORDER.index(n) for n in names]]
@@ -389,16 +402,12 @@ def posture_step(
     Returns ``(new state, PostureStep)``.
     """
     from ..control.qp import InfeasibleConstraintsError, damped_lstsq, solve_qp, velocity_bounds
-    from .legs import hexapod_legs
 
-    lm = hexapod_legs() if legs is None else legs
-    opt = PostureOptions() if options is None else options
-    if not isinstance(state, BodyState):
-        raise InvalidInputError(f"state must be a BodyState, got {type(state).__name__}")
-    idx = stance_indices(stance_legs)
-    if len(idx) < 3:
-        raise InvalidInputError(f"posture control needs ≥ 3 stance legs, got {[LEG_ORDER[i] for i in idx]}")
+    lm, opt, idx = _posture_args(state, stance_legs, legs, options)
     c_in = vector(command_twist_B, 7, "command_twist_B")
+    if nullspace_twist is not None:
+        nullspace_twist = vector(nullspace_twist, 6, "nullspace_twist")
+    _swing_args(swing_q, swing_feet_W, idx, task)
     if _violation(lm, state.q) > 1e-12:
         raise InvalidInputError(
             f"state.q is outside the joint limits by {_violation(lm, state.q):.3g} rad; posture_step starts inside them"
@@ -547,6 +556,41 @@ def _skew(p: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -p[2], p[1]], [p[2], 0.0, -p[0]], [-p[1], p[0], 0.0]])
 
 
+def _posture_args(
+    state: Any, stance_legs: Any, legs: Any, options: Any
+) -> tuple[LegModel, PostureOptions, tuple[int, ...]]:
+    """The checked common arguments of :func:`posture_step` and :func:`posture_to`."""
+    from .legs import check_legs, hexapod_legs
+
+    if not isinstance(state, BodyState):
+        raise InvalidInputError(f"state must be a BodyState, got {type(state).__name__}")
+    lm = hexapod_legs() if legs is None else check_legs(legs)
+    if options is not None and not isinstance(options, PostureOptions):
+        raise InvalidInputError(f"options must be a PostureOptions, got {type(options).__name__}")
+    idx = stance_indices(stance_legs)
+    if len(idx) < 3:
+        raise InvalidInputError(f"posture control needs ≥ 3 stance_legs, got {[LEG_ORDER[i] for i in idx]}")
+    return lm, PostureOptions() if options is None else options, idx
+
+
+def _swing_args(swing_q: Any, swing_feet_W: Any, idx: tuple[int, ...], task: Any = None) -> None:
+    """``swing_q`` / ``swing_feet_W``: None or ``{swing leg: (3,)}`` (joint angles [rad] / a foot target [m] in W);
+    ``task``: None or a :class:`~coop_ga.cooperative.CooperativeTask`."""
+    if task is not None:
+        from ..cooperative.task import CooperativeTask
+
+        if not isinstance(task, CooperativeTask):
+            raise InvalidInputError(f"task must be a CooperativeTask (stance_task(...)), got {type(task).__name__}")
+    for what, m in (("swing_q", swing_q), ("swing_feet_W", swing_feet_W)):
+        if m is None:
+            continue
+        if not isinstance(m, Mapping):
+            raise InvalidInputError(f"{what} must be a dict {{swing leg: (3,)}}, got {type(m).__name__}")
+        for leg, v in m.items():
+            _swing_index(leg, idx)
+            vector(v, 3, f"{what}[{leg!r}]")
+
+
 def _swing_index(leg: Any, idx: tuple[int, ...]) -> int:
     if leg not in LEG_ORDER:
         raise InvalidInputError(f"unknown swing leg {leg!r}; the legs are {', '.join(LEG_ORDER)}")
@@ -575,14 +619,9 @@ def posture_to(
     """
     from dataclasses import replace
 
-    from .legs import hexapod_legs
-
-    lm = hexapod_legs() if legs is None else legs
-    opt = replace(PostureOptions() if options is None else options, frame="primitive")
+    lm, opt, idx = _posture_args(state, stance_legs, legs, options)
+    opt = replace(opt, frame="primitive")
     target = Similarity.coerce(target_relative, "target_relative")
-    idx = stance_indices(stance_legs)
-    if len(idx) < 3:
-        raise InvalidInputError(f"posture control needs ≥ 3 stance legs, got {[LEG_ORDER[i] for i in idx]}")
     task = stance_posture_task(lm, state.q, idx, opt.kind, opt.w_min)
     kind = _base_kind(task.kind)
     tlegs = tuple(int(np.flatnonzero(lm.end_frame_index == i)[0]) for i in task.point_indices)

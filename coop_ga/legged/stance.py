@@ -109,8 +109,8 @@ def _points(points: Any) -> np.ndarray:
         raise InvalidInputError(f"points must be the stance feet as a (k, 3) array [m], got shape {P.shape}")
     if P.shape[0] < 3:
         raise InvalidInputError(
-            f"a stance primitive needs at least 3 stance feet (plane or circle), got {P.shape[0]}; with fewer feet "
-            "the robot does not stand"
+            f"points: a stance primitive needs at least 3 stance feet (plane or circle), got {P.shape[0]}; with "
+            "fewer feet the robot does not stand"
         )
     return P
 
@@ -135,7 +135,7 @@ def _plane_of(P: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
 
 def _degenerate(kind: str, w: float, P: np.ndarray) -> DegeneratePrimitiveError:
     return DegeneratePrimitiveError(
-        f"stance {kind} of {P.shape[0]} feet {np.round(P, 4).tolist()}: the feet are (nearly) "
+        f"stance {kind} of {P.shape[0]} feet (points) {np.round(P, 4).tolist()}: the feet are (nearly) "
         f"{'coplanar' if kind == 'sphere' else 'collinear'} (well-definedness {w:.3g}); no {kind} through them"
     )
 
@@ -226,7 +226,7 @@ def stance_order(stance_legs: Any) -> tuple[str, ...]:
         )
     if isinstance(stance_legs, np.ndarray) and stance_legs.dtype == np.bool_:
         if stance_legs.shape != (len(LEGS),):
-            raise InvalidInputError(f"a stance mask must have shape (6,) over {LEGS}, got {stance_legs.shape}")
+            raise InvalidInputError(f"stance_legs as a mask must have shape (6,) over {LEGS}, got {stance_legs.shape}")
         names = {LEGS[i] for i in np.flatnonzero(stance_legs)}
     elif isinstance(stance_legs, Sequence | np.ndarray):
         names = set()
@@ -236,7 +236,7 @@ def stance_order(stance_legs: Any) -> tuple[str, ...]:
             elif isinstance(leg, int | np.integer) and not isinstance(leg, bool) and 0 <= int(leg) < len(LEGS):
                 names.add(LEGS[int(leg)])
             else:
-                raise InvalidInputError(f"stance leg {leg!r} is neither a leg name of {LEGS} nor an index 0..5")
+                raise InvalidInputError(f"stance_legs: {leg!r} is neither a leg name of {LEGS} nor an index 0..5")
     else:
         raise InvalidInputError(f"stance_legs must be a sequence of leg names from {LEGS}, got {stance_legs!r}")
     return tuple(leg for leg in STANCE_ORDER if leg in names)
@@ -250,7 +250,7 @@ def _task_kind(kind: str | None, k: int, legs: tuple[str, ...]) -> str:
     if k < need or (kind == "circle" and k != 3):
         raise InvalidInputError(
             f"a stance {kind} needs {'exactly 3' if kind == 'circle' else f'at least {need}'} stance feet, "
-            f"got {k} ({', '.join(legs)})"
+            f"got {k} in stance_legs ({', '.join(legs)})"
         )
     if kind == "sphere" and k > 4:
         return "sphere_fit"
@@ -281,10 +281,12 @@ def stance_task(
     ``codegen``: as :class:`~coop_ga.cooperative.CooperativeTask` (``False``: the CasADi VM, no compilation).
     Cached per (system, legs, kind, codegen) and safe to share between threads (the cache is guarded by a
     lock; the task's compiled functions use per-thread buffers)."""
-    if isinstance(system, str):
-        from .. import systems
+    from ..systems import System, load
 
-        system = systems.load(system)
+    if isinstance(system, str):
+        system = load(system)
+    if not isinstance(system, System):
+        raise InvalidInputError(f"system must be a coop_ga System or a registered name, got {type(system).__name__}")
     legs = stance_order(stance_legs)
     k = len(legs)
     tk = _task_kind(kind, k, legs)

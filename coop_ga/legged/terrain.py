@@ -68,6 +68,8 @@ __all__ = ["TERRAIN_KINDS", "Terrain"]
 
 #: the kinds of :meth:`Terrain.make` (the walking experiment's ``--terrain``)
 TERRAIN_KINDS = ("flat", "slope", "steps", "random")
+#: :meth:`Terrain.steps` and :meth:`Terrain.max_height` refuse more cells / samples than this (bounded memory)
+MAX_CELLS = 1_000_000
 
 #: the slope of ``Terrain.make("slope")`` [rad] (≈ 5.7°)
 DEFAULT_SLOPE = 0.1
@@ -185,7 +187,13 @@ class Terrain:
         L = validation.positive(step_length, "step_length")
         x0 = validation.scalar(start_x, "start_x")
         n = validation.integer(n_steps, "n_steps", minimum=1)
+        if n > MAX_CELLS:
+            raise InvalidInputError(f"n_steps = {n} is above {MAX_CELLS} (one terrain cell per step)")
         edges = x0 + L * np.arange(n)
+        if not np.all(np.isfinite(edges)) or not np.isfinite(H * n):
+            raise InvalidInputError(
+                "the staircase overflows: start_x + n_steps·step_length or n_steps·step_height is not finite"
+            )
         planes = np.zeros((1, n + 1, 4))
         planes[0, :, 2] = 1.0
         planes[0, :, 3] = H * np.arange(n + 1)
@@ -199,11 +207,13 @@ class Terrain:
         t = validation.positive(tile, "tile")
         amp = validation.nonnegative(amplitude, "amplitude")
         ext = validation.positive(extent, "extent")
-        m = math.ceil(2.0 * ext / t - 1e-9)
-        if m > 4000:
+        m = 2.0 * ext / t
+        if not m <= 4000:
             raise InvalidInputError(
-                f"random terrain of {m}×{m} tiles is too large; use a larger tile or a smaller extent"
+                f"random terrain of {m:.3g}×{m:.3g} tiles is too large (at most 4000 per side); use a larger tile or a "
+                "smaller extent"
             )
+        m = math.ceil(m - 1e-9)
         edges = -ext + t * np.arange(m + 1)
         heights = np.zeros((m + 2, m + 2))
         heights[1:-1, 1:-1] = np.random.default_rng(s).uniform(0.0, amp, size=(m, m))
@@ -306,6 +316,8 @@ class Terrain:
         a = validation.vector(xy0, 2, "xy0")
         b = validation.vector(xy1, 2, "xy1")
         n = validation.integer(samples, "samples", minimum=2)
+        if n > MAX_CELLS:
+            raise InvalidInputError(f"samples = {n} is above {MAX_CELLS}")
         s = [np.linspace(0.0, 1.0, n)]
         d = b - a
         for k, edges in ((0, self.x_edges), (1, self.y_edges)):
@@ -331,10 +343,14 @@ class Terrain:
     @classmethod
     def from_arrays(cls, d: Mapping[str, Any]) -> Terrain:
         """The terrain from :meth:`to_arrays` output (a dict or an ``np.load`` NpzFile; extra keys ignored)."""
+        if not isinstance(d, Mapping):
+            raise InvalidInputError(
+                f"d must be a dict of terrain arrays (Terrain.to_arrays(), np.load(...)), got {d!r}"
+            )
         need = ("terrain_kind", "terrain_x_edges", "terrain_y_edges", "terrain_planes")
         missing = [k for k in need if k not in d]
         if missing:
-            raise InvalidInputError(f"terrain arrays are missing {missing} (have {sorted(d.keys())[:20]})")
+            raise InvalidInputError(f"d: the terrain arrays are missing {missing} (have {sorted(d.keys())[:20]})")
         kind = str(np.asarray(d["terrain_kind"]).item())
         params = tuple(np.asarray(d["terrain_params"], float).reshape(-1)) if "terrain_params" in d else ()
         seed = int(np.asarray(d["terrain_seed"]).item()) if "terrain_seed" in d else -1

@@ -79,6 +79,7 @@ from ..errors import CoopGAError, InvalidInputError
 from ..validation import array, choice, nonnegative, positive, scalar, vector
 from .body import LEG_ORDER, BodyState, stance_indices
 from .gait import GAITS, GaitTable, phase_table, swing_arc
+from .legs import check_legs
 
 if TYPE_CHECKING:  # pragma: no cover
     from .legs import LegModel
@@ -132,6 +133,10 @@ def convex_hull(points_xy: object) -> np.ndarray:
     return np.array(hull, dtype=float)
 
 
+#: horizontal coordinates [m] beyond this are refused by :func:`static_stability_margin` (squares overflow)
+_MAX_XY = 1e150
+
+
 def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
     ab = b - a
     L2 = float(ab @ ab)
@@ -153,6 +158,9 @@ def static_stability_margin(com_xy: object, support_xy: object) -> float:
     S = array(support_xy, "support_xy")
     if S.ndim != 2 or S.shape[1] != 2:
         raise InvalidInputError(f"support_xy must have shape (k, 2), got {S.shape}")
+    for what, P in (("com_xy", c), ("support_xy", S)):
+        if P.size and float(np.max(np.abs(P))) > _MAX_XY:
+            raise InvalidInputError(f"{what} reaches {float(np.max(np.abs(P))):.3g} m, beyond ±{_MAX_XY:g} m")
     if S.shape[0] == 0:
         return -math.inf
     H = convex_hull(S)
@@ -187,7 +195,7 @@ def _mass_model(legs: LegModel) -> tuple[Any, float]:
 def robot_mass(legs: LegModel) -> float:
     """The whole robot's mass [kg]: every link of the fixed-base model *including* the base link
     (Pinocchio's ``computeTotalMass`` of a fixed-base model leaves the root link out)."""
-    return _mass_model(legs)[1]
+    return _mass_model(check_legs(legs))[1]
 
 
 def robot_com(q: object, legs: LegModel) -> np.ndarray:
@@ -195,7 +203,7 @@ def robot_com(q: object, legs: LegModel) -> np.ndarray:
     base link included (see :func:`robot_mass`)."""
     import pinocchio as pin
 
-    system = legs.system
+    system = check_legs(legs).system
     qq = vector(q, legs.nq, "q")
     data, total = _mass_model(legs)
     m = system.model
@@ -217,6 +225,9 @@ def static_torques(state: BodyState, stance_legs: object, legs: LegModel, mass: 
     Swing legs: 0.  The legs are treated as massless (their 1.07 kg is in ``mass``, shared like the
     body's).  Compare ``abs(τ)`` with ``legs.effort_limit`` (the servo stall torque).
     """
+    if not isinstance(state, BodyState):
+        raise InvalidInputError(f"state must be a BodyState, got {type(state).__name__}")
+    legs = check_legs(legs)
     idx = stance_indices(stance_legs)
     m = positive(mass, "mass")
     gg = positive(g, "g")
@@ -238,6 +249,9 @@ def static_torques(state: BodyState, stance_legs: object, legs: LegModel, mass: 
 #: 1 m on steps 5.4 / 5.4 / 5.6 rad/s (tripod / ripple / wave); with 1.0 / 1.2 / 1.5 s they were 8.6 /
 #: 10.3 / 14.2 rad/s (the swing speed scales like 1 / period)
 CYCLE_TIME: dict[str, float] = {"tripod": 1.6, "ripple": 2.4, "wave": 4.0}
+#: :class:`WalkOptions` refuses a ``dt`` that gives more knots per cycle, :func:`walk` a walk of more knots
+MAX_KNOTS_PER_CYCLE = 100_000
+MAX_KNOTS = 1_000_000
 #: the servo's no-load speed [rad/s] (AX-12A at 12 V: 59 rev/min, robot README [AX]); reported, not enforced.
 SERVO_SPEED = 59.0 * 2.0 * math.pi / 60.0
 
@@ -307,6 +321,19 @@ class WalkOptions:
         if self.foot_reach is not None:
             positive(self.foot_reach, "foot_reach")
         nonnegative(self.edge_clearance, "edge_clearance")
+        if not isinstance(self.use_posture, (bool, np.bool_)):
+            raise InvalidInputError(f"use_posture must be True or False, got {self.use_posture!r}")
+        tab = self.table()  # checks duty and cycle_time against the gait
+        if not self.dt <= tab.period / 6.0:
+            raise InvalidInputError(
+                f"dt = {self.dt:g} s is longer than a sixth of the cycle (T = {tab.period:g} s): the phase grid needs "
+                f"≥ 6 knots per cycle; take dt ≤ {tab.period / 6.0:.4g} s"
+            )
+        if tab.period / self.dt > MAX_KNOTS_PER_CYCLE:
+            raise InvalidInputError(
+                f"dt = {self.dt:g} s gives {tab.period / self.dt:.3g} knots per cycle (T = {tab.period:g} s), above "
+                f"{MAX_KNOTS_PER_CYCLE}; take dt ≥ {tab.period / MAX_KNOTS_PER_CYCLE:.3g} s"
+            )
 
     @property
     def period(self) -> float:
@@ -563,6 +590,40 @@ def _posture_update(
 
 
 # ====================================================================== walking
+def _walk_args(terrain: Any, options: Any, legs: Any) -> tuple[WalkOptions, LegModel]:
+    """The checked options (default :class:`WalkOptions`) and legs (default the hexapod's) of :func:`walk`."""
+    from .legs import hexapod_legs
+
+    opts = options if options is not None else WalkOptions()
+    if not isinstance(opts, WalkOptions):
+        raise InvalidInputError(f"options must be a WalkOptions, got {type(opts).__name__}")
+    if not all(callable(getattr(terrain, f, None)) for f in ("height", "land")):
+        raise InvalidInputError(
+            f"terrain must be a coop_ga.legged.Terrain (or have height(xy) and land(xy)), got {type(terrain).__name__}"
+        )
+    return opts, check_legs(legs) if legs is not None else hexapod_legs()
+
+
+def _walk_duration(speed: float, ramp: float, dt: float, distance: Any, duration: Any) -> float:
+    """The walk's duration [s] from ``distance`` [m] at ``speed`` [m/s] after a ``ramp`` [s], or ``duration`` [s];
+    at most :data:`MAX_KNOTS` knots of ``dt`` (bounded work)."""
+    if distance is not None:
+        dist = positive(distance, "distance")
+        if speed <= 1e-12:
+            raise InvalidInputError("walk(distance=…) needs a translation command; give duration for a turn in place")
+        t_end = dist / speed + 0.5 * ramp if dist / speed >= 0.5 * ramp else math.sqrt(dist / speed * ramp)
+    elif duration is not None:
+        t_end = positive(duration, "duration")
+    else:
+        raise InvalidInputError("walk needs distance [m] or duration [s]")
+    if not t_end / dt <= MAX_KNOTS:
+        raise InvalidInputError(
+            f"the walk ({'distance' if distance is not None else 'duration'}) would take {t_end:.4g} s = "
+            f"{t_end / dt:.3g} knots of {dt:.4g} s, above {MAX_KNOTS}; walk a shorter distance or duration"
+        )
+    return t_end
+
+
 def walk(
     terrain: Terrain,
     options: WalkOptions | None = None,
@@ -583,12 +644,7 @@ def walk(
 
     Returns a :class:`WalkResult`.  Raises :class:`~coop_ga.errors.InvalidInputError` for bad arguments.
     """
-    from .legs import hexapod_legs
-
-    opts = options if options is not None else WalkOptions()
-    if not isinstance(opts, WalkOptions):
-        raise InvalidInputError(f"options must be a WalkOptions, got {type(opts).__name__}")
-    lm = legs if legs is not None else hexapod_legs()
+    opts, lm = _walk_args(terrain, options, legs)
     tab = opts.table()
     cmd = opts.command()
     T = tab.period
@@ -603,16 +659,7 @@ def walk(
         )
     offsets = np.round(tab.offsets * N).astype(int)
     ramp = T if opts.ramp_time is None else float(opts.ramp_time)
-    speed = float(np.linalg.norm(cmd[:2]))
-    if distance is not None:
-        dist = positive(distance, "distance")
-        if speed <= 1e-12:
-            raise InvalidInputError("walk(distance=…) needs a translation command; give duration for a turn in place")
-        t_end = dist / speed + 0.5 * ramp if dist / speed >= 0.5 * ramp else math.sqrt(dist / speed * ramp)
-    elif duration is not None:
-        t_end = positive(duration, "duration")
-    else:
-        raise InvalidInputError("walk needs distance [m] or duration [s]")
+    t_end = _walk_duration(float(np.linalg.norm(cmd[:2])), ramp, dt, distance, duration)
     K = math.ceil(t_end / dt - 1e-9)
     mid = round(0.5 * tab.duty * N)
     ref = _reference_path(cmd, dt, K + N + mid + 2, ramp)

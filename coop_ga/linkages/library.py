@@ -24,8 +24,21 @@ from typing import Any
 
 import numpy as np
 
+from .. import validation
 from ..errors import InvalidInputError
-from .model import Link, Linkage, LinkageError, LinkageMotion, Prismatic, Revolute
+from .model import (
+    MAX_COORDINATE,
+    Link,
+    Linkage,
+    LinkageError,
+    LinkageMotion,
+    Prismatic,
+    Revolute,
+    _planar_point,
+)
+
+#: the keyword options of :meth:`Linkage.track` that :meth:`FourBar.solve` and :meth:`FourBar.simulate` pass on
+TRACK_OPTIONS = ("tol", "max_iter", "guard", "min_step", "max_step", "max_substeps")
 
 __all__ = [
     "FourBar",
@@ -40,12 +53,45 @@ __all__ = [
 ]
 
 
+def _length(x: Any, what: str) -> float:
+    """A link length [m]: > 0, finite, at most :data:`~coop_ga.linkages.model.MAX_COORDINATE`."""
+    v = validation.positive(x, f"{what} [m]")
+    if v > MAX_COORDINATE:
+        raise InvalidInputError(f"{what} = {v:g} m is beyond {MAX_COORDINATE:g} m")
+    return v
+
+
+def _lengths(ground: Any, crank: Any, coupler: Any, rocker: Any) -> tuple[float, float, float, float]:
+    """The four link lengths of a 4-bar, checked (each > 0 and finite) [m]."""
+    return (
+        _length(ground, "ground"),
+        _length(crank, "crank"),
+        _length(coupler, "coupler"),
+        _length(rocker, "rocker"),
+    )
+
+
+_RATIO_OVERFLOW = (
+    "the link lengths (ground, crank, coupler, rocker) = {lengths} m differ by too many orders of magnitude: "
+    "their ratios overflow; express them in one unit near their size"
+)
+
+
+def _branch(branch: Any, what: str = "branch") -> int:
+    if isinstance(branch, (bool, np.bool_)) or not isinstance(branch, (int, np.integer)) or branch not in (1, -1):
+        raise InvalidInputError(f"{what} must be the integer +1 or -1 (the assembly mode), got {branch!r}")
+    return int(branch)
+
+
 def dyad(p: Any, q: Any, r_p: float, r_q: float, branch: int = 1) -> np.ndarray:
     """The point at distance ``r_p`` from p and ``r_q`` from q (2,) [m], left of p→q for branch +1.
 
     Raises :class:`LinkageError` when the circles do not meet (saying by how much).
     """
-    p, q = np.asarray(p, float), np.asarray(q, float)
+    p = np.asarray(_planar_point(p, "p [m]"))
+    q = np.asarray(_planar_point(q, "q [m]"))
+    r_p, r_q = _length(r_p, "r_p"), _length(r_q, "r_q")
+    branch = _branch(branch)
     e = q - p
     L = float(np.hypot(*e))
     if L < 1e-15:
@@ -66,9 +112,7 @@ def grashof(ground: float, crank: float, coupler: float, rocker: float) -> str:
     "rocker-crank" (rocker shortest), "double-rocker" (coupler shortest); s + l = p + q (to 1e-12
     relative): "change-point"; s + l > p + q: "triple-rocker" (non-Grashof: no link turns fully).
     """
-    L = np.array([ground, crank, coupler, rocker], float)
-    if np.any(~np.isfinite(L)) or np.any(L <= 0):
-        raise InvalidInputError(f"link lengths must be positive and finite [m], got {L.tolist()}")
+    L = np.array(_lengths(ground, crank, coupler, rocker))
     s, l_ = L.min(), L.max()
     pq = L.sum() - s - l_
     if abs(s + l_ - pq) <= 1e-12 * L.sum():
@@ -84,18 +128,31 @@ def freudenstein_output(ground: float, crank: float, coupler: float, rocker: flo
     K1 cos θ4 − K2 cos θ2 + K3 = cos(θ2 − θ4), K1 = d/a, K2 = d/c, K3 = (a² − b² + c² + d²)/(2ac)
     (a crank, b coupler, c rocker, d ground; crank pivot at the origin, rocker pivot at (d, 0),
     θ4 the angle of the rocker tip seen from its pivot).  Written as P cos θ4 + Q sin θ4 = −R:
-    θ4 = atan2(Q, P) ± arccos(−R/√(P² + Q²)), column 0 with +, column 1 with −; NaN where the
-    linkage cannot be assembled.
+    θ4 = atan2(Q, P) ± arccos(−R/√(P² + Q²)), column 0 with +, column 1 with −.
+
+    Raises :class:`LinkageError` naming the first crank angle where the linkage cannot be assembled
+    (|−R/√(P² + Q²)| > 1 beyond rounding; :func:`crank_limits` gives the toggle angles).
     """
-    a, b, c, d = crank, coupler, rocker, ground
-    t2 = np.asarray(theta2, float)
-    K1, K2, K3 = d / a, d / c, (a * a - b * b + c * c + d * d) / (2 * a * c)
+    d, a, b, c = (np.float64(v) for v in _lengths(ground, crank, coupler, rocker))
+    t2 = validation.array(theta2, "theta2 [rad]")
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore", under="ignore"):
+        K1, K2, K3 = d / a, d / c, (a * a - b * b + c * c + d * d) / (2 * a * c)
+    if not (np.isfinite(K1) and np.isfinite(K2) and np.isfinite(K3)):
+        raise InvalidInputError(_RATIO_OVERFLOW.format(lengths=(float(d), float(a), float(b), float(c))))
     P = K1 - np.cos(t2)
     Q = -np.sin(t2)
     R = K3 - K2 * np.cos(t2)
-    ratio = -R / np.hypot(P, Q)
-    with np.errstate(invalid="ignore"):
-        acos = np.where(np.abs(ratio) <= 1, np.arccos(np.clip(ratio, -1, 1)), np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = -R / np.hypot(P, Q)
+    bad = ~(np.abs(ratio) <= 1.0 + 1e-12)
+    if np.any(bad):
+        first = float(t2.reshape(-1)[int(np.flatnonzero(bad.reshape(-1))[0])])
+        raise LinkageError(
+            f"theta2: the 4-bar ({ground:g}, {crank:g}, {coupler:g}, {rocker:g}) cannot be assembled at "
+            f"{int(bad.sum())} of {bad.size} crank angles, first θ2 = {first:.6g} rad; its toggle angles are "
+            f"±{list(crank_limits(ground, crank, coupler, rocker))} rad (crank_limits)"
+        )
+    acos = np.arccos(np.clip(ratio, -1.0, 1.0))
     base = np.arctan2(Q, P)
     return np.stack([base + acos, base - acos], axis=-1)
 
@@ -105,10 +162,13 @@ def crank_limits(ground: float, crank: float, coupler: float, rocker: float) -> 
 
     |A − D|² = a² + d² − 2ad cos θ2; each limit that exists is returned (its mirror −θ is one too).
     """
-    a, b, c, d = crank, coupler, rocker, ground
+    d, a, b, c = (np.float64(v) for v in _lengths(ground, crank, coupler, rocker))
     out = []
     for L in (b + c, abs(b - c)):
-        cs = (a * a + d * d - L * L) / (2 * a * d)
+        with np.errstate(over="ignore", divide="ignore", invalid="ignore", under="ignore"):
+            cs = (a * a + d * d - L * L) / (2 * a * d)
+        if not np.isfinite(cs):
+            raise InvalidInputError(_RATIO_OVERFLOW.format(lengths=(float(d), float(a), float(b), float(c))))
         if -1 <= cs <= 1:
             out.append(float(np.arccos(cs)))
     return tuple(sorted(out))
@@ -130,19 +190,10 @@ class FourBar(Linkage):
         branch: int = 1,
         coupler_point: Sequence[float] = (0.5, 0.5),
     ) -> None:
-        L = np.array([ground, crank, coupler, rocker], float)
-        if L.shape != (4,) or np.any(~np.isfinite(L)) or np.any(L <= 0):
-            raise InvalidInputError(f"four_bar needs four positive link lengths [m], got {L.tolist()}")
-        if branch not in (1, -1):
-            raise InvalidInputError(f"branch must be +1 or -1, got {branch!r}")
-        self.lengths = {
-            "ground": float(ground),
-            "crank": float(crank),
-            "coupler": float(coupler),
-            "rocker": float(rocker),
-        }
-        self.branch = int(branch)
-        self.coupler_point = np.asarray(coupler_point, float)
+        ground, crank, coupler, rocker = _lengths(ground, crank, coupler, rocker)
+        self.lengths = {"ground": ground, "crank": crank, "coupler": coupler, "rocker": rocker}
+        self.branch = _branch(branch)
+        self.coupler_point = np.asarray(_planar_point(coupler_point, "coupler_point (u, v) [m]"))
         self.kind = grashof(ground, crank, coupler, rocker)
         phi0 = self._reference_angle()
         pts = self.closed_form(phi0)
@@ -175,6 +226,7 @@ class FourBar(Linkage):
 
     def closed_form(self, phi: float) -> np.ndarray:
         """O, A, B, D (4, 2) [m] at crank angle φ [rad] by circle intersection on this branch."""
+        phi = validation.scalar(phi, "phi [rad]")
         a, b, c, d = (self.lengths[k] for k in ("crank", "coupler", "rocker", "ground"))
         A = a * np.array([np.cos(phi), np.sin(phi)])
         D = np.array([d, 0.0])
@@ -187,10 +239,12 @@ class FourBar(Linkage):
         return self.motors_from_points({"coupler": {"A": A, "B": B}, "rocker": {"D": D, "B": B}})
 
     def solve(self, crank_angles: Sequence[float] | np.ndarray, **options: Any) -> LinkageMotion:
-        """:meth:`Linkage.track` from the closed-form assembly at ``crank_angles[0]`` (partial motions allowed)."""
-        angles = np.asarray(crank_angles, float).ravel()
-        if angles.size == 0:
-            raise InvalidInputError("crank_angles must be a non-empty array [rad]")
+        """:meth:`Linkage.track` from the closed-form assembly at ``crank_angles[0]`` (partial motions allowed);
+        ``options`` are :meth:`Linkage.track`'s keywords."""
+        unknown = sorted(set(options) - set(TRACK_OPTIONS))
+        if unknown:
+            raise InvalidInputError(f"unknown option(s) {unknown} for track; the options are {list(TRACK_OPTIONS)}")
+        angles, _ = self._track_args(crank_angles, None)
         return self.track(angles, self.assembled(float(angles[0])), **options)
 
     def simulate(self, crank_angles: Sequence[float] | np.ndarray, **options: Any) -> np.ndarray:
@@ -224,8 +278,11 @@ def slider_crank(crank: float = 1.0, rod: float = 4.0) -> Linkage:
     traces exactly the seed's segment between (0, 3) and (0, 5).  3 revolute joints (crank
     bearing, A, S) and 1 prismatic: 3·3 − 2·4 = 1 DOF.
     """
-    if not (rod > crank > 0):
-        raise InvalidInputError(f"slider_crank needs rod > crank > 0 [m], got crank={crank}, rod={rod}")
+    crank, rod = _length(crank, "crank"), _length(rod, "rod")
+    if not rod > crank:
+        raise InvalidInputError(
+            f"slider_crank needs rod > crank [m] (the crank turns fully), got crank={crank}, rod={rod}"
+        )
     A = np.array([crank, 0.0])
     S = np.array([0.0, np.sqrt(rod * rod - crank * crank)])
     return Linkage(
@@ -274,7 +331,7 @@ def watt_six_bar(phi0: float = 0.0) -> Linkage:
     """A Watt II 6-bar: 6 links (ground, crank, coupler, ternary rocker, coupler 2, output) and 7
     revolute joints (O2, A, B, O4, C, E, O6): 3·5 − 2·7 = 1 DOF.  Reference configuration: the
     closed-form assembly at crank angle ``phi0`` [rad]."""
-    p = _watt_points(phi0)
+    p = _watt_points(validation.scalar(phi0, "phi0 [rad]"))
     return Linkage(_watt_links(p), _watt_joints(), pivot="O2", name="watt_six_bar")
 
 
@@ -332,7 +389,7 @@ def ten_bar(phi0: float = 0.0) -> Linkage:
     rocker O4 B C; ternary coupler 2 C E H; output; G-links FG, GO8; K-links HK, KO10) and 13
     revolute joints: 3·9 − 2·13 = 1 DOF (the seed's caption says 7 joints; see the module docstring).
     """
-    p = _ten_points(phi0)
+    p = _ten_points(validation.scalar(phi0, "phi0 [rad]"))
     links = _watt_links(p)
     links[0] = Link("ground", {k: p[k] for k in ("O2", "O4", "O6", "O8", "O10")})
     links[2] = Link("coupler", {"A": p["A"], "B": p["B"], "F": p["F"]})

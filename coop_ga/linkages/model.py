@@ -52,6 +52,7 @@ toggle (dead-centre) position if it is ≈ 0, an unassemblable one otherwise.
 
 from __future__ import annotations
 
+import math
 import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -60,6 +61,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from .. import validation
 from ..algebra.multivector import Multivector
 from ..errors import CoopGAError, InvalidInputError
 from .planar import PLANAR_BLADES, apply_point, compose, motor, motor_exp, rotation_about
@@ -69,16 +71,72 @@ __all__ = ["Link", "Linkage", "LinkageError", "LinkageMotion", "Prismatic", "Rev
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
 
 
+@dataclass
+class _TrackState:
+    """Where :meth:`Linkage.track` is: motors, crank angle, max|F|, the Jacobian data there (J, ∂F/∂φ, σ_min,
+    sign det J), the Newton iterations and substeps of the current angle, and the substeps left."""
+
+    m: np.ndarray
+    phi: float
+    here: tuple[np.ndarray, np.ndarray, float, int]
+    budget: int
+    r: float = 0.0
+    iters: int = 0
+    subs: int = 0
+
+
 class LinkageError(CoopGAError, ValueError):
     """A linkage is ill-formed, or cannot be assembled at a crank angle (message says where)."""
 
 
+#: coordinates [m] beyond this are refused (their squares, in the conformal points, must not overflow)
+MAX_COORDINATE = 1e150
+#: :meth:`Linkage.track`'s default bound on the crank substeps of one call (bounded work: ~1 ms each)
+MAX_SUBSTEPS = 100_000
+#: :meth:`Linkage.newton` refuses a larger ``max_iter``
+MAX_NEWTON_ITERATIONS = 10_000
+
+
+def _name(x: Any, what: str) -> str:
+    if not isinstance(x, str) or not x:
+        raise InvalidInputError(f"{what} must be a non-empty name (str), got {x!r}")
+    return x
+
+
+def _names(x: Any, n: int, what: str) -> tuple[str, ...]:
+    if isinstance(x, str) or not isinstance(x, Sequence) or len(x) != n:
+        form = "(link, point)" if n == 2 else "(link, point, point)"
+        raise InvalidInputError(f"{what} must be a tuple {form} of names, got {x!r}")
+    return tuple(_name(v, f"{what}[{i}]") for i, v in enumerate(x))
+
+
+def _planar_point(p: Any, what: str) -> tuple[float, float]:
+    a = validation.vector(p, 2, what)
+    if float(np.max(np.abs(a))) > MAX_COORDINATE:
+        raise InvalidInputError(f"{what} = {a.tolist()} is beyond ±{MAX_COORDINATE:g} m")
+    return (float(a[0]), float(a[1]))
+
+
 @dataclass(frozen=True)
 class Link:
-    """A rigid link: ``points`` maps names to planar points (2,) [m], world frame at the reference."""
+    """A rigid link: ``points`` maps names to planar points (2,) [m], world frame at the reference.
+
+    The points are checked (finite 2-vectors) and stored as ``{name: (x, y)}`` (a new dict)."""
 
     name: str
     points: Mapping[str, Any]
+
+    def __post_init__(self) -> None:
+        _name(self.name, "Link.name")
+        if not isinstance(self.points, Mapping) or not self.points:
+            raise InvalidInputError(
+                f"Link.points of {self.name!r} must be a non-empty dict {{name: (x, y)}} [m], got {self.points!r}"
+            )
+        pts = {
+            _name(k, f"a point name of link {self.name!r}"): _planar_point(v, f"points[{k!r}] of link {self.name!r}")
+            for k, v in self.points.items()
+        }
+        object.__setattr__(self, "points", pts)
 
 
 @dataclass(frozen=True)
@@ -88,6 +146,10 @@ class Revolute:
     a: tuple[str, str]
     b: tuple[str, str]
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "a", _names(self.a, 2, "Revolute a"))
+        object.__setattr__(self, "b", _names(self.b, 2, "Revolute b"))
+
 
 @dataclass(frozen=True)
 class Prismatic:
@@ -96,6 +158,10 @@ class Prismatic:
 
     slider: tuple[str, str]
     guide: tuple[str, str, str]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "slider", _names(self.slider, 2, "Prismatic slider"))
+        object.__setattr__(self, "guide", _names(self.guide, 3, "Prismatic guide"))
 
 
 @dataclass
@@ -128,10 +194,20 @@ class LinkageMotion:
 
     def point(self, name: str) -> np.ndarray:
         """(T, 2) trajectory of ``"link.point"``."""
-        try:
-            return self.points[:, self.point_names.index(name)]
-        except ValueError:
-            raise InvalidInputError(f"no point {name!r}; the points are {list(self.point_names)}") from None
+        if not isinstance(name, str) or name not in self.point_names:
+            raise InvalidInputError(f"name {name!r} is not a point; the points are {list(self.point_names)}")
+        return self.points[:, self.point_names.index(name)]
+
+
+def _sequence(x: Any, kind: type | tuple[type, ...], what: str) -> tuple[Any, ...]:
+    """A list/tuple of ``kind`` objects (a new tuple)."""
+    names = kind.__name__ if isinstance(kind, type) else " or ".join(k.__name__ for k in kind)
+    if isinstance(x, (str, bytes)) or not isinstance(x, Sequence):
+        raise InvalidInputError(f"{what} must be a list of {names}, got {x!r}")
+    bad = [type(v).__name__ for v in x if not isinstance(v, kind)]
+    if bad:
+        raise InvalidInputError(f"{what} must be a list of {names}, got {bad}")
+    return tuple(x)
 
 
 def _kabsch2(P: np.ndarray, Q: np.ndarray) -> tuple[float, np.ndarray]:
@@ -173,15 +249,20 @@ class Linkage:
         name: str = "linkage",
         allow_redundant: bool = False,
     ) -> None:
-        self.name = name
+        self.name = _name(name, "name")
+        for what, v in (("ground", ground), ("crank", crank), ("pivot", pivot), ("tip", tip)):
+            _name(v, what)
+        if not isinstance(allow_redundant, (bool, np.bool_)):
+            raise InvalidInputError(f"allow_redundant must be True or False, got {allow_redundant!r}")
+        links = _sequence(links, Link, "links")
         self.links = {link.name: link for link in links}
         if len(self.links) != len(links):
-            raise LinkageError("link names must be unique")
+            raise LinkageError(f"links: link names must be unique, got {[link.name for link in links]}")
         for n in (ground, crank):
             if n not in self.links:
                 raise LinkageError(f"no link {n!r}; links are {list(self.links)}")
         self.ground, self.crank = ground, crank
-        self.joints = tuple(joints)
+        self.joints = _sequence(joints, (Revolute, Prismatic), "joints")
         for j in self.joints:
             refs = (
                 [j.a, j.b]
@@ -191,6 +272,13 @@ class Linkage:
             for ln, pn in refs:
                 if ln not in self.links or pn not in self.links[ln].points:
                     raise LinkageError(f"joint {j} refers to an unknown point {ln}.{pn}")
+            if isinstance(j, Prismatic):
+                gp = self.links[j.guide[0]].points
+                if np.hypot(*np.subtract(gp[j.guide[1]], gp[j.guide[2]])) <= 1e-12:
+                    raise LinkageError(
+                        f"the guide points {j.guide[1]!r} and {j.guide[2]!r} of link {j.guide[0]!r} coincide: a "
+                        "Prismatic guide needs two distinct points (a line)"
+                    )
         cp, gp = self.links[crank].points, self.links[ground].points
         if pivot not in cp or pivot not in gp or not np.allclose(cp[pivot], gp[pivot], atol=1e-12):
             raise LinkageError(
@@ -201,6 +289,10 @@ class Linkage:
         self.pivot = np.asarray(cp[pivot], float)
         d = np.asarray(cp[tip], float) - self.pivot
         self.crank_radius = float(np.hypot(*d))
+        if not self.crank_radius > 1e-12:
+            raise LinkageError(
+                f"the crank tip {tip!r} coincides with the pivot {pivot!r}: the crank angle is undefined"
+            )
         self.reference_angle = float(np.arctan2(d[1], d[0]))
         self.tip = tip
         self.moving = tuple(n for n in self.links if n not in (ground, crank))
@@ -289,15 +381,40 @@ class Linkage:
             return self._fns
 
     # ------------------------------------------------------------------ numerics
+    # ------------------------------------------------------------------ argument checks
+    def _motors_arg(self, motors: Any, what: str = "motors") -> np.ndarray:
+        """Moving-link motors (4 n,): finite, each with a non-zero rotation part (c, s) (a new array)."""
+        m = validation.vector(motors, 4 * len(self.moving), f"{what} (4 planar motor coefficients per moving link)")
+        if m.size and float(np.max(np.abs(m))) > MAX_COORDINATE:
+            raise InvalidInputError(f"{what} has coefficients beyond ±{MAX_COORDINATE:g}")
+        rot = np.hypot(m[0::4], m[1::4])
+        bad = np.flatnonzero(~(rot > 1e-12))
+        if bad.size:
+            raise InvalidInputError(
+                f"{what}: the motor of link {self.moving[int(bad[0])]!r} has a zero rotation part (c = s = 0), so it "
+                "is no rigid motion; start from identity_motors() or motors_from_points()"
+            )
+        return m
+
+    @staticmethod
+    def _newton_args(tol: Any, max_iter: Any) -> tuple[float, int]:
+        t = validation.positive(tol, "tol")
+        k = validation.integer(max_iter, "max_iter", minimum=1)
+        if k > MAX_NEWTON_ITERATIONS:
+            raise InvalidInputError(f"max_iter = {k} is above {MAX_NEWTON_ITERATIONS} Newton iterations")
+        return t, k
+
     def residual(self, motors: np.ndarray, phi: float) -> tuple[np.ndarray, np.ndarray]:
         """F (r,) [m] and J = ∂F/∂ξ (r, 3 n) at moving-link motors ``motors`` (4 n,) and crank angle φ [rad]."""
+        m, ph = self._motors_arg(motors), validation.scalar(phi, "phi")
         fj = self._functions()[0]
-        F, J, _ = fj(motors, phi)
+        F, J, _ = fj(m, ph)
         return np.asarray(F).ravel(), np.asarray(J)
 
     def positions(self, motors: np.ndarray, phi: float) -> np.ndarray:
         """World positions (P, 2) [m] of every link point (order :attr:`point_names`)."""
-        return np.asarray(self._functions()[2](motors, phi)).reshape(-1, 2)
+        m, ph = self._motors_arg(motors), validation.scalar(phi, "phi")
+        return np.asarray(self._functions()[2](m, ph)).reshape(-1, 2)
 
     def identity_motors(self) -> np.ndarray:
         """The moving links' motors (4 n,) of the reference configuration."""
@@ -306,12 +423,24 @@ class Linkage:
     def motors_from_points(self, guess: Mapping[str, Mapping[str, Sequence[float]]]) -> np.ndarray:
         """Moving-link motors (4 n,) that best place each link's points on ``guess[link][point]``
         (a least-squares rigid fit per link; links absent from ``guess`` stay at the reference)."""
+        if not isinstance(guess, Mapping):
+            raise InvalidInputError(f"guess must be a dict {{link: {{point: (x, y)}}}} [m], got {guess!r}")
+        for ln, pts in guess.items():
+            if ln not in self.moving:
+                raise InvalidInputError(f"guess: {ln!r} is not a moving link; the moving links are {list(self.moving)}")
+            if not isinstance(pts, Mapping) or not pts:
+                raise InvalidInputError(f"guess[{ln!r}] must be a non-empty dict {{point: (x, y)}}, got {pts!r}")
+            unknown = [k for k in pts if k not in self.links[ln].points]
+            if unknown:
+                raise InvalidInputError(
+                    f"guess[{ln!r}]: unknown point(s) {unknown}; the points of {ln!r} are {list(self.links[ln].points)}"
+                )
         out = []
         for n in self.moving:
             if n in guess:
                 names = list(guess[n])
                 P = np.array([self.links[n].points[k] for k in names], float)
-                Q = np.array([guess[n][k] for k in names], float)
+                Q = np.array([_planar_point(guess[n][k], f"guess[{n!r}][{k!r}]") for k in names], float)
                 th, t = _kabsch2(P, Q)
                 out += list(motor(th, t))
             else:
@@ -322,8 +451,13 @@ class Linkage:
         self, motors: np.ndarray, phi: float, *, tol: float = 1e-12, max_iter: int = 30
     ) -> tuple[np.ndarray, int, float, bool]:
         """Newton in the Lie algebra from ``motors`` at crank angle φ: (motors, iterations, max|F|, converged)."""
+        m = self._motors_arg(motors)
+        phi = validation.scalar(phi, "phi")
+        tol, max_iter = self._newton_args(tol, max_iter)
+        return self._newton(m, phi, tol, max_iter)
+
+    def _newton(self, m: np.ndarray, phi: float, tol: float, max_iter: int) -> tuple[np.ndarray, int, float, bool]:
         fj, retract, _ = self._functions()
-        m = np.asarray(motors, float).copy()
         out = fj(m, phi)  # F and J in one call; J of an accepted iterate is reused for the next step
         F = np.asarray(out[0]).ravel()
         J = np.asarray(out[1])
@@ -372,26 +506,46 @@ class Linkage:
         guard: bool = True,
         min_step: float = 1e-7,
         max_step: float = np.deg2rad(5.0),
+        max_substeps: int = MAX_SUBSTEPS,
     ) -> LinkageMotion:
         """Drive the crank through ``crank_angles`` (T,) [rad] from the assembled ``motors`` (4 n,).
 
         ``motors`` must satisfy the joints at ``crank_angles[0]`` up to what Newton fixes (default:
         the reference configuration).  ``guard=True`` (default) uses the predictor, adaptive
-        substeps of at most ``max_step`` and the branch checks of the module docstring;
-        ``guard=False`` is the plain method of seed 004 §3.4 (Newton from the last solution at
-        each requested angle, no substeps, no checks) — kept to show its branch jumps.
+        substeps of at most ``max_step`` [rad] (halved down to ``min_step`` [rad]) and the branch checks of
+        the module docstring; ``guard=False`` is the plain method of seed 004 §3.4 (Newton from the last
+        solution at each requested angle, no substeps, no checks) — kept to show its branch jumps.
+
+        Bounded work: a motion that needs more than ``max_substeps`` substeps (the crank range over
+        ``max_step``, or the number of angles unguarded) is refused before it starts
+        (:class:`~coop_ga.errors.InvalidInputError` naming the range and the limit), and a motion whose
+        halved substeps exceed it stops there (``complete=False``, ``message`` says so).
         """
-        angles = np.asarray(crank_angles, float).ravel()
-        if angles.size == 0 or not np.all(np.isfinite(angles)):
-            raise InvalidInputError("crank_angles must be a non-empty finite array [rad]")
-        m = self.identity_motors() if motors is None else np.asarray(motors, float).copy()
-        if m.shape != (4 * len(self.moving),):
-            raise InvalidInputError(f"motors must have shape ({4 * len(self.moving)},), got {m.shape}")
+        angles, m = self._track_args(crank_angles, motors)
+        tol, max_iter = self._newton_args(tol, max_iter)
+        if not isinstance(guard, (bool, np.bool_)):
+            raise InvalidInputError(f"guard must be True or False, got {guard!r}")
+        min_step = validation.positive(min_step, "min_step [rad]")
+        max_step = validation.positive(max_step, "max_step [rad]")
+        if min_step > max_step:
+            raise InvalidInputError(f"min_step = {min_step:g} rad must be ≤ max_step = {max_step:g} rad")
+        max_substeps = validation.integer(max_substeps, "max_substeps", minimum=1)
+        with np.errstate(over="ignore"):
+            span = float(np.sum(np.abs(np.diff(angles))))
+        need = (
+            (math.ceil(span / max_step - 1e-9) if math.isfinite(span / max_step) else math.inf)
+            if guard
+            else angles.size - 1
+        )
+        if need > max_substeps:
+            raise InvalidInputError(
+                f"crank_angles span {span:.6g} rad ({span / (2 * math.pi):.4g} turns): "
+                + (f"at least {need} substeps of max_step = {max_step:.4g} rad" if guard else f"{need} Newton solves")
+                + f", above the limit max_substeps = {max_substeps}; track a shorter range (several calls from the "
+                "last motors), or raise max_step or max_substeps"
+            )
         rows: dict[str, list[Any]] = {k: [] for k in ("pos", "res", "it", "sub", "smin", "sign", "m")}
-        m, it0, r, ok = self.newton(m, float(angles[0]), tol=tol, max_iter=max_iter)
-        stop: float | None = None
-        stop_s: float | None = None
-        message = "ok"
+        m, it0, r, ok = self._newton(m, float(angles[0]), tol, max_iter)
         if not ok:
             _, _, s0, _ = self._jacobian_info(m, float(angles[0]))
             return self._motion(
@@ -403,66 +557,87 @@ class Linkage:
                 f"cannot assemble at φ = {angles[0]:.6g} rad (max|F| = {r:.2e} m)",
             )
         here = self._jacobian_info(m, float(angles[0]))  # J, ∂F/∂φ, σ_min, sign(det J) at the current solution
-        smin, sign = here[2], here[3]
-        self._append(rows, m, float(angles[0]), r, it0, 1, smin, sign)
-        phi = float(angles[0])
+        self._append(rows, m, float(angles[0]), r, it0, 1, here[2], here[3])
+        state = _TrackState(m=m, phi=float(angles[0]), here=here, budget=max_substeps)
+        stop: float | None = None
+        stop_s: float | None = None
+        message = "ok"
         for target in angles[1:]:
-            iters, subs = 0, 0
-            if not guard:
-                m, k, r, ok = self.newton(m, float(target), tol=tol, max_iter=max_iter)
-                iters, subs, phi = k, 1, float(target)
-                if not ok:
-                    stop, message = phi, f"Newton did not converge at φ = {phi:.6g} rad (max|F| = {r:.2e} m)"
-                    break
-                here = self._jacobian_info(m, phi)
-                smin, sign = here[2], here[3]
-                self._append(rows, m, phi, r, iters, subs, smin, sign)
+            if guard:
+                fail = self._guarded_step(state, float(target), tol, max_iter, min_step, max_step)
+            else:
+                fail = self._plain_step(state, float(target), tol, max_iter)
+            if fail is not None:
+                stop, stop_s, message = state.phi, fail[0], fail[1]
+                break
+            self._append(rows, state.m, state.phi, state.r, state.iters, state.subs, state.here[2], state.here[3])
+        complete = len(rows["pos"]) == angles.size
+        return self._motion(angles, rows, complete, stop, stop_s, message)
+
+    def _track_args(self, crank_angles: Any, motors: Any) -> tuple[np.ndarray, np.ndarray]:
+        angles = validation.array(crank_angles, "crank_angles [rad]")
+        if angles.ndim != 1 or angles.size == 0:
+            raise InvalidInputError(f"crank_angles must be a non-empty 1-D array [rad], got shape {angles.shape}")
+        m = self.identity_motors() if motors is None else self._motors_arg(motors)
+        return angles, m
+
+    def _plain_step(self, st: _TrackState, target: float, tol: float, max_iter: int) -> tuple[float | None, str] | None:
+        """Seed 004 §3.4: Newton from the last solution at the next angle; (σ_min, message) if it fails."""
+        st.m, k, st.r, ok = self._newton(st.m, target, tol, max_iter)
+        st.iters, st.subs, st.phi = k, 1, target
+        if not ok:
+            return None, f"Newton did not converge at φ = {st.phi:.6g} rad (max|F| = {st.r:.2e} m)"
+        st.here = self._jacobian_info(st.m, st.phi)
+        return None
+
+    def _guarded_step(
+        self, st: _TrackState, target: float, tol: float, max_iter: int, min_step: float, max_step: float
+    ) -> tuple[float | None, str] | None:
+        """Predictor–corrector substeps from ``st.phi`` to ``target`` (module docstring); ``st`` is updated in
+        place.  None when the target is reached, else (σ_min there, the message of the stop)."""
+        st.iters, st.subs = 0, 0
+        sign = st.here[3]
+        h = float(np.clip(target - st.phi, -max_step, max_step))
+        while abs(target - st.phi) > 1e-15:
+            if st.budget <= 0:
+                return st.here[2], (
+                    f"stopped at φ = {st.phi:.8g} rad, {abs(target - st.phi):.4g} rad short of the next angle: the "
+                    "substeps (halved near a difficult configuration) reached max_substeps; raise max_substeps"
+                )
+            st.budget -= 1
+            h = float(np.sign(target - st.phi) * min(abs(h), abs(target - st.phi)))
+            J, Fp = st.here[0], st.here[1]  # unchanged while a step is halved: computed once per accepted point
+            xi_pred = -np.linalg.lstsq(J, Fp * h, rcond=None)[0]
+            m_pred = np.asarray(self._functions()[1](st.m, xi_pred)).ravel()
+            m_new, k, r, ok = self._newton(m_pred, st.phi + h, tol, max_iter)
+            st.iters += k
+            if ok:
+                # the corrector's size compared with the predictor's: a jump is large
+                out2 = self._functions()[0](m_pred, st.phi + h)
+                J2, F2 = np.asarray(out2[1]), np.asarray(out2[0]).ravel()
+                corr = float(np.linalg.norm(np.linalg.lstsq(J2, F2, rcond=None)[0]))
+                pred = float(np.linalg.norm(xi_pred))
+                there = self._jacobian_info(m_new, st.phi + h)
+                ok = corr <= 0.3 * pred + 1e-9 and (sign == 0 or there[3] == sign)
+            if ok:
+                st.m, st.phi, st.r, st.subs, st.here = m_new, st.phi + h, r, st.subs + 1, there
+                sign = there[3]
+                h = float(np.sign(h) * min(2.0 * abs(h), max_step))
                 continue
-            h = float(np.clip(target - phi, -max_step, max_step))
-            failed = False
-            while abs(target - phi) > 1e-15:
-                h = float(np.sign(target - phi) * min(abs(h), abs(target - phi)))
-                J, Fp = here[0], here[1]  # unchanged while a step is halved: computed once per accepted point
-                xi_pred = -np.linalg.lstsq(J, Fp * h, rcond=None)[0]
-                m_pred = np.asarray(self._functions()[1](m, xi_pred)).ravel()
-                m_new, k, r, ok = self.newton(m_pred, phi + h, tol=tol, max_iter=max_iter)
-                iters += k
-                accept = ok
-                if accept:
-                    # the corrector's size compared with the predictor's: a jump is large
-                    out2 = self._functions()[0](m_pred, phi + h)
-                    J2, F2 = np.asarray(out2[1]), np.asarray(out2[0]).ravel()
-                    corr = float(np.linalg.norm(np.linalg.lstsq(J2, F2, rcond=None)[0]))
-                    pred = float(np.linalg.norm(xi_pred))
-                    there = self._jacobian_info(m_new, phi + h)
-                    accept = corr <= 0.3 * pred + 1e-9 and (sign == 0 or there[3] == sign)
-                if accept:
-                    m, phi, subs = m_new, phi + h, subs + 1
-                    here = there
-                    smin, sign = here[2], here[3]
-                    h = float(np.sign(h) * min(2.0 * abs(h), max_step))
-                else:
-                    h *= 0.5
-                    if abs(h) < min_step:
-                        failed = True
-                        break
-            if failed:
-                s_stop = here[2]
-                stop, stop_s = phi, s_stop
+            h *= 0.5
+            if abs(h) < min_step:
+                s_stop = st.here[2]
                 # σ_min of a fold behaves like √(distance to it): ~1e-4 at min_step = 1e-7 rad
                 kind = (
                     "a toggle (dead-centre) position: the constraint Jacobian is singular there"
                     if s_stop < 1e-3
                     else "Newton fails although the Jacobian is regular (try a smaller min_step)"
                 )
-                message = (
-                    f"the crank cannot pass φ = {phi:.8g} rad ({np.rad2deg(phi):.4f}°): smallest singular value of the "
-                    f"constraint Jacobian {s_stop:.2e}, {kind}"
+                return s_stop, (
+                    f"the crank cannot pass φ = {st.phi:.8g} rad ({np.rad2deg(st.phi):.4f}°): smallest singular value "
+                    f"of the constraint Jacobian {s_stop:.2e}, {kind}"
                 )
-                break
-            self._append(rows, m, phi, r, iters, subs, smin, sign)
-        complete = len(rows["pos"]) == angles.size
-        return self._motion(angles, rows, complete, stop, stop_s, message)
+        return None
 
     def _append(
         self, rows: dict[str, list[Any]], m: np.ndarray, phi: float, r: float, it: int, sub: int, smin: float, sign: int
@@ -495,7 +670,7 @@ class Linkage:
             substeps=np.array(rows["sub"], int),
             sigma_min=np.array(rows["smin"], float),
             det_sign=np.array(rows["sign"], int),
-            motors=np.array(rows["m"]).reshape(T, -1),
+            motors=np.array(rows["m"]).reshape(T, 4 * len(self.moving)),  # (T = 0: cannot assemble at the start)
             complete=complete,
             requested=int(angles.size),
             stop_angle=stop,

@@ -417,6 +417,8 @@ def run(
     nw = _check_args(
         executor, workers, format, retries, address, {"resume": resume, "progress": progress, "warmup": warmup}
     )
+    if out is not None and not isinstance(out, (str, os.PathLike)):
+        raise SweepArgumentError(f"out must be a directory path (str or Path) or None, got {type(out).__name__}")
     policy = TimeoutPolicy.of(timeout)
     norm = _normalize_all(jobs)
     with contextlib.ExitStack() as stack:

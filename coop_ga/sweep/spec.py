@@ -324,7 +324,7 @@ def normalize_job(job: Mapping[str, Any] | Job) -> dict[str, Any]:
         raise InvalidJobError(f"job.seed: {exc}") from None
     bad = set(j["tags"]) & RESERVED_RECORD_FIELDS
     if bad:
-        raise InvalidJobError(f"tag name(s) {sorted(bad)} are record fields; rename them")
+        raise InvalidJobError(f"tags: name(s) {sorted(bad)} are record fields; rename them")
     return j
 
 
@@ -496,16 +496,19 @@ def load_spec(source: str | Path | Mapping[str, Any], *, fast: bool = False) -> 
     """
     if not isinstance(fast, bool):
         raise InvalidJobError(f"fast must be True or False, got {fast!r}")
-    if isinstance(source, Mapping):
-        spec = _plain(source, "spec")
-    elif isinstance(source, (str, Path)):
-        spec = _read_spec_file(source)
-    else:
-        raise InvalidJobError(
-            f"a spec is a dict, a .json/.yaml path or a ready spec's name, got {type(source).__name__}"
-        )
-    if not isinstance(spec, dict):
-        raise InvalidJobError(f"a sweep spec is a mapping, got {type(spec).__name__}")
+    try:
+        if isinstance(source, Mapping):
+            spec = _plain(source, "spec")
+        elif isinstance(source, (str, Path)):
+            spec = _read_spec_file(source)
+        else:
+            raise InvalidJobError(
+                f"a spec is a dict, a .json/.yaml path or a ready spec's name, got {type(source).__name__}"
+            )
+        if not isinstance(spec, dict):
+            raise InvalidJobError(f"a sweep spec is a mapping, got {type(spec).__name__}")
+    except InvalidJobError as e:  # name the argument: the message alone may only name a file
+        raise InvalidJobError(f"source: {e}") from None
     unknown = set(spec) - _SPEC_KEYS
     if unknown:
         raise InvalidJobError(f"unknown spec field(s) {sorted(unknown)}; the fields are {sorted(_SPEC_KEYS)}")

@@ -175,7 +175,7 @@ class RecordWriter:
 
     def __init__(self, out: str | Path, fmt: str = "jsonl", meta: Mapping[str, Any] | None = None, batch: int = 64):
         if not isinstance(fmt, str) or fmt not in FORMATS:
-            raise SweepError(f"unknown record format {fmt!r}; choose one of {list(FORMATS)}")
+            raise SweepError(f"fmt: unknown record format {fmt!r}; choose one of {list(FORMATS)}")
         if not isinstance(out, (str, os.PathLike)):
             raise SweepError(f"out must be a directory path, got {type(out).__name__} {out!r}"[:200])
         if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:

@@ -64,6 +64,16 @@ class Level:
     angle_deg: float
     scale: float
 
+    def __post_init__(self) -> None:
+        # a relative scale change of 1 or more could draw a zero or negative scale
+        validation.nonnegative(self.translation_m, "Level.translation_m [m]")
+        validation.scalar(self.angle_deg, "Level.angle_deg [deg]", low=0.0, high=180.0)
+        s = validation.scalar(self.scale, "Level.scale (a relative scale change)", low=0.0)
+        if s >= 1.0:
+            raise InvalidInputError(
+                f"Level.scale (a relative scale change) must be < 1 (else a scale ≤ 0 can be drawn), got {s:g}"
+            )
+
 
 #: the displacement levels of the robustness study (module docstring)
 LEVELS: dict[str, Level] = {
@@ -75,6 +85,7 @@ QD_INIT_MAX = 0.2  # [rad/s] initial joint speeds of a moving start ~ U(±QD_INI
 CERT_TOL = 1e-6  # certified iff the bounded least-squares solve reaches ‖e‖ < CERT_TOL
 CERT_MAX_NFEV = 1000  # trf is slow near active bounds with a rank-deficient J_e (robustness.py)
 MESSAGE_CHARS = 300
+MAX_SEEDS = 10**6  # the sweep's default job limit (spec.MAX_JOBS): more seeds than jobs serve no sweep
 
 
 # ============================================================================ seeds
@@ -85,6 +96,10 @@ def name_key(name: str) -> int:
 
 def name_spawn_key(values: Sequence[Any]) -> tuple[int, ...]:
     """A spawn key from names and indices: strings → :func:`name_key`, non-negative ints as they are."""
+    if isinstance(values, (str, bytes)) or not isinstance(values, Sequence):
+        raise InvalidInputError(
+            f"values (a seed key) must be a sequence of strings and non-negative ints, got {values!r}"
+        )
     out: list[int] = []
     for v in values:
         if isinstance(v, str):
@@ -92,7 +107,7 @@ def name_spawn_key(values: Sequence[Any]) -> tuple[int, ...]:
         elif isinstance(v, (int, np.integer)) and not isinstance(v, bool) and int(v) >= 0:
             out.append(int(v))
         else:
-            raise InvalidInputError(f"a seed key must be made of strings and non-negative ints, got {v!r}")
+            raise InvalidInputError(f"values (a seed key) must be made of strings and non-negative ints, got {v!r}")
     return tuple(out)
 
 
@@ -104,6 +119,8 @@ def seeds(root: int, n: int) -> list[dict[str, Any]]:
     """
     root = validation.integer(root, "root (the sweep's seed)", minimum=0)
     n = validation.integer(n, "n (the number of seeds)", minimum=0)
+    if n > MAX_SEEDS:
+        raise InvalidInputError(f"n (the number of seeds) must be ≤ {MAX_SEEDS} (a sweep's job limit), got {n}")
     return [
         {"entropy": int(s.entropy), "spawn_key": [int(k) for k in s.spawn_key]}  # type: ignore[arg-type]
         for s in np.random.SeedSequence(int(root)).spawn(int(n))

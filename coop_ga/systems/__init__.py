@@ -1,7 +1,8 @@
 """Multi-chain robot systems — ``coop_ga.systems.load(name)``, ``from_urdf(...)``.
 
 * :mod:`~coop_ga.systems.system`: :class:`System` (a Pinocchio model, its end frames, q0 and
-  limits), :func:`from_urdf`, :func:`from_model`, :func:`append_robots`, :func:`prefixed`;
+  limits), :func:`from_urdf`, :func:`from_model`, :func:`append_robots`, :func:`prefixed`,
+  :func:`unique_frames`;
 * :mod:`~coop_ga.systems.limits`: :class:`JointLimits` (position, velocity, acceleration, effort);
 * :mod:`~coop_ga.systems.registry`: :func:`register`, :func:`names`, :func:`load`;
 * :mod:`~coop_ga.systems.library`: the paper's systems (registered on import);
@@ -17,7 +18,7 @@ from . import library as _library  # noqa: F401  (registers the paper's systems)
 from .limits import DEFAULT_VELOCITY_LIMIT, JointLimits
 from .registry import load, names, register
 from .synthetic import CARTESIAN_BASES, cartesian_points
-from .system import ROBOTS_DIR, System, VisualSource, append_robots, from_model, from_urdf, prefixed
+from .system import ROBOTS_DIR, System, VisualSource, append_robots, from_model, from_urdf, prefixed, unique_frames
 
 __all__ = [
     "CARTESIAN_BASES",
@@ -34,4 +35,5 @@ __all__ = [
     "names",
     "prefixed",
     "register",
+    "unique_frames",
 ]

@@ -82,7 +82,15 @@ class JointLimits:
 
     @classmethod
     def from_model(cls, model: Any, joint_names: Sequence[str]) -> JointLimits:
-        """Limits read from a ``pinocchio.Model`` (module docstring for the defaults)."""
+        """Limits read from a ``pinocchio.Model`` (module docstring for the defaults); ``joint_names`` (nq,)."""
+        import pinocchio as pin
+
+        if not isinstance(model, pin.Model):
+            raise InvalidInputError(f"model must be a pinocchio.Model, got {type(model).__name__}")
+        if isinstance(joint_names, str) or not isinstance(joint_names, Sequence) or len(joint_names) != model.nq:
+            raise InvalidInputError(
+                f"joint_names must be {model.nq} names (one per coordinate of q), got {joint_names!r}"
+            )
         lo = np.array(model.lowerPositionLimit, dtype=float)
         hi = np.array(model.upperPositionLimit, dtype=float)
         big = 1e300  # Pinocchio's "no limit" is ±max double
@@ -99,11 +107,11 @@ class JointLimits:
     def nq(self) -> int:
         return len(self.joint_names)
 
-    def _index(self, name: str) -> int:
+    def _index(self, name: str, what: str) -> int:
         try:
             return self.joint_names.index(name)
         except ValueError:
-            raise UnknownNameError(f"unknown joint {name!r}; joints: {', '.join(self.joint_names)}") from None
+            raise UnknownNameError(f"{what}: unknown joint {name!r}; joints: {', '.join(self.joint_names)}") from None
 
     def replace(
         self,
@@ -114,9 +122,11 @@ class JointLimits:
         effort: Mapping[str, float] | float | None = None,
     ) -> JointLimits:
         """New limits with the given joints overridden (a scalar velocity/acceleration/effort applies to all)."""
+        if position is not None and not isinstance(position, Mapping):
+            raise InvalidInputError(f"position must be a dict {{joint: (lower, upper)}}, got {position!r}")
         lo, hi = self.lower.copy(), self.upper.copy()
         for name, pair in (position or {}).items():
-            i = self._index(name)
+            i = self._index(name, "position")
             b = validation.array(pair, f"position limits of {name}", finite=False)
             if b.shape != (2,) or np.any(np.isnan(b)):
                 raise InvalidInputError(f"position limits of {name} must be (lower, upper), got {pair!r}")
@@ -129,7 +139,7 @@ class JointLimits:
                 pass
             elif isinstance(spec, Mapping):
                 for name, val in spec.items():
-                    i = self._index(name)
+                    i = self._index(name, field_name)
                     a[i] = validation.positive(val, f"{field_name} limit of {name}", allow_inf=True)
                     if field_name == "velocity":
                         vdef[i] = False
@@ -141,14 +151,21 @@ class JointLimits:
         return JointLimits(self.joint_names, lo, hi, out["velocity"], out["acceleration"], out["effort"], vdef)
 
     # ------------------------------------------------------------------ checks
+    def _rows(self, x: Any, what: str) -> np.ndarray:
+        """A vector (nq,) or a trajectory (T, nq) of per-joint values, checked (a new array)."""
+        a = validation.array(x, what)
+        if a.ndim not in (1, 2) or a.shape[-1] != self.nq:
+            raise InvalidInputError(f"{what} must have shape ({self.nq},) or (T, {self.nq}), got shape {a.shape}")
+        return a
+
     def position_violation(self, q: Any) -> float:
         """Largest excursion of q (nq,) or (T, nq) outside [lower, upper] [rad or m]; 0 inside."""
-        a = np.asarray(q, dtype=float)
+        a = self._rows(q, "q")
         return float(max(np.max(self.lower - a, initial=0.0), np.max(a - self.upper, initial=0.0), 0.0))
 
     def velocity_violation(self, qd: Any) -> float:
-        """Largest excess of |q̇| over the velocity limit [rad/s]; 0 inside."""
-        return float(max(np.max(np.abs(np.asarray(qd, dtype=float)) - self.velocity, initial=0.0), 0.0))
+        """Largest excess of |q̇| (nq,) or (T, nq) over the velocity limit [rad/s]; 0 inside."""
+        return float(max(np.max(np.abs(self._rows(qd, "qd")) - self.velocity, initial=0.0), 0.0))
 
     def trajectory_velocity_violation(self, traj: Any, dt: float) -> float:
         """Largest excess of the finite-difference speed ``|q_{t+1} − q_t|/Δt`` over the velocity limit
@@ -158,28 +175,32 @@ class JointLimits:
         ~1e-15 rad/s at Δt = 0.01 s: a step taken exactly at a velocity bound by the QP reads that much
         above it.  That resolution is discounted, so only a real overshoot is reported.
         """
-        Q = np.asarray(traj, dtype=float)
+        Q = self._rows(traj, "traj")
+        dt = validation.positive(dt, "dt [s]")
         if Q.ndim != 2 or len(Q) < 2:
             return 0.0
         speed = np.abs(np.diff(Q, axis=0)) / dt
+        if not np.all(np.isfinite(speed)):
+            raise InvalidInputError(f"dt = {dt:g} s is too small: the finite-difference speeds overflow")
         resolution = 2.0 * np.finfo(float).eps * np.maximum(np.abs(Q[1:]), np.abs(Q[:-1])) / dt
         return float(max(np.max(speed - self.velocity - resolution, initial=0.0), 0.0))
 
     def acceleration_violation(self, qdd: Any) -> float:
-        """Largest excess of |q̈| over the acceleration limit [rad/s²]; 0 inside."""
-        return float(max(np.max(np.abs(np.asarray(qdd, dtype=float)) - self.acceleration, initial=0.0), 0.0))
+        """Largest excess of |q̈| (nq,) or (T, nq) over the acceleration limit [rad/s²]; 0 inside."""
+        return float(max(np.max(np.abs(self._rows(qdd, "qdd")) - self.acceleration, initial=0.0), 0.0))
 
     def effort_violation(self, tau: Any) -> float:
-        """Largest excess of |τ| over the effort limit [N m]; 0 inside."""
-        return float(max(np.max(np.abs(np.asarray(tau, dtype=float)) - self.effort, initial=0.0), 0.0))
+        """Largest excess of |τ| (nq,) or (T, nq) over the effort limit [N m]; 0 inside."""
+        return float(max(np.max(np.abs(self._rows(tau, "tau")) - self.effort, initial=0.0), 0.0))
 
     def clip(self, q: Any) -> np.ndarray:
-        """q clipped into [lower, upper] (a new array)."""
-        return np.clip(np.asarray(q, dtype=float), self.lower, self.upper)
+        """q (nq,) or (T, nq) clipped into [lower, upper] (a new array)."""
+        return np.clip(self._rows(q, "q"), self.lower, self.upper)
 
     def describe(self, q: Any, tol: float = 0.0) -> str:
-        """Human-readable list of the joints of q (nq,) outside their position limits by more than tol."""
-        a = np.asarray(q, dtype=float)
+        """Human-readable list of the joints of q (nq,) outside their position limits by more than tol ≥ 0."""
+        a = validation.vector(q, self.nq, "q")
+        tol = validation.nonnegative(tol, "tol")
         bad = np.flatnonzero((a < self.lower - tol) | (a > self.upper + tol))
         return ", ".join(
             f"{self.joint_names[i]}={a[i]:.4f} not in [{self.lower[i]:.4f}, {self.upper[i]:.4f}]" for i in bad

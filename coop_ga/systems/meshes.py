@@ -23,6 +23,9 @@ from typing import Any
 
 import numpy as np
 
+from .. import validation
+from ..errors import InvalidInputError
+
 __all__ = ["TriMesh", "object_key", "object_mesh"]
 
 
@@ -45,7 +48,9 @@ class TriMesh:
 
     def transformed(self, R: np.ndarray, t: np.ndarray) -> TriMesh:
         """The mesh moved by the rigid motion x ↦ R x + t (R (3, 3), t (3,) [m])."""
-        return TriMesh(self.vertices @ R.T + t, self.faces, self.normals @ R.T)
+        Rm = validation.array(R, "R", shape=(3, 3))
+        tv = validation.vector(t, 3, "t [m]")
+        return TriMesh(self.vertices @ Rm.T + tv, self.faces, self.normals @ Rm.T)
 
     @staticmethod
     def merge(meshes: list[TriMesh]) -> TriMesh:
@@ -240,11 +245,19 @@ def _object_key(obj: Any) -> Any:
     return ("object", id(geom))
 
 
+def _geometry_object(obj: Any) -> Any:
+    import pinocchio as pin
+
+    if not isinstance(obj, pin.GeometryObject):
+        raise InvalidInputError(f"obj must be a pinocchio.GeometryObject, got {type(obj).__name__}")
+    return obj
+
+
 def object_mesh(obj: Any) -> TriMesh | None:
     """Triangles of a ``pinocchio.GeometryObject`` in the object's own frame (metres), or None for a
     shape that cannot be tessellated (e.g. a half-space).  Cached per process by mesh file + scale
     (or by shape and size)."""
-    key = _object_key(obj)
+    key = _object_key(_geometry_object(obj))
     if key not in _OBJECT_CACHE:
         geom = obj.geometry
         _OBJECT_CACHE[key] = _bvh_mesh(geom) if hasattr(geom, "num_tris") else _shape_mesh(geom)
@@ -254,4 +267,4 @@ def object_mesh(obj: Any) -> TriMesh | None:
 def object_key(obj: Any) -> Any:
     """The cache key of a ``pinocchio.GeometryObject``'s triangles: ``("mesh", path, scale)`` for a
     loaded mesh, ``(shape, sizes…)`` for a primitive shape, ``("object", id)`` otherwise."""
-    return _object_key(obj)
+    return _object_key(_geometry_object(obj))

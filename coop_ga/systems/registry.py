@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from functools import cache
 
-from ..errors import UnknownNameError
+from ..errors import InvalidInputError, UnknownNameError
 from .system import System
 
 __all__ = ["load", "names", "register"]
@@ -18,7 +18,11 @@ _REGISTRY: dict[str, tuple[Callable[[], System], str]] = {}
 
 
 def register(name: str, description: str = "") -> Callable[[Callable[[], System]], Callable[[], System]]:
-    """Decorator registering a zero-argument system builder under ``name``."""
+    """Decorator registering a zero-argument system builder under ``name`` (a non-empty string)."""
+    if not isinstance(name, str) or not name.strip():
+        raise InvalidInputError(f"name must be a non-empty string, got {name!r}")
+    if not isinstance(description, str):
+        raise InvalidInputError(f"description must be a string, got {description!r}")
 
     def deco(fn: Callable[[], System]) -> Callable[[], System]:
         _REGISTRY[name] = (fn, description)
@@ -43,5 +47,5 @@ def load(name: str) -> System:
     Raises :class:`UnknownNameError` listing the available names.
     """
     if not isinstance(name, str) or name not in _REGISTRY:
-        raise UnknownNameError(f"unknown system '{name}'. Available systems: {', '.join(names())}")
+        raise UnknownNameError(f"unknown system name {name!r}. Available systems: {', '.join(names())}")
     return _build(name)

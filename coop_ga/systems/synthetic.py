@@ -34,13 +34,18 @@ def cartesian_points(n_points: int, bases: Any = None, limit: float = 5.0) -> Sy
     """
     import pinocchio as pin
 
+    from .. import validation
     from ..errors import InvalidInputError
 
-    B = np.array(CARTESIAN_BASES if bases is None else bases, dtype=float).reshape(-1, 3)
+    B = validation.array(CARTESIAN_BASES if bases is None else bases, "bases [m]")
+    if B.ndim != 2 or B.shape[1] != 3:
+        raise InvalidInputError(f"bases must have shape (k, 3) [m] (one base point per chain), got shape {B.shape}")
+    n_points = validation.integer(n_points, "n_points")
     if not 1 <= n_points <= len(B):
         raise InvalidInputError(
             f"cartesian_points needs 1 ≤ n_points ≤ {len(B)} (one base per chain), got {n_points}: pass more bases"
         )
+    limit = validation.positive(limit, "limit [m]")
     m = pin.Model()
     frames = []
     for i in range(n_points):

@@ -42,6 +42,7 @@ __all__ = [
     "from_model",
     "from_urdf",
     "prefixed",
+    "unique_frames",
 ]
 
 #: Directory of the URDFs coop_ga ships (iiwa14, hexapod): package data of ``coop_ga.systems``,
@@ -70,15 +71,65 @@ class VisualSource:
     model: Any = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
+        import pinocchio as pin
+
         if (self.urdf is None) == (self.geometry is None):
             raise InvalidInputError("a VisualSource needs exactly one of urdf= or geometry= (with model=)")
-        if self.geometry is not None and self.model is None:
-            raise InvalidInputError(
-                "VisualSource(geometry=...) also needs model=, the pinocchio.Model it was built for"
-            )
+        if self.geometry is not None:
+            if not isinstance(self.geometry, pin.GeometryModel):
+                raise InvalidInputError(
+                    f"VisualSource geometry must be a pinocchio.GeometryModel, got {type(self.geometry).__name__}"
+                )
+            if not isinstance(self.model, pin.Model):
+                raise InvalidInputError(
+                    "VisualSource(geometry=...) also needs model=, the pinocchio.Model it was built for"
+                )
         if self.urdf is not None:
-            object.__setattr__(self, "urdf", Path(self.urdf))
-        object.__setattr__(self, "package_dirs", tuple(str(d) for d in self.package_dirs))
+            object.__setattr__(self, "urdf", _path(self.urdf, "VisualSource urdf"))
+        object.__setattr__(self, "package_dirs", _dirs(self.package_dirs, "VisualSource package_dirs"))
+        if not isinstance(self.prefix, str):
+            raise InvalidInputError(f"VisualSource prefix must be a string, got {self.prefix!r}")
+
+
+def _path(x: Any, what: str) -> Path:
+    if not isinstance(x, (str, Path)):
+        raise InvalidInputError(f"{what} must be a path (str or pathlib.Path), got {type(x).__name__} {x!r}")
+    return Path(x)
+
+
+def _dirs(x: Any, what: str) -> tuple[str, ...]:
+    if isinstance(x, (str, Path)) or not isinstance(x, Sequence):
+        raise InvalidInputError(f"{what} must be a list of folders (str or Path), got {x!r}")
+    return tuple(str(_path(d, f"{what}[{i}]")) for i, d in enumerate(x))
+
+
+def _names(x: Any, what: str) -> tuple[str, ...]:
+    """A sequence of names (str) — not a single string, whose letters would be taken for names."""
+    if isinstance(x, str) or not isinstance(x, Sequence) or not all(isinstance(v, str) for v in x):
+        raise InvalidInputError(f"{what} must be a list of names (str), got {x!r}")
+    return tuple(x)
+
+
+def _pin_model(x: Any, what: str = "model") -> Any:
+    import pinocchio as pin
+
+    if not isinstance(x, pin.Model):
+        raise InvalidInputError(f"{what} must be a pinocchio.Model, got {type(x).__name__}")
+    return x
+
+
+def read_urdf(path: Any, what: str = "urdf_path") -> Any:
+    """``pinocchio.buildModelFromUrdf(path)`` (fixed base), with a :class:`InvalidInputError` naming ``what`` for a
+    missing file, a folder, or a file Pinocchio cannot parse as URDF."""
+    import pinocchio as pin
+
+    p = _path(path, what)
+    if not p.is_file():
+        raise InvalidInputError(f"{what}: URDF file not found: {p}" + (" (a folder)" if p.is_dir() else ""))
+    try:
+        return pin.buildModelFromUrdf(str(p))
+    except (ValueError, RuntimeError) as e:
+        raise InvalidInputError(f"{what}: {p} is not a URDF Pinocchio can read ({e})") from None
 
 
 #: Source geometry models already read, keyed by (URDF path, package dirs): (pin.Model, pin.GeometryModel).
@@ -108,9 +159,7 @@ def _source_geometry(src: VisualSource) -> tuple[Any, Any]:
     assert src.urdf is not None
     key = (str(src.urdf), src.package_dirs)
     if key not in _SOURCE_CACHE:
-        if not src.urdf.exists():
-            raise InvalidInputError(f"visual geometry: URDF file not found: {src.urdf}")
-        model = pin.buildModelFromUrdf(str(src.urdf))
+        model = read_urdf(src.urdf, "visuals: the visual geometry's URDF")
         try:
             geom = pin.buildGeomFromUrdf(
                 model, str(src.urdf), pin.GeometryType.VISUAL, None, list(src.package_dirs), _mesh_loader()
@@ -169,20 +218,43 @@ class System:
     tree: KinematicTree = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise InvalidInputError(f"a system's name must be a non-empty string, got {self.name!r}")
+        if not isinstance(self.description, str):
+            raise InvalidInputError(f"description of system '{self.name}' must be a string, got {self.description!r}")
+        _pin_model(self.model, f"model of system '{self.name}'")
         self.end_frames = validation.frames(self.end_frames, [f.name for f in self.model.frames], "end_frames")
         self.tree = KinematicTree(self.model, self.end_frames)
         if self.limits is None:
             self.limits = JointLimits.from_model(self.model, self.joint_names)
         elif not isinstance(self.limits, JointLimits) or self.limits.joint_names != tuple(self.joint_names):
             raise InvalidInputError(f"limits of system '{self.name}' must be JointLimits for joints {self.joint_names}")
-        self.q0 = np.array(self.q0, dtype=float)
-        self.q0.setflags(write=False)
-        if self.q0.shape != (self.model.nq,):
+        self.q0 = validation.configuration(
+            self.q0, self.model.nq, "q0", owner=f"system '{self.name}'", joint_names=self.joint_names
+        )
+        outside = self.limits.describe(self.q0, tol=0.0)
+        if outside:
             raise InvalidInputError(
-                f"q0 of system '{self.name}' must have {self.model.nq} entries, got {self.q0.shape}"
+                f"q0 of system '{self.name}' is outside the joint limits: {outside}; pass a q0 inside them "
+                "(or widen the limits with System.with_limits)"
             )
+        self.q0.setflags(write=False)
         if not self.labels:
             self.labels = self.end_frames
+        self.labels = tuple(self.labels) if isinstance(self.labels, (list, tuple)) else self.labels
+        if (
+            not isinstance(self.labels, tuple)
+            or len(self.labels) != len(self.end_frames)
+            or not all(isinstance(x, str) for x in self.labels)
+        ):
+            raise InvalidInputError(
+                f"labels of system '{self.name}' must be {len(self.end_frames)} strings (one per end frame), "
+                f"got {self.labels!r}"
+            )
+        if isinstance(self.visuals, (str, VisualSource)) or not isinstance(self.visuals, Sequence):
+            raise InvalidInputError(
+                f"visuals of system '{self.name}' must be a list of VisualSource, got {self.visuals!r}"
+            )
         self.visuals = tuple(self.visuals)
         if not all(isinstance(v, VisualSource) for v in self.visuals):
             raise InvalidInputError(f"visuals of system '{self.name}' must be VisualSource objects")
@@ -234,6 +306,8 @@ class System:
         modified); every controller reads the limits from :attr:`limits`.
         """
         assert self.limits is not None
+        if name is not None and (not isinstance(name, str) or not name):
+            raise InvalidInputError(f"name must be a non-empty string (or None: this system's), got {name!r}")
         new = self.limits.replace(position=position, velocity=velocity, acceleration=acceleration, effort=effort)
         out = dataclasses.replace(self, name=name or self.name, limits=new)
         out._visual = self._visual  # same model, same visual geometry
@@ -289,6 +363,8 @@ class System:
         joints; q is never clipped.
         """
         a = validation.configuration(q, self.nq, owner=f"system '{self.name}'", joint_names=self.joint_names)
+        if not isinstance(warn_limits, (bool, np.bool_)):
+            raise InvalidInputError(f"warn_limits must be True or False, got {warn_limits!r}")
         if warn_limits and self.limits is not None:
             desc = self.limits.describe(a, tol=1e-12)
             if desc:
@@ -299,8 +375,13 @@ class System:
         """Uniform random q inside the limits (``scale < 1`` shrinks the box around its middle).
 
         Joints without finite limits (models built in code get ±1.8e308) are sampled in
-        [−π, π] (revolute) or [−1, 1] m (prismatic).
+        [−π, π] (revolute) or [−1, 1] m (prismatic).  ``rng``: a ``numpy.random.Generator``; ``scale`` ∈ [0, 1].
         """
+        if not isinstance(rng, np.random.Generator):
+            raise InvalidInputError(
+                f"rng must be a numpy.random.Generator (numpy.random.default_rng(seed)), got {rng!r}"
+            )
+        scale = validation.scalar(scale, "scale", low=0.0, high=1.0)
         lo, hi = self.q_lower.copy(), self.q_upper.copy()
         unbounded = (hi - lo > 1e6) | ~np.isfinite(hi - lo)
         if np.any(unbounded):
@@ -336,6 +417,9 @@ def prefixed(model: Any, prefix: str) -> Any:
     """
     import pinocchio as pin
 
+    _pin_model(model)
+    if not isinstance(prefix, str):
+        raise InvalidInputError(f"prefix must be a string (e.g. 'arm0_'), got {prefix!r}")
     m = pin.Model(model)
     for i in range(1, m.njoints):
         m.names[i] = prefix + m.names[i]
@@ -347,28 +431,109 @@ def prefixed(model: Any, prefix: str) -> Any:
     return m
 
 
+def _repeated_frames(model: Any) -> dict[str, list[str]]:
+    """``{name: [frame types]}`` of the frame names a model repeats (a URDF joint named like a link gives a
+    FIXED_JOINT and a BODY frame of one name)."""
+    types: dict[str, list[str]] = {}
+    for f in model.frames:
+        types.setdefault(f.name, []).append(str(f.type).rsplit(".", 1)[-1])
+    return {n: t for n, t in types.items() if len(t) > 1}
+
+
+def unique_frames(model: Any) -> Any:
+    """A copy of ``model`` in which no two frames share a name: of frames sharing a name, the BODY frame (or
+    else the first) keeps it, the others get their type appended (``"gripperStator"`` FIXED_JOINT →
+    ``"gripperStator_fixed_joint"``).  ``pinocchio.appendModel`` (:func:`append_robots`) needs unique names."""
+    import pinocchio as pin
+
+    m = pin.Model(_pin_model(model))
+    repeated = _repeated_frames(m)
+    taken = {f.name for f in m.frames}
+    for name in repeated:
+        ids = [i for i in range(len(m.frames)) if m.frames[i].name == name]
+        keep = next((i for i in ids if m.frames[i].type == pin.FrameType.BODY), ids[0])
+        for i in ids:
+            if i == keep:
+                continue
+            f = m.frames[i]
+            new = f"{name}_{str(f.type).rsplit('.', 1)[-1].lower()}"
+            k = 2
+            while new in taken:
+                new, k = f"{name}_{str(f.type).rsplit('.', 1)[-1].lower()}{k}", k + 1
+            taken.add(new)
+            f.name = new
+            m.frames[i] = f
+    return m
+
+
 def append_robots(parts: Sequence[tuple[Any, Any]]) -> Any:
     """Combine ``(model, world_placement_SE3)`` pairs into one model with ``pinocchio.appendModel``.
 
-    Each model is attached to the universe frame at its placement.  Rename copies of
-    the same robot first with :func:`prefixed`.
+    Each model is attached to the universe frame at its placement.  Joint and frame names must be
+    unique across the parts (rename copies of the same robot first with :func:`prefixed`) and within each
+    part (:func:`unique_frames` renames a model's repeated frame names, e.g. the Unitree Z1's).
+
+    Raises :class:`~coop_ga.errors.InvalidInputError` for a malformed part and for a joint or frame name
+    that two parts share or one part repeats (the message names it, the parts and the fix).
     """
     import pinocchio as pin
 
+    if isinstance(parts, (str, tuple)) or not isinstance(parts, Sequence):
+        raise InvalidInputError(f"parts must be a list of (pinocchio.Model, pinocchio.SE3) pairs, got {parts!r}")
+    seen: dict[tuple[str, str], int] = {}  # ("joint" | "frame", name) → the part that has it
     combined = pin.Model()
-    for m, placement in parts:
+    for k, part in enumerate(parts):
+        if not isinstance(part, (tuple, list)) or len(part) != 2:
+            raise InvalidInputError(f"parts[{k}] must be a (pinocchio.Model, pinocchio.SE3) pair, got {part!r}")
+        m, placement = part
+        _pin_model(m, f"parts[{k}]: the model")
+        if not isinstance(placement, pin.SE3):
+            raise InvalidInputError(
+                f"parts[{k}]: the placement must be a pinocchio.SE3 (world ← robot base), got {type(placement).__name__}"
+            )
+        repeated = _repeated_frames(m)
+        if repeated:
+            name, types = next(iter(repeated.items()))
+            raise InvalidInputError(
+                f"parts[{k}]: the model has {len(types)} frames named '{name}' ({', '.join(types)})"
+                + (f" and {len(repeated) - 1} more repeated name(s)" if len(repeated) > 1 else "")
+                + "; pinocchio.appendModel cannot tell them apart: rename them first with "
+                "coop_ga.systems.unique_frames(model)"
+            )
+        names = [("joint", n) for n in list(m.names)[1:]] + [
+            ("frame", f.name) for f in m.frames if f.name != "universe"
+        ]
+        for kind, n in dict.fromkeys(names):
+            if (kind, n) in seen:
+                raise InvalidInputError(
+                    f"parts[{seen[kind, n]}] and parts[{k}] both have a {kind} named '{n}': names must be unique in "
+                    f"the combined model; rename the copies with prefixed(model, 'robot{k}_') before appending"
+                )
+            seen[kind, n] = k
         combined = pin.appendModel(combined, m, 0, placement)
     return combined
 
 
+#: :func:`from_model`'s default q0 keeps a joint whose neutral value lies on a bound this fraction of its range inside
+DEFAULT_Q0_MARGIN = 0.01
+
+
 def _default_q0(model: Any) -> np.ndarray:
-    """Neutral configuration, moved to mid-range for joints whose limits exclude it."""
+    """The neutral configuration, strictly inside the limits: moved to mid-range for joints whose limits exclude
+    it, and :data:`DEFAULT_Q0_MARGIN` of the range inside for joints whose neutral value lies on a bound (a
+    joint whose two bounds coincide stays on them)."""
     import pinocchio as pin
 
     q = np.array(pin.neutral(model), dtype=float)
     lo, hi = np.array(model.lowerPositionLimit), np.array(model.upperPositionLimit)
     bad = (q < lo) | (q > hi)
     q[bad] = 0.5 * (lo[bad] + hi[bad])
+    with np.errstate(over="ignore"):  # models built in code have limits ±1.8e308: no finite range
+        span = hi - lo
+    finite = np.isfinite(span) & (span > 0)
+    low, high = finite & (q == lo), finite & (q == hi)
+    q[low] = lo[low] + DEFAULT_Q0_MARGIN * span[low]
+    q[high] = hi[high] - DEFAULT_Q0_MARGIN * span[high]
     return q
 
 
@@ -387,35 +552,53 @@ def from_model(
     """Build a :class:`System` from a ``pinocchio.Model``.
 
     ``locked_joints`` (names) are removed with ``pinocchio.buildReducedModel`` at
-    ``q_lock`` (default: the neutral configuration).  ``q0`` defaults to the neutral
-    configuration, moved to mid-range where the limits exclude it.
+    ``q_lock`` (nq,) (default: the neutral configuration).  ``q0`` defaults to the neutral
+    configuration moved strictly inside the limits (to mid-range where the limits exclude it,
+    :data:`DEFAULT_Q0_MARGIN` of the range inside a bound it lies on); a given ``q0`` must be finite
+    and inside the limits.
 
     ``visual_model``: a visual ``pinocchio.GeometryModel`` built for ``model`` (before
     locking), so that :mod:`coop_ga.viz` draws the robot's meshes; or ``visuals``, the
     :class:`VisualSource` list of a combined model (one per robot, with its prefix).
     Without either the robot is drawn as a skeleton.
+
+    Raises :class:`~coop_ga.errors.InvalidInputError` (:class:`~coop_ga.errors.UnknownNameError` for an
+    unknown joint or frame) naming the argument.
     """
     import pinocchio as pin
 
+    _pin_model(model)
+    if isinstance(visuals, (str, VisualSource)) or not isinstance(visuals, Sequence):
+        raise InvalidInputError(f"visuals must be a list of VisualSource, got {visuals!r}")
     sources = tuple(visuals)
     if visual_model is not None:
+        if not isinstance(visual_model, pin.GeometryModel):
+            raise InvalidInputError(
+                f"visual_model must be a pinocchio.GeometryModel, got {type(visual_model).__name__}"
+            )
         sources += (VisualSource(geometry=visual_model, model=pin.Model(model)),)
-    if locked_joints:
+    locked = _names(locked_joints, "locked_joints")
+    if locked:
         known = set(model.names)
-        missing = [j for j in locked_joints if j not in known]
+        missing = [j for j in locked if j not in known]
         if missing:
             raise UnknownNameError(
-                f"unknown joint(s) to lock: {missing}. Joints of the model: {', '.join(list(model.names)[1:])}"
+                f"unknown locked_joints {missing}. Joints of the model: {', '.join(list(model.names)[1:])}"
             )
-        ql = pin.neutral(model) if q_lock is None else np.asarray(q_lock, dtype=float)
-        model = pin.buildReducedModel(model, [model.getJointId(j) for j in locked_joints], ql)
+        ql = pin.neutral(model) if q_lock is None else validation.configuration(q_lock, model.nq, "q_lock")
+        try:
+            model = pin.buildReducedModel(model, [model.getJointId(j) for j in locked], ql)
+        except (ValueError, RuntimeError) as e:
+            raise InvalidInputError(
+                f"locked_joints {list(locked)}: pinocchio.buildReducedModel refused them ({str(e).splitlines()[0]})"
+            ) from None
     if q0 is None:
         q0 = _default_q0(model)
     return System(
         name=name,
         model=model,
-        end_frames=tuple(end_frames),
-        q0=np.asarray(q0, dtype=float),
+        end_frames=_names(end_frames, "end_frames"),
+        q0=q0,
         description=description,
         visuals=sources,
     )
@@ -449,13 +632,11 @@ def from_urdf(
                                         locked_joints=["gripper_joint"])
         task = coop_ga.cooperative_task(sys, "circle")
     """
-    import pinocchio as pin
-
-    p = Path(urdf_path)
-    if not p.exists():
-        raise InvalidInputError(f"URDF file not found: {p}")
-    model = pin.buildModelFromUrdf(str(p))
-    dirs = _default_package_dirs(p) if package_dirs is None else tuple(str(d) for d in package_dirs)
+    p = _path(urdf_path, "urdf_path")
+    if name is not None and (not isinstance(name, str) or not name):
+        raise InvalidInputError(f"name must be a non-empty string (or None: the file's stem), got {name!r}")
+    dirs = _default_package_dirs(p) if package_dirs is None else _dirs(package_dirs, "package_dirs")
+    model = read_urdf(p, "urdf_path")
     return from_model(
         model,
         end_frames,

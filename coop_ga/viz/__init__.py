@@ -22,6 +22,7 @@ canvas directly, so they work headless whatever the backend.
   :func:`vtk_status`, :class:`Camera`, :func:`frame_camera`).
 """
 
+from .animation import animate, write_video
 from .axes import Drawn, axes_box, label_axes_3d, set_equal_3d
 from .backends import BACKENDS, Camera, frame_camera, resolve_backend, vtk_status
 from .frames import draw_frame, frame_axes
@@ -53,6 +54,7 @@ __all__ = [
     "SceneRobot",
     "Skeleton",
     "TriMesh",
+    "animate",
     "axes_box",
     "circle_points",
     "clip_line",
@@ -79,4 +81,5 @@ __all__ = [
     "style",
     "use_style",
     "vtk_status",
+    "write_video",
 ]

@@ -29,8 +29,10 @@ def _main(script: str):
 
 
 def test_scripts_found():
+    """The paper's scripts are all found (new scripts may join; each gets the --help test below)."""
     names = sorted(Path(s).name for s in SCRIPTS)
-    assert names == sorted(
+    assert len(names) >= 23
+    assert set(names) >= set(
         [
             *("circle_reaching.py", "impedance_three_iiwa.py", "line_constraint.py", "nullspace_secondary.py"),
             *("reaching.py", "singularity.py", "table1.py", "teleop_allegro.py"),  # experiments

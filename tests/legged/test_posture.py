@@ -229,7 +229,7 @@ def test_posture_to_reaches_rigid_targets():
 
 def test_bad_input():
     s = flat_state()
-    with pytest.raises(InvalidInputError, match="≥ 3 stance legs"):
+    with pytest.raises(InvalidInputError, match="≥ 3 stance_legs"):
         posture_step(s, ("lf", "rm"), np.zeros(7), L)
     with pytest.raises(InvalidInputError):
         posture_step(s, TRIPOD, np.zeros(6), L)

@@ -103,7 +103,7 @@ def test_grashof_classes() -> None:
     assert grashof(2.0, 1.5, 2.0, 0.5) == "rocker-crank"
     assert grashof(1.0, 0.5, 1.0, 0.5) == "change-point"
     assert grashof(1.0, 0.8, 0.5, 0.45) == "triple-rocker"
-    with pytest.raises(CoopGAError, match="positive"):
+    with pytest.raises(CoopGAError, match=r"crank \[m\] must be > 0"):
         grashof(1.0, -0.5, 1.0, 1.0)
 
 
@@ -255,7 +255,7 @@ def test_redundant_linkage_by_gauss_newton() -> None:
 
 
 def test_bad_input_is_refused_clearly() -> None:
-    with pytest.raises(CoopGAError, match="positive"):
+    with pytest.raises(CoopGAError, match=r"crank \[m\] must be > 0"):
         four_bar(2.0, 0.0, 2.0, 1.5)
     with pytest.raises(CoopGAError, match="branch"):
         four_bar(2.0, 0.5, 2.0, 1.5, branch=0)
@@ -266,7 +266,7 @@ def test_bad_input_is_refused_clearly() -> None:
             [Link("ground", {"O": (0, 0)}), Link("crank", {"O": (0, 0), "A": (1, 0)})],
             [Revolute(("crank", "Z"), ("ground", "O"))],
         )
-    with pytest.raises(CoopGAError, match="finite"):
+    with pytest.raises(CoopGAError, match=r"crank_angles .* NaN or inf"):
         four_bar(2.0, 0.5, 2.0, 1.5).solve([0.0, np.nan])
     angles = np.linspace(0, 1, 5)
     before = angles.copy()
