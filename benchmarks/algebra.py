@@ -39,7 +39,7 @@ def main(argv: list[str] | None = None) -> int:
 
     rng = exp.rng
     b1, b2 = rng.normal(size=7), rng.normal(size=7)
-    V1, V2 = cg.exp(b1), cg.exp(b2)
+    V1, V2 = cg.geometry.exp(b1), cg.geometry.exp(b2)
     pts1, pts2 = rng.normal(size=(3, 3)), rng.normal(size=(3, 3))
     C1, C2 = cg.circle(*pts1), cg.circle(*pts2)
     v1 = np.array(V1.coeffs)
@@ -57,20 +57,24 @@ def main(argv: list[str] | None = None) -> int:
             lambda: V1 * V2,
         ),
         "exp (7-vector → versor)": (
-            ca.Function("expf", [sb], [ca.vertcat(*cg.exp(sb).coeffs)]),
+            ca.Function("expf", [sb], [ca.vertcat(*cg.geometry.exp(sb).coeffs)]),
             (b1,),
-            lambda: cg.exp(b1),
+            lambda: cg.geometry.exp(b1),
         ),
-        "log (versor → 7-vector)": (ca.Function("logf", [s1], [cg.log(sim_from(s1))]), (v1,), lambda: cg.log(V1)),
+        "log (versor → 7-vector)": (
+            ca.Function("logf", [s1], [cg.geometry.log(sim_from(s1))]),
+            (v1,),
+            lambda: cg.geometry.log(V1),
+        ),
         "similarity (circle → circle, from points)": (
-            ca.Function("simf", [sp1, sp2], [ca.vertcat(*cg.similarity(circ(sp1), circ(sp2)).coeffs)]),
+            ca.Function("simf", [sp1, sp2], [ca.vertcat(*cg.geometry.similarity(circ(sp1), circ(sp2)).coeffs)]),
             (pts1.ravel(), pts2.ravel()),
-            lambda: cg.similarity(cg.circle(*pts1), cg.circle(*pts2)),
+            lambda: cg.geometry.similarity(cg.circle(*pts1), cg.circle(*pts2)),
         ),
         "apply (V X Ṽ, circle)": (
-            ca.Function("applyf", [s1, sp1], [ca.vertcat(*cg.apply(sim_from(s1), circ(sp1)).coeffs)]),
+            ca.Function("applyf", [s1, sp1], [ca.vertcat(*cg.geometry.apply(sim_from(s1), circ(sp1)).coeffs)]),
             (v1, pts1.ravel()),
-            lambda: cg.apply(V1, C1),
+            lambda: cg.geometry.apply(V1, C1),
         ),
     }
     A, Bm = rng.normal(size=(4, 4)), rng.normal(size=(4, 4))

@@ -26,7 +26,7 @@ busier machine affects them alike; only the ratios, all from one run, are report
   and the QP solver DAQP through qpsolvers (the solver ``new`` uses through CasADi), then
   ``pinocchio.integrate`` and ``Configuration.update`` (pink's forward kinematics and Jacobians).
 
-Acceptance (issue): new_pv / old ≤ 1.0 and new_pv / pink ≤ 0.8 (same limits; new / old and new / pink are
+Acceptance: new_pv / old ≤ 1.0 and new_pv / pink ≤ 0.8 (same limits; new / old and new / pink are
 printed too).  ``--ci``: fewer steps and rounds (the
 test only checks that it runs and reports the ratios; no timing is asserted in tests).
 ``<out>/results.json`` holds the times and ratios.
@@ -75,10 +75,10 @@ def _old_velocity(
 
 
 def old_diff_ik_step(
-    task: Any, q: Any, command_bivector: Any, dt: float = 0.01, damping: float = 1e-3, limits: str = "enforce"
+    task: Any, q: Any, command_bivector: Any, dt: float = 0.01, damping: float = 1e-3, limit_mode: str = "enforce"
 ) -> np.ndarray:
-    """The former ``diff_ik_step`` (limits='enforce', no constraints), as it was before the control layer."""
-    choice(limits, ("enforce", "clamp", "none"), "limits")
+    """The former ``diff_ik_step`` (limit_mode='enforce', no constraints), as it was before the control layer."""
+    choice(limit_mode, ("enforce", "clamp", "none"), "limit_mode")
     dt = positive(dt, "dt")
     damping = nonnegative(damping, "damping")
     q = cg.validation.configuration(q, task.nq, "q", owner=f"task '{task.name}'")

@@ -36,8 +36,8 @@ from _timing import print_table
 
 import coop_ga as cg
 from coop_ga.control import displaced_target, gauss_newton_ik, ilqr_reach
-from coop_ga.cooperative.primitive import N_POINTS
 from coop_ga.errors import CoopGAError
+from coop_ga.geometry import N_POINTS
 from coop_ga.harness import Experiment, int_at_least, positive_float
 
 CI_CASES = (("three_franka", "circle"), ("g1_arms", "line"), ("allegro", "sphere"))

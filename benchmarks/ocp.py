@@ -20,7 +20,7 @@ R = 1e-3 I, Q = 1e5 I, Q_v = 1e2 I (``ReachingOCP``), subject at every knot to
 Solvers (same problem data, same initial guess u = 0 with the system at rest at q0):
 
 * ``iLQR``: :func:`coop_ga.control.ilqr_reach` through its public API, as it is when this
-  runs, with the problem's parameters and — where its options have them — ``limits="enforce"``
+  runs, with the problem's parameters and — where its options have them — ``limit_mode="enforce"``
   and ``terminal="soft"`` (these select the problem above; everything else is its default,
   including its ``tol``).  ``iLQR (tol = 0)`` is the same run to stationarity.  Timed best of
   ``--repeat`` after a warm-up (its own ``solve_time_s``; CPU time by ``time.process_time``).
@@ -85,10 +85,10 @@ def ilqr_kwargs(terminal: str) -> tuple[dict[str, Any], str]:
     names = {f.name for f in dataclasses.fields(ILQROptions)}
     kw: dict[str, Any] = {}
     notes = []
-    if "limits" in names:
-        kw["limits"] = "enforce"
+    if "limit_mode" in names:
+        kw["limit_mode"] = "enforce"
     else:
-        notes.append("this iLQR has no 'limits' option: it solves the problem WITHOUT the bounds")
+        notes.append("this iLQR has no 'limit_mode' option: it solves the problem WITHOUT the bounds")
     if "terminal" in names:
         kw["terminal"] = terminal
     elif terminal != "soft":

@@ -33,7 +33,7 @@ exception a solver raises is recorded (type, message) as a failed job; the bench
 Wall times exclude the one-off build/compile of each task: every task is warmed up with
 one call of each solver on a fixed target before its first timed job (per process).
 
-Output: a table (rows solver × level), PASS/MISS lines for the targets of the issue, and
+Output: a table (rows solver × level), PASS/MISS lines for its targets, and
 ``<out>/robustness.json`` (config, per-target records, aggregates, versions, machine).
 
 Reproducible under ``--seed``: target (system, kind, level, i) draws from its own stream
@@ -43,7 +43,7 @@ so a target does not depend on the order or the selection of systems/kinds/level
 ``--workers W`` gives the same records as a serial run (up to the timings).
 
 Run: ``python benchmarks/robustness.py`` (full study), ``--ci`` (small, < 1 min).  The same jobs as a sweep
-(issue 16; the levels, draws and certificate are :mod:`coop_ga.sweep.targets`, shared):
+(the levels, draws and certificate are :mod:`coop_ga.sweep.targets`, shared):
 ``python -m coop_ga.sweep robustness --executor process --workers 2`` (records streamed, resumable; Dask/Ray).
 """
 
@@ -347,7 +347,7 @@ def _warm_up(system: str, kind: str, solvers: Sequence[str]) -> dict[str, Any]:
 
 
 # ============================================================================ certification
-# certify(task, q0, target): coop_ga.sweep.targets.certify (imported above; the same solve and record)
+# certify(task, q_init, target): coop_ga.sweep.targets.certify (imported above; the same solve and record)
 
 
 # ============================================================================ one target, one case
@@ -659,7 +659,7 @@ def aggregate(records: Sequence[dict[str, Any]], config: Config) -> dict[str, An
 
 # ============================================================================ issue targets
 def issue_targets(agg: dict[str, Any], config: Config) -> list[dict[str, Any]]:
-    """The targets of the issue as ``{"target", "status" (PASS/MISS/N/A), "value"}`` rows."""
+    """The robustness targets as ``{"target", "status" (PASS/MISS/N/A), "value"}`` rows."""
     rows: list[dict[str, Any]] = []
     sl = {(a["solver"], a["level"]): a for a in agg["by_solver_level"]}
     so = {a["solver"]: a for a in agg["by_solver"]}

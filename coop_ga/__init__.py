@@ -1,30 +1,32 @@
 """coop_ga: cooperative task spaces for multi-chain robots with conformal geometric algebra.
 
-Layers (each depends only on the ones above it):
-
-1. :mod:`coop_ga.algebra` — G(4,1) in the null basis, numpy or CasADi coefficients;
-2. :mod:`coop_ga.geometry` — primitives, versor groups (exp/log), similarities;
-3. :mod:`coop_ga.kinematics` — motor forward kinematics of Pinocchio models;
-4. :mod:`coop_ga.systems` — multi-chain systems, their registry and the robots we ship;
-5. :mod:`coop_ga.viz` — drawing (robots, primitives, frames, plots);
-6. :mod:`coop_ga.cooperative` — cooperative primitives, V_Sc(q), its graph, guard and Jacobians;
-7. :mod:`coop_ga.control` — differential/Gauss–Newton IK, impedance, iLQR, teleoperation;
-8. :mod:`coop_ga.harness` — the command-line harness of experiments and figures.
-
-Cross-cutting, at the bottom: :mod:`coop_ga.errors` (one exception and one warning
-family), :mod:`coop_ga.diagnostics` (warnings once per call), :mod:`coop_ga.validation`
-(argument checks), :mod:`coop_ga.codegen` (compiled CasADi functions).
+The subpackages, bottom to top (each imports only the ones before it; the order is stated once, in
+``tests/test_layers.py``, which checks it): :mod:`coop_ga.algebra` (G(4,1) in the null basis, numpy or
+CasADi coefficients), :mod:`coop_ga.geometry` (primitives, the kind table, versor groups, similarities),
+:mod:`coop_ga.kinematics` (motor forward kinematics of Pinocchio models), ``linkages`` (planar closed
+chains), :mod:`coop_ga.systems` (multi-chain systems and their registry), ``collision`` (clearances),
+:mod:`coop_ga.viz` (drawing), :mod:`coop_ga.cooperative` (the cooperative task: X_c(q), V_Sc(q), its graph,
+guard and Jacobians), :mod:`coop_ga.control` (tasks, limits, one QP step, the solvers and their registry),
+``legged``, ``sim``, ``viewer`` (the browser viewer), ``sweep`` and :mod:`coop_ga.harness` (the command
+line of experiments and figures).  At the bottom, under all of them: :mod:`coop_ga.errors` (one exception and
+one warning family), :mod:`coop_ga.diagnostics` (warnings once per call), :mod:`coop_ga.validation` (argument
+checks) and :mod:`coop_ga.codegen` (compiled CasADi functions).
 
 The currency of the API is :class:`coop_ga.Similarity`: cooperative poses, targets and
-``displaced_target`` are Similarities.
+``displaced_target`` are Similarities; every solver takes ``(task, q_init, target: SimilarityLike, …)``.
+The multivector-level functions on raw versors (``exp``, ``log``, ``log_jacobian``, ``apply``,
+``similarity``, ``similarity_from_unit``, ``decompose``) live in :mod:`coop_ga.geometry`, the layer below;
+here they are methods of :class:`Similarity` (``Similarity.exp(b)``, ``V.log()``, ``V.log_jacobian()``,
+``V.apply(X)``, ``Similarity.between(X1, X2)``, ``Similarity.from_unit(X)``, ``V.decompose()``).
+The facts of each primitive kind are one table, :data:`KIND_SPECS` (:class:`KindSpec`).
 
 Five lines of control::
 
     import coop_ga as cg
     task = cg.cooperative_task("three_franka", "circle")
-    q0 = task.system.q0
-    target = cg.control.displaced_target(task, q0, translation=(0.1, 0, 0.05), angle=0.3, scale=1.2)
-    print(cg.control.gauss_newton_ik(task, q0, target).error, cg.control.ilqr_reach(task, q0, target).error)
+    q_init = task.system.q0
+    target = cg.control.displaced_target(task, q_init, translation=(0.1, 0, 0.05), angle=0.3, scale=1.2)
+    print(cg.control.gauss_newton_ik(task, q_init, target).error, cg.control.ilqr_reach(task, q_init, target).error)
 
 Reference: T. Löw, C. Bilaloglu, S. Calinon, *Cooperative Task Spaces for Multi-Arm
 Manipulation Control based on Similarity Transformations*.
@@ -56,28 +58,30 @@ from .errors import (
     UnsupportedJointError,
 )
 from .geometry import (
+    COOPERATIVE_KINDS,
+    KIND_SPECS,
     KINDS,
     TANGENT_BASIS,
+    CooperativeKind,
     Dilator,
+    Kind,
+    KindSpec,
     Motor,
     Primitive,
     Rotor,
     Similarity,
+    SimilarityLike,
     Translator,
     VersorGroup,
-    apply,
     center,
     circle,
     closest_point_to_origin,
-    decompose,
     direction,
     endpoints,
-    exp,
     interpolate,
     kind_of,
+    kind_spec,
     line,
-    log,
-    log_jacobian,
     meet,
     normal,
     plane,
@@ -90,8 +94,6 @@ from .geometry import (
     screw_axis,
     screw_exp,
     screw_log,
-    similarity,
-    similarity_from_unit,
     sphere,
     to_euclidean,
     unit_primitive,
@@ -101,7 +103,9 @@ from .geometry import (
 __version__ = "0.1.0"
 
 __all__ = [
+    "COOPERATIVE_KINDS",
     "KINDS",
+    "KIND_SPECS",
     "TANGENT_BASIS",
     "CacheWarning",
     "ChartError",
@@ -109,6 +113,7 @@ __all__ = [
     "CompilationError",
     "CoopGAError",
     "CoopGAWarning",
+    "CooperativeKind",
     "CooperativeTask",
     "DegeneracyWarning",
     "DegeneratePrimitiveError",
@@ -117,6 +122,8 @@ __all__ = [
     "InvalidInputError",
     "InvalidVersorError",
     "JointLimitWarning",
+    "Kind",
+    "KindSpec",
     "Motor",
     "Multivector",
     "NonFiniteError",
@@ -126,29 +133,26 @@ __all__ = [
     "RendererUnavailableError",
     "Rotor",
     "Similarity",
+    "SimilarityLike",
     "ThreadingError",
     "Translator",
     "UnknownNameError",
     "UnreachableError",
     "UnsupportedJointError",
     "VersorGroup",
-    "apply",
     "center",
     "circle",
     "closest_point_to_origin",
     "control",
     "cooperative_task",
-    "decompose",
     "diagnostics",
     "direction",
     "displaced_target",
     "endpoints",
-    "exp",
     "interpolate",
     "kind_of",
+    "kind_spec",
     "line",
-    "log",
-    "log_jacobian",
     "meet",
     "normal",
     "plane",
@@ -161,8 +165,6 @@ __all__ = [
     "screw_axis",
     "screw_exp",
     "screw_log",
-    "similarity",
-    "similarity_from_unit",
     "sphere",
     "systems",
     "to_euclidean",

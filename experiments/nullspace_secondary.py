@@ -8,7 +8,7 @@ hold the cooperative similarity ``V_Sc(q0)`` ("stay on the circle").  Secondary 
 ``q̇_{0,d} = J_p⁺ k_s (p* − p)`` (point Jacobian of that arm only, speed capped at 0.2 m/s).
 Both runs use first-order kinematics ``q_{t+1} = q_t + Δt q̇`` (Eq 61), Δt = 0.01 s, 4 s,
 and stay inside the joint position, velocity and acceleration limits, starting at rest
-(``coop_ga.control.nullspace_point_reach``, ``limits='enforce'``):
+(``coop_ga.control.nullspace_point_reach``, ``limit_mode='enforce'``):
 
 * Fig. 16 (``direct``): ``q̇ = [q̇_{0,d}; 0; 0]`` applied as is;
 * Fig. 17 (``nullspace``): ``q̇ = J^G⁺ k_p log(Ṽ_Sc(q) V_Sc(q0)) + N(q) [q̇_{0,d}; 0; 0]``

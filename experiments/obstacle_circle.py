@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Issue 14 (our addition, not a figure of the paper): three Frankas carry their circle past a sphere obstacle.
+"""Our addition, not a figure of the paper: three Frankas carry their circle past a sphere obstacle.
 
 System ``three_franka`` (21 joints), cooperative circle through the three TCPs (Eq 14), start at
 rest at q0 (circle centre (0, 0, 0.487) m, radius 0.493 m).  Target: the same circle carried
@@ -79,7 +79,7 @@ MODES = ("none", "soft", "hard", "both")
 #: camera (elevation, azimuth) [deg]: from +x, arm 0 on the left with the obstacle in front of its gripper
 VIEW = (35.0, 0.0)
 CLAIM = (
-    "Avoidance in the cooperative controllers (issue 14): with link–obstacle distances as nullspace "
+    "Avoidance in the cooperative controllers: with link–obstacle distances as nullspace "
     "repulsion and as QP velocity dampers, three Frankas carry their circle past a sphere on the straight "
     "path with clearance > 0 for every link and no arm–arm collision, where plain differential IK collides."
 )
@@ -365,7 +365,7 @@ def run(exp: Experiment, fast: bool) -> int:
         f"{metrics['max_acceleration_violation']:.3g} rad/s² (from rest)."
     )
     metrics["gallery"] = {
-        "title": "Obstacle avoidance: three Frankas carry a circle past a sphere (issue 14, our addition)",
+        "title": "Obstacle avoidance: three Frankas carry a circle past a sphere (our addition)",
         "claim": CLAIM,
         "evidence": evidence,
         "agrees": bool(ok),

@@ -65,6 +65,7 @@ from typing import Any
 
 import numpy as np
 
+from coop_ga.geometry import KIND_SPECS
 from coop_ga.harness import Experiment, finite_float, nonneg_float, positive_float, positive_int
 
 #: Paper's §4.2 setting (n = 250, Δt = 0.001 s "hence 2.5 s") and ours.
@@ -76,7 +77,6 @@ FAST_HORIZON, FAST_DT = 100, 0.025
 N_INTERMEDIATE = {"line": 5, "circle": 5, "plane": 3, "sphere": 1}  # wireframe spheres hide each other
 #: paper's "typically converges in five or less iterations" (§4.2)
 PAPER_MAX_ITERATIONS = 5
-FLAT_KINDS = ("line", "plane")
 
 
 @dataclass(frozen=True)
@@ -303,7 +303,7 @@ def resolve(exp: Experiment, args: argparse.Namespace, figure: str) -> Setup:
     scale = p.scale if args.scale is None else float(args.scale)
     if not np.linalg.norm(axis) > 0:
         exp.parser.error("argument --tilt-axis: expected a non-zero vector")
-    if p.kind in FLAT_KINDS and scale != 1.0:
+    if KIND_SPECS[p.kind].flat and scale != 1.0:
         exp.parser.error(f"argument --scale: a dilation leaves a {p.kind} unchanged ({figure}); use 1")
     return Setup(p, tr, axis, tilt, scale, int(args.horizon), float(args.dt), exp.fast)
 
@@ -336,13 +336,13 @@ def primitive_parameters(X: Any, kind: str) -> dict[str, Any]:
     or a line's / plane's point closest to the origin [m]."""
     import coop_ga as cg
 
-    if kind == "line":
-        return {"point_m": np.asarray(cg.closest_point_to_origin(X), float), "direction": np.asarray(cg.direction(X))}
-    if kind == "plane":
-        return {"point_m": np.asarray(cg.closest_point_to_origin(X), float), "normal": np.asarray(cg.normal(X))}
-    out: dict[str, Any] = {"center_m": np.asarray(cg.center(X), float), "radius_m": float(cg.radius(X))}
-    if kind == "circle":
-        out["normal"] = np.asarray(cg.normal(X), float)
+    spec = KIND_SPECS[kind]
+    if spec.flat:
+        out: dict[str, Any] = {"point_m": np.asarray(cg.closest_point_to_origin(X), float)}
+    else:
+        out = {"center_m": np.asarray(cg.center(X), float), "radius_m": float(cg.radius(X))}
+    if spec.axis_role is not None:  # a line's or point pair's direction, a plane's or circle's normal
+        out[spec.axis_role] = np.asarray(cg.direction(X) if spec.axis_role == "direction" else cg.normal(X), float)
     return out
 
 
@@ -648,7 +648,7 @@ def gallery(setup: Setup, s: Any, res: Any, m: dict[str, Any]) -> dict[str, Any]
         f"would give {HORIZON * PAPER_DT:g} s, not its 2.5 s)."
     )
     agrees = ok and within
-    if p.kind in FLAT_KINDS:
+    if KIND_SPECS[p.kind].flat:
         zero = m["max_abs_dilation_command"] == 0.0 and m["max_abs_dilation_error"] == 0.0
         ev += (
             f" Dilation (e0∞) of the command: max |·| = {m['max_abs_dilation_command']:.3g}, of the error "

@@ -195,6 +195,42 @@ def prepare_start(
     )
 
 
+def drive(
+    task: Any, q_s: np.ndarray, target: np.ndarray, cols0: Any, args: Any, record: Any, rec: dict[str, list[Any]]
+) -> tuple[str, float, int]:
+    """Drive TCP 0 from q_s towards ``target`` with the point-reaching control, recording every step, until the
+    duration is up or the next step would reach the raise threshold; returns ``(why it stopped, w at the step
+    it did not take, QP steps)``."""
+    import coop_ga as cg
+    from coop_ga.errors import DegeneratePrimitiveError
+
+    dt = args.dt
+    q = q_s.copy()
+    w_next, qp_steps = float("nan"), 0
+    record(q)
+    while True:
+        t_now = dt * (len(rec["q"]) - 1)
+        if t_now >= args.duration - 1e-12:
+            return f"duration {args.duration:g} s reached with w = {rec['w'][-1]:.3g}", w_next, qp_steps
+        qd, active = point_velocity(
+            task, q, 0, cols0, target, dt=dt, gain=args.gain, max_speed=args.max_speed, damping=args.damping
+        )
+        qp_steps += active
+        q_next = advance(task, q, qd, dt)
+        w_next = float(cg.well_definedness("circle", task.tree.end_points_array(q_next)))
+        if w_next <= task.raise_below * (1.0 + STOP_MARGIN):
+            why = (
+                f"raise threshold: the next step would give w = {w_next:.4g} <= raise_below = "
+                f"{task.raise_below:g} (DegeneratePrimitiveError); stopped at the last step above it"
+            )
+            return why, w_next, qp_steps
+        try:
+            record(q_next)
+        except DegeneratePrimitiveError as e:  # the prediction missed it: stop here and say so
+            return f"DegeneratePrimitiveError caught at the next step: {e}", w_next, qp_steps
+        q = q_next
+
+
 # ---------------------------------------------------------------------- main
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0)
@@ -222,7 +258,6 @@ def main(argv: list[str] | None = None) -> int:
     from coop_ga.algebra import blade_name
     from coop_ga.cooperative import cooperative_primitive
     from coop_ga.diagnostics import collect_warnings
-    from coop_ga.errors import DegeneratePrimitiveError
 
     t_start = time.perf_counter()
     with exp.stage("loading three_franka and its cooperative circle"):
@@ -289,33 +324,8 @@ def main(argv: list[str] | None = None) -> int:
         for k, v in row.items():
             rec[k].append(v)
 
-    q = q_s.copy()
-    stopped_reason, w_next, qp_steps = "", float("nan"), 0
     with exp.stage("driving TCP 0 onto the line (circle tracked)") as st_run, collect_warnings(emit=False) as cw:
-        record(q)
-        while True:
-            t_now = dt * (len(rec["q"]) - 1)
-            if t_now >= args.duration - 1e-12:
-                stopped_reason = f"duration {args.duration:g} s reached with w = {rec['w'][-1]:.3g}"
-                break
-            qd, active = point_velocity(
-                task, q, 0, cols[0], target, dt=dt, gain=args.gain, max_speed=args.max_speed, damping=args.damping
-            )
-            qp_steps += active
-            q_next = advance(task, q, qd, dt)
-            w_next = float(cg.well_definedness("circle", task.tree.end_points_array(q_next)))
-            if w_next <= task.raise_below * (1.0 + STOP_MARGIN):
-                stopped_reason = (
-                    f"raise threshold: the next step would give w = {w_next:.4g} <= raise_below = "
-                    f"{task.raise_below:g} (DegeneratePrimitiveError); stopped at the last step above it"
-                )
-                break
-            try:
-                record(q_next)
-            except DegeneratePrimitiveError as e:  # the prediction missed it: stop here and say so
-                stopped_reason = f"DegeneratePrimitiveError caught at the next step: {e}"
-                break
-            q = q_next
+        stopped_reason, w_next, qp_steps = drive(task, q_s, target, cols[0], args, record, rec)
     warning_counts = dict(cw.counts)
 
     R = {k: np.asarray(v) for k, v in rec.items()}

@@ -28,28 +28,13 @@ import sys
 
 import numpy as np
 
+from coop_ga.geometry import KIND_SPECS, KINDS
 from coop_ga.harness import Experiment, positive_int
 
-#: the paper's "controllable bivector space" column of Table 1
-PAPER_BLADES: dict[str, tuple[str, ...]] = {
-    "point": ("e1∞", "e2∞", "e3∞"),
-    "point_pair": ("e12", "e23", "e0∞", "e1∞", "e2∞", "e3∞"),
-    "line": ("e12", "e23", "e1∞", "e3∞"),
-    "circle": ("e13", "e23", "e0∞", "e1∞", "e2∞", "e3∞"),
-    "plane": ("e13", "e23", "e3∞"),
-    "sphere": ("e0∞", "e1∞", "e2∞", "e3∞"),
-}
-#: end points on the unit primitive X_u of each kind (§3.3) [m]
-UNIT_POINTS: dict[str, list[tuple[float, float, float]]] = {
-    "point": [(0, 0, 0)],
-    "point_pair": [(0, -1, 0), (0, 1, 0)],
-    "line": [(0, 0, 0), (0, 1, 0)],
-    "circle": [(1, 0, 0), (0, 1, 0), (-1, 0, 0)],
-    "plane": [(0, 0, 0), (1, 0, 0), (0, 1, 0)],
-    "sphere": [(1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0)],
-}
-#: the robot each kind's rank is also measured on
-ROBOT_OF_KIND = {k: "three_franka" for k in ("point", "point_pair", "line", "circle", "plane")} | {"sphere": "allegro"}
+#: the paper's "controllable bivector space" column of Table 1 and the end points on the unit primitive X_u of
+#: each kind (§3.3) are facts of the kind table (:data:`coop_ga.geometry.KIND_SPECS`); the robot each kind's rank
+#: is also measured on has enough end points
+ROBOT_OF_KIND = {k: "three_franka" if KIND_SPECS[k].n_points <= 3 else "allegro" for k in KINDS}
 RANK_RTOL = 1e-8
 
 
@@ -75,11 +60,11 @@ def measure(kind: str, samples: int, rng: np.random.Generator) -> dict:
     free = cartesian_points(4)
     task = CooperativeTask(free, kind, codegen=False)
     names = list(cg.TANGENT_BASIS)
-    allowed = [names.index(n) for n in PAPER_BLADES[kind]]
+    allowed = [names.index(n) for n in KIND_SPECS[kind].controllable_blades]
     excluded = [i for i in range(7) if i not in allowed]
     # at the unit primitive
     q = np.zeros(free.nq)
-    for i, p in enumerate(UNIT_POINTS[kind]):
+    for i, p in enumerate(KIND_SPECS[kind].unit_points):
         q[3 * i : 3 * i + 3] = np.array(p, float) - CARTESIAN_BASES[i]
     J = task.jacobian(q)
     unit_log = float(np.abs(task.log(q)).max())
@@ -100,7 +85,7 @@ def measure(kind: str, samples: int, rng: np.random.Generator) -> dict:
         qr = np.clip(robot.q0 + rng.uniform(-0.2, 0.2, robot.nq), robot.q_lower, robot.q_upper)
         robot_ranks.append(rank(rtask.jacobian(qr)))
     return {
-        "paper_blades": list(PAPER_BLADES[kind]),
+        "paper_blades": list(KIND_SPECS[kind].controllable_blades),
         "paper_dimension": len(allowed),
         "rank_min": min(ranks),
         "rank_max": max(ranks),
@@ -163,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     args = exp.parse(argv)
     samples = args.samples
     rows = {}
-    for kind in exp.progress(list(PAPER_BLADES), "measuring J^G per primitive"):
+    for kind in exp.progress(list(KINDS), "measuring J^G per primitive"):
         rows[kind] = measure(kind, samples, exp.rng)
     text = markdown(rows, samples)
     (exp.out / "table1.md").write_text(text)

@@ -30,7 +30,7 @@ Where the paper is inconsistent (and what this script does):
   ×0.778 / ×1.283); the hand closes and opens as shown, by less than d.
 * Eq 67 as printed has the opposite sign (README, "Seed discrepancies"); the dilator here
   gives Fig. 21's reading (−e0∞ shrinks).
-* §4.5 names the Leap hand (16 joints); Figs. 20–21 and the issue use the Allegro hand
+* §4.5 names the Leap hand (16 joints); Figs. 20–21 use the Allegro hand
   (16 joints), which is what we ship.
 * §4.5 uses Δt = 0.01 s for the teleoperation, Fig. 21 Δt = 0.25 s: both are used, each where
   the paper uses it.
@@ -54,6 +54,7 @@ from __future__ import annotations
 import sys
 import time
 import warnings
+from typing import Any
 
 import numpy as np
 
@@ -78,6 +79,142 @@ FINE_DT = 0.01  # [s] the fine integration of the Fig. 21 step and the probes
 TRANSLATION_SEGMENTS = 4  # the first segments (rest, x, y, z): the hand drawn in fig20_scene
 
 
+def fig21_step(
+    task: Any, q0: np.ndarray, beta: float, args: Any, gains: dict[str, Any], geom: Any, at_limit: Any
+) -> tuple[dict[str, Any], np.ndarray, list[tuple[np.ndarray, float]]]:
+    """Fig. 21: one teleoperation step of β e0∞ over ``--fig21-dt`` from q0, and the same integrated finely;
+    returns its metrics, the configuration after the step and the runs ((T, nq) configurations, Δt)."""
+    from coop_ga.control.teleop import Teleoperator
+
+    lim = task.system.limits
+    c0, r0 = geom(q0)
+    u = [0, 0, 0, 0, 0, beta / args.dilation_gain if args.dilation_gain else 0.0]
+    one = Teleoperator(task, q0, dt=args.fig21_dt, **gains)
+    one.step(u)
+    n_fine = max(1, round(args.fig21_dt / FINE_DT))
+    fine = Teleoperator(task, q0, dt=args.fig21_dt / n_fine, **gains)
+    fine.run([u] * n_fine)
+    c1, r1 = geom(one.q)
+    c2, r2 = geom(fine.q)
+    m = {
+        "command": f"{beta:+g} e0inf",
+        "d_of_command": float(np.exp(beta)),
+        "dt_s": args.fig21_dt,
+        "radius_before_m": r0,
+        "radius_after_m": r1,
+        "ratio": r1 / r0,
+        "ratio_first_order_expected": float(np.exp(beta * args.fig21_dt)),
+        "ratio_error_vs_expected": r1 / r0 / np.exp(beta * args.fig21_dt) - 1.0,
+        "center_displacement_m": float(np.linalg.norm(c1 - c0)),
+        "joints_at_limit": int(at_limit(one.q).sum()),
+        "max_velocity_ratio": float(np.max(np.abs(one.q - q0) / args.fig21_dt / lim.velocity)),
+        "fine_integration": {
+            "steps": n_fine,
+            "dt_s": args.fig21_dt / n_fine,
+            "radius_after_m": r2,
+            "ratio": r2 / r0,
+            "ratio_error_vs_expected": r2 / r0 / np.exp(beta * args.fig21_dt) - 1.0,
+            "center_displacement_m": float(np.linalg.norm(c2 - c0)),
+        },
+    }
+    return m, one.q, [(np.array(one.log.q), one.dt), (np.array(fine.log.q), fine.dt)]
+
+
+def session_segments(script: Any, centers: np.ndarray, radii: np.ndarray, args: Any) -> list[dict[str, Any]]:
+    """Per segment of the scripted session: its command, the centre displacement and radius ratio measured and
+    expected (first order)."""
+    segments = []
+    k = 0
+    for d, c in script:
+        n = round(d / args.dt)
+        a, b = k, k + n
+        k = b
+        cmd = np.asarray(c, float)
+        segments.append(
+            {
+                "duration_s": d,
+                "command": cmd,
+                "center_displacement_m": centers[b] - centers[a],
+                "center_displacement_expected_m": radii[a] * args.translation_gain * d * cmd[:3],
+                "radius_ratio": radii[b] / radii[a],
+                "radius_ratio_expected": float(np.exp(args.dilation_gain * cmd[5] * d)),
+            }
+        )
+    return segments
+
+
+def segment_summary(segments: list[dict[str, Any]], r0: float) -> dict[str, float | None]:
+    """The worst errors per kind of segment (translation, dilation, rotation) of a scripted session (None for a
+    kind the session has no segment of, e.g. an interactive one)."""
+    trans = [sg for sg in segments if np.any(sg["command"][:3] != 0)]
+    dil = [sg for sg in segments if sg["command"][5] != 0]
+    rot = [sg for sg in segments if np.any(sg["command"][3:5] != 0)]
+
+    def worst(values: list[float]) -> float | None:
+        return max(values) if values else None
+
+    return {
+        "max_translation_error_m": worst(
+            [float(np.linalg.norm(sg["center_displacement_m"] - sg["center_displacement_expected_m"])) for sg in trans]
+        ),
+        "max_radius_change_while_translating": worst([abs(sg["radius_ratio"] - 1.0) for sg in trans]),
+        "max_dilation_ratio_error": worst([abs(sg["radius_ratio"] / sg["radius_ratio_expected"] - 1.0) for sg in dil]),
+        "max_center_drift_while_dilating_m": worst([float(np.linalg.norm(sg["center_displacement_m"])) for sg in dil]),
+        # centre displacement plus radius change [m] of the rotation segments (0: inert)
+        "max_motion_during_rotation_m": worst(
+            [float(np.linalg.norm(sg["center_displacement_m"])) + abs(sg["radius_ratio"] - 1.0) * r0 for sg in rot]
+        ),
+    }
+
+
+def count_degeneracy_warnings(caught: list[warnings.WarningMessage]) -> int:
+    """How many of the caught warnings are DegeneracyWarnings (counted in the metrics); the others are re-emitted."""
+    import coop_ga as cg
+
+    n = 0
+    for w in caught:
+        if issubclass(w.category, cg.DegeneracyWarning):
+            n += 1
+        else:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return n
+
+
+def probe_mapping(task: Any, q0: np.ndarray, gains: dict[str, Any], geom: Any) -> tuple[Any, ...]:
+    """Fig. 20's mapping: each input axis held alone for PROBE_DURATION from q0; returns the commanded bivectors
+    G (6, 7), the probe duration [s], the measured bivector rates (6, 7), centre rates [radii/s] (6, 3) and
+    log-radius rates [1/s] (6,), the rank of J^G at q0, its moving rows (7,) bool, the expected rates, the
+    scale of G and the runs ((T, nq) configurations, Δt)."""
+    from coop_ga.control.teleop import Teleoperator, command_to_bivector
+
+    c0, r0 = geom(q0)
+    runs: list[tuple[np.ndarray, float]] = []
+    G = np.array([command_to_bivector(np.eye(6)[i], **gains) for i in range(6)])  # (6, 7)
+    n_probe = max(1, round(PROBE_DURATION / FINE_DT))
+    T_probe = n_probe * FINE_DT
+    V0inv = task.similarity(q0).inverse()
+    measured = np.empty((6, 7))
+    centre_rate = np.empty((6, 3))
+    radius_rate = np.empty(6)
+    for i in range(6):
+        probe = Teleoperator(task, q0, dt=FINE_DT, **gains)
+        probe.run([np.eye(6)[i]] * n_probe)
+        runs.append((np.array(probe.log.q), FINE_DT))
+        measured[i] = (V0inv @ task.similarity(probe.q)).log() / T_probe
+        ci, ri = geom(probe.q)
+        centre_rate[i] = (ci - c0) / (r0 * T_probe)
+        radius_rate[i] = np.log(ri / r0) / T_probe
+    J0 = task.jacobian(q0)
+    controllable = np.linalg.svd(J0, compute_uv=False)
+    rank = int(np.sum(controllable > 1e-9 * controllable[0]))
+    # the rows of the bivector that the task can move (rank of J^G: 4 for a sphere)
+    row_norms = np.linalg.norm(J0, axis=1)
+    rows = row_norms > 1e-9 * row_norms.max()
+    expected = np.where(rows[None, :], G, 0.0)
+    scale = np.maximum(np.abs(G).max(), 1e-12)
+    return G, T_probe, measured, centre_rate, radius_rate, rank, rows, expected, scale, runs
+
+
 def main(argv: list[str] | None = None) -> int:
     import coop_ga as cg
 
@@ -96,7 +233,7 @@ def main(argv: list[str] | None = None) -> int:
     plt = exp.pyplot(interactive=args.interactive)
 
     from coop_ga import viz
-    from coop_ga.control.teleop import ScriptedInput, Teleoperator, command_to_bivector, run_interactive
+    from coop_ga.control.teleop import ScriptedInput, Teleoperator, run_interactive
 
     timing: dict[str, float] = {}
     t_total = time.perf_counter()
@@ -141,64 +278,16 @@ def main(argv: list[str] | None = None) -> int:
         # ------------------------------------------------------------------ Fig. 21
         with exp.stage("Fig. 21: one dilation step each way") as st:
             for beta, name in [(-1.0, "closed"), (1.0, "opened")]:
-                u = [0, 0, 0, 0, 0, beta / args.dilation_gain if args.dilation_gain else 0.0]
-                one = Teleoperator(task, q0, dt=args.fig21_dt, **gains)
-                one.step(u)
-                n_fine = max(1, round(args.fig21_dt / FINE_DT))
-                fine = Teleoperator(task, q0, dt=args.fig21_dt / n_fine, **gains)
-                fine.run([u] * n_fine)
-                visited += [(np.array(one.log.q), one.dt), (np.array(fine.log.q), fine.dt)]
-                c1, r1 = geom(one.q)
-                c2, r2 = geom(fine.q)
-                metrics["fig21"][name] = {
-                    "command": f"{beta:+g} e0inf",
-                    "d_of_command": float(np.exp(beta)),
-                    "dt_s": args.fig21_dt,
-                    "radius_before_m": r0,
-                    "radius_after_m": r1,
-                    "ratio": r1 / r0,
-                    "ratio_first_order_expected": float(np.exp(beta * args.fig21_dt)),
-                    "ratio_error_vs_expected": r1 / r0 / np.exp(beta * args.fig21_dt) - 1.0,
-                    "center_displacement_m": float(np.linalg.norm(c1 - c0)),
-                    "joints_at_limit": int(at_limit(one.q).sum()),
-                    "max_velocity_ratio": float(np.max(np.abs(one.q - q0) / args.fig21_dt / lim.velocity)),
-                    "fine_integration": {
-                        "steps": n_fine,
-                        "dt_s": args.fig21_dt / n_fine,
-                        "radius_after_m": r2,
-                        "ratio": r2 / r0,
-                        "ratio_error_vs_expected": r2 / r0 / np.exp(beta * args.fig21_dt) - 1.0,
-                        "center_displacement_m": float(np.linalg.norm(c2 - c0)),
-                    },
-                }
-                configs[name] = one.q
+                metrics["fig21"][name], configs[name], runs = fig21_step(task, q0, beta, args, gains, geom, at_limit)
+                visited += runs
         timing["fig21_s"] = st.seconds
 
         # ------------------------------------------------------------------ Fig. 20: the mapping
         with exp.stage("Fig. 20: one probe per input axis") as st:
-            G = np.array([command_to_bivector(np.eye(6)[i], **gains) for i in range(6)])  # (6, 7)
-            n_probe = max(1, round(PROBE_DURATION / FINE_DT))
-            T_probe = n_probe * FINE_DT
-            V0inv = task.similarity(q0).inverse()
-            measured = np.empty((6, 7))
-            centre_rate = np.empty((6, 3))
-            radius_rate = np.empty(6)
-            for i in range(6):
-                probe = Teleoperator(task, q0, dt=FINE_DT, **gains)
-                probe.run([np.eye(6)[i]] * n_probe)
-                visited.append((np.array(probe.log.q), FINE_DT))
-                measured[i] = (V0inv @ task.similarity(probe.q)).log() / T_probe
-                ci, ri = geom(probe.q)
-                centre_rate[i] = (ci - c0) / (r0 * T_probe)
-                radius_rate[i] = np.log(ri / r0) / T_probe
-            J0 = task.jacobian(q0)
-            controllable = np.linalg.svd(J0, compute_uv=False)
-            rank = int(np.sum(controllable > 1e-9 * controllable[0]))
-            # the rows of the bivector that the task can move (rank of J^G: 4 for a sphere)
-            row_norms = np.linalg.norm(J0, axis=1)
-            rows = row_norms > 1e-9 * row_norms.max()
-            expected = np.where(rows[None, :], G, 0.0)
-            scale = np.maximum(np.abs(G).max(), 1e-12)
+            G, T_probe, measured, centre_rate, radius_rate, rank, rows, expected, scale, runs = probe_mapping(
+                task, q0, gains, geom
+            )
+            visited += runs
         timing["mapping_s"] = st.seconds
 
         # ------------------------------------------------------------------ Fig. 20: the session
@@ -212,10 +301,7 @@ def main(argv: list[str] | None = None) -> int:
                 tel.run(ScriptedInput(script, args.dt))
                 mode = "scripted"
         timing["session_s"] = st.seconds
-    n_degen = sum(1 for w in caught if issubclass(w.category, cg.DegeneracyWarning))
-    for w in caught:
-        if not issubclass(w.category, cg.DegeneracyWarning):
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    n_degen = count_degeneracy_warnings(caught)
     log = tel.log.arrays()
     visited.append((log["q"], args.dt))
     with warnings.catch_warnings():
@@ -224,24 +310,7 @@ def main(argv: list[str] | None = None) -> int:
         wd = np.array([task.well_definedness(q) for q in log["q"]])
     centers = np.array([g[0] for g in geo])
     radii = np.array([g[1] for g in geo])
-    segments = []
-    if mode == "scripted":
-        k = 0
-        for d, c in script:
-            n = round(d / args.dt)
-            a, b = k, k + n
-            k = b
-            cmd = np.asarray(c, float)
-            segments.append(
-                {
-                    "duration_s": d,
-                    "command": cmd,
-                    "center_displacement_m": centers[b] - centers[a],
-                    "center_displacement_expected_m": radii[a] * args.translation_gain * d * cmd[:3],
-                    "radius_ratio": radii[b] / radii[a],
-                    "radius_ratio_expected": float(np.exp(args.dilation_gain * cmd[5] * d)),
-                }
-            )
+    segments = session_segments(script, centers, radii, args) if mode == "scripted" else []
     Q_all = np.vstack([Q for Q, _ in visited])
     session_at_limit = at_limit(log["q"])
     metrics["fig20"] = {
@@ -272,25 +341,8 @@ def main(argv: list[str] | None = None) -> int:
             "joints_at_limit_during_session": [int(j) for j in np.flatnonzero(session_at_limit)],
         },
     }
-    # per kind of segment (scripted session only; None in an interactive one)
-    trans = [sg for sg in segments if np.any(sg["command"][:3] != 0)]
-    dil = [sg for sg in segments if sg["command"][5] != 0]
-    rot = [sg for sg in segments if np.any(sg["command"][3:5] != 0)]
-
-    def worst(values: list[float]) -> float | None:
-        return max(values) if values else None
-
     ss = metrics["fig20"]["session"]
-    ss["max_translation_error_m"] = worst(
-        [float(np.linalg.norm(sg["center_displacement_m"] - sg["center_displacement_expected_m"])) for sg in trans]
-    )
-    ss["max_radius_change_while_translating"] = worst([abs(sg["radius_ratio"] - 1.0) for sg in trans])
-    ss["max_dilation_ratio_error"] = worst([abs(sg["radius_ratio"] / sg["radius_ratio_expected"] - 1.0) for sg in dil])
-    ss["max_center_drift_while_dilating_m"] = worst([float(np.linalg.norm(sg["center_displacement_m"])) for sg in dil])
-    # centre displacement plus radius change [m] of the rotation segments (0: inert)
-    ss["max_motion_during_rotation_m"] = worst(
-        [float(np.linalg.norm(sg["center_displacement_m"])) + abs(sg["radius_ratio"] - 1.0) * r0 for sg in rot]
-    )
+    ss.update(segment_summary(segments, r0))
     metrics["max_limit_violation"] = lim.position_violation(Q_all)
     metrics["max_velocity_ratio"] = max(
         float(np.max(np.abs(np.diff(Q, axis=0)) / dt / lim.velocity)) for Q, dt in visited if len(Q) > 1

@@ -1,4 +1,4 @@
-"""Layer 1: the algebra G(4,1) in the null basis, generic over numpy and CasADi coefficients."""
+"""The algebra G(4,1) in the null basis, generic over numpy and CasADi coefficients."""
 
 from . import backend
 from .basis import BLADES_BY_GRADE, blade_index, blade_name, grade_of

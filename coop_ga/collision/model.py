@@ -174,26 +174,8 @@ class CollisionModel:
         self.obstacles: tuple[Sphere | Plane, ...] = _obstacles(obstacles)
         self.nq = int(model.nq)
 
-        # ---- per capsule: frame id, parent joint, ends in the parent joint's frame, supporting columns
         nc = len(self.capsules)
-        self._fid = np.zeros(nc, int)
-        self._joint = np.zeros(nc, int)
-        self._a_j = np.zeros((nc, 3))
-        self._b_j = np.zeros((nc, 3))
-        self._radius = np.array([c.radius for c in self.capsules], float)
-        self._mask = np.zeros((nc, self.nq), bool)
-        for i, c in enumerate(self.capsules):
-            if not model.existFrame(c.frame):
-                raise InvalidInputError(f"capsules: frame '{c.frame}' is not a frame of system '{system.name}'")
-            fid = model.getFrameId(c.frame)
-            f = model.frames[fid]
-            self._fid[i], self._joint[i] = fid, int(f.parentJoint)
-            Rf, tf = np.asarray(f.placement.rotation), np.asarray(f.placement.translation)
-            self._a_j[i] = Rf @ c.a + tf
-            self._b_j[i] = Rf @ c.b + tf
-            for j in model.supports[int(f.parentJoint)]:
-                if j > 0:
-                    self._mask[i, model.idx_vs[j]] = True
+        self._layout_capsules(model, str(system.name))
         self._joints_used = sorted(set(int(j) for j in self._joint))
         self._jpos = np.array([self._joints_used.index(int(j)) for j in self._joint], int)
         self._pin = pin
@@ -269,6 +251,29 @@ class CollisionModel:
     def n(self) -> int:
         """Number of distances."""
         return len(self.labels)
+
+    def _layout_capsules(self, model: Any, system_name: str) -> None:
+        """Per capsule: its frame id, parent joint, ends in the parent joint's frame [m], radius [m] and the
+        joint-velocity columns that move it (the joints supporting its parent joint)."""
+        nc = len(self.capsules)
+        self._fid = np.zeros(nc, int)
+        self._joint = np.zeros(nc, int)
+        self._a_j = np.zeros((nc, 3))
+        self._b_j = np.zeros((nc, 3))
+        self._radius = np.array([c.radius for c in self.capsules], float)
+        self._mask = np.zeros((nc, self.nq), bool)
+        for i, c in enumerate(self.capsules):
+            if not model.existFrame(c.frame):
+                raise InvalidInputError(f"capsules: frame '{c.frame}' is not a frame of system '{system_name}'")
+            fid = model.getFrameId(c.frame)
+            f = model.frames[fid]
+            self._fid[i], self._joint[i] = fid, int(f.parentJoint)
+            Rf, tf = np.asarray(f.placement.rotation), np.asarray(f.placement.translation)
+            self._a_j[i] = Rf @ c.a + tf
+            self._b_j[i] = Rf @ c.b + tf
+            for j in model.supports[int(f.parentJoint)]:
+                if j > 0:
+                    self._mask[i, model.idx_vs[j]] = True
 
     def _body_path(self, fid: int) -> list[Body]:
         """Rigid bodies from the frame's body to the world: ``("j", joint id)`` for a moving body, and

@@ -1,4 +1,4 @@
-"""Layer 6: controllers in the cooperative similarity space (§3.5–3.9, §4).
+"""Controllers in the cooperative similarity space (§3.5–3.9, §4).
 
 The velocity-level controllers are built like mink and pink: a
 :class:`~coop_ga.control.configuration.Configuration` (q, the previous q̇, and the kinematics and

@@ -82,6 +82,7 @@ from .. import validation
 from ..cooperative.manipulability import damped_pinv
 from ..diagnostics import collect_warnings
 from ..errors import InfeasibleConstraintsError, InvalidInputError
+from ..geometry.groups import SimilarityLike
 from .base import check_problem, resolve_options
 from .configuration import Configuration
 from .diffik import DiffIKResult, run_result, similarity_error_norm, step_limits
@@ -178,7 +179,7 @@ class AvoidanceOptions:
     damper_gain: ξ ∈ (0, 1] of (A1).
     repulsive_speed: v_r [m/s] of (A2) (0 disables the repulsion).
     repulsive_damping: λ_r [m/rad] of the least-norm repulsive velocity.
-    gain [1/s], dt [s], steps, damping, tol, limits (``'enforce'`` or ``'none'``), limit_gain,
+    gain [1/s], dt [s], steps, damping, tol, limit_mode (``'enforce'`` or ``'none'``), limit_gain,
         acceleration_limit: as :class:`~coop_ga.control.DiffIKOptions`.
     """
 
@@ -193,7 +194,7 @@ class AvoidanceOptions:
     steps: int = 250
     damping: float = 1e-3
     tol: float = 1e-4
-    limits: str = "enforce"
+    limit_mode: str = "enforce"
     limit_gain: float = DEFAULT_LIMIT_GAIN
     acceleration_limit: bool = True
 
@@ -210,7 +211,7 @@ class AvoidanceOptions:
         validation.integer(self.steps, "steps", minimum=0)
         validation.nonnegative(self.damping, "damping")
         validation.nonnegative(self.tol, "tol")
-        validation.choice(self.limits, ("enforce", "none"), "limits")
+        validation.choice(self.limit_mode, ("enforce", "none"), "limit_mode")
         validation.scalar(self.limit_gain, "limit_gain", low=0.0, high=1.0, low_open=True)
 
 
@@ -275,9 +276,9 @@ class _AvoidanceStep:
 
     def __init__(self, task: Any, cm: Any, o: AvoidanceOptions, primary: Any):
         self.cm, self.o, self.primary = cm, o, primary
-        self.base = step_limits(task, o.limits, o.limit_gain, o.acceleration_limit)
+        self.base = step_limits(task, o.limit_mode, o.limit_gain, o.acceleration_limit)
         self.hard = o.mode in ("hard", "both")
-        braking = o.acceleration_limit and o.limits == "enforce"  # the dampers' braking bound goes with them
+        braking = o.acceleration_limit and o.limit_mode == "enforce"  # the dampers' braking bound goes with them
         self.clearance = ClearanceLimit(cm, o.dt, o.d_safe, o.d_influence, o.damper_gain, braking=braking)
         self.limits = self.base + [self.clearance] if self.hard else self.base
         self.fallbacks = 0
@@ -340,7 +341,7 @@ def avoidance_velocity(
     cm = check_collision_model(collision_model, task.nq)
     qv = validation.configuration(q, task.nq, "q")
     b = validation.vector(command_bivector, 7, "command_bivector")
-    if o.limits != "none":
+    if o.limit_mode != "none":
         qv = project_into_limits(task, qv)
     cfg = Configuration(task, qv, velocity)
     return _AvoidanceStep(task, cm, o, BodyVelocityTask(b))(cfg).velocity
@@ -384,7 +385,7 @@ def _closest(Dm: np.ndarray, labels: tuple[str, ...]) -> str:
 def avoidance_reach(
     task: Any,
     q_init: Any,
-    target: Any,
+    target: SimilarityLike,
     options: AvoidanceOptions | None = None,
     *,
     collision_model: Any,
@@ -420,15 +421,15 @@ def avoidance_reach(
         rec.clearances(cfg)  # every configuration of the run passes here once
         return err(cfg)
 
-    hooks = RunHooks(error=error, step=step, record=rec, clip=o.limits != "none")
+    hooks = RunHooks(error=error, step=step, record=rec, clip=o.limit_mode != "none")
     with collect_warnings() as caught:
-        if o.limits != "none":
+        if o.limit_mode != "none":
             q = project_into_limits(task, q, "q_init")
         run = run_ik(Configuration(task, q), [sim], step.limits, dt=o.dt, steps=o.steps, tol=o.tol, hooks=hooks)
     Dm = np.array(rec.D)
     clearance = Dm.min(axis=1) if Dm.shape[1] else np.full(len(rec.D), np.inf)
     return AvoidanceResult(
-        **run_result(task, run, o.limits, caught),
+        **run_result(task, run, o.limit_mode, caught),
         mode=o.mode,
         clearance=clearance,
         clearances=Dm,

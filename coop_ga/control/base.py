@@ -31,6 +31,7 @@ import numpy as np
 from .. import validation
 from ..diagnostics import collect_warnings
 from ..errors import ChartError, InvalidInputError
+from ..geometry.groups import SimilarityLike
 
 __all__ = ["SolverResult", "resolve_options"]
 
@@ -79,7 +80,7 @@ def resolve_options(cls: type[O], options: O | None, overrides: dict[str, Any], 
 CHART_FLIP_ANGLE = np.deg2rad(179.0)
 
 
-def check_problem(task: Any, q: Any, target: Any, what: str = "q_init") -> tuple[np.ndarray, Any]:
+def check_problem(task: Any, q: Any, target: SimilarityLike, what: str = "q_init") -> tuple[np.ndarray, Any]:
     """The checks every reaching controller makes before it starts: q (nq,) and the target as a
     :class:`~coop_ga.Similarity` (:meth:`~coop_ga.CooperativeTask.check_target`: refused if it lies across
     the chart's half-turn), and a start that is not at the half-turn itself (there e = log(Ṽ_Sc V_Sd)

@@ -79,13 +79,13 @@ def _kinematics_function(model: Any) -> CompiledFunction:
 class Kinematics(NamedTuple):
     """What one evaluation of the model at q gives (copies, owned by one configuration; module docstring).
 
-    versor (12,) V_Sc; log (7,) B_Sc; jacobian (7, nq) J^G (body frame);
+    coeffs (12,) V_Sc's coefficients on SIMILARITY_BLADES; log (7,) B_Sc; jacobian (7, nq) J^G (body frame);
     points (n, 3) [m]; point_jacobians (3n, nq) [m/rad], rows 3i..3i+2 the world Jacobian of end point i;
     checks (5,) the guard's numbers (``checks[1]``: well-definedness in [0, 1]); target (12,) the V_d of the error;
     error (7,) e = log(Ṽ_Sc V_d); error_map (7, 7) K with J_e = K J^G.
     """
 
-    versor: np.ndarray
+    coeffs: np.ndarray
     log: np.ndarray
     jacobian: np.ndarray
     points: np.ndarray

@@ -324,7 +324,7 @@ def constrained_velocity(
     dt: float = 0.01,
     damping: float = 1e-3,
     constraint_gain: float = 10.0,
-    limits: str = "enforce",
+    limit_mode: str = "enforce",
     limit_gain: float = DEFAULT_LIMIT_GAIN,
     velocity: Any = None,
     acceleration_limit: bool = True,
@@ -332,7 +332,7 @@ def constrained_velocity(
     """The joint velocity q̇ (nq,) [rad/s] of one constrained step (module docstring).
 
     ``min ½‖A q̇ − b‖² + ½λ²‖q̇‖²`` s.t. ``C q̇ = −k_c (c(q) − c*)`` for every constraint and the
-    joint limits of :func:`~coop_ga.control.limits.default_limits` (``limits='enforce'``).
+    joint limits of :func:`~coop_ga.control.limits.default_limits` (``limit_mode='enforce'``).
 
     Args:
         task: a :class:`coop_ga.CooperativeTask`.  q: (nq,) [rad or m], inside the limits.
@@ -340,7 +340,7 @@ def constrained_velocity(
         constraints: :class:`EqualityConstraint` or a sequence of them (their rows must be independent).
         dt: Δt [s] over which the position limits become velocity bounds.  damping: λ ≥ 0.
         constraint_gain: k_c [1/s] ≥ 0, feedback on the constraint residual.
-        limits: ``'enforce'`` or ``'none'``.  limit_gain: γ ∈ (0, 1].
+        limit_mode: ``'enforce'`` or ``'none'``.  limit_gain: γ ∈ (0, 1].
         velocity: (nq,) the previous step's q̇ [rad/s] for the acceleration limit (None: at rest).
         acceleration_limit: impose the system's acceleration limits (``'enforce'`` only).
 
@@ -352,7 +352,7 @@ def constrained_velocity(
         InfeasibleConstraintsError: dependent constraint rows.
     """
     qv = check_q(task, q)
-    validation.choice(limits, LIMIT_MODES, "limits")
+    validation.choice(limit_mode, LIMIT_MODES, "limit_mode")
     dt = validation.positive(dt, "dt")
     damping = validation.nonnegative(damping, "damping")
     constraint_gain = validation.nonnegative(constraint_gain, "constraint_gain")
@@ -360,7 +360,7 @@ def constrained_velocity(
     Am, bv = _check_rows(task, A, b)
     cons = _check_constraints(constraints)
     cfg = Configuration(task, qv, velocity)
-    lims = step_limits(task, limits, limit_gain, acceleration_limit)
+    lims = step_limits(task, limit_mode, limit_gain, acceleration_limit)
     st = solve_step(cfg, [_Rows(Am, bv)], lims, dt, damping=damping, equality=cons, equality_gain=constraint_gain)
     return st.solution, st.feedback_dropped
 
@@ -442,7 +442,7 @@ class ConstrainedReachOptions:
     constraint_tol: ``converged`` also needs max |c − c*| ≤ constraint_tol at the final configuration.
     project: Gauss–Newton projection onto the constraints after every step (module docstring).
     projection_tol: its stopping threshold on ‖r‖_∞ [units of c]; projection_iterations: its maximum.
-    limits: ``'enforce'`` (position and velocity limits, default) or ``'none'``.
+    limit_mode: ``'enforce'`` (position and velocity limits, default) or ``'none'``.
     limit_gain: safety gain γ ∈ (0, 1] of the position bounds.
     acceleration_limit: with ``'enforce'``, the system's acceleration limits too (from rest).
     """
@@ -458,7 +458,7 @@ class ConstrainedReachOptions:
     project: bool = True
     projection_tol: float = 1e-12
     projection_iterations: int = 5
-    limits: str = "enforce"
+    limit_mode: str = "enforce"
     limit_gain: float = DEFAULT_LIMIT_GAIN
     acceleration_limit: bool = True
 
@@ -478,7 +478,7 @@ class ConstrainedReachOptions:
             raise InvalidInputError(f"project must be True or False, got {self.project!r}")
         validation.nonnegative(self.projection_tol, "projection_tol")
         validation.integer(self.projection_iterations, "projection_iterations", minimum=0)
-        validation.choice(self.limits, LIMIT_MODES, "limits")
+        validation.choice(self.limit_mode, LIMIT_MODES, "limit_mode")
         validation.scalar(self.limit_gain, "limit_gain", low=0.0, high=1.0, low_open=True)
 
 
@@ -536,7 +536,7 @@ class _Projection:
         self.failures = 0
 
     def box(self, cfg: Any, st: StepSolution) -> tuple[np.ndarray | None, np.ndarray | None]:
-        if self.o.limits != "enforce":
+        if self.o.limit_mode != "enforce":
             return None, None
         lim, q, dt = cfg.limits, cfg.q, self.o.dt
         if self.accel and st.lower is not None and st.upper is not None:  # velocity, acceleration and braking
@@ -595,11 +595,11 @@ def constrained_point_reach(
     cons = _check_constraints(constraints)
     targets = np.concatenate([c.target for c in cons]) if cons else np.zeros(0)
     goal = PositionTask(i, p_star, gain=o.gain, max_speed=o.max_speed)
-    lims = step_limits(task, o.limits, o.limit_gain, o.acceleration_limit)
+    lims = step_limits(task, o.limit_mode, o.limit_gain, o.acceleration_limit)
     proj = _Projection(task, cons, o, any(isinstance(lim, AccelerationLimit) for lim in lims))
-    hooks = RunHooks(error=lambda c: float(np.linalg.norm(goal.error(c))), after=proj, clip=o.limits == "enforce")
+    hooks = RunHooks(error=lambda c: float(np.linalg.norm(goal.error(c))), after=proj, clip=o.limit_mode == "enforce")
     with collect_warnings() as caught:
-        if o.limits == "enforce":
+        if o.limit_mode == "enforce":
             q = project_into_limits(task, q, "q_init")
         run = run_ik(
             Configuration(task, q), [goal], lims, dt=o.dt, steps=o.steps, tol=o.tol, hooks=hooks,

@@ -17,7 +17,7 @@ a body translation t moves the primitive by ``r · R t`` metres in the world.
 
     q̇ = J^G⁺ B_S,        q_{t+1} = q_t + Δt q̇.
 
-The step as a QP (``limits='enforce'``, the default)
+The step as a QP (``limit_mode='enforce'``, the default)
 ---------------------------------------------------
 Eq 48 is the minimiser of ``½‖J^G q̇ − B_S‖² + ½λ²‖q̇‖²`` (λ = ``damping``).  With the
 state and control constraints of Eq 53 (𝒳: position limits, 𝒰: velocity limits of
@@ -34,9 +34,9 @@ limits of :func:`~coop_ga.control.limits.default_limits`: DAQP through
 position limits, ``|q̇| ≤ v``, and the task motion a blocked joint cannot make is
 redistributed over the other joints (the nullspace of J^G) instead of being lost.  When the
 unconstrained Eq 48 velocity already satisfies every bound it is used as is (no QP is
-solved; results are then identical to ``limits='none'``).  ``limits='clamp'`` (the former
+solved; results are then identical to ``limit_mode='none'``).  ``limit_mode='clamp'`` (the former
 default, kept as an ablation) takes the Eq 48 step and clips q to the limits afterwards (a
-blocked joint simply stops; no velocity limit); ``limits='none'`` imposes nothing.
+blocked joint simply stops; no velocity limit); ``limit_mode='none'`` imposes nothing.
 A start outside the position limits is projected onto them first, with a
 :class:`~coop_ga.errors.JointLimitWarning`.
 
@@ -93,6 +93,7 @@ from .. import validation
 from ..cooperative.manipulability import damped_pinv
 from ..diagnostics import collect_warnings, warn
 from ..errors import InvalidInputError, JointLimitWarning
+from ..geometry.groups import SimilarityLike
 from .base import SolverResult, check_problem, check_q, resolve_options
 from .configuration import Configuration
 from .limits import Limit, UserConstraints, default_limits
@@ -150,19 +151,19 @@ def step_limits(task: Any, mode: str, limit_gain: float, acceleration: bool, con
 
 
 def _step(
-    task: Any, q: Any, command_bivector: Any, dt: Any, damping: Any, limits: Any, limit_gain: Any, constraints: Any,
+    task: Any, q: Any, command_bivector: Any, dt: Any, damping: Any, limit_mode: Any, limit_gain: Any, constraints: Any,
     velocity: Any, acceleration_limit: bool,
 ) -> tuple[np.ndarray, QPSolution]:  # fmt: skip
-    validation.choice(limits, LIMIT_MODES, "limits")
+    validation.choice(limit_mode, LIMIT_MODES, "limit_mode")
     dt = validation.positive(dt, "dt")
     damping = validation.nonnegative(damping, "damping")
     gain = _check_gain(limit_gain)
     qv = check_q(task, q)
     b = _check_bivector(command_bivector)
-    if limits != "none":
+    if limit_mode != "none":
         qv = project_into_limits(task, qv)
     cfg = Configuration(task, qv, None if velocity is None else check_q(task, velocity, "velocity"))
-    lims = step_limits(task, limits, gain, acceleration_limit, constraints)
+    lims = step_limits(task, limit_mode, gain, acceleration_limit, constraints)
     return qv, solve_step(cfg, [BodyVelocityTask(b)], lims, dt, damping=damping).solution
 
 
@@ -173,7 +174,7 @@ def diff_ik_velocity(
     *,
     dt: float = 0.01,
     damping: float = 1e-3,
-    limits: str = "enforce",
+    limit_mode: str = "enforce",
     limit_gain: float = DEFAULT_LIMIT_GAIN,
     constraints: Any = None,
     velocity: Any = None,
@@ -188,7 +189,7 @@ def diff_ik_velocity(
         command_bivector: (7,) body-frame similarity velocity B_S [rad/s, 1/s, body length/s].
         dt: Δt [s] (> 0), over which the position limits are turned into velocity bounds.
         damping: λ (≥ 0).
-        limits: ``'enforce'``, ``'clamp'`` or ``'none'`` (for ``'clamp'`` the velocity is the
+        limit_mode: ``'enforce'``, ``'clamp'`` or ``'none'`` (for ``'clamp'`` the velocity is the
             unconstrained one: clipping happens on q).
         limit_gain: γ ∈ (0, 1], the fraction of the remaining range a joint may cover per step.
         constraints: user rows ``G q̇ ≤ h`` (:class:`~coop_ga.control.qp.LinearConstraint`, a
@@ -203,7 +204,7 @@ def diff_ik_velocity(
     Raises:
         InfeasibleConstraintsError: the constraints and limits have no common point.
     """
-    mode = "none" if limits == "clamp" else limits
+    mode = "none" if limit_mode == "clamp" else limit_mode
     return _step(task, q, command_bivector, dt, damping, mode, limit_gain, constraints, velocity, acceleration_limit)[1]
 
 
@@ -213,7 +214,7 @@ def diff_ik_step(
     command_bivector: Any,
     dt: float = 0.01,
     damping: float = 1e-3,
-    limits: str = "enforce",
+    limit_mode: str = "enforce",
     *,
     limit_gain: float = DEFAULT_LIMIT_GAIN,
     constraints: Any = None,
@@ -228,7 +229,7 @@ def diff_ik_step(
         command_bivector: (7,) body-frame similarity velocity B_S on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``
             [rad/s, 1/s, body length/s], in the current cooperative frame (``V(q_next) ≈ V(q) exp(Δt B_S)``).
         dt: time step Δt [s] (> 0).  damping: λ of the damped least squares (≥ 0; 0 = Moore–Penrose).
-        limits: ``'enforce'`` (default: QP with the limits of ``task.system.limits``, q_next inside the
+        limit_mode: ``'enforce'`` (default: QP with the limits of ``task.system.limits``, q_next inside the
             position limits), ``'clamp'`` (ablation: unconstrained step, then q_next clipped) or ``'none'``.
         limit_gain: γ ∈ (0, 1] of the position bounds (module docstring).
         constraints: user rows ``G q̇ ≤ h`` on the joint velocity [rad/s], or None.
@@ -242,10 +243,10 @@ def diff_ik_step(
     Raises:
         InfeasibleConstraintsError: incompatible constraints.
     """
-    mode = "none" if limits == "clamp" else limits
+    mode = "none" if limit_mode == "clamp" else limit_mode
     qv, sol = _step(task, q, command_bivector, dt, damping, mode, limit_gain, constraints, velocity, acceleration_limit)
     q_next = advance(qv, sol.x, dt)
-    if limits != "none":  # 'enforce': only rounding (γ(bound − q) reaches the bound at most); 'clamp': the ablation
+    if limit_mode != "none":  # 'enforce': only rounding (γ(bound − q) reaches the bound at most); 'clamp': the ablation
         lim = task.system.limits
         np.clip(q_next, lim.lower, lim.upper, out=q_next)
     return q_next
@@ -260,7 +261,7 @@ class DiffIKOptions:
     steps: maximum number of steps (≥ 0); ``steps · dt`` is the time budget (default 2.5 s).
     damping: λ of the damped least squares (≥ 0).
     tol: converged when ‖e‖ < tol (≥ 0).
-    limits: ``'enforce'`` (QP with position, velocity and acceleration limits), ``'clamp'`` (ablation:
+    limit_mode: ``'enforce'`` (QP with position, velocity and acceleration limits), ``'clamp'`` (ablation:
         clip q after an unconstrained step) or ``'none'``.
     limit_gain: safety gain γ ∈ (0, 1] of the position bounds (``'enforce'``).
     acceleration_limit: with ``'enforce'``, also the system's acceleration limits (if it has any; the
@@ -272,7 +273,7 @@ class DiffIKOptions:
     steps: int = 250
     damping: float = 1e-3
     tol: float = 1e-4
-    limits: str = "enforce"
+    limit_mode: str = "enforce"
     limit_gain: float = DEFAULT_LIMIT_GAIN
     acceleration_limit: bool = True
 
@@ -282,7 +283,7 @@ class DiffIKOptions:
         validation.integer(self.steps, "steps", minimum=0)
         validation.nonnegative(self.damping, "damping")
         validation.nonnegative(self.tol, "tol")
-        validation.choice(self.limits, LIMIT_MODES, "limits")
+        validation.choice(self.limit_mode, LIMIT_MODES, "limit_mode")
         _check_gain(self.limit_gain)
         if not isinstance(self.acceleration_limit, bool):
             raise InvalidInputError(f"acceleration_limit must be True or False, got {self.acceleration_limit!r}")
@@ -293,10 +294,10 @@ class DiffIKResult(SolverResult):
     """Result of :func:`diff_ik_reach` (fields of :class:`~coop_ga.control.base.SolverResult` plus):
 
     trajectory: (T, nq) configurations, ``trajectory[0] = q_init`` (projected onto the limits
-        unless ``limits='none'``), T = iterations + 1.
+        unless ``limit_mode='none'``), T = iterations + 1.
     errors: (T,) ``‖log(Ṽ_Sc(q_t) V_Sd)‖`` at each configuration (mixed units: rad, log
         scale, m — the plain Euclidean norm of the 7-vector).
-    limits: the limit mode used.
+    limit_mode: the limit mode used.
     limit_violation: largest excursion of any configuration of the trajectory outside the
         position limits [rad or m] (0 with ``'enforce'`` and ``'clamp'``).
     velocity_violation: largest excess of ``|q_{t+1} − q_t|/Δt`` over the velocity limits
@@ -317,7 +318,7 @@ class DiffIKResult(SolverResult):
 
     trajectory: np.ndarray
     errors: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    limits: str = "enforce"
+    limit_mode: str = "enforce"
     limit_violation: float = 0.0
     velocity_violation: float = 0.0
     max_acceleration_violation: float = 0.0
@@ -358,7 +359,7 @@ def run_result(task: Any, run: IKRun, mode: str, caught: Any, extra: int = 0) ->
         warnings=dict(caught.counts),
         trajectory=run.trajectory,
         errors=run.errors,
-        limits=mode,
+        limit_mode=mode,
         limit_violation=run.max_position_violation,
         velocity_violation=run.max_velocity_violation,
         max_acceleration_violation=run.max_acceleration_violation,
@@ -373,7 +374,7 @@ def _warn_outside(task: Any, q: np.ndarray) -> None:
     lim = task.system.limits
     if lim.position_violation(q) > 0.0:
         warn(
-            f"diff_ik_reach(limits='none'): the final configuration is outside the joint limits by up to "
+            f"diff_ik_reach(limit_mode='none'): the final configuration is outside the joint limits by up to "
             f"{lim.position_violation(q):.3g} ({lim.describe(q)})",
             JointLimitWarning,
             key=str(task.system.name),
@@ -383,7 +384,7 @@ def _warn_outside(task: Any, q: np.ndarray) -> None:
 def diff_ik_reach(
     task: Any,
     q_init: Any,
-    target: Any,
+    target: SimilarityLike,
     options: DiffIKOptions | None = None,
     *,
     constraints: Any = None,
@@ -395,7 +396,7 @@ def diff_ik_reach(
     :func:`step_limits`, iterated by :func:`~coop_ga.control.run_ik` (one compiled evaluation per step).
     Stops when ‖e‖ < ``tol`` or after ``steps`` steps.  Non-convergence (unreachable target, joint
     limits, singularity) is reported as ``converged=False``; ``converged`` also requires every
-    configuration inside the position limits unless ``limits='none'`` (then a final configuration outside
+    configuration inside the position limits unless ``limit_mode='none'`` (then a final configuration outside
     them is reported by a :class:`~coop_ga.errors.JointLimitWarning` and ``limit_violation``), and within
     the acceleration limits when they were imposed.
 
@@ -413,16 +414,16 @@ def diff_ik_reach(
     o = resolve_options(DiffIKOptions, options, overrides, "diff_ik_reach")
     q, Vd = check_problem(task, q_init, target, "q_init")
     sim = SimilarityTask(Vd, gain=o.gain)
-    mode = "none" if o.limits == "clamp" else o.limits
+    mode = "none" if o.limit_mode == "clamp" else o.limit_mode
     lims = step_limits(task, mode, o.limit_gain, o.acceleration_limit, constraints)
     clipped = [0]
-    hooks = clamp_hooks(o.dt, clipped) if o.limits == "clamp" else RunHooks(clip=o.limits == "enforce")
+    hooks = clamp_hooks(o.dt, clipped) if o.limit_mode == "clamp" else RunHooks(clip=o.limit_mode == "enforce")
     hooks.error = similarity_error_norm(sim)
     with collect_warnings() as caught:
-        if o.limits != "none":
+        if o.limit_mode != "none":
             q = project_into_limits(task, q, "q_init")
         cfg = Configuration(task, q)
         run = run_ik(cfg, [sim], lims, dt=o.dt, steps=o.steps, tol=o.tol, hooks=hooks, damping=o.damping)
-        if o.limits == "none":
+        if o.limit_mode == "none":
             _warn_outside(task, run.trajectory[-1])
-    return DiffIKResult(**run_result(task, run, o.limits, caught, clipped[0]))
+    return DiffIKResult(**run_result(task, run, o.limit_mode, caught, clipped[0]))

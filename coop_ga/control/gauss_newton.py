@@ -16,7 +16,7 @@ is evaluated through the SVD ``J_e = U S Vᵀ`` as ``Δq = −V diag(s/(s²+λ²
 e.g. rank 6 for a circle, 4 for a sphere or line).  With ``line_search=True`` a
 backtracking Armijo search on ``f = ½‖e‖²`` picks the step length α ∈ {1, ½, ¼, …}.
 
-Joint limits (``limits='enforce'``, the default)
+Joint limits (``limit_mode='enforce'``, the default)
 -----------------------------------------------
 Eq 43 with the state constraint of Eq 53 (q ∈ 𝒳 = [lower, upper] of ``task.system.limits``):
 each iteration solves the bounded, damped least-squares problem
@@ -27,7 +27,7 @@ each iteration solves the bounded, damped least-squares problem
 (:func:`coop_ga.control.qp.solve_qp`, DAQP) whenever the unconstrained step above — scaled
 to the trust bound ``max_step`` as before — would leave the limits; otherwise the
 unconstrained step is taken, so iterations that touch no limit are exactly those of
-``limits='none'``.  The Armijo search then backtracks along Δq: every trial point
+``limit_mode='none'``.  The Armijo search then backtracks along Δq: every trial point
 ``q + αΔq``, α ∈ (0, 1], is a convex combination of the feasible points q and q + Δq, so
 the iterate never leaves the limits.  A start outside the limits is projected onto them
 (:class:`~coop_ga.errors.JointLimitWarning`).  Stationarity is tested on the *projected*
@@ -40,8 +40,8 @@ unconstrained Gauss–Newton reported ``converged`` outside the limits on 153; t
 never leaves them and converges on 99.7 % of the 1637 targets that some solver reached inside
 the limits (100 % of those the unconstrained solver reached inside them), median 4 iterations.
 
-``limits='clamp'`` (ablation, a projected Gauss–Newton that clips each trial point) and
-``limits='none'`` (Eq 43 unconstrained; a final q outside the limits is reported by a
+``limit_mode='clamp'`` (ablation, a projected Gauss–Newton that clips each trial point) and
+``limit_mode='none'`` (Eq 43 unconstrained; a final q outside the limits is reported by a
 :class:`~coop_ga.errors.JointLimitWarning` and ``limit_violation``) remain available.
 
 Non-convergence (unreachable target, a local minimum with e ≠ 0, joint limits) is
@@ -59,6 +59,7 @@ import numpy as np
 from .. import validation
 from ..diagnostics import collect_warnings, warn
 from ..errors import DegeneratePrimitiveError, InvalidInputError, JointLimitWarning
+from ..geometry.groups import SimilarityLike
 from .base import SolverResult, bounds, check_problem, resolve_options
 from .qp import describe_active, project_into_limits, solve_qp
 
@@ -82,14 +83,14 @@ class GaussNewtonOptions:
     max_step: trust bound [rad]: a step whose largest joint change exceeds it is scaled
         down to it before the line search (keeps the linearisation meaningful far from the
         solution; no effect near convergence, so the local rate stays quadratic); in the
-        bounded QP of ``limits='enforce'`` it is the box ``|Δq|∞ ≤ max_step``.
+        bounded QP of ``limit_mode='enforce'`` it is the box ``|Δq|∞ ≤ max_step``.
         ``inf`` disables it.
     gtol, xtol: stop (``converged=False``) when ``‖J_eᵀ e‖ ≤ gtol · ‖J_e‖_F · ‖e‖`` (a
         stationary point with e ≠ 0: local minimum / unreachable target) or when the
         step's max-norm is ≤ ``xtol · (1 + max|q|)``.
     ftol, stall_window: stop (stalled) when ‖e‖ decreased by less than ``ftol·‖e‖`` over
         the last ``stall_window`` iterations.
-    limits: ``'enforce'`` (default: bounded least-squares steps, the iterate never leaves
+    limit_mode: ``'enforce'`` (default: bounded least-squares steps, the iterate never leaves
         the joint limits; module docstring), ``'none'`` (the problem is unconstrained as in
         Eq 43) or ``'clamp'`` (ablation: every trial point is clipped to the joint limits, a
         projected Gauss–Newton).
@@ -106,7 +107,7 @@ class GaussNewtonOptions:
     xtol: float = 1e-14
     ftol: float = 1e-6
     stall_window: int = 10
-    limits: str = "enforce"
+    limit_mode: str = "enforce"
 
     def __post_init__(self) -> None:
         validation.integer(self.max_iter, "max_iter", minimum=0)
@@ -121,7 +122,7 @@ class GaussNewtonOptions:
         validation.nonnegative(self.xtol, "xtol")
         validation.nonnegative(self.ftol, "ftol")
         validation.integer(self.stall_window, "stall_window", minimum=1)
-        validation.choice(self.limits, LIMIT_MODES, "limits")
+        validation.choice(self.limit_mode, LIMIT_MODES, "limit_mode")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -129,11 +130,11 @@ class IKResult(SolverResult):
     """Result of :func:`gauss_newton_ik` (fields of :class:`~coop_ga.control.base.SolverResult` plus):
 
     history: (iterations + 1,) error norms, ``history[0]`` at ``q_init`` (projected onto the
-        limits unless ``limits='none'``).
+        limits unless ``limit_mode='none'``).
     step_sizes: (iterations,) accepted line-search step lengths α.
-    limits: the limit mode used.
+    limit_mode: the limit mode used.
     limit_violation: excursion of ``q`` outside the position limits [rad or m] (0 unless
-        ``limits='none'``).
+        ``limit_mode='none'``).
     active_iterations: iterations whose step was a bounded QP (the unconstrained step would
         have left the limits).
     active_limits: the joint limits active at the final configuration (a joint on its limit
@@ -143,7 +144,7 @@ class IKResult(SolverResult):
 
     history: np.ndarray = field(default_factory=lambda: np.zeros(0))
     step_sizes: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    limits: str = "enforce"
+    limit_mode: str = "enforce"
     limit_violation: float = 0.0
     active_iterations: int = 0
     active_limits: tuple[str, ...] = ()
@@ -162,7 +163,7 @@ def _at_bounds(q: np.ndarray, lo: np.ndarray, hi: np.ndarray, grad: np.ndarray) 
 
 
 def gauss_newton_ik(
-    task: Any, q_init: Any, target: Any, options: GaussNewtonOptions | None = None, **overrides: Any
+    task: Any, q_init: Any, target: SimilarityLike, options: GaussNewtonOptions | None = None, **overrides: Any
 ) -> IKResult:
     """Solve ``V_Sc(q) = V_Sd`` by damped Gauss–Newton with Armijo backtracking (Eq 43–47),
     within the joint limits by default (bounded least-squares steps, module docstring).
@@ -171,12 +172,12 @@ def gauss_newton_ik(
     ----------
     task: a :class:`coop_ga.CooperativeTask`.
     q_init: (nq,) initial configuration [rad or m] (projected onto the limits, with a
-        :class:`~coop_ga.errors.JointLimitWarning`, if it lies outside and ``limits != 'none'``).
+        :class:`~coop_ga.errors.JointLimitWarning`, if it lies outside and ``limit_mode != 'none'``).
     target: V_Sd, a :class:`~coop_ga.Similarity` (e.g. from :func:`coop_ga.control.displaced_target`).
     options: :class:`GaussNewtonOptions`; keyword ``overrides`` replace its fields.
 
     Returns an :class:`IKResult`; ``converged`` iff ‖e‖ < ``tol`` and q is inside the limits
-    (for ``limits='none'``: ‖e‖ < tol; ``limit_violation`` says how far outside q is).
+    (for ``limit_mode='none'``: ‖e‖ < tol; ``limit_violation`` says how far outside q is).
 
     Trial points at which the cooperative primitive degenerates
     (:class:`~coop_ga.errors.DegeneratePrimitiveError`, e.g. collinear points for a circle)
@@ -187,16 +188,16 @@ def gauss_newton_ik(
     o = resolve_options(GaussNewtonOptions, options, overrides, "gauss_newton_ik")
     q, Vd = check_problem(task, q_init, target, "q_init")
     with collect_warnings() as caught:
-        if o.limits != "none":
+        if o.limit_mode != "none":
             q = project_into_limits(task, q, "q_init")
         run = _Run(task, Vd, o, q)
         run.iterate()
         if run.it:
             task.error_and_jacobian(run.q, Vd)  # re-check the final configuration (reported once)
         violation = task.system.limits.position_violation(run.q)
-        if o.limits == "none" and violation > 0.0:
+        if o.limit_mode == "none" and violation > 0.0:
             warn(
-                f"gauss_newton_ik(limits='none'): the solution is outside the joint limits by up to {violation:.3g} "
+                f"gauss_newton_ik(limit_mode='none'): the solution is outside the joint limits by up to {violation:.3g} "
                 f"({task.system.limits.describe(run.q)})",
                 JointLimitWarning,
                 key=str(task.system.name),
@@ -210,7 +211,7 @@ class _Run:
     def __init__(self, task: Any, Vd: Any, o: GaussNewtonOptions, q: np.ndarray):
         self.task, self.Vd, self.o = task, Vd, o
         self.lo, self.hi = bounds(task)
-        self.enforce = o.limits == "enforce"
+        self.enforce = o.limit_mode == "enforce"
         self.q = q
         self.e, self.Je = task.error_and_jacobian(q, Vd)
         self.f = 0.5 * float(self.e @ self.e)
@@ -297,7 +298,7 @@ class _Run:
         alpha = 1.0
         while True:
             qt = self.q + alpha * dq
-            if o.limits != "none":  # 'clamp': the ablation; 'enforce': rounding only (q + Δq is feasible)
+            if o.limit_mode != "none":  # 'clamp': the ablation; 'enforce': rounding only (q + Δq is feasible)
                 np.clip(qt, self.lo, self.hi, out=qt)
             ft, et, Jt = self._trial(qt)
             if ft < np.inf and (not o.line_search or ft <= self.f + o.armijo * alpha * min(slope, 0.0)):
@@ -316,10 +317,10 @@ class _Run:
     def result(self, violation: float, warnings: dict[str, int]) -> IKResult:
         o, q = self.o, self.q
         active: tuple[str, ...] = ()
-        if o.limits != "none":
+        if o.limit_mode != "none":
             at_lo, at_hi = _at_bounds(q, self.lo, self.hi, self.Je.T @ self.e)
             active = describe_active(self.task, q, np.flatnonzero(at_lo), np.flatnonzero(at_hi))
-        converged = self.hist[-1] < o.tol and (o.limits == "none" or violation <= 1e-9)
+        converged = self.hist[-1] < o.tol and (o.limit_mode == "none" or violation <= 1e-9)
         message = self.message
         if converged:
             message = "converged"
@@ -334,7 +335,7 @@ class _Run:
             warnings=warnings,
             history=np.array(self.hist),
             step_sizes=np.array(self.alphas),
-            limits=o.limits,
+            limit_mode=o.limit_mode,
             limit_violation=violation,
             active_iterations=self.active_iters,
             active_limits=active,

@@ -80,6 +80,7 @@ import numpy as np
 from .. import validation
 from ..diagnostics import collect_warnings, warn
 from ..errors import CoopGAError, InvalidInputError, JointLimitWarning, NonFiniteError
+from ..geometry.groups import SimilarityLike
 from .base import SolverResult, check_q, resolve_options
 from .dynamics import task_inertia
 
@@ -148,7 +149,9 @@ class ImpedanceOptions:
             raise InvalidInputError(f"warn_limits must be True or False, got {self.warn_limits!r}")
 
 
-def error_rate(task: Any, q: Any, qd: Any, target: Any, mode: str = "exact") -> tuple[np.ndarray, np.ndarray]:
+def error_rate(
+    task: Any, q: Any, qd: Any, target: SimilarityLike, mode: str = "exact"
+) -> tuple[np.ndarray, np.ndarray]:
     """``(B_e, Ḃ_e)`` (7,), (7,) at (q, q̇): exact ``Ḃ_e = J_e q̇`` or approximate ``−J^G q̇``."""
     validation.choice(mode, ("exact", "approx"), "mode")
     qdv = check_q(task, qd, "qd")
@@ -225,7 +228,7 @@ class ImpedanceResult(SolverResult):
 class _Controller:
     """Per-step impedance law with preallocated state (used by :func:`simulate_impedance`)."""
 
-    def __init__(self, task: Any, target: Any, o: ImpedanceOptions):
+    def __init__(self, task: Any, target: SimilarityLike, o: ImpedanceOptions):
         import pinocchio as pin
 
         self.pin = pin
@@ -268,7 +271,7 @@ class _Controller:
 
 
 def impedance_torque(
-    task: Any, q: Any, qd: Any, target: Any, options: ImpedanceOptions | None = None, **overrides: Any
+    task: Any, q: Any, qd: Any, target: SimilarityLike, options: ImpedanceOptions | None = None, **overrides: Any
 ) -> np.ndarray:
     """Joint torque τ (nq,) [N m] of the similarity impedance law (Eq 49–52) at (q, q̇).
 
@@ -344,7 +347,7 @@ def _message(En: np.ndarray, small: bool, o: ImpedanceOptions, stats: dict[str, 
 def simulate_impedance(
     task: Any,
     q_init: Any,
-    target: Any,
+    target: SimilarityLike,
     options: ImpedanceOptions | None = None,
     *,
     qd_init: Any = None,

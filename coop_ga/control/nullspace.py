@@ -14,7 +14,7 @@ and the secondary motion leaves V_Sc unchanged to first order; the primary feedb
 ``project=False`` the secondary velocity is applied unprojected and without the primary
 term — the paper's Fig. 16 counter-example, where the similarity distance grows.
 
-Joint limits (``limits='enforce'``, the default): a two-level QP per step
+Joint limits (``limit_mode='enforce'``, the default): a two-level QP per step
 -----------------------------------------------------------------------
 With the position and velocity limits of ``task.system.limits`` turned into the joint
 velocity box ``lb ≤ q̇ ≤ ub`` of :func:`coop_ga.control.qp.velocity_bounds` (position limits
@@ -28,7 +28,7 @@ of its row space), so ``J^G q̇ = J^G q̇₁``: the secondary task can use every
 limits leave free but never changes the primary's task velocity.  When no bound is
 active this is exactly Eq 60, ``q̇ = q̇₁ + N q̇₂`` (and that formula is then used as is, so
 the unconstrained numbers are unchanged); when the secondary task runs into a limit it
-stops there while V_Sc stays held.  ``limits='clamp'`` (Eq 60, then q clipped) and
+stops there while V_Sc stays held.  ``limit_mode='clamp'`` (Eq 60, then q clipped) and
 ``'none'`` remain for comparison; ``project=False`` applies q̇₂ alone (clipped into the
 velocity box with ``'enforce'``).
 
@@ -53,6 +53,7 @@ import numpy as np
 from .. import validation
 from ..diagnostics import collect_warnings
 from ..errors import InvalidInputError
+from ..geometry.groups import SimilarityLike
 from ..geometry.primitives import center, normal
 from .base import SolverResult, check_q, resolve_options
 from .configuration import Configuration
@@ -114,14 +115,14 @@ def _step(
 def nullspace_step(
     task: Any,
     q: Any,
-    V_hold: Any,
+    V_hold: SimilarityLike,
     qd_secondary: Any,
     *,
     dt: float = 0.01,
     primary_gain: float = 10.0,
     damping: float = 0.0,
     project: bool = True,
-    limits: str = "enforce",
+    limit_mode: str = "enforce",
     limit_gain: float = DEFAULT_LIMIT_GAIN,
     constraints: Any = None,
     velocity: Any = None,
@@ -133,13 +134,13 @@ def nullspace_step(
     Args:
         task: a :class:`coop_ga.CooperativeTask`.
         q: (nq,) [rad or m] (projected onto the limits, with a :class:`~coop_ga.errors.JointLimitWarning`,
-            if outside and limits ≠ 'none').
+            if outside and limit_mode ≠ 'none').
         V_hold: the similarity versor to keep (primary task).
         qd_secondary: (nq,) secondary joint velocity q̇_2 [rad/s].
         dt: step [s].  primary_gain: k_p [1/s] of the primary error feedback (0 disables it).
         damping: λ of the pseudo-inverse in J⁺ and N (0 = exact projector, ``J N = 0``).
         project: False applies q̇_2 directly, without projection and without primary term.
-        limits: ``'enforce'`` (default: position, velocity and acceleration limits, two-level QP),
+        limit_mode: ``'enforce'`` (default: position, velocity and acceleration limits, two-level QP),
             ``'clamp'`` (Eq 60, then clip q; may break ``J N = 0``) or ``'none'``.
         limit_gain: safety gain γ ∈ (0, 1] of the position bounds.
         constraints: user rows ``G q̇ ≤ h`` on the joint velocity [rad/s], imposed on both levels.
@@ -149,7 +150,7 @@ def nullspace_step(
     Raises:
         InfeasibleConstraintsError: the constraints cannot be met with the limits.
     """
-    validation.choice(limits, LIMIT_MODES, "limits")
+    validation.choice(limit_mode, LIMIT_MODES, "limit_mode")
     dt = validation.positive(dt, "dt")
     primary_gain = validation.nonnegative(primary_gain, "primary_gain")
     damping = validation.nonnegative(damping, "damping")
@@ -159,13 +160,15 @@ def nullspace_step(
     q = check_q(task, q)
     qd2 = check_q(task, qd_secondary, "qd_secondary")
     hold = validation.target(V_hold, "V_hold")
-    if limits != "none":
+    if limit_mode != "none":
         q = project_into_limits(task, q)
     cfg = Configuration(task, q, None if velocity is None else check_q(task, velocity, "velocity"))
-    lims = step_limits(task, "none" if limits == "clamp" else limits, limit_gain, acceleration_limit, constraints)
+    lims = step_limits(
+        task, "none" if limit_mode == "clamp" else limit_mode, limit_gain, acceleration_limit, constraints
+    )
     st = _step(cfg, hold, JointVelocityTask(qd2), dt, primary_gain, damping, project, lims)
     q_next = advance(q, st.velocity, dt)
-    if limits != "none":  # 'enforce': rounding only; 'clamp': the ablation
+    if limit_mode != "none":  # 'enforce': rounding only; 'clamp': the ablation
         lim = task.system.limits
         np.clip(q_next, lim.lower, lim.upper, out=q_next)
     return q_next
@@ -196,7 +199,7 @@ class NullspaceOptions:
     damping: λ of the pseudo-inverse in J⁺ and N (0 = exact projector, ``J N = 0``).
     project: False applies q̇_2 unprojected and without the primary term (Fig. 16).
     tol: the result is ``converged`` when the final point error < tol [m].
-    limits: ``'enforce'`` (default, two-level QP with the joint limits), ``'clamp'`` or ``'none'``.
+    limit_mode: ``'enforce'`` (default, two-level QP with the joint limits), ``'clamp'`` or ``'none'``.
     limit_gain: safety gain γ ∈ (0, 1] of the position bounds.
     acceleration_limit: with ``'enforce'``, the system's acceleration limits too (from rest).
     """
@@ -209,7 +212,7 @@ class NullspaceOptions:
     damping: float = 0.0
     project: bool = True
     tol: float = 1e-3
-    limits: str = "enforce"
+    limit_mode: str = "enforce"
     limit_gain: float = DEFAULT_LIMIT_GAIN
     acceleration_limit: bool = True
 
@@ -226,7 +229,7 @@ class NullspaceOptions:
         if not isinstance(self.project, bool):
             raise InvalidInputError(f"project must be True or False, got {self.project!r}")
         validation.nonnegative(self.tol, "tol")
-        validation.choice(self.limits, LIMIT_MODES, "limits")
+        validation.choice(self.limit_mode, LIMIT_MODES, "limit_mode")
         validation.scalar(self.limit_gain, "limit_gain", low=0.0, high=1.0, low_open=True)
 
 
@@ -238,7 +241,7 @@ class NullspaceResult(SolverResult):
     t (T,) [s]; trajectory (T, nq); points (T, 3) the controlled end point [m];
     point_error (T,) ‖p_i − p*‖ [m]; similarity_distance (T,) ‖log(Ṽ_Sc(q_0) V_Sc(q_t))‖;
     target_point (3,); projected: whether Eq 60 was used.
-    limits: the limit mode; limit_violation: largest excursion of the trajectory outside the
+    limit_mode: the limit mode; limit_violation: largest excursion of the trajectory outside the
     position limits [rad or m]; velocity_violation: largest excess of |Δq/Δt| over the velocity
     limits [rad/s]; active_steps: steps at which a bound or constraint was active (the QP of
     the module docstring was solved); active_limits: bounds active at the last step;
@@ -254,7 +257,7 @@ class NullspaceResult(SolverResult):
     similarity_distance: np.ndarray
     target_point: np.ndarray
     projected: bool
-    limits: str = "enforce"
+    limit_mode: str = "enforce"
     limit_violation: float = 0.0
     velocity_violation: float = 0.0
     active_steps: int = 0
@@ -270,7 +273,7 @@ def nullspace_point_reach(
     target_point: Any,
     options: NullspaceOptions | None = None,
     *,
-    V_hold: Any = None,
+    V_hold: SimilarityLike | None = None,
     constraints: Any = None,
     **overrides: Any,
 ) -> NullspaceResult:
@@ -291,10 +294,10 @@ def nullspace_point_reach(
     n = round(o.duration / o.dt)
     secondary = PositionTask(index, p_star, gain=o.secondary_gain, max_speed=o.max_speed, form="joint")
     lims = step_limits(
-        task, "none" if o.limits == "clamp" else o.limits, o.limit_gain, o.acceleration_limit, constraints
+        task, "none" if o.limit_mode == "clamp" else o.limit_mode, o.limit_gain, o.acceleration_limit, constraints
     )
     with collect_warnings() as caught:
-        if o.limits != "none":
+        if o.limit_mode != "none":
             q = project_into_limits(task, q, "q_init")
         hold = task.similarity(q) if V_hold is None else validation.target(V_hold, "V_hold")
         V0 = task.similarity(q)
@@ -302,18 +305,18 @@ def nullspace_point_reach(
         def step(cfg: Any) -> StepSolution:
             return _step(cfg, hold, secondary, o.dt, o.primary_gain, o.damping, o.project, lims)
 
-        hooks = RunHooks(step=step, clip=o.limits != "none")
+        hooks = RunHooks(step=step, clip=o.limit_mode != "none")
         run = run_ik(Configuration(task, q), [secondary], lims, dt=o.dt, steps=n, hooks=hooks)
         Qa = run.trajectory
         P = np.array([task.points(qk)[index] for qk in Qa])
         V0i = V0.inverse()
         dist = np.array([np.linalg.norm((V0i @ task.similarity(qk)).log()) for qk in Qa])
     err = np.linalg.norm(P - p_star, axis=1)
-    converged = bool(err[-1] < o.tol and (run.converged or o.limits == "none"))
+    converged = bool(err[-1] < o.tol and (run.converged or o.limit_mode == "none"))
     msg = f"end point {index} is {err[-1]:.3g} m from the target after {o.duration:g} s"
     if run.infeasible:
         msg += f"; {run.message}"
-    elif not run.converged and o.limits != "none":
+    elif not run.converged and o.limit_mode != "none":
         msg += f"; {run.message}"
     if not converged and run.active_limits:
         msg += f"; bounds active at the last step: {', '.join(run.active_limits)}"
@@ -331,7 +334,7 @@ def nullspace_point_reach(
         similarity_distance=dist,
         target_point=p_star,
         projected=o.project,
-        limits=o.limits,
+        limit_mode=o.limit_mode,
         limit_violation=run.max_position_violation,
         velocity_violation=run.max_velocity_violation,
         active_steps=run.active_steps,

@@ -606,7 +606,7 @@ def project_into_limits(task: Any, q: np.ndarray, what: str = "q") -> np.ndarray
     if lim.position_violation(q) > 0.0:
         warn(
             f"{what} lies outside the joint limits of '{task.system.name}' by up to {lim.position_violation(q):.3g} "
-            f"({lim.describe(q)}); it was projected onto the limits before solving (pass limits='none' to "
+            f"({lim.describe(q)}); it was projected onto the limits before solving (pass limit_mode='none' to "
             "solve without limits)",
             JointLimitWarning,
             key=str(task.system.name),

@@ -167,22 +167,25 @@ class ReferenceProblem:
     ----------
     ocp: the :class:`~coop_ga.control.ilqr.ReachingOCP` (task, q_init, q̇_init, target,
         horizon n, Δt, R, Q, Q_v).
-    limits: the bounds — a :class:`~coop_ga.systems.limits.JointLimits`, ``"none"`` (no
-        bounds: the unconstrained OCP), or None (default): ``ocp.task.system.limits`` unless
-        the OCP says ``limits="none"``.
+    limits: the bounds, a :class:`~coop_ga.systems.limits.JointLimits` of the OCP's joints, or None
+        (default): ``ocp.task.system.limits``.
+    limit_mode: ``"enforce"`` (those bounds), ``"none"`` (no bounds: the unconstrained OCP) or None
+        (default): the OCP's own ``limit_mode``.
     terminal: ``"soft"`` (default, Eq 57: ``eᵀQe`` in the cost) or ``"constraint"`` (``e(q_n) = 0``).
 
     The Opti problem is built once; :meth:`solve` may be called several times (each solver
     creates its nlpsol on its first solve).
     """
 
-    def __init__(self, ocp: Any, limits: JointLimits | str | None = None, *, terminal: str = "soft"):
+    def __init__(
+        self, ocp: Any, limits: JointLimits | None = None, *, limit_mode: str | None = None, terminal: str = "soft"
+    ):
         import casadi as ca
 
         t0 = time.perf_counter()
         self.ocp = ocp
         self.terminal = validation.choice(terminal, ("soft", "constraint"), "terminal")
-        self.limits: JointLimits | None = _resolve_limits(ocp, limits)
+        self.limits: JointLimits | None = _resolve_limits(ocp, limits, limit_mode)
         n, N, dt = ocp.nq, ocp.horizon, ocp.dt
         h = 0.5 * dt * dt
         opti = ca.Opti()
@@ -368,13 +371,15 @@ class ReferenceProblem:
         )
 
 
-def _resolve_limits(ocp: Any, limits: JointLimits | str | None) -> JointLimits | None:
-    """The bounds of the problem: ``limits`` checked against the OCP's joints (None: the OCP's choice)."""
-    if limits is None:
-        limits = "none" if getattr(ocp, "limits", "enforce") == "none" else ocp.task.system.limits
-    if isinstance(limits, str):
-        validation.choice(limits, ("none",), "limits")
+def _resolve_limits(ocp: Any, limits: JointLimits | None, limit_mode: str | None) -> JointLimits | None:
+    """The bounds of the problem (None: none): ``limits`` (None: the system's) checked against the OCP's joints,
+    unless the limit mode (None: the OCP's) is ``"none"``."""
+    if limit_mode is None:
+        limit_mode = getattr(ocp, "limit_mode", "enforce")
+    if validation.choice(limit_mode, ("enforce", "none"), "limit_mode") == "none":
         return None
+    if limits is None:
+        return ocp.task.system.limits
     if isinstance(limits, JointLimits):
         own = tuple(ocp.task.system.limits.joint_names)
         if limits.nq != ocp.nq or tuple(limits.joint_names) != own:
@@ -383,7 +388,9 @@ def _resolve_limits(ocp: Any, limits: JointLimits | str | None) -> JointLimits |
                 f"the OCP's task has {list(own)[:3]}… ({ocp.nq}): they must match in order"
             )
         return limits
-    raise InvalidInputError(f"limits must be a JointLimits, 'none' or None, got {type(limits).__name__}")
+    raise InvalidInputError(
+        f"limits must be a JointLimits or None, got {type(limits).__name__} (limit_mode='none' drops the bounds)"
+    )
 
 
 def check_trajectory(ocp: Any, lim: JointLimits | None, q: np.ndarray, qd: np.ndarray, u: np.ndarray) -> dict[str, Any]:
@@ -424,9 +431,10 @@ def check_trajectory(ocp: Any, lim: JointLimits | None, q: np.ndarray, qd: np.nd
 
 def solve_reference(
     ocp: Any,
-    limits: JointLimits | str | None = None,
+    limits: JointLimits | None = None,
     solver: str = "ipopt",
     *,
+    limit_mode: str | None = None,
     terminal: str = "soft",
     u_init: Any = None,
     tol: float = 1e-10,
@@ -440,8 +448,8 @@ def solve_reference(
     Parameters
     ----------
     ocp: a :class:`~coop_ga.control.ilqr.ReachingOCP` (the problem data, Eq 53–57).
-    limits: a :class:`~coop_ga.systems.limits.JointLimits`, ``"none"``, or None (default:
-        ``ocp.task.system.limits``, unless the OCP was built with ``limits="none"``).
+    limits: a :class:`~coop_ga.systems.limits.JointLimits`, or None (default: ``ocp.task.system.limits``).
+    limit_mode: ``"enforce"``, ``"none"`` (no bounds) or None (default: the OCP's ``limit_mode``).
     solver: ``"ipopt"`` or ``"fatrop"``.
     terminal: ``"soft"`` (Eq 57, the OCP's cost) or ``"constraint"`` (``e(q_n) = 0``).
     u_init: (n, nq) initial control guess [rad/s²] (default 0); the initial states are its roll-out.
@@ -452,7 +460,7 @@ def solve_reference(
     :class:`ReferenceSolution` (trajectories, cost, terminal error, bound violations,
     iterations, times, status).
     """
-    problem = ReferenceProblem(ocp, limits, terminal=terminal)
+    problem = ReferenceProblem(ocp, limits, limit_mode=limit_mode, terminal=terminal)
     return problem.solve(
         solver,
         u_init=u_init,

@@ -178,9 +178,9 @@ class Teleoperator:
     Parameters
     ----------
     task: a :class:`coop_ga.CooperativeTask` (e.g. the allegro sphere).
-    q0: (nq,) initial configuration.
+    q_init: (nq,) initial configuration.
     dt: Δt [s] (Eq 61; 0.01 s in §4.5).  damping: λ of the damped least squares.
-    limits: ``'enforce'`` (default: each step is the QP of :func:`coop_ga.control.diff_ik_step`,
+    limit_mode: ``'enforce'`` (default: each step is the QP of :func:`coop_ga.control.diff_ik_step`,
         within the position, velocity and acceleration limits of ``task.system.limits``), ``'clamp'``
         (ablation: clip q after an unconstrained step) or ``'none'``.
     gains / rz_mode: see :func:`command_to_bivector`.
@@ -191,11 +191,11 @@ class Teleoperator:
     def __init__(
         self,
         task: Any,
-        q0: Any,
+        q_init: Any,
         *,
         dt: float = 0.01,
         damping: float = 1e-3,
-        limits: str = "enforce",
+        limit_mode: str = "enforce",
         translation_gain: float = 0.05,
         rotation_gain: float = 0.5,
         dilation_gain: float = 1.0,
@@ -203,17 +203,17 @@ class Teleoperator:
         acceleration_limit: bool = True,
     ):
         self.task = task
-        self.q = check_q(task, q0, "q0")
+        self.q = check_q(task, q_init, "q_init")
         self.dt = validation.positive(dt, "dt")
         self.damping = validation.nonnegative(damping, "damping")
-        self.limits = validation.choice(limits, LIMIT_MODES, "limits")
+        self.limit_mode = validation.choice(limit_mode, LIMIT_MODES, "limit_mode")
         self.gains: _Gains = dict(
             translation_gain=translation_gain, rotation_gain=rotation_gain, dilation_gain=dilation_gain, rz_mode=rz_mode
         )
         command_to_bivector(np.zeros(6), **self.gains)  # validate the gains now, not at the first step
         self.t = 0.0
         self.log = TeleopLog(t=[0.0], q=[self.q.copy()])
-        mode = "none" if self.limits == "clamp" else self.limits
+        mode = "none" if self.limit_mode == "clamp" else self.limit_mode
         self._limits = step_limits(task, mode, DEFAULT_LIMIT_GAIN, bool(acceleration_limit))
         self._configuration = Configuration(task, self.q)
 
@@ -235,12 +235,12 @@ class Teleoperator:
         velocity for ``b(command)`` (Eq 48, 61); returns the new q."""
         b = self.bivector(command)
         cfg = self._configuration
-        q = self.q if self.limits == "none" else project_into_limits(self.task, self.q)
+        q = self.q if self.limit_mode == "none" else project_into_limits(self.task, self.q)
         if q is not self.q or not np.array_equal(cfg.q, q):
             cfg.update(q, cfg.velocity.copy())  # q set from outside (or projected): keep the last velocity
         st = solve_step(cfg, [BodyVelocityTask(b)], self._limits, self.dt, damping=self.damping)
         q_next = advance(q, st.velocity, self.dt)
-        if self.limits != "none":  # 'enforce': rounding only; 'clamp': the ablation
+        if self.limit_mode != "none":  # 'enforce': rounding only; 'clamp': the ablation
             lim = self.task.system.limits
             np.clip(q_next, lim.lower, lim.upper, out=q_next)
         cfg.update(q_next, (q_next - q) / self.dt)

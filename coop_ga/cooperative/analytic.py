@@ -39,7 +39,7 @@ import numpy as np
 from ..algebra.basis import blade_index
 from ..algebra.multivector import Multivector
 from ..geometry.groups import SIMILARITY_BLADES, bivector_to_tangent
-from ..geometry.similarity import UNIT_AXIS
+from ..geometry.kinds import KIND_SPECS, Kind
 
 __all__ = ["analytic_similarity_jacobian", "readout_derivatives"]
 
@@ -107,25 +107,27 @@ def _plane_dual(E: Multivector, dE: Multivector):
     return _v3(Ed, (_E1, _E2, _E3)), Ed.get(_EI), _v3(dEd, (_E1, _E2, _E3)), dEd.get(_EI)
 
 
-def readout_derivatives(kind: str, X: Multivector, dX: Multivector):
+def readout_derivatives(kind: Kind, X: Multivector, dX: Multivector):
     """(c, ∂c, r, ∂r, o, ∂o) of a primitive and a batch of perturbations dX (coefficient arrays).
 
-    r/∂r are None for points and flats; o/∂o None for points and spheres.
+    r/∂r are None for points and flats; o/∂o None for points and spheres.  A round's axis is its carrier
+    flat's (X ∧ e∞: the line through a point pair, the plane of a circle).
     """
+    spec = KIND_SPECS[kind]
     r = dr = o = do = None
-    if kind == "point":
+    if spec.n_points == 1:  # a point
         c = [X.get(k) / X.get(_E0) for k in (_E1, _E2, _E3)]
         w, dw = X.get(_E0), dX.get(_E0)
         dc = [(dX.get(k) * w - X.get(k) * dw) / (w * w) for k in (_E1, _E2, _E3)]
-    elif kind in ("point_pair", "circle", "sphere"):
+    elif spec.has_radius:
         c, dc = _center_and_derivative(X, dX)
         r, dr = _radius_and_derivative(X, dX)
-        if kind == "point_pair":
+        if spec.axis_role == "direction":
             o, do = _line_direction(X ^ _EINF, dX ^ _EINF)
-        elif kind == "circle":
+        elif spec.axis_role == "normal":
             wn, _, dwn, _ = _plane_dual(X ^ _EINF, dX ^ _EINF)
             o, do = _unit_and_derivative(wn, dwn)
-    elif kind == "line":
+    elif spec.axis_role == "direction":  # a line
         d, dd = _v3(X, _E0IINF), _v3(dX, _E0IINF)
         m = [X.get(_EIJINF[0]), -X.get(_EIJINF[1]), X.get(_EIJINF[2])]
         dm = [dX.get(_EIJINF[0]), -dX.get(_EIJINF[1]), dX.get(_EIJINF[2])]
@@ -147,7 +149,7 @@ def readout_derivatives(kind: str, X: Multivector, dX: Multivector):
 
 
 def analytic_similarity_jacobian(
-    kind: str, X: Multivector, dX: Multivector
+    kind: Kind, X: Multivector, dX: Multivector
 ) -> tuple[Multivector, np.ndarray, np.ndarray]:
     """V_Sc, J^A (12×m, rows on SIMILARITY_BLADES) and J^G (7×m) from X_c and ∂X_c/∂q.
 
@@ -162,7 +164,7 @@ def analytic_similarity_jacobian(
     dT = Multivector((0, _b("e1inf"), _b("e2inf"), _b("e3inf")), (zeros, -0.5 * dc[0], -0.5 * dc[1], -0.5 * dc[2]))
     # V_R = N/|N|, N = 1 + o u  (Eq 26 corrected), normalised with Eq 79
     if o is not None:
-        u = UNIT_AXIS[kind]
+        u = KIND_SPECS[kind].axis
         assert u is not None  # o is read only for kinds with an axis
         U = Multivector((_E1, _E2, _E3), u)
         N = 1.0 + Multivector((_E1, _E2, _E3), tuple(o)) * U

@@ -66,20 +66,12 @@ import numpy as np
 from ..algebra.multivector import Multivector
 from ..geometry.groups import SIMILARITY_BLADES, bivector_to_tangent, tangent_to_bivector
 from ..geometry.groups import log as sim_log
+from ..geometry.kinds import KIND_SPECS, Kind, kind_spec
 from ..geometry.primitives import point as conformal_point
 from ..geometry.primitives import well_definedness
-from ..geometry.similarity import UNIT_AXIS, primitive_parameters, similarity_from_parameters, similarity_from_unit
+from ..geometry.similarity import primitive_parameters, similarity_from_parameters, similarity_from_unit
 from ..kinematics.chains import KinematicTree
-from .primitive import (
-    FIT_KINDS,
-    base_kind,
-    cooperative_primitive,
-    fit_at,
-    fit_parameters,
-    fit_root,
-    fit_well_definedness,
-    n_points,
-)
+from .primitive import cooperative_primitive, fit_at, fit_parameters, fit_root, fit_well_definedness
 
 __all__ = ["CHART_WARN_ANGLE", "NB", "TaskGraph", "versor_expr"]
 
@@ -108,6 +100,15 @@ def _body_columns(V: Multivector, dV: ca.SX) -> ca.SX:
     return ca.horzcat(*cols)
 
 
+def _closest_to_origin(kind: Kind, a: list[Any], o: Any) -> list[Any]:
+    """The point of the flat ``kind`` through a with axis o (unit) closest to the world origin: a line's
+    (direction o) removes the component of a along o, a plane's (normal o) keeps only that component."""
+    s = a[0] * o[0] + a[1] * o[1] + a[2] * o[2]
+    if KIND_SPECS[kind].axis_role == "direction":
+        return [a[j] - s * o[j] for j in range(3)]
+    return [s * o[j] for j in range(3)]
+
+
 class TaskGraph:
     """Symbolic graph of the cooperative task ``kind`` on the end frames of ``tree``.
 
@@ -123,13 +124,15 @@ class TaskGraph:
 
     def __init__(self, tree: KinematicTree, kind: str, name: str, chart_axis: Any = None):
         self.tree = tree
+        #: the facts of the kind (:data:`~coop_ga.geometry.kinds.KIND_SPECS`)
+        self.spec = kind_spec(kind)
         self.kind = kind
         #: the primitive kind of V_Sc ("sphere" for "sphere_fit", "plane" for "plane_fit", else kind)
-        self.base_kind = base_kind(kind)
+        self.primitive_kind = self.spec.primitive_kind
         self.name = name
-        self.n_points = n_points(kind, len(tree.end_frames))
+        self.n_points = self.spec.points_used(len(tree.end_frames))
         self.nq = int(tree.model.nq)
-        unit_axis = UNIT_AXIS[self.base_kind]
+        unit_axis = self.spec.axis
         # the axis the minimal-rotation chart is measured from (None: the unit primitive's, Eq 26)
         self.chart_axis = (
             None
@@ -152,11 +155,11 @@ class TaskGraph:
         n = self.n_points
         pts = [tuple(p[3 * i + j] for j in range(3)) for i in range(n)]
         res = None
-        if self.kind in FIT_KINDS:  # least-squares sphere / plane, read out about the centroid directly
+        if self.spec.least_squares:  # least-squares sphere / plane, read out about the centroid directly
             w = fit_well_definedness(self.kind, pts)
             bar_l, c_rel, r, o, res = fit_at(self.kind, pts, fit_root(self.kind, pts) if root is None else root)
             bar = tuple(bar_l)
-            kind = self.base_kind
+            kind = self.primitive_kind
         else:
             w = well_definedness(self.kind, pts) if n > 1 else ca.SX(1.0)
             bar = tuple(sum(pt[j] for pt in pts) / n for j in range(3))
@@ -164,14 +167,7 @@ class TaskGraph:
             X_rel = cooperative_primitive(self.kind, rel)
             kind, c_rel, r, o = primitive_parameters(X_rel)
         a = [c_rel[j] + bar[j] for j in range(3)]  # a point of the primitive (its centre for round kinds)
-        if kind == "line":  # closest point to the world origin: remove the component along the direction
-            s = a[0] * o[0] + a[1] * o[1] + a[2] * o[2]
-            c = [a[j] - s * o[j] for j in range(3)]
-        elif kind == "plane":  # closest point to the world origin: the component along the normal
-            s = a[0] * o[0] + a[1] * o[1] + a[2] * o[2]
-            c = [s * o[j] for j in range(3)]
-        else:
-            c = a
+        c = _closest_to_origin(kind, a, o) if KIND_SPECS[kind].flat else a
         if o is None:
             c2: Any = ca.SX(1.0)
         else:
@@ -184,7 +180,7 @@ class TaskGraph:
     def pose_function(self) -> ca.Function:
         """``p (3n) → (V (12), B (7), G = −2 Ṽ ∂V/∂p (7 × 3n), w, c2)``."""
         p = ca.SX.sym("p", 3 * self.n_points)
-        if self.kind not in FIT_KINDS:
+        if not self.spec.least_squares:
             V, w, c2 = self.pose_from_points(p)
             Vv = _coeffs_expr(V)
             G = _body_columns(V, ca.jacobian(Vv, p))
@@ -343,13 +339,12 @@ class TaskGraph:
         (world origin, no centroid shift, no chain rule), ``J^G = −2 Ṽ ∂V/∂q``."""
         q = ca.SX.sym("q", self.nq)
         pts = self.tree.end_points(q)
-        if self.kind in FIT_KINDS:  # the fit end to end in world coordinates, no chain rule
+        if self.spec.least_squares:  # the fit end to end in world coordinates, no chain rule
             bar, c_rel, r, o = fit_parameters(self.kind, [tuple(pt) for pt in pts])
             a = [c_rel[j] + bar[j] for j in range(3)]
-            if o is not None:  # plane: the closest point to the world origin
-                s = a[0] * o[0] + a[1] * o[1] + a[2] * o[2]
-                a = [s * o[j] for j in range(3)]
-            V = similarity_from_parameters(self.base_kind, a, r, o, chart_axis=self.chart_axis)
+            if self.spec.flat:  # plane: the closest point to the world origin
+                a = _closest_to_origin(self.primitive_kind, a, o)
+            V = similarity_from_parameters(self.primitive_kind, a, r, o, chart_axis=self.chart_axis)
         else:
             X = cooperative_primitive(self.kind, [conformal_point(list(pt)) for pt in pts])
             V = similarity_from_unit(X, chart_axis=self.chart_axis)

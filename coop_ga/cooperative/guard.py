@@ -29,26 +29,17 @@ import numpy as np
 
 from ..diagnostics import warn
 from ..errors import ChartWarning, DegeneracyWarning, DegeneratePrimitiveError, InvalidInputError, NonFiniteError
+from ..geometry.kinds import KIND_SPECS, CooperativeKind
 from .graph import CHART_WARN_ANGLE
 
 __all__ = ["TaskGuard"]
-
-_WHAT = {
-    "point_pair": "the two end points coincide",
-    "line": "the two end points coincide",
-    "circle": "the three end points are (nearly) collinear",
-    "plane": "the three end points are (nearly) collinear",
-    "sphere": "the four end points are (nearly) coplanar",
-    "sphere_fit": "the end points are (nearly) coplanar: no 4 of them span a sphere",
-    "plane_fit": "the end points are (nearly) collinear, or spread evenly in every direction (no best plane)",
-}
 
 
 @dataclass(frozen=True)
 class TaskGuard:
     """Diagnosis of the ``checks`` output of a task's entry points (module docstring)."""
 
-    kind: str
+    kind: CooperativeKind
     system_name: str
     end_frames: tuple[str, ...]
     warn_below: float
@@ -102,7 +93,7 @@ class TaskGuard:
 
     def degeneracy(self, w: float, pts: np.ndarray, where: str = "") -> None:
         """Raise (``w ≤ raise_below``) or warn (``w < warn_below``) about degenerate end points (n, 3)."""
-        what = _WHAT.get(self.kind, "degenerate")
+        what = KIND_SPECS[self.kind].degeneracy or "degenerate"
         desc = ", ".join(f"{f}={np.round(p, 4).tolist()}" for f, p in zip(self.end_frames, pts))
         if not w > self.raise_below:
             raise DegeneratePrimitiveError(

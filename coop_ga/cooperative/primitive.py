@@ -86,72 +86,27 @@ from .. import validation
 from ..algebra import backend as B
 from ..algebra.basis import blade_index
 from ..algebra.multivector import Multivector
-from ..errors import DegeneratePrimitiveError, InvalidInputError, UnknownNameError
-from ..geometry.primitives import KINDS, N_POINTS, Primitive, _check_kind, well_definedness
+from ..errors import DegeneratePrimitiveError, InvalidInputError
+from ..geometry.kinds import COOPERATIVE_KINDS, FIT_KINDS, FLAT_KINDS, KIND_SPECS, KindSpec, kind_spec
+from ..geometry.primitives import Primitive, _check_kind, well_definedness
 from ..geometry.primitives import plane as _plane_from_points
 
 __all__ = [
     "COOPERATIVE_KINDS",
     "FIT_KINDS",
     "FLAT_KINDS",
-    "N_POINTS",
-    "base_kind",
-    "check_kind",
     "cooperative_primitive",
     "fit_at",
     "fit_parameters",
     "fit_primitive",
     "fit_root",
     "fit_well_definedness",
-    "n_points",
     "primitive_jacobian",
 ]
-
-FLAT_KINDS = ("line", "plane")
-
-#: least-squares kinds → the primitive kind they fit (module docstring)
-FIT_KINDS: dict[str, str] = {"sphere_fit": "sphere", "plane_fit": "plane"}
-#: the fewest points of a least-squares kind (then the fit is the exact primitive)
-MIN_FIT_POINTS: dict[str, int] = {"sphere_fit": 4, "plane_fit": 3}
-#: every kind a cooperative task accepts
-COOPERATIVE_KINDS: tuple[str, ...] = (*KINDS, *FIT_KINDS)
 
 _CUBIC_ITERS = 40  # Newton steps for λ₁ of the scatter matrix (plane fit: its accuracy is the normal's)
 _BOUND_ITERS = 8  # the same, as the sphere fit's lower bound of its pole (any iterate is a lower bound)
 _PRATT_ITERS = 20  # Newton steps on the sphere fit's secular equation from the Kåsa fit
-
-
-def check_kind(kind: str) -> str:
-    """``kind`` if it is one of :data:`COOPERATIVE_KINDS` (the exact kinds and the least-squares kinds)."""
-    if isinstance(kind, str) and kind in FIT_KINDS:
-        return kind
-    try:
-        return _check_kind(kind)
-    except UnknownNameError:
-        raise UnknownNameError(
-            f"unknown primitive kind {kind!r}; choose one of {', '.join(COOPERATIVE_KINDS)}"
-        ) from None
-
-
-def base_kind(kind: str) -> str:
-    """The primitive kind of a cooperative kind: ``"sphere"`` for ``"sphere_fit"``, itself for exact kinds."""
-    kind = check_kind(kind)
-    return FIT_KINDS.get(kind, kind)
-
-
-def n_points(kind: str, available: int | None = None) -> int:
-    """How many end points a task of ``kind`` uses: :data:`N_POINTS` for the exact kinds; for the
-    least-squares kinds ``available`` (the points given), which must be at least :data:`MIN_FIT_POINTS`."""
-    kind = check_kind(kind)
-    if kind not in FIT_KINDS:
-        return N_POINTS[kind]
-    if available is None:
-        raise InvalidInputError(f"a {kind} uses all the end points it is given; say how many")
-    if available < MIN_FIT_POINTS[kind]:
-        raise InvalidInputError(
-            f"a least-squares {FIT_KINDS[kind]} ({kind}) needs at least {MIN_FIT_POINTS[kind]} points, got {available}"
-        )
-    return int(available)
 
 
 # ---------------------------------------------------------------------- least-squares fits
@@ -290,21 +245,23 @@ def _sphere_at(q: list[list[Any]], eta: Any) -> tuple[list[Any], Any, Any]:
     return centre, r, s
 
 
-def _fit_kind(kind: str, k: int) -> str:
-    kind = check_kind(kind)
-    if kind not in FIT_KINDS:
-        raise InvalidInputError(f"this function is for the least-squares kinds {tuple(FIT_KINDS)}, got {kind!r}")
-    n_points(kind, k)
-    return kind
+def _fit_spec(kind: str, k: int | None, what: str = "this function") -> KindSpec:
+    """The spec of a least-squares kind used with k points (None: not checked)."""
+    spec = kind_spec(kind)
+    if not spec.least_squares:
+        raise InvalidInputError(f"{what} is for the least-squares kinds {tuple(FIT_KINDS)}, got {kind!r}")
+    if k is not None:
+        spec.points_used(k)
+    return spec
 
 
 def fit_root(kind: str, pts: Sequence[Sequence[Any]]) -> Any:
     """The scalar that fixes the least-squares primitive of ``pts`` (k 3-vectors, numeric or CasADi): the
     Pratt eigenvalue η of a ``sphere_fit``, the smallest eigenvalue λ₁ of the scatter matrix of a
     ``plane_fit`` [m²] — by the Newton iterations of the module docstring."""
-    kind = _fit_kind(kind, len(pts))
+    spec = _fit_spec(kind, len(pts))
     _, q = _centred(pts)
-    return _sphere_root(q) if kind == "sphere_fit" else _smallest_eigenvalue(_scatter(q), _CUBIC_ITERS)
+    return _smallest_eigenvalue(_scatter(q), _CUBIC_ITERS) if spec.flat else _sphere_root(q)
 
 
 def fit_at(kind: str, pts: Sequence[Sequence[Any]], root: Any) -> tuple[list[Any], list[Any], Any, Any, Any]:
@@ -312,9 +269,9 @@ def fit_at(kind: str, pts: Sequence[Sequence[Any]], root: Any) -> tuple[list[Any
     (:func:`fit_root`) in closed form; ``residual`` (the secular function s(η), resp. det(C − λI)) vanishes
     at the exact root, so the implicit-function theorem gives the derivative of the fit:
     ``d/dp = ∂/∂p − ∂/∂root · (∂res/∂p) / (∂res/∂root)`` (used by the task graph)."""
-    kind = _fit_kind(kind, len(pts))
+    spec = _fit_spec(kind, len(pts))
     bar, q = _centred(pts)
-    if kind == "plane_fit":
+    if spec.flat:  # the plane fit
         n, _, res = _plane_at(q, root)
         return bar, [0.0 * bar[0]] * 3, None, n, res
     centre, r, res = _sphere_at(q, root)
@@ -339,12 +296,11 @@ def fit_well_definedness(kind: str, pts: Any) -> Any:
     The eigen-gap of an exactly isotropic cloud (λ₁ = λ₂ = λ₃, e.g. a regular tetrahedron) is resolved only
     to ~ε^(1/3) ≈ 4e-6 (a triple root of the cubic): such points get a :class:`~coop_ga.errors.DegeneracyWarning`
     from the task, not the error."""
-    kind = check_kind(kind)
-    m = MIN_FIT_POINTS[kind]
     rows = [tuple(p[j] for j in range(3)) for p in pts] if not isinstance(pts, np.ndarray) else list(pts)
-    n_points(kind, len(rows))
+    spec = _fit_spec(kind, len(rows))
+    m = spec.n_points
     symbolic = any(B.is_symbolic(v) for p in rows for v in p)
-    base = FIT_KINDS[kind]
+    base = spec.primitive_kind
     w: Any = None
     for sub in combinations(range(len(rows)), m):
         if symbolic:
@@ -352,7 +308,7 @@ def fit_well_definedness(kind: str, pts: Any) -> Any:
         else:
             wi = well_definedness(base, np.array([rows[i] for i in sub], dtype=float))
         w = wi if w is None else _fmax(w, wi)
-    if kind == "plane_fit":
+    if spec.flat:  # the plane fit: also capped by the eigen-gap
         _, q = _centred(rows)
         _, gap, _ = _plane_at(q, _smallest_eigenvalue(_scatter(q), _CUBIC_ITERS))
         w = _where(gap < w, gap, w)
@@ -365,22 +321,19 @@ def fit_primitive(kind: str, points: Any, *, raise_below: float = 1e-6) -> Primi
     :func:`fit_well_definedness` is ≤ ``raise_below``."""
     from ..geometry.primitives import sphere as _sphere_from_points
 
-    kind = check_kind(kind)
-    if kind not in FIT_KINDS:
-        raise InvalidInputError(f"fit_primitive is for the least-squares kinds {tuple(FIT_KINDS)}, got {kind!r}")
+    spec = _fit_spec(kind, None, "fit_primitive")
     P = validation.array(points, "points")
     if P.ndim != 2 or P.shape[1] != 3:
         raise InvalidInputError(f"points must have shape (k, 3), got {P.shape}")
-    n_points(kind, P.shape[0])
+    spec.points_used(P.shape[0])
     w = fit_well_definedness(kind, P)
     if not w > raise_below:
-        what = "coplanar" if kind == "sphere_fit" else "collinear (or without a best plane)"
         raise DegeneratePrimitiveError(
-            f"{kind} of {P.shape[0]} points: the points are (nearly) {what} (well-definedness {w:.3g} ≤ {raise_below:g})"
+            f"{kind} of {P.shape[0]} points: {spec.degeneracy} (well-definedness {w:.3g} ≤ {raise_below:g})"
         )
     bar, c, r, o = fit_parameters(kind, [tuple(p) for p in P.tolist()])
     cb = np.array([float(c[j]) + bar[j] for j in range(3)])
-    if kind == "plane_fit":
+    if spec.flat:
         n = np.array([float(v) for v in o])
         u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
         u /= np.linalg.norm(u)
@@ -409,14 +362,14 @@ def cooperative_primitive(kind: str, points: Sequence[Multivector]) -> Primitive
     """X_c = P_1 ∧ … ∧ P_n (Eq 14), with ``∧ e∞`` appended for lines and planes.
 
     ``points`` are conformal points (numpy or CasADi coefficients), as many as the kind
-    needs (:data:`N_POINTS`).  No degeneracy check here: the cooperative task checks the
+    needs (:attr:`~coop_ga.geometry.kinds.KindSpec.n_points`).  No degeneracy check here: the cooperative task checks the
     well-definedness measure of the Euclidean points (see :mod:`coop_ga.cooperative.task`).
     """
-    kind = _check_kind(kind)
-    n = N_POINTS[kind]
+    spec = KIND_SPECS[_check_kind(kind)]
+    n = spec.n_points
     if len(points) != n:
         raise InvalidInputError(f"a cooperative {kind} needs {n} end points, got {len(points)}")
-    vs = list(points) + ([_EI] if kind in FLAT_KINDS else [])
+    vs = list(points) + ([_EI] if spec.flat else [])
     X = _wedge(vs)
     return Primitive.tag(X.grade(len(vs)), kind)
 
@@ -427,9 +380,9 @@ def primitive_jacobian(kind: str, points: Sequence[Multivector], dpoints: Sequen
     ``dpoints[i][j]`` is ∂P_i/∂q_j (a vector multivector, Eq 17) or None when joint j
     does not move point i.  Returns one multivector per joint (zero where no point moves).
     """
-    kind = _check_kind(kind)
-    n = N_POINTS[kind]
-    tail = [_EI] if kind in FLAT_KINDS else []
+    spec = KIND_SPECS[_check_kind(kind)]
+    n = spec.n_points
+    tail = [_EI] if spec.flat else []
     m = len(dpoints[0])
     cols = []
     for j in range(m):

@@ -32,6 +32,7 @@ from __future__ import annotations
 import hashlib
 import math
 import threading
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -43,11 +44,11 @@ from .. import validation
 from ..codegen import CompiledFunction
 from ..diagnostics import collect_warnings
 from ..errors import ChartError, InvalidInputError
-from ..geometry.groups import Similarity, log_jacobian, tangent_to_bivector
-from ..geometry.primitives import N_POINTS, Primitive, well_definedness
+from ..geometry.groups import Similarity, SimilarityLike, log_jacobian, tangent_to_bivector
+from ..geometry.kinds import CooperativeKind, KindSpec, kind_spec
+from ..geometry.primitives import Primitive, well_definedness
 from ..geometry.primitives import point as conformal_point
 from ..geometry.similarity import (
-    UNIT_AXIS,
     primitive_parameters,
     similarity_from_parameters,
     similarity_from_unit,
@@ -56,18 +57,9 @@ from ..geometry.similarity import (
 from ..kinematics.chains import KinematicTree
 from .graph import CHART_WARN_ANGLE, TaskGraph, versor_expr
 from .guard import TaskGuard
-from .primitive import (
-    FIT_KINDS,
-    base_kind,
-    check_kind,
-    cooperative_primitive,
-    fit_parameters,
-    fit_primitive,
-    fit_well_definedness,
-    n_points,
-)
+from .primitive import cooperative_primitive, fit_parameters, fit_primitive, fit_well_definedness
 
-__all__ = ["CHART_WARN_ANGLE", "CooperativeTask", "TaskState", "cooperative_task"]
+__all__ = ["CHART_WARN_ANGLE", "TASK_CACHE_SIZE", "CooperativeTask", "TaskState", "cooperative_task"]
 
 _F64 = np.dtype(np.float64)
 
@@ -78,23 +70,23 @@ class TaskState:
 
     Attributes
     ----------
-    versor: (12,) V_Sc coefficients on :data:`~coop_ga.geometry.groups.SIMILARITY_BLADES`.
+    similarity: V_Sc (Eq 28), a :class:`~coop_ga.Similarity`.
     log: (7,) B_Sc on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``.
     jacobian: (7, nq) J^G, body frame (Eq 30).
     points: (n, 3) end points [m], world frame.
     well_definedness: scalar in [0, 1] (see module docstring).
     """
 
-    versor: np.ndarray
+    similarity: Similarity
     log: np.ndarray
     jacobian: np.ndarray
     points: np.ndarray
     well_definedness: float
 
     @property
-    def similarity(self) -> Similarity:
-        """V_Sc as a :class:`~coop_ga.Similarity`."""
-        return Similarity(versor_expr(self.versor), check=False)
+    def coeffs(self) -> np.ndarray:
+        """V_Sc's 12 coefficients on :data:`~coop_ga.geometry.groups.SIMILARITY_BLADES` (read-only)."""
+        return self.similarity.coeffs
 
 
 def _binding(cf: CompiledFunction) -> Any:
@@ -117,7 +109,7 @@ class CooperativeTask:
         similarity of that sphere / plane (:attr:`primitive_kind`), built in the same task graph.
     points:
         Indices into ``system.end_frames`` giving the end points and their order
-        (default: the first ``N_POINTS[kind]``; for the least-squares kinds all end frames).  The
+        (default: the first :attr:`KindSpec.n_points <coop_ga.geometry.kinds.KindSpec.n_points>`; for the least-squares kinds all end frames).  The
         order fixes the orientation (see :mod:`coop_ga.cooperative.primitive`; for ``plane_fit`` the
         normal follows the points' Newell normal, counter-clockwise seen from its tip).
     codegen:
@@ -126,7 +118,7 @@ class CooperativeTask:
         Well-definedness thresholds (dimensionless) for :class:`~coop_ga.errors.DegeneracyWarning`
         and :class:`~coop_ga.errors.DegeneratePrimitiveError`.
     chart_axis:
-        The axis the minimal rotation of V_Sc is measured from (:func:`coop_ga.similarity_from_unit`):
+        The axis the minimal rotation of V_Sc is measured from (:func:`coop_ga.geometry.similarity_from_unit`):
         ``None`` — the unit primitive's (+e2 for point pairs/lines, +e3 for circles/planes; Eq 26);
         a 3-vector; or ``"auto"`` (default) — the unit primitive's, unless the primitive at
         ``system.q0`` points more than 90° away from it, then its axis at q0.  The chart jumps by a
@@ -146,14 +138,16 @@ class CooperativeTask:
         raise_below: float = 1e-6,
         chart_axis: Any = "auto",
     ):
-        self.kind = check_kind(kind)
+        #: the facts of the task's kind (:data:`~coop_ga.geometry.kinds.KIND_SPECS`)
+        self.spec: KindSpec = kind_spec(kind)
+        self.kind: CooperativeKind = self.spec.name
         #: the kind of the primitive X_c and of V_Sc's unit primitive ("sphere" for "sphere_fit", …)
-        self.primitive_kind = base_kind(self.kind)
+        self.primitive_kind = self.spec.primitive_kind
         self.system = system
         frames = tuple(system.end_frames)
-        if self.kind in FIT_KINDS and points is None:
+        if self.spec.least_squares and points is None:
             points = tuple(range(len(frames)))
-        n = n_points(self.kind, _count(points) if self.kind in FIT_KINDS else None)
+        n = self.spec.points_used(_count(points) if self.spec.least_squares else None)
         if points is None:
             if len(frames) < n:
                 raise InvalidInputError(
@@ -192,18 +186,18 @@ class CooperativeTask:
 
     # ================================================================== the chart of V_Sc
     def _resolve_chart(self, chart_axis: Any) -> tuple[float, float, float] | None:
-        unit_axis = UNIT_AXIS[self.primitive_kind]
+        unit_axis = self.spec.axis
         if unit_axis is None or chart_axis is None:
             return None
         if isinstance(chart_axis, str):
             validation.choice(chart_axis, ("auto",), "chart_axis")
             q0 = validation.configuration(self.system.q0, self.nq, "system.q0")
             pts = self.tree.end_points_array(q0)
-            if self.kind in FIT_KINDS:
+            if self.spec.least_squares:
                 if not fit_well_definedness(self.kind, pts) > self.raise_below:
                     return None
                 o = fit_parameters(self.kind, [tuple(p) for p in pts.tolist()])[3]
-            elif N_POINTS[self.kind] > 1 and not well_definedness(self.kind, pts) > self.raise_below:
+            elif self.spec.n_points > 1 and not well_definedness(self.kind, pts) > self.raise_below:
                 return None  # degenerate at q0: no nominal axis (the guard reports it on use)
             else:
                 _, _, _, o = primitive_parameters(cooperative_primitive(self.kind, [conformal_point(p) for p in pts]))
@@ -238,12 +232,12 @@ class CooperativeTask:
             )
         return Similarity(similarity_from_unit(X, chart_axis=self.chart_axis))
 
-    def check_target(self, target: Any, what: str = "target") -> Similarity:
+    def check_target(self, target: SimilarityLike, what: str = "target") -> Similarity:
         """``target`` as a Similarity, refused with a :class:`~coop_ga.errors.ChartError` when its primitive's
         axis is beyond the chart warning angle (170°) from the chart's reference axis: the path to it would
         cross the chart's half-turn and the error e = log(Ṽ_Sc V_Sd) would jump on the way."""
         V = validation.target(target, what)
-        unit_axis = UNIT_AXIS[self.primitive_kind]
+        unit_axis = self.spec.axis
         if unit_axis is None:
             return V
         ref = np.asarray(self.chart_axis if self.chart_axis is not None else unit_axis)
@@ -322,7 +316,7 @@ class CooperativeTask:
         """V_Sc, B_Sc, J^G, end points and well-definedness at q (nq,) in one compiled call (copies)."""
         out = self._run(q)
         return TaskState(
-            out[0].reshape(-1).copy(),
+            Similarity(versor_expr(out[0].reshape(-1).copy()), check=False),
             out[1].reshape(-1).copy(),
             out[2].copy(),
             out[4].reshape(-1, 3).copy(),
@@ -370,7 +364,7 @@ class CooperativeTask:
     def primitive(self, q: Any) -> Primitive:
         """X_c(q) = ∧ P_i(q) (∧ e∞) (Eq 14), from the compiled end points (for the least-squares kinds the
         fitted sphere / plane, :func:`~coop_ga.cooperative.primitive.fit_primitive`)."""
-        if self.kind in FIT_KINDS:
+        if self.spec.least_squares:
             return fit_primitive(self.kind, self.points(q), raise_below=self.raise_below)
         return cooperative_primitive(self.kind, [conformal_point(p) for p in self.points(q)])
 
@@ -378,26 +372,26 @@ class CooperativeTask:
     def analytic_jacobian(self, q: Any) -> np.ndarray:
         """J^A = ∂V_Sc/∂q, 12×nq (Eq 29), rows on SIMILARITY_BLADES: ``∂V/∂q_i = −½ V b_i``."""
         st = self.evaluate(q)
-        return _versor_times_tangents(versor_expr(st.versor), st.jacobian, -0.5)
+        return _versor_times_tangents(st.similarity.versor, st.jacobian, -0.5)
 
     def bivector_jacobian(self, q: Any) -> np.ndarray:
         """J^B = ∂B_Sc/∂q = J_{S→B}(V_Sc) J^A, 7×nq (Eq 31)."""
         st = self.evaluate(q)
-        V = versor_expr(st.versor)
+        V = st.similarity.versor
         return log_jacobian(V) @ _versor_times_tangents(V, st.jacobian, -0.5)
 
     # ------------------------------------------------------------------ IK error
-    def error(self, q: Any, target: Any) -> np.ndarray:
+    def error(self, q: Any, target: SimilarityLike) -> np.ndarray:
         """e(q) = log(Ṽ_Sc(q) V_Sd) (Eq 44): the target (a :class:`~coop_ga.Similarity`) seen from
         the current pose, 7-vector on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``."""
         return self.error_and_jacobian(q, target)[0]
 
-    def error_jacobian(self, q: Any, target: Any) -> np.ndarray:
+    def error_jacobian(self, q: Any, target: SimilarityLike) -> np.ndarray:
         """J_e = ∂e/∂q (Eq 47), 7×nq: ``J_{S→B}(W) · [½ b_i W]`` with ``W = Ṽ_Sc V_Sd`` and b_i
         the columns of J^G (near e = 0, J_e → −J^G)."""
         return self.error_and_jacobian(q, target)[1]
 
-    def error_and_jacobian(self, q: Any, target: Any) -> tuple[np.ndarray, np.ndarray]:
+    def error_and_jacobian(self, q: Any, target: SimilarityLike) -> tuple[np.ndarray, np.ndarray]:
         """``(e (7,), J_e (7, nq))`` in one compiled call (copies); ``target`` a :class:`~coop_ga.Similarity`."""
         vd = target.coeffs if type(target) is Similarity else validation.target(target).coeffs
         b = _binding(self._error_compiled)
@@ -410,7 +404,7 @@ class CooperativeTask:
             self.guard.diagnose(out[2], out[3], (("q", qb), ("target", vd)))
         return out[0].reshape(-1).copy(), out[1].copy()
 
-    def error_hessian(self, q: Any, target: Any, w: Any) -> np.ndarray:
+    def error_hessian(self, q: Any, target: SimilarityLike, w: Any) -> np.ndarray:
         """``∇²_q (wᵀ e(q))`` (nq, nq) with w (7,) held constant (for Newton-type solvers; CasADi VM).
 
         Built by :meth:`TaskGraph.error_hessian_function` (structured second derivatives);
@@ -481,23 +475,23 @@ class CooperativeTask:
                 "the closed forms of Appendix B are for the canonical chart; build the task "
                 "with chart_axis=None to use them"
             )
-        if self.kind in FIT_KINDS:
+        if self.spec.least_squares:
             raise InvalidInputError(
                 f"the closed forms of Appendix B are for primitives spanned by their points; a {self.kind} task has "
                 "none (use jacobian() or jacobian_ad())"
             )
         self._run(q)  # same input checks and guard as every route
         P, dP = self.tree.point_jacobians(np.asarray(q, dtype=float))
-        X = cooperative_primitive(self.kind, P)
-        cols = primitive_jacobian(self.kind, P, dP)
-        _, JA, JG = analytic_similarity_jacobian(self.kind, X, _stack_columns(cols))
+        X = cooperative_primitive(self.primitive_kind, P)
+        cols = primitive_jacobian(self.primitive_kind, P, dP)
+        _, JA, JG = analytic_similarity_jacobian(self.primitive_kind, X, _stack_columns(cols))
         return JA, JG
 
     def similarity_numpy(self, q: Any) -> Similarity:
         """V_Sc from the numpy multivector code (no CasADi, world origin), for cross-checks."""
         qv = validation.configuration(q, self.nq, owner=f"task '{self.name}'")
         pts = self.tree.end_points_array(qv)
-        if self.kind in FIT_KINDS:
+        if self.spec.least_squares:
             w = fit_well_definedness(self.kind, pts)
             if not w > self.warn_below:
                 self.guard.degeneracy(float(w), pts)
@@ -509,7 +503,7 @@ class CooperativeTask:
             return Similarity(
                 similarity_from_parameters(self.primitive_kind, a, r, o, chart_axis=self.chart_axis), check=False
             )
-        w = well_definedness(self.kind, pts) if N_POINTS[self.kind] > 1 else 1.0
+        w = well_definedness(self.kind, pts) if self.spec.n_points > 1 else 1.0
         if not w > self.warn_below:
             self.guard.degeneracy(float(w), pts)
         V = similarity_from_unit(
@@ -545,7 +539,11 @@ def _versor_times_tangents(V: Any, J: np.ndarray, s: float) -> np.ndarray:
     return s * np.array([np.broadcast_to(np.asarray(P.get(k), float), (J.shape[1],)) for k in SIMILARITY_BLADES])
 
 
-_TASK_CACHE: dict[tuple[Any, ...], CooperativeTask] = {}
+#: how many tasks :func:`cooperative_task` keeps (least recently used first out): each holds its system, its
+#: symbolic graph and its loaded compiled functions, so a sweep over many systems must not keep them all
+TASK_CACHE_SIZE = 64
+_TASK_CACHE: OrderedDict[tuple[Any, ...], CooperativeTask] = OrderedDict()
+_TASK_CACHE_LOCK = threading.Lock()
 
 
 def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None, **options: Any) -> CooperativeTask:
@@ -553,19 +551,21 @@ def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None
 
     Tasks are cached per (system, kind, points, options), so the compiled functions are
     built once per process (and the generated C once per machine).  The cached task is
-    shared by every caller and safe to use from several threads.
+    shared by every caller and safe to use from several threads.  The cache keeps the
+    :data:`TASK_CACHE_SIZE` most recently used tasks (a task dropped from it stays valid for
+    whoever holds it; asking again builds a new one, whose compiled C comes from the disk cache).
     """
     if isinstance(system, str):
         from .. import systems
 
         system = systems.load(system)
-    k = check_kind(kind)
+    spec = kind_spec(kind)
     pts = (
         None
         if points is None
         else validation.indices(
             points,
-            n_points(k, _count(points) if k in FIT_KINDS else None),
+            spec.points_used(_count(points) if spec.least_squares else None),
             len(system.end_frames),
             "points",
             labels=tuple(system.end_frames),
@@ -581,8 +581,18 @@ def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None
         hash(key)
     except TypeError:
         raise InvalidInputError(f"task options must be plain values, got {options!r}") from None
-    t = _TASK_CACHE.get(key)
-    if t is None or t.system is not system:
-        t = CooperativeTask(system, kind, pts, **options)
+    with _TASK_CACHE_LOCK:
+        t = _TASK_CACHE.get(key)
+        if t is not None and t.system is system:  # (an id may be reused by a new system once the old one is gone)
+            _TASK_CACHE.move_to_end(key)
+            return t
+    t = CooperativeTask(system, kind, pts, **options)  # outside the lock: building takes up to seconds
+    with _TASK_CACHE_LOCK:
+        other = _TASK_CACHE.get(key)
+        if other is not None and other.system is system:  # another thread built it meanwhile: one task per key
+            t = other
         _TASK_CACHE[key] = t
+        _TASK_CACHE.move_to_end(key)
+        while len(_TASK_CACHE) > max(int(TASK_CACHE_SIZE), 1):
+            _TASK_CACHE.popitem(last=False)
     return t

@@ -156,7 +156,7 @@ def wrench_expressions(graph: TaskGraph, p: Any, F: Any, T: Any, w_cmd: Any, s_c
         (inward), ``well_definedness``, ``chart``.
     """
     n = graph.n_points
-    kind = graph.base_kind
+    kind = graph.primitive_kind
     V, B, G, w, c2 = graph.pose_function(p)
     c, r = B[4:7], ca.exp(B[BETA])
     axis = UNIT_AXIS.get(kind)

@@ -1,4 +1,12 @@
-"""Geometric primitives, versor groups and similarities between primitives."""
+"""Geometric primitives, the kind table, versor groups and similarities between primitives.
+
+This is the multivector layer: besides the group classes (:class:`Similarity`, :class:`Motor`, …) it keeps
+the functions on raw versor multivectors — :func:`exp`, :func:`log`, :func:`log_jacobian`, :func:`apply`,
+:func:`decompose` (:mod:`~coop_ga.geometry.groups`), :func:`similarity` and :func:`similarity_from_unit`
+(:mod:`~coop_ga.geometry.similarity`) — which run unchanged on numpy and CasADi SX coefficients (the task
+graph builds V_Sc with them).  The top-level :mod:`coop_ga` namespace has one similarity type,
+:class:`Similarity`, whose methods wrap them for numeric use.
+"""
 
 from .groups import (
     TANGENT_BASIS,
@@ -6,6 +14,7 @@ from .groups import (
     Motor,
     Rotor,
     Similarity,
+    SimilarityLike,
     Translator,
     VersorGroup,
     apply,
@@ -15,9 +24,21 @@ from .groups import (
     log_jacobian,
 )
 from .interpolation import interpolate, reference_trajectory, screw_axis, screw_exp, screw_log
-from .primitives import (
+from .kinds import (
+    COOPERATIVE_KINDS,
+    FIT_KINDS,
+    FLAT_KINDS,
+    KIND_SPECS,
     KINDS,
     N_POINTS,
+    UNIT_AXIS,
+    CooperativeKind,
+    FitKind,
+    Kind,
+    KindSpec,
+    kind_spec,
+)
+from .primitives import (
     Primitive,
     center,
     circle,
@@ -38,18 +59,27 @@ from .primitives import (
     to_euclidean,
     well_definedness,
 )
-from .similarity import UNIT_AXIS, primitive_parameters, rotor_between, similarity, similarity_from_unit, unit_primitive
+from .similarity import primitive_parameters, rotor_between, similarity, similarity_from_unit, unit_primitive
 
 __all__ = [
+    "COOPERATIVE_KINDS",
+    "FIT_KINDS",
+    "FLAT_KINDS",
     "KINDS",
+    "KIND_SPECS",
     "N_POINTS",
     "TANGENT_BASIS",
     "UNIT_AXIS",
+    "CooperativeKind",
     "Dilator",
+    "FitKind",
+    "Kind",
+    "KindSpec",
     "Motor",
     "Primitive",
     "Rotor",
     "Similarity",
+    "SimilarityLike",
     "Translator",
     "VersorGroup",
     "apply",
@@ -62,6 +92,7 @@ __all__ = [
     "exp",
     "interpolate",
     "kind_of",
+    "kind_spec",
     "line",
     "log",
     "log_jacobian",

@@ -48,7 +48,7 @@ from __future__ import annotations
 import abc
 import math
 from functools import lru_cache
-from typing import Any, ClassVar, Self
+from typing import Any, ClassVar, Self, TypeAlias
 
 import numpy as np
 
@@ -66,6 +66,7 @@ __all__ = [
     "Motor",
     "Rotor",
     "Similarity",
+    "SimilarityLike",
     "Translator",
     "VersorGroup",
     "apply",
@@ -904,7 +905,7 @@ class Similarity(VersorGroup):
 
     @classmethod
     def between(cls, X_from: Multivector, X_to: Multivector) -> Similarity:
-        """The similarity with ``X_to ∝ V X_from Ṽ`` (§3.3, Eq 20; :func:`coop_ga.similarity`)."""
+        """The similarity with ``X_to ∝ V X_from Ṽ`` (§3.3, Eq 20; :func:`coop_ga.geometry.similarity`)."""
         from .similarity import similarity
 
         return cls(similarity(X_from, X_to))
@@ -961,6 +962,12 @@ class Similarity(VersorGroup):
             )
         raise InvalidInputError(f"{what} must be a coop_ga.Similarity, got {type(value).__name__}")
 
+
+#: A similarity argument (targets, poses): what :meth:`Similarity.coerce` accepts — a :class:`Similarity`, any
+#: other versor group element (:class:`Motor`, :class:`Rotor`, :class:`Translator`, :class:`Dilator`: a similarity
+#: without scale or rotation) or a numeric similarity-versor :class:`~coop_ga.Multivector` on
+#: :data:`SIMILARITY_BLADES`.  Every solver converts it once with :func:`coop_ga.validation.target`.
+SimilarityLike: TypeAlias = VersorGroup | Multivector
 
 # validation.target converts similarity arguments with this; validation sits below this layer and does not
 # import it, so the conversion is handed down here (coop_ga/__init__ imports this module)

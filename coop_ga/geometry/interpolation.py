@@ -2,7 +2,7 @@
 
 Seed 001 ("Path Planning and Interpolation"): ``M(t) = M0 exp(t log(M̃0 M1))`` with the
 *group* exponential ``exp(−½ Λ)`` of a motor bivector ``Λ = θ L* + d n∞`` — the screw
-motion about a fixed axis at constant speed.  That is **not** :func:`coop_ga.exp`: the
+motion about a fixed axis at constant speed.  That is **not** :func:`coop_ga.geometry.exp`: the
 paper's chart (Eq 72/76) is ``V_T(t) V_R(θ) V_D(β)``, whose straight lines are the
 *decoupled* path (translation lerped, rotation slerped, scale geometric).  Both share the
 rotation and the scale; they differ in the translation coordinate only::
@@ -29,7 +29,7 @@ conditioned (its coefficient is 1/π² at φ = π).  A pure translation (φ = 0)
 ``v = t`` (the screw axis is at infinity, pitch ∞): the path is then a straight line.
 
 Double cover: V and −V are the same transformation.  The logarithm first negates a
-relative versor whose rotor part has a negative scalar (``coop_ga.log`` does), so the
+relative versor whose rotor part has a negative scalar (``coop_ga.geometry.log`` does), so the
 rotation angle is in [0, π]: **interpolation takes the shortest rotation**, and
 ``interpolate(V0, V1, t)`` is the same path for V1 and −V1.  ``interpolate(V0, V1, 1)``
 is therefore ±V1 (the same transformation); compare elements with ``apply`` or matrices,
@@ -161,7 +161,7 @@ def screw_log(V: Any) -> np.ndarray:
     :data:`~coop_ga.geometry.groups.TANGENT_BASIS`: θ [rad] the rotation (angle |θ| in
     [0, π], the shortest of the double cover), β = log scale (0 for motors), v [m] the
     translational part of the twist (``v = W⁻¹ t``, not the translation t of the chart
-    :func:`coop_ga.log`).  For a motor, ``b[[0,1,2,4,5,6]] == LOCAL_TO_TANGENT @ log6(M)``
+    :func:`coop_ga.geometry.log`).  For a motor, ``b[[0,1,2,4,5,6]] == LOCAL_TO_TANGENT @ log6(M)``
     without the β row (Pinocchio's ``LOCAL`` twist ``[v; ω]``).
     """
     E = _as_element(V, "V")

@@ -69,7 +69,8 @@ from ..algebra import backend as B
 from ..algebra.basis import blade_index
 from ..algebra.multivector import OMEGA, Multivector, _exponents, safe_range
 from ..diagnostics import warn
-from ..errors import DegeneratePrimitiveError, InvalidInputError, PrecisionWarning, UnknownNameError
+from ..errors import DegeneratePrimitiveError, InvalidInputError, PrecisionWarning
+from .kinds import KIND_SPECS, KINDS, N_POINTS, Kind, KindSpec, kind_spec
 
 __all__ = [
     "KINDS",
@@ -96,21 +97,17 @@ __all__ = [
     "well_definedness",
 ]
 
-KINDS = ("point", "point_pair", "line", "circle", "plane", "sphere")
-N_POINTS = {"point": 1, "point_pair": 2, "line": 2, "circle": 3, "plane": 3, "sphere": 4}
-_FLAT = {"line", "plane"}
 
 EPS = float(np.finfo(float).eps)
 #: estimated relative error of a read-out above which a :class:`~coop_ga.PrecisionWarning` is emitted
 PRECISION_WARN = 1e-6
 
 # The coefficient of a blade with j Euclidean generators (and e∞) is a homogeneous polynomial
-# of degree j (+2) in the point coordinates; the largest degree of each kind bounds the range
-# of coordinates whose primitive is representable in float64 (no overflow of the largest
-# coefficients, no underflow of the smallest ones).
-_MAX_DEGREE = {"point": 2, "point_pair": 3, "line": 4, "circle": 4, "plane": 5, "sphere": 5}
-_R_MAX = {k: 2.0 ** (1000 // d) for k, d in _MAX_DEGREE.items()}
-_R_MIN = {k: 2.0 ** -(1000 // d) for k, d in _MAX_DEGREE.items()}
+# of degree j (+2) in the point coordinates; the largest degree of each kind (KindSpec.max_degree)
+# bounds the range of coordinates whose primitive is representable in float64 (no overflow of the
+# largest coefficients, no underflow of the smallest ones).
+_R_MAX: dict[str, float] = {k: 2.0 ** (1000 // KIND_SPECS[k].max_degree) for k in KINDS}
+_R_MIN: dict[str, float] = {k: 2.0 ** -(1000 // KIND_SPECS[k].max_degree) for k in KINDS}
 
 _E0 = Multivector.blade("e0")
 _EINF = Multivector.blade("einf")
@@ -130,11 +127,13 @@ def _degree(b: int) -> int:
 class Primitive(Multivector):
     """A multivector tagged with its primitive ``kind`` (one of :data:`KINDS`).
 
-    Algebraic operations return plain :class:`Multivector`; :func:`coop_ga.apply`
+    Algebraic operations return plain :class:`Multivector`; :func:`coop_ga.geometry.apply`
     keeps the tag because similarities map primitives onto primitives of the same kind.
     """
 
     __slots__ = ("kind", "local")
+
+    kind: Kind
 
     def __init__(
         self, blades: tuple[int, ...], coeffs: tuple[Any, ...], kind: str, local: tuple[Any, Primitive] | None = None
@@ -154,6 +153,11 @@ class Primitive(Multivector):
         if not isinstance(X, Multivector):
             raise InvalidInputError(f"Primitive.tag(X, kind): X must be a coop_ga Multivector, got {type(X).__name__}")
         return cls(X.blades, X.coeffs, kind)
+
+    @property
+    def spec(self) -> KindSpec:
+        """The facts of its kind (:data:`~coop_ga.geometry.kinds.KIND_SPECS`)."""
+        return KIND_SPECS[self.kind]
 
     def __repr__(self) -> str:
         return f"{self.kind}:" + super().__repr__()
@@ -291,18 +295,19 @@ def well_definedness(kind: str, points: Any) -> Any:
     n = N_POINTS[kind]
     pts_in = _points_arg(points, n, kind)
     if isinstance(pts_in, np.ndarray):
-        return _numeric_measure(kind, pts_in)
+        return _numeric_measure(pts_in)
     import casadi as ca
 
-    if kind == "point":
+    if n == 1:
         return 1.0
-    return _measure(kind, pts_in, ca.sqrt, ca.cross, ca.dot)
+    return _measure(pts_in, ca.sqrt, ca.cross, ca.dot)
 
 
-def _numeric_measure(kind: str, P: np.ndarray) -> Any:
-    """:func:`well_definedness` of validated numeric points P (n, 3) or (n, N, 3)."""
+def _numeric_measure(P: np.ndarray) -> Any:
+    """:func:`well_definedness` of validated numeric points P (n, 3) or (n, N, 3) of the kind they span
+    (the measure depends on their number n only)."""
     n = P.shape[0]
-    if kind == "point":
+    if n == 1:
         return 1.0 if P.ndim == 2 else np.ones(P.shape[1])
     with np.errstate(all="ignore"):
         zero = np.zeros(P.shape[1:-1])
@@ -316,10 +321,9 @@ def _numeric_measure(kind: str, P: np.ndarray) -> Any:
             return float(zero) if zero.ndim == 0 else zero
         e = math.frexp(s)[1]
         Q = np.ldexp(Q, -e)
-        Rho = np.ldexp(P, -e) if kind in ("point_pair", "line") else None  # may be inf: then w = 0
+        Rho = np.ldexp(P, -e) if n == 2 else None  # may be inf: then w = 0
         if Q.ndim == 2:  # one set of points: plain floats are much faster than numpy on 3-vectors
             w = _measure(
-                kind,
                 [_V3(*q) for q in Q.tolist()],
                 math.sqrt,
                 _V3.cross,
@@ -328,7 +332,6 @@ def _numeric_measure(kind: str, P: np.ndarray) -> Any:
             )
         else:
             w = _measure(
-                kind,
                 [Q[i] for i in range(n)],
                 np.sqrt,
                 np.cross,
@@ -361,7 +364,7 @@ def _dot_np(u, v):
     return np.sum(u * v, axis=-1)
 
 
-def _points_arg(points: Any, n: int, kind: str) -> Any:
+def _points_arg(points: Any, n: int, kind: Kind) -> Any:
     """Validated points: a float array (n, 3) / (n, N, 3), or a list of n CasADi 3-vectors."""
     if B.is_symbolic(points):
         if points.numel() != 3 * n:
@@ -389,10 +392,12 @@ def _as_sx3(p, name):
     return ca.vertcat(*_vec3(p, name))
 
 
-def _measure(kind, pts, sqrt, cross, dot, rho_pts=None):
-    if kind == "point":
+def _measure(pts, sqrt, cross, dot, rho_pts=None):
+    """The well-definedness of 1 to 4 points (:func:`well_definedness`; the kinds spanned by equally many
+    points degenerate alike)."""
+    if len(pts) == 1:
         return 1.0
-    if kind in ("point_pair", "line"):
+    if len(pts) == 2:
         a, b = pts
         d = b - a
         dn = sqrt(dot(d, d))
@@ -401,7 +406,7 @@ def _measure(kind, pts, sqrt, cross, dot, rho_pts=None):
         den = dn + EPS * rho
         pos = den > 0
         return B.where(pos, dn / B.where(pos, den, 1.0), 0.0 * dn)
-    if kind in ("circle", "plane"):
+    if len(pts) == 3:
         a, b, c = pts
         n = cross(b - a, c - a)
         area2 = sqrt(dot(n, n))
@@ -442,48 +447,42 @@ def _abs(a):
     return B.fabs(a)
 
 
-def _check_kind(kind: str) -> str:
-    if not isinstance(kind, str):
-        raise InvalidInputError(
-            f"kind must be a string, one of {', '.join(KINDS)}; got {type(kind).__name__} {kind!r}"[:200]
-        )
-    if kind not in KINDS:
-        raise UnknownNameError(f"unknown primitive kind {kind!r}; choose one of {', '.join(KINDS)}")
-    return kind
+def _check_kind(kind: str) -> Kind:
+    """``kind`` if it is one of the exact kinds :data:`KINDS` (the fast path of every primitive)."""
+    if type(kind) is str and kind in N_POINTS:
+        return kind  # type: ignore[return-value]  # checked: one of the Kind literals
+    return kind_spec(kind, least_squares=False).name  # type: ignore[return-value]  # raises
 
 
-def _check_degenerate(kind: str, P: np.ndarray, tol: float) -> None:
-    w = np.asarray(_numeric_measure(kind, P))
+def _check_degenerate(kind: Kind, P: np.ndarray, tol: float) -> None:
+    w = np.asarray(_numeric_measure(P))
     if np.all(w > tol):
         return
+    spec = KIND_SPECS[kind]
     names = "abcd"[: P.shape[0]]
     i = int(np.argmin(w.reshape(-1)))
     rows = [p if p.ndim == 1 else p[i] for p in P]
     shown = ", ".join(f"{n}={_fmt_point(p)}" for n, p in zip(names, rows))
     wmin = float(np.min(w))
-    why = {
-        "point_pair": f"points a and b coincide (well-definedness {wmin:.3g} ≤ tol={tol:g}; it is |b−a|/(|b−a| + ε·max(|a|,|b|)))",
-        "line": f"points a and b coincide (well-definedness {wmin:.3g} ≤ tol={tol:g}); a line needs two distinct points",
-        "circle": f"points are collinear (well-definedness {wmin:.3g} ≤ tol={tol:g}); a circle through collinear points is a line — use line() or move a point off the line",
-        "plane": f"points are collinear (well-definedness {wmin:.3g} ≤ tol={tol:g}); they do not fix a plane — move one point off the line",
-        "sphere": f"points are coplanar (well-definedness {wmin:.3g} ≤ tol={tol:g}); four coplanar points span a plane, not a sphere — use plane()/circle() or move a point off the plane",
-    }[kind]
-    raise DegeneratePrimitiveError(f"{kind}({shown}): {why}")
+    which = "points a and b" if spec.n_points == 2 else "points"
+    raise DegeneratePrimitiveError(
+        f"{kind}({shown}): {which} {spec.degenerate} (well-definedness {wmin:.3g} ≤ tol={tol:g}); {spec.advice}"
+    )
 
 
-def _check_range(kind: str, P: np.ndarray) -> None:
+def _check_range(kind: Kind, P: np.ndarray) -> None:
     rho = float(np.max(np.abs(P)))
     if rho > _R_MAX[kind]:
         raise InvalidInputError(
             f"pts: a {kind} is representable for coordinates up to {_R_MAX[kind]:.3g} m in magnitude (its "
-            f"coefficients grow like |x|^{_MAX_DEGREE[kind]}); got {rho:.3g} — express the points in a nearer frame"
+            f"coefficients grow like |x|^{KIND_SPECS[kind].max_degree}); got {rho:.3g} — express the points in a nearer frame"
         )
-    if kind != "point":
+    if KIND_SPECS[kind].n_points > 1:
         spread = float(np.max(np.abs(P - P[0])))
         if 0.0 < spread < _R_MIN[kind]:
             raise InvalidInputError(
                 f"pts: the points of a {kind} must be at least {_R_MIN[kind]:.3g} m apart to be representable (its "
-                f"coefficients shrink like size^{_MAX_DEGREE[kind]}); got a spread of {spread:.3g} m — express them in a "
+                f"coefficients shrink like size^{KIND_SPECS[kind].max_degree}); got a spread of {spread:.3g} m — express them in a "
                 "smaller unit"
             )
 
@@ -512,16 +511,16 @@ def _absmax(v: Any) -> float:
     return float(np.max(np.abs(v)))
 
 
-def _wedge(kind: str, coords: list[tuple[Any, Any, Any]]) -> Multivector:
+def _wedge(kind: Kind, coords: list[tuple[Any, Any, Any]]) -> Multivector:
     X = _embed(coords[0])
     for c in coords[1:]:
         X = X ^ _embed(c)
-    if kind in _FLAT:
+    if KIND_SPECS[kind].flat:
         X = X ^ _EINF
     return X
 
 
-def _local_wedge(kind: str, P: np.ndarray) -> tuple[Multivector, tuple[np.ndarray, Multivector] | None]:
+def _local_wedge(kind: Kind, P: np.ndarray) -> tuple[Multivector, tuple[np.ndarray, Multivector] | None]:
     """∧ P(p_i) (∧ e∞) computed about the centroid m of the points and translated back,
     with the local primitive ``(m, X_m)`` (None when the points are near the origin).
 
@@ -595,13 +594,13 @@ def primitive_from_points(
                 raise InvalidInputError(
                     f"pts: the points' batch shapes {[p.shape for p in maybe]} do not match"
                 ) from None
-        if kind != "point":
+        if n > 1:
             _check_degenerate(kind, P, tol)
         _check_range(kind, P)
         X, local = _local_wedge(kind, P)
     else:
         X, local = _wedge(kind, coords), None
-    g = len(coords) + (kind in _FLAT)
+    g = KIND_SPECS[kind].grade
     Xg = X.grade(g)
     if local is None:
         return Primitive(Xg.blades, Xg.coeffs, kind)
@@ -713,7 +712,13 @@ def _roundness(X: Multivector, g: int) -> tuple[float, float]:
     return q, emax
 
 
-def kind_of(X: Multivector, tol: float = 1e-10) -> str:
+#: grade → {flat: kind} of the exact kinds (a grade-3 blade is a line or a circle, …)
+_KINDS_OF_GRADE: dict[int, dict[bool, Kind]] = {}
+for _k in KINDS:
+    _KINDS_OF_GRADE.setdefault(KIND_SPECS[_k].grade, {})[KIND_SPECS[_k].flat] = _k
+
+
+def kind_of(X: Multivector, tol: float = 1e-10) -> Kind:
     """The primitive kind of X: its tag if it is a :class:`Primitive`, else inferred from
     its grade and whether it contains e∞ as a factor (``X ∧ e∞ = 0`` for flats).
 
@@ -735,18 +740,17 @@ def kind_of(X: Multivector, tol: float = 1e-10) -> str:
             f"not a primitive: a blade has a single grade, this multivector has grades {sorted(grades)}"
         )
     g = grades.pop()
-    if g == 1:
-        return "point"
-    if g == 2:
-        return "point_pair"
-    if g in (3, 4):
-        if X.is_symbolic:
-            is_flat = len((X ^ _EINF).prune().blades) == 0
-        else:
-            q, e = _roundness(X.prune(0.0), g)
-            is_flat = not (q > tol or e > tol)
-        return ("line" if g == 3 else "plane") if is_flat else ("circle" if g == 3 else "sphere")
-    raise InvalidInputError(f"grade-{g} multivectors are not primitives of coop_ga (grades 1-4)")
+    of_grade = _KINDS_OF_GRADE.get(g)
+    if of_grade is None:
+        raise InvalidInputError(f"grade-{g} multivectors are not primitives of coop_ga (grades 1-4)")
+    if len(of_grade) == 1:
+        return next(iter(of_grade.values()))
+    if X.is_symbolic:
+        is_flat = len((X ^ _EINF).prune().blades) == 0
+    else:
+        q, e = _roundness(X.prune(0.0), g)
+        is_flat = not (q > tol or e > tol)
+    return of_grade[is_flat]
 
 
 # ---------------------------------------------------------------------- read-outs
@@ -874,8 +878,9 @@ def _flat_point_as_vector(F: Multivector) -> Multivector:
 
 def endpoints(X: Multivector) -> tuple[Any, Any]:
     """The two Euclidean points (a, b) of a point pair X = P(a)∧P(b), in their original order."""
-    if kind_of(X) != "point_pair":
-        raise InvalidInputError(f"endpoints() is defined for point pairs, not for a {kind_of(X)}")
+    spec = KIND_SPECS[kind_of(X)]
+    if not (spec.has_radius and spec.n_points == 2):
+        raise InvalidInputError(f"endpoints() is defined for point pairs, not for a {spec.name}")
     c = center(X)
     r = radius(X)
     d = direction(X)
@@ -898,9 +903,9 @@ def center(X: Multivector) -> Any:
     """
     kind = kind_of(X)
     X = _mv_arg(X, "X")
-    if kind == "point":
+    if KIND_SPECS[kind].n_points == 1:
         return to_euclidean(X)
-    if kind in _FLAT:
+    if KIND_SPECS[kind].flat:
         return closest_point_to_origin(X)
     if X.is_symbolic:
         w, x = _center_of(X)
@@ -959,9 +964,9 @@ def radius(X: Multivector) -> Any:
     Build such primitives about a nearby origin (translate the points) to keep the digits.
     """
     kind = kind_of(X)
-    if kind == "point":
+    if KIND_SPECS[kind].n_points == 1:
         return 0.0
-    if kind in _FLAT:
+    if KIND_SPECS[kind].flat:
         raise InvalidInputError(
             f"a {kind} has no radius (it is flat); use closest_point_to_origin()/normal()/direction()"
         )
@@ -975,7 +980,7 @@ def radius(X: Multivector) -> Any:
     return r
 
 
-def _radius_estimated(kind: str, X: Multivector) -> tuple[Any, float, float]:
+def _radius_estimated(kind: Kind, X: Multivector) -> tuple[Any, float, float]:
     """``(r, est, ratio)`` of a numeric round X: its radius [m], the estimated relative error
     ``est = ε·ratio²`` of r and ``ratio = (ρ + r)/r`` (the largest over a batch); read from the local
     form when X keeps one.  Raises when the radius is lost in rounding or imaginary."""
@@ -1020,7 +1025,7 @@ def _length_scale(X: Multivector) -> float:
     return max(g[0] / g[-1], math.sqrt(g[1] / g[-1]))
 
 
-def _radius_scalar(kind: str, num: float, den: float, ell: float, k: int) -> tuple[float, float, float]:
+def _radius_scalar(kind: Kind, num: float, den: float, ell: float, k: int) -> tuple[float, float, float]:
     if den == 0.0:
         raise DegeneratePrimitiveError(f"the {kind} is flat (e∞⌋X = 0): infinite radius; a line/plane has no radius")
     r2 = -num / den
@@ -1042,7 +1047,7 @@ def _radius_scalar(kind: str, num: float, den: float, ell: float, k: int) -> tup
     return out, est, ratio
 
 
-def _warn_radius(kind: str, ratio: float, est: float) -> None:
+def _warn_radius(kind: Kind, ratio: float, est: float) -> None:
     warn(
         f"radius(): the {kind} is {ratio:.3g} radii from the origin; its radius has an estimated relative error "
         f"of {est:.1g} (ε·(ρ/r)², ~ρ/r times more if it was built by plain outer products of far-away "
@@ -1054,7 +1059,7 @@ def _warn_radius(kind: str, ratio: float, est: float) -> None:
 
 def _dual_flat_plane(X: Multivector) -> tuple[tuple[Any, Any, Any], Any]:
     """For a plane or the carrier plane of a circle: (w n, w δ) from E I = w (n + δ e∞)."""
-    E = X if kind_of(X) == "plane" else (X ^ _EINF)
+    E = X if KIND_SPECS[kind_of(X)].flat else (X ^ _EINF)
     Ed = E * _I5
     wn = _euclid(Ed)
     return wn, Ed.get(_B["einf"])
@@ -1087,7 +1092,7 @@ def normal(X: Multivector) -> Any:
     Orientation: for X built from points a, b, c it is (b−a)×(c−a)/|…| (right hand).
     """
     kind = kind_of(X)
-    if kind not in ("plane", "circle"):
+    if KIND_SPECS[kind].axis_role != "normal":
         raise InvalidInputError(f"normal() is defined for planes and circles, not for a {kind}")
     X = _local_form(_mv_arg(X, "X"))
     wn, _ = _dual_flat_plane(X)
@@ -1097,10 +1102,10 @@ def normal(X: Multivector) -> Any:
 def direction(X: Multivector) -> Any:
     """Unit direction (3,) of a line or point pair, oriented from its first point to its second."""
     kind = kind_of(X)
-    if kind not in ("line", "point_pair"):
+    if KIND_SPECS[kind].axis_role != "direction":
         raise InvalidInputError(f"direction() is defined for lines and point pairs, not for a {kind}")
     X = _local_form(_mv_arg(X, "X"))
-    L = X if kind == "line" else (X ^ _EINF)
+    L = X if KIND_SPECS[kind].flat else (X ^ _EINF)
     d = tuple(L.get(b) for b in _B_E0IINF)
     return _stack3(_unit3(d, f"the {kind} has no direction (its points coincide)"))
 
@@ -1109,8 +1114,8 @@ def _line_moment(L: Multivector) -> tuple[Any, Any, Any]:
     return L.get(_B_EIJINF[0]), -L.get(_B_EIJINF[1]), L.get(_B_EIJINF[2])
 
 
-def _closest_point(X: Multivector, kind: str, numeric: bool) -> tuple[Any, Any, Any]:
-    if kind == "line":
+def _closest_point(X: Multivector, kind: Kind, numeric: bool) -> tuple[Any, Any, Any]:
+    if KIND_SPECS[kind].axis_role == "direction":  # a line
         d = tuple(X.get(b) for b in _B_E0IINF)
         m = _line_moment(X)
         d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
@@ -1128,7 +1133,7 @@ def _closest_point(X: Multivector, kind: str, numeric: bool) -> tuple[Any, Any, 
 def closest_point_to_origin(X: Multivector) -> Any:
     """Point (3,) of a line or plane closest to the origin [m]."""
     kind = kind_of(X)
-    if kind not in _FLAT:
+    if not KIND_SPECS[kind].flat:
         raise InvalidInputError(f"closest_point_to_origin() is defined for lines and planes, not for a {kind}")
     X = _mv_arg(X, "X")
     if X.is_symbolic:

@@ -51,9 +51,9 @@ from ..algebra.multivector import Multivector
 from ..diagnostics import warn
 from ..errors import DegeneratePrimitiveError, InvalidInputError, PrecisionWarning
 from .groups import ROTOR_BLADES
+from .kinds import KIND_SPECS, KINDS, UNIT_AXIS, AxisRole, Kind
 from .primitives import (
     EPS,
-    KINDS,
     PRECISION_WARN,
     Primitive,
     _check_kind,
@@ -61,7 +61,6 @@ from .primitives import (
     _vec3,
     _warn_radius,
     center,
-    closest_point_to_origin,
     direction,
     kind_of,
     normal,
@@ -80,34 +79,19 @@ __all__ = [
     "unit_primitive",
 ]
 
-#: The orientation axis of each unit primitive X_u (None: no orientation).
-UNIT_AXIS: dict[str, tuple[float, float, float] | None] = {
-    "point": None,
-    "point_pair": (0.0, 1.0, 0.0),
-    "line": (0.0, 1.0, 0.0),
-    "circle": (0.0, 0.0, 1.0),
-    "plane": (0.0, 0.0, 1.0),
-    "sphere": None,
-}
-
-_UNIT_POINTS = {
-    "point": [(0.0, 0.0, 0.0)],
-    "point_pair": [(0.0, -1.0, 0.0), (0.0, 1.0, 0.0)],
-    "line": [(0.0, 0.0, 0.0), (0.0, 1.0, 0.0)],
-    "circle": [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (-1.0, 0.0, 0.0)],
-    "plane": [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)],
-    "sphere": [(1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), (-1.0, 0.0, 0.0)],
-}
+#: the read-out of each axis role: a point pair's / line's direction, a circle's / plane's normal
+_AXIS_READOUT: dict[AxisRole, Any] = {"direction": direction, "normal": normal}
 
 
 def unit_primitive(kind: str) -> Primitive:
-    """The unit primitive X_u of ``kind`` (Table 1): origin; points (0,∓1,0); the e2 axis;
-    the unit circle in z = 0 (normal +z); the plane z = 0 (normal +z); the unit sphere."""
+    """The unit primitive X_u of ``kind`` (Table 1; :attr:`~coop_ga.geometry.kinds.KindSpec.unit_points`):
+    origin; points (0,∓1,0); the e2 axis; the unit circle in z = 0 (normal +z); the plane z = 0 (normal +z);
+    the unit sphere."""
     kind = _check_kind(kind)
-    return primitive_from_points(kind, [np.array(p) for p in _UNIT_POINTS[kind]])
+    return primitive_from_points(kind, [np.array(p) for p in KIND_SPECS[kind].unit_points])
 
 
-def primitive_parameters(X: Multivector) -> tuple[str, Any, Any, Any]:
+def primitive_parameters(X: Multivector) -> tuple[Kind, Any, Any, Any]:
     """``(kind, c, r, o)`` as in the module table; r and o are None where undefined.
 
     Warns (:class:`~coop_ga.PrecisionWarning`) as :func:`~coop_ga.geometry.primitives.radius` does when
@@ -119,23 +103,22 @@ def primitive_parameters(X: Multivector) -> tuple[str, Any, Any, Any]:
     return kind, c, r, o
 
 
-def _read_parameters(X: Multivector) -> tuple[str, Any, Any, Any, tuple[float, float]]:
+def _read_parameters(X: Multivector) -> tuple[Kind, Any, Any, Any, tuple[float, float]]:
     """:func:`primitive_parameters` plus ``(est, ratio)``: the estimated relative error of r (0 where r
     is exact to rounding: kinds without a radius, symbolic X, a primitive read from its local form) and
     the distance of the round from the origin in radii, ``(ρ + r)/r``.  Centers and closest points are
     accurate to ~ε ρ whatever the distance, axes to ~ε (~ε ρ/r without a local form: a turn that moves
     the primitive by ~ε ρ, as much as its center's rounding); only r degrades by more."""
     kind = kind_of(X)
-    if kind == "point":
-        return kind, center(X), None, None, (0.0, 1.0)
-    if kind in ("line", "plane"):
-        return kind, closest_point_to_origin(X), None, direction(X) if kind == "line" else normal(X), (0.0, 1.0)
+    spec = KIND_SPECS[kind]
+    o = None if spec.axis_role is None else _AXIS_READOUT[spec.axis_role](X)
+    if not spec.has_radius:  # a point (its center), a line or a plane (the point closest to the origin)
+        return kind, center(X), None, o, (0.0, 1.0)
     c = center(X)
     if X.is_symbolic:
         r, est, ratio = radius(X), 0.0, 1.0
     else:
         r, est, ratio = _radius_estimated(kind, X)
-    o = {"point_pair": direction, "circle": normal}[kind](X) if kind != "sphere" else None
     return kind, c, r, o, (est, ratio)
 
 
@@ -145,7 +128,7 @@ def _read_parameters(X: Multivector) -> tuple[str, Any, Any, Any, tuple[float, f
 _FAR_BOUND = 4.0
 
 
-def _warn_far(kind: str, losses: tuple[tuple[float, float], ...]) -> None:
+def _warn_far(kind: Kind, losses: tuple[tuple[float, float], ...]) -> None:
     """One :class:`PrecisionWarning` for a similarity whose radii (hence scale and translation) are known
     only to the estimated relative errors ``losses[i][0]`` (:func:`_read_parameters`)."""
     est = _FAR_BOUND * sum(e for e, _ in losses)
@@ -169,20 +152,23 @@ def _tuple3(v: Any) -> tuple[Any, Any, Any]:
 def _perp_axis(u: tuple[Any, Any, Any], kind_axis: tuple[float, float, float] | None = None):
     """Fixed half-turn axis perpendicular to u, used when the target axis is −u.
 
-    For the unit primitives' axes it is a fixed basis vector (+z for ±e2, +x for ±e3);
-    otherwise ``u × e1`` (or ``u × e2`` when u is close to e1), normalised.
+    For the unit primitives' axes it is a fixed basis vector (:attr:`~coop_ga.geometry.kinds.KindSpec.half_turn_axis`:
+    +z for ±e2, +x for ±e3); otherwise ``u × e1`` (or ``u × e2`` when u is close to e1), normalised.
     """
-    if kind_axis == (0.0, 1.0, 0.0):
-        return (0.0, 0.0, 1.0)
-    if kind_axis == (0.0, 0.0, 1.0):
-        return (1.0, 0.0, 0.0)
+    fixed = _HALF_TURN.get(kind_axis) if kind_axis is not None else None
+    if fixed is not None:
+        return fixed
     near_e1 = B.fabs(u[0]) > 0.9
     a = tuple(B.where(near_e1, x2, x1) for x1, x2 in zip((0.0 * u[0], u[2], -u[1]), (-u[2], 0.0 * u[0], u[0])))
     n = B.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
     return (a[0] / n, a[1] / n, a[2] / n)
 
 
-def _is_unit_axis(o: tuple[Any, Any, Any], kind: str) -> bool:
+#: unit axis → the fixed half-turn axis ⟂ it (the kinds that share an axis share it)
+_HALF_TURN = {s.axis: s.half_turn_axis for s in KIND_SPECS.values() if s.axis is not None}
+
+
+def _is_unit_axis(o: tuple[Any, Any, Any], kind: Kind) -> bool:
     if B.any_symbolic(*o) or UNIT_AXIS[kind] is None or any(np.ndim(x) for x in o):
         return False
     return tuple(float(x) for x in o) == UNIT_AXIS[kind]
@@ -346,9 +332,9 @@ def _compose_trd(t, Rc, beta) -> Multivector:
     return (T * R * D).with_blades(SIMILARITY_BLADES)  # the similarity blades are closed under *
 
 
-def _unit_params(kind: str):
+def _unit_params(kind: Kind):
     z = (0.0, 0.0, 0.0)
-    r = 1.0 if kind in ("point_pair", "circle", "sphere") else None
+    r = 1.0 if KIND_SPECS[kind].has_radius else None
     return z, r, UNIT_AXIS[kind]
 
 
@@ -393,7 +379,7 @@ def similarity_from_unit(X: Multivector, chart_axis: Any = None) -> Multivector:
 def similarity(X_from: Multivector, X_to: Multivector) -> Multivector:
     """Similarity versor V = V_T V_R V_D with ``X_to ∝ V X_from Ṽ`` (§3.3, Eq 20).
 
-    Both primitives must be of the same kind.  Use :func:`coop_ga.decompose` to get
+    Both primitives must be of the same kind.  Use :func:`coop_ga.geometry.decompose` to get
     the factors.  See the module docstring for the orientation and half-turn rules.
 
     Precision: the result is accurate to a few ε relative to the primitives' coordinates

@@ -342,9 +342,20 @@ def arm5_ik(
     search = validation.integer(search, "search", minimum=0)
     theta0 = float(validation.scalar(p2_angle, "p2_angle"))
     qr = None if q_ref is None else validation.vector(q_ref, 5, "q_ref")
-    g = geometry
+    p2_seed, j_z = _wrist_circle(pt, n, geometry)
+    tally = _Tally()
+    for th in _search_angles(theta0, search):
+        p2 = p2_seed if th == 0.0 else _rotate_about_line(p2_seed, j_z, th)
+        found = _solutions_at(pt, p2, th, geometry, elbow, limits, tally, first_only=qr is None)
+        if found:
+            return found[0] if qr is None else min(found, key=lambda r: float(np.linalg.norm(r.q - qr)))
+    raise _unreachable(pt, geometry, tally)
+
+
+def _wrist_circle(pt: np.ndarray, n: np.ndarray, g: Arm5Geometry) -> tuple[np.ndarray, Multivector]:
+    """Step 1: the seed's wrist centre p2 (3,) [m] on the circle of wrist centres about the target, and the
+    circle's axis line j_z (OPNS); raises when the seed's plane through the axis is undefined."""
     ez = np.array([0.0, 0.0, 1.0])
-    # Step 1: the circle of wrist centres, its axis, and the seed's plane through the axis
     pi_t = _plane(n, float(n @ pt))  # π_t ∥ φ_t through p_t
     z_t = _sphere(pt, g.d3) ^ pi_t
     j_z = z_t ^ _EINF  # OPNS axis line of the circle (seed j_z*)
@@ -358,54 +369,83 @@ def arm5_ik(
     l_d = _vec(d) ^ point(pt) ^ _EINF  # l_d* = d(p_t, l_y) ∧ p_t ∧ e∞
     pi_jld = j_z ^ (l_d * _E)  # π_jld* = j_z* ∧ (l_d* E) = j_z* ∧ d up to scale
     a2, b2, _ = pair_points((pi_jld.dual() ^ z_t).dual())
-    p2_seed = a2 if np.linalg.norm(a2[:2]) <= np.linalg.norm(b2[:2]) else b2
+    return (a2 if np.linalg.norm(a2[:2]) <= np.linalg.norm(b2[:2]) else b2), j_z
+
+
+def _search_angles(theta0: float, search: int) -> list[float]:
+    """The rotations [rad] of the wrist centre about j_z to try: θ0, then ±Δθ, ±2Δθ, … (Δθ = 2π/search)."""
     order = [theta0]
     if search:
         dth = 2.0 * np.pi / search
         for k in range(1, search // 2 + 1):  # alternate ±Δθ around the start angle
             order += [theta0 + k * dth, theta0 - k * dth]
         order = order[:search]
+    return order
+
+
+@dataclass
+class _Tally:
+    """What the search has tried: solves, and the smallest reach excess [m] and joint-limit violation [rad]."""
+
+    tries: int = 0
+    excess: float = np.inf
+    violation: float = np.inf
+
+
+def _solutions_at(
+    pt: np.ndarray,
+    p2: np.ndarray,
+    th: float,
+    g: Arm5Geometry,
+    elbow: str,
+    limits: bool,
+    tally: _Tally,
+    first_only: bool,
+) -> list[Arm5IKResult]:
+    """The solutions with the wrist centre at p2 (base front/back, elbow ``elbow`` then the other, wrist roll θ4
+    or θ4 ± π with −θ5) inside the limits (if ``limits``); with ``first_only`` those of the first combination
+    that has any."""
     lo, hi = np.asarray(g.lower), np.asarray(g.upper)
-    best_excess, best_violation, tries = np.inf, np.inf, 0
-    for th in order:
-        p2 = p2_seed if th == 0.0 else _rotate_about_line(p2_seed, j_z, th)
-        found: list[Arm5IKResult] = []
-        for front, elb in itertools.product((True, False), (elbow, "down" if elbow == "up" else "up")):
-            tries += 1
-            try:
-                q, p0, p1, cos, excess = _solve_from_p2(pt, p2, g, elb, front)
-            except DegeneratePrimitiveError:
+    found: list[Arm5IKResult] = []
+    for front, elb in itertools.product((True, False), (elbow, "down" if elbow == "up" else "up")):
+        tally.tries += 1
+        try:
+            q, p0, p1, cos, excess = _solve_from_p2(pt, p2, g, elb, front)
+        except DegeneratePrimitiveError:
+            continue
+        if excess > 0.0:
+            tally.excess = min(tally.excess, excess)
+            continue
+        # the same pose with the wrist roll turned by π and the pitch negated
+        flip = np.array([q[0], q[1], q[2], _wrap(q[3] + np.pi), -q[4]])
+        for qq in (q, flip):
+            viol = float(np.max(np.concatenate([lo - qq, qq - hi, [0.0]]))) if limits else 0.0
+            if viol > 0.0:
+                tally.violation = min(tally.violation, viol)
                 continue
-            if excess > 0.0:
-                best_excess = min(best_excess, excess)
-                continue
-            # the same pose with the wrist roll turned by π and the pitch negated
-            flip = np.array([q[0], q[1], q[2], _wrap(q[3] + np.pi), -q[4]])
-            for qq in (q, flip):
-                viol = float(np.max(np.concatenate([lo - qq, qq - hi, [0.0]]))) if limits else 0.0
-                if viol > 0.0:
-                    best_violation = min(best_violation, viol)
-                    continue
-                found.append(
-                    Arm5IKResult(
-                        q=qq, p0=p0, p1=p1, p2=p2, pt=pt, p2_angle=float(th), elbow=elb, cosines=cos, tries=tries
-                    )
+            found.append(
+                Arm5IKResult(
+                    q=qq, p0=p0, p1=p1, p2=p2, pt=pt, p2_angle=float(th), elbow=elb, cosines=cos, tries=tally.tries
                 )
-            if found and qr is None:
-                return found[0]
-        if found:
-            assert qr is not None
-            return min(found, key=lambda r: float(np.linalg.norm(r.q - qr)))
-    if np.isfinite(best_violation):
-        raise Arm5UnreachableError(
-            f"target {pt.tolist()} is reachable only outside the joint limits (by at least {best_violation:.4g} rad "
-            f"over {tries} wrist positions and elbows)",
-            violation=best_violation,
+            )
+        if found and first_only:
+            return found
+    return found
+
+
+def _unreachable(pt: np.ndarray, g: Arm5Geometry, tally: _Tally) -> Arm5UnreachableError:
+    """The error of a search that found nothing: the joint-limit violation if some pose was reachable, else
+    the distance out of reach."""
+    if np.isfinite(tally.violation):
+        return Arm5UnreachableError(
+            f"target {pt.tolist()} is reachable only outside the joint limits (by at least {tally.violation:.4g} "
+            f"rad over {tally.tries} wrist positions and elbows)",
+            violation=tally.violation,
         )
-    dist = float(best_excess) if np.isfinite(best_excess) else float("nan")
-    raise Arm5UnreachableError(
+    dist = float(tally.excess) if np.isfinite(tally.excess) else float("nan")
+    return Arm5UnreachableError(
         f"target {pt.tolist()} is out of reach: the wrist centre is at least {dist * 1e3:.4g} mm outside the "
-        f"shoulder–elbow annulus [{abs(g.d1 - g.d2):g}, {g.d1 + g.d2:g}] m (over {tries} wrist positions on the "
-        f"circle of radius d3 = {g.d3:g} m about the target)",
+        f"shoulder–elbow annulus [{abs(g.d1 - g.d2):g}, {g.d1 + g.d2:g}] m (over {tally.tries} wrist positions on "
+        f"the circle of radius d3 = {g.d3:g} m about the target)",
         distance=dist,
     )

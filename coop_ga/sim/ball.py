@@ -226,7 +226,7 @@ class SphereHoldController(HoldController):
         pin, model, data, task, g = self._pin, self.model, self.data, self.task, self.gains
         self._q = q
         st = task.evaluate(q)
-        P, J, V = st.points, st.jacobian, st.versor
+        P, J, V = st.points, st.jacobian, st.coeffs
         ref = self.plan.at(t)
         wr = sensors.end_wrenches  # on the robot: the ball feels the negative
         s, w_obj, W_ff, r = self._measure(P, wr, ref.squeeze)

@@ -532,7 +532,7 @@ class HoldController:
         pin, model, data, task, g, n = self._pin, self.model, self.data, self.task, self.gains, self.n
         self._q = q
         st = task.evaluate(q)
-        P, J, V = st.points, st.jacobian, st.versor
+        P, J, V = st.points, st.jacobian, st.coeffs
         if self.plan.start is None:  # the approach starts where the circle is
             self.plan = replace(self.plan, start=(st.log[4:7].copy(), float(np.exp(st.log[BETA]))))
         ref = self.plan.at(t)

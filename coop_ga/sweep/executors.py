@@ -422,22 +422,10 @@ def run(
     policy = TimeoutPolicy.of(timeout)
     norm = _normalize_all(jobs)
     with contextlib.ExitStack() as stack:
-        done: dict[int, dict[str, Any]] = {}
-        writer: RecordWriter | None = None
-        if out is not None:
-            stack.enter_context(directory_lock(out))
-            done, writer = _open_out(out, format, resume, norm, executor)
-            stack.callback(writer.close)
+        done, writer = _open_records(stack, out, format, resume, norm, executor)
         todo: list[Item] = [(i, j) for i, j in enumerate(norm) if i not in done]
         records = dict(done)
-        bar = None
-        if progress:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(
-                total=len(norm), initial=len(done), desc=str(desc), unit="job", file=sys.stderr, dynamic_ncols=True
-            )
-            stack.callback(bar.close)
+        bar = _progress_bar(stack, len(norm), len(done), desc) if progress else None
         if todo:
             ctx = _Ctx(nw, address, warmup, policy, retries, _setup_jobs(todo))
             for r in _RUNNERS[executor](todo, ctx):
@@ -447,3 +435,29 @@ def run(
                 if bar is not None:
                     bar.update(1)
     return [records[i] for i in sorted(records)]
+
+
+def _open_records(
+    stack: contextlib.ExitStack,
+    out: str | Path | None,
+    fmt: str,
+    resume: bool,
+    norm: list[dict[str, Any]],
+    executor: str,
+) -> tuple[dict[int, dict[str, Any]], RecordWriter | None]:
+    """The records already in ``out`` and its writer (locked and closed with ``stack``); none without ``out``."""
+    if out is None:
+        return {}, None
+    stack.enter_context(directory_lock(out))
+    done, writer = _open_out(out, fmt, resume, norm, executor)
+    stack.callback(writer.close)
+    return done, writer
+
+
+def _progress_bar(stack: contextlib.ExitStack, total: int, initial: int, desc: str) -> Any:
+    """A tqdm bar on stderr of ``total`` jobs, ``initial`` of them already recorded, closed with ``stack``."""
+    from tqdm.auto import tqdm
+
+    bar = tqdm(total=total, initial=initial, desc=str(desc), unit="job", file=sys.stderr, dynamic_ncols=True)
+    stack.callback(bar.close)
+    return bar

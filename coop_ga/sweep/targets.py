@@ -38,6 +38,7 @@ import numpy as np
 
 from .. import validation
 from ..errors import InvalidInputError
+from ..geometry.groups import SimilarityLike
 
 __all__ = [
     "CERT_MAX_NFEV",
@@ -212,25 +213,25 @@ def _finite(x: Any) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def certify(task: Any, q0: np.ndarray, target: Any) -> dict[str, Any]:
+def certify(task: Any, q_init: np.ndarray, target: SimilarityLike) -> dict[str, Any]:
     """Independent bounded least-squares solve of e(q) = 0 inside the position limits.
 
-    ``scipy.optimize.least_squares(e, q0, jac=J_e, bounds=(lower, upper), method="trf")`` from q0 (nq,) [rad];
+    ``scipy.optimize.least_squares(e, q_init, jac=J_e, bounds=(lower, upper), method="trf")`` from q_init (nq,) [rad];
     certified iff the final ‖e‖ < :data:`CERT_TOL` and the final q is within the limits.  Returns
     ``{certified, error, violation, nfev, status, reason, time_s}`` (the same as ``benchmarks/robustness.py``).
 
     Raises:
-        InvalidInputError: ``task`` is not a cooperative task, ``q0`` not a finite (nq,) vector.
+        InvalidInputError: ``task`` is not a cooperative task, ``q_init`` not a finite (nq,) vector.
     """
     from scipy.optimize import least_squares
 
     if not (hasattr(task, "error_and_jacobian") and hasattr(task, "system") and hasattr(task, "nq")):
         raise InvalidInputError(f"task must be a coop_ga cooperative task, got {type(task).__name__}")
-    q0 = validation.configuration(q0, int(task.nq), "q0")
+    q_init = validation.configuration(q_init, int(task.nq), "q_init")
 
     lim = task.system.limits
     lo, hi = np.asarray(lim.lower, dtype=float), np.asarray(lim.upper, dtype=float)
-    x0 = np.clip(np.asarray(q0, dtype=float), lo, hi)  # trf needs a feasible start
+    x0 = np.clip(np.asarray(q_init, dtype=float), lo, hi)  # trf needs a feasible start
     cache: dict[str, Any] = {}
 
     def both(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

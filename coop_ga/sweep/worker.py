@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from ..geometry.groups import SimilarityLike
 from .spec import CONTROLLERS, MOVING_ILQR, job_hash
 from .targets import LEVELS, Level, certify, draw_displacement, seed_sequence
 
@@ -191,7 +192,7 @@ def _options(job: Mapping[str, Any]) -> dict[str, Any]:
     return opts
 
 
-def _call(job: Mapping[str, Any], task: Any, q: np.ndarray, target: Any, qd: np.ndarray | None) -> Any:
+def _call(job: Mapping[str, Any], task: Any, q: np.ndarray, target: SimilarityLike, qd: np.ndarray | None) -> Any:
     """Run the job's controller through the solver registry (:func:`coop_ga.control.get_solver`)."""
     from ..control import get_solver
 
@@ -456,7 +457,7 @@ def run_job(index: int, job: Mapping[str, Any]) -> dict[str, Any]:
     return rec
 
 
-def _certificate(job: Mapping[str, Any], task: Any, target: Any) -> dict[str, Any]:
+def _certificate(job: Mapping[str, Any], task: Any, target: SimilarityLike) -> dict[str, Any]:
     """Certify (cached per process: jobs of one target with several controllers certify it once)."""
     k = _key([_task_key(job), [float(x) for x in np.asarray(target.coeffs, dtype=float)]])
     c = _CTX.certs.get(k)

@@ -1,4 +1,4 @@
-"""Layer 4: multi-chain robot systems — ``coop_ga.systems.load(name)``, ``from_urdf(...)``.
+"""Multi-chain robot systems — ``coop_ga.systems.load(name)``, ``from_urdf(...)``.
 
 * :mod:`~coop_ga.systems.system`: :class:`System` (a Pinocchio model, its end frames, q0 and
   limits), :func:`from_urdf`, :func:`from_model`, :func:`append_robots`, :func:`prefixed`,

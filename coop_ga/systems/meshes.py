@@ -1,4 +1,4 @@
-"""Triangle meshes of visual geometry objects, in the object's own frame (layer 4: no drawing).
+"""Triangle meshes of visual geometry objects, in the object's own frame (no drawing: the systems sit below viz).
 
 The mesh-loading half of :mod:`coop_ga.viz.mesh`, moved here so that layers below
 :mod:`coop_ga.viz` (:mod:`coop_ga.collision` fits its capsules to these vertices) can use it;

@@ -278,7 +278,7 @@ def serve(
         max_faces: triangles per robot sent to the browser (None: full meshes).
         block: serve until Ctrl+C (True) or return the running :class:`Viewer` at once (False).
         **session_options: :class:`~coop_ga.viewer.session.TeleopSession` options (``servo_gain``,
-            ``translation_gain``, ``rotation_gain``, ``dilation_gain``, ``rz_mode``, ``limits``, ...).
+            ``translation_gain``, ``rotation_gain``, ``dilation_gain``, ``rz_mode``, ``limit_mode``, ...).
 
     Returns:
         The :class:`Viewer` (already stopped when ``block=True``).

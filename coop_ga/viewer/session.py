@@ -175,7 +175,7 @@ class TeleopSession:
         translation_gain, rotation_gain, dilation_gain: k_t [body lengths/s], k_r [rad/s], k_d [1/s] of
             :func:`~coop_ga.control.command_to_bivector`: the top speeds of the device axes.
         rz_mode: the sixth axis, ``'dilation'`` or ``'rotation'`` (default: :func:`default_rz_mode`).
-        limits: ``'enforce'`` (QP within the limits), ``'clamp'`` or ``'none'`` (:class:`~coop_ga.control.Teleoperator`).
+        limit_mode: ``'enforce'`` (QP within the limits), ``'clamp'`` or ``'none'`` (:class:`~coop_ga.control.Teleoperator`).
         damping: λ of the damped least squares.
         limit_margin: a joint within this distance [rad | m] of a position limit is reported at it.
 
@@ -194,7 +194,7 @@ class TeleopSession:
         rotation_gain: float = 1.0,
         dilation_gain: float = 1.0,
         rz_mode: str | None = None,
-        limits: str = "enforce",
+        limit_mode: str = "enforce",
         damping: float = 1e-3,
         limit_margin: float = 1e-3,
     ):
@@ -210,7 +210,7 @@ class TeleopSession:
         self._options = dict(
             dt=dt,
             damping=damping,
-            limits=limits,
+            limit_mode=limit_mode,
             translation_gain=translation_gain,
             rotation_gain=rotation_gain,
             dilation_gain=dilation_gain,

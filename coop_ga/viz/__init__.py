@@ -1,7 +1,7 @@
 """Drawing for coop_ga: robots, the six primitive kinds, frames, bivector and error plots.
 
-Layer: above :mod:`coop_ga.systems`, below :mod:`coop_ga.cooperative` — it takes systems,
-configurations and primitives (never tasks).  Nothing here imports ``matplotlib.pyplot``:
+It takes systems, configurations and primitives (never tasks: :mod:`coop_ga.cooperative` depends on it,
+not the reverse; ``tests/test_layers.py``).  Nothing here imports ``matplotlib.pyplot``:
 the functions draw on axes they are given, and :func:`render` writes a PNG with the Agg
 canvas directly, so they work headless whatever the backend.
 

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import InvalidInputError
+from ..geometry.kinds import KIND_SPECS, KindSpec
 from .mesh import RendererUnavailableError, TriMesh, _notice, object_placements, robot_mesh
 from .robots import Skeleton, skeleton
 from .scene import Scene, ScenePrimitive, _primitive_style
@@ -290,9 +291,19 @@ class _Prim:
     """A primitive resolved to geometry: kind, style, and what to draw (world frame, metres)."""
 
     p: ScenePrimitive
-    kind: str
+    spec: KindSpec
     style: dict[str, Any]
     data: dict[str, Any]
+
+    @property
+    def surface(self) -> bool:
+        """A plane or sphere: drawn translucent, a patch in the legend."""
+        return self.spec.dimension == 2
+
+    @property
+    def line_role(self) -> str | None:
+        """A flat's axis role (``"direction"`` for a line, ``"normal"`` for a plane); None for a round."""
+        return self.spec.axis_role if self.spec.flat else None
 
 
 def _mesh_color(role: str) -> str:
@@ -346,26 +357,21 @@ def _prims(scene: Scene) -> list[_Prim]:
 
     out = []
     for p in scene.primitives:
-        kind = kind_of(p.X)
+        spec = KIND_SPECS[kind_of(p.X)]
         st = {**_primitive_style(p), **(getattr(p, "style", None) or {})}
         data: dict[str, Any] = {}
-        if kind == "point":
+        if spec.n_points == 1:
             data["points"] = np.asarray(center(p.X), float).reshape(1, 3)
-        elif kind == "point_pair":
+        elif spec.dimension == 0:  # a point pair: its two points
             data["points"] = np.array([np.asarray(e, float).reshape(3) for e in endpoints(p.X)])
-        elif kind == "circle":
-            data.update(
-                center=np.asarray(center(p.X), float), radius=float(radius(p.X)), normal=np.asarray(normal(p.X), float)
-            )
-        elif kind == "sphere":
+        elif spec.flat:  # a line (base, direction) or a plane (base, normal)
+            data["base"] = np.asarray(closest_point_to_origin(p.X), float)
+        else:  # a circle (center, radius, normal) or a sphere (center, radius)
             data.update(center=np.asarray(center(p.X), float), radius=float(radius(p.X)))
-        elif kind == "line":
-            data.update(
-                base=np.asarray(closest_point_to_origin(p.X), float), direction=np.asarray(direction(p.X), float)
-            )
-        elif kind == "plane":
-            data.update(base=np.asarray(closest_point_to_origin(p.X), float), normal=np.asarray(normal(p.X), float))
-        out.append(_Prim(p, kind, st, data))
+        if spec.dimension > 0 and spec.axis_role is not None:
+            read = direction if spec.axis_role == "direction" else normal
+            data[spec.axis_role] = np.asarray(read(p.X), float)
+        out.append(_Prim(p, spec, st, data))
     return out
 
 
@@ -374,18 +380,18 @@ def _prim_points(pr: _Prim) -> np.ndarray:
     from .primitives import circle_points
 
     d = pr.data
-    if pr.kind in ("point", "point_pair"):
+    if "points" in d:  # a point or a point pair
         return d["points"]
-    if pr.kind == "circle":
+    if pr.spec.flat:
+        return np.zeros((0, 3))
+    if "normal" in d:  # a circle
         P = circle_points(d["center"], d["radius"], d["normal"], 48)
         if pr.style.get("normal_arrow"):
             P = np.vstack([P, d["center"] + 0.5 * d["radius"] * d["normal"] / np.linalg.norm(d["normal"])])
         return P
-    if pr.kind == "sphere":
-        from .primitives import sphere_mesh
+    from .primitives import sphere_mesh
 
-        return np.stack([a.ravel() for a in sphere_mesh(d["center"], d["radius"], 24)], axis=1)
-    return np.zeros((0, 3))
+    return np.stack([a.ravel() for a in sphere_mesh(d["center"], d["radius"], 24)], axis=1)
 
 
 def _anchor(robots: list[_Robot]) -> np.ndarray | None:
@@ -399,12 +405,12 @@ def _flat_geometry(pr: _Prim, anchor: np.ndarray | None, extent: float) -> np.nd
     from .primitives import _foot, square_points
 
     d = pr.data
-    if pr.kind == "line":
+    if pr.line_role == "direction":  # a line
         k = d["direction"] / np.linalg.norm(d["direction"])
-        p = _foot(anchor, d["base"], k, "line")
+        p = _foot(anchor, d["base"], k, "direction")
         L = float(pr.style.get("length") or 0.6 * extent)
         return np.array([p - 0.5 * L * k, p + 0.5 * L * k])
-    p = _foot(anchor, d["base"], d["normal"], "plane")
+    p = _foot(anchor, d["base"], d["normal"], "normal")
     return square_points(p, d["normal"], float(pr.style.get("size") or 0.6 * extent))
 
 
@@ -443,11 +449,11 @@ def _legend_handles(robots: list[_Robot], prims: list[_Prim], scene: Scene) -> l
         if not pr.p.label:
             continue
         col, ls, lw = pr.style.get("color", PALETTE.primitive), pr.style.get("ls", "-"), pr.style.get("lw", 2.0)
-        if pr.kind in ("sphere", "plane"):
+        if pr.surface:
             from matplotlib.colors import to_rgba
 
             hs.append(Patch(facecolor=to_rgba(col, 0.3), edgecolor=col, ls=ls, label=pr.p.label))
-        elif pr.kind == "point":
+        elif pr.spec.n_points == 1:
             hs.append(Line2D([], [], color=col, marker="o", ls="none", label=pr.p.label))
         else:
             hs.append(Line2D([], [], color=col, ls=ls, lw=lw, label=pr.p.label))
@@ -567,13 +573,16 @@ class _VTKScene:
         lw = float(st.get("lw", LINEWIDTH["primitive"]))
         ls = st.get("ls", "-")
         alpha = float(st.get("alpha", 1.0)) * _alpha(col)
-        if pr.kind in ("point", "point_pair"):
-            if pr.kind == "point_pair":
+        if "points" in d:  # a point or a point pair
+            if len(d["points"]) > 1:
                 self.tube(d["points"], col, lw, ls, alpha)
             ms = float(st.get("marker_size", 40.0))
             if ms > 0:
                 self.balls(d["points"], col, self.marker_radius(ms), alpha)
-        elif pr.kind == "circle":
+        elif pr.line_role is not None:
+            if flat is not None:
+                self.flat_primitive(pr.line_role, flat, col, lw, ls, alpha)
+        elif "normal" in d:  # a circle
             self.tube(circle_points(d["center"], d["radius"], d["normal"], int(st.get("m", 120))), col, lw, ls, alpha)
             if st.get("normal_arrow"):
                 n = d["normal"] / np.linalg.norm(d["normal"])
@@ -588,19 +597,23 @@ class _VTKScene:
                     scale=L,
                 )
                 self.pl.add_mesh(arrow, **self.flat(col, alpha))
-        elif pr.kind == "sphere":
+        else:  # a sphere
             s = pv.Sphere(radius=d["radius"], center=d["center"], theta_resolution=48, phi_resolution=32)
             self.pl.add_mesh(s, color=_rgb(col), opacity=0.22 * alpha, smooth_shading=True, specular=0.2)
             # its outline seen from the camera, and its equator, as thin lines
             outline = circle_points(d["center"], d["radius"], self.w, 120)
             self.tube(outline, col, 0.6 * lw, ls, alpha)
             self.tube(circle_points(d["center"], d["radius"], [0.0, 0.0, 1.0], 120), col, 0.35 * lw, ls, 0.6 * alpha)
-        elif pr.kind == "line" and flat is not None:
+
+    def flat_primitive(self, role: str, flat: np.ndarray, col: Any, lw: float, ls: str, alpha: float) -> None:
+        """A line's segment (role ``"direction"``) or a plane's translucent square with its outline."""
+        if role == "direction":
             self.tube(flat, col, lw, ls, alpha)
-        elif pr.kind == "plane" and flat is not None:
-            quad = pv.PolyData(flat, faces=np.array([4, 0, 1, 2, 3]))
-            self.pl.add_mesh(quad, color=_rgb(col), opacity=0.25 * alpha, lighting=False)
-            self.tube(np.vstack([flat, flat[:1]]), col, 0.5 * lw, ls, alpha)
+            return
+        pv = _pyvista()
+        quad = pv.PolyData(flat, faces=np.array([4, 0, 1, 2, 3]))
+        self.pl.add_mesh(quad, color=_rgb(col), opacity=0.25 * alpha, lighting=False)
+        self.tube(np.vstack([flat, flat[:1]]), col, 0.5 * lw, ls, alpha)
 
     def curve(self, P: np.ndarray, color: Any, markers: bool) -> None:
         if markers:
@@ -639,9 +652,9 @@ def vtk_image(
             vs.robot(r)
         translucent = False
         for pr in prims:
-            flat = _flat_geometry(pr, anchor, extent) if pr.kind in ("line", "plane") else None
+            flat = _flat_geometry(pr, anchor, extent) if pr.spec.flat else None
             vs.primitive(pr, flat)
-            translucent |= pr.kind in ("sphere", "plane") or float(pr.style.get("alpha", 1.0)) < 1.0
+            translucent |= pr.surface or float(pr.style.get("alpha", 1.0)) < 1.0
         for c in scene.curves:
             col = PALETTE.trajectory if c.role == "trajectory" else PALETTE.robot
             vs.curve(np.asarray(c.points, float).reshape(-1, 3), col, c.markers)
@@ -806,11 +819,11 @@ def mpl_axes(
     for pr in prims:
         kw = dict(pr.style)
         kw.pop("m", None)
-        if pr.kind == "sphere":  # a wireframe: thin lines, whatever the role's line width
+        if pr.surface and not pr.spec.flat:  # a sphere, a wireframe: thin lines, whatever the role's line width
             kw["lw"] = min(float(kw.get("lw", LINEWIDTH["wire"])), 2.0 * LINEWIDTH["wire"])
-        if pr.kind in ("line", "plane"):
+        if pr.spec.flat:
             flat = _flat_geometry(pr, anchor, extent)
-            kw.setdefault("size" if pr.kind == "plane" else "length", float(np.linalg.norm(flat[1] - flat[0])))
+            kw.setdefault("size" if pr.line_role == "normal" else "length", float(np.linalg.norm(flat[1] - flat[0])))
             kw.setdefault("anchor", anchor)
         draw_primitive(ax, pr.p.X, label=pr.p.label, zorder=3, **kw)
     for r in robots:

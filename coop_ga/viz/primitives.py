@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..geometry import center, closest_point_to_origin, direction, endpoints, kind_of, normal, radius
+from ..geometry import KIND_SPECS, center, closest_point_to_origin, direction, endpoints, kind_of, normal, radius
 from .axes import Drawn, axes_box
 from .style import LINEWIDTH, PALETTE
 
@@ -99,13 +99,14 @@ def clip_line(point: Any, direction: Any, lower: Any, upper: Any) -> np.ndarray 
     return np.array([p + s0 * d, p + s1 * d])
 
 
-def _foot(anchor: Any, base: np.ndarray, n_or_d: np.ndarray, flat: str) -> np.ndarray:
-    """Point of a line (flat='line', n_or_d = direction) or plane (n_or_d = normal) nearest ``anchor``."""
+def _foot(anchor: Any, base: np.ndarray, n_or_d: np.ndarray, role: str) -> np.ndarray:
+    """Point of a line (role ``"direction"``, n_or_d = its direction) or plane (role ``"normal"``, n_or_d = its
+    normal) nearest ``anchor``."""
     if anchor is None:
         return base
     a = _vec3(anchor, "anchor")
     k = n_or_d / np.linalg.norm(n_or_d)
-    if flat == "line":
+    if role == "direction":
         return base + ((a - base) @ k) * k
     return a - ((a - base) @ k) * k
 
@@ -145,69 +146,102 @@ def draw_primitive(
 
     Returns a :class:`~coop_ga.viz.axes.Drawn` with the artists and the points drawn (N, 3) [m].
     """
-    kind = kind_of(X)
+    spec = KIND_SPECS[kind_of(X)]
     col = PALETTE.primitive if color is None else color
     wire_lw = LINEWIDTH["wire"] if lw is None else lw
     lw = LINEWIDTH["primitive"] if lw is None else lw
     kw: dict[str, Any] = {"color": col, "alpha": alpha}
     if zorder is not None:
         kw["zorder"] = zorder
-    out = Drawn()
-
-    def line(P: np.ndarray, lab: str | None) -> None:
-        out.artists += ax.plot(P[:, 0], P[:, 1], P[:, 2], lw=lw, ls=ls, label=lab, **kw)
-
-    def markers(P: np.ndarray, lab: str | None) -> None:
-        out.artists.append(ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=marker_size, depthshade=False, label=lab, **kw))
-
-    if kind == "point":
-        P = np.asarray(center(X), float).reshape(1, 3)
-        markers(P, label)
-    elif kind == "point_pair":
-        a, b = (np.asarray(p, float).reshape(3) for p in endpoints(X))
-        P = np.array([a, b])
-        line(P, label)
-        markers(P, None)
-    elif kind == "circle":
+    pen = _Pen(ax, Drawn(), kw, lw, ls, marker_size)
+    if spec.dimension == 0:  # a point or a point pair: markers (joined for a pair)
+        P = np.asarray(center(X), float).reshape(1, 3) if spec.n_points == 1 else _pair_points(X)
+        if len(P) > 1:
+            pen.line(P, label)
+        pen.markers(P, None if len(P) > 1 else label)
+    elif spec.flat:
+        flat = _draw_flat(pen, X, spec.axis_role, label, col, size, length, anchor)
+        if flat is None:  # a line that misses the axes box: nothing to draw
+            return pen.out
+        P = flat
+    elif spec.axis_role == "normal":  # a circle
         c, r, n = np.asarray(center(X), float), float(radius(X)), np.asarray(normal(X), float)
         P = circle_points(c, r, n, m)
-        line(P, label)
+        pen.line(P, label)
         if normal_arrow:
-            out.artists.append(ax.quiver(*c, *(0.5 * r * n), lw=max(lw * 0.6, 0.8), arrow_length_ratio=0.25, **kw))
+            pen.out.artists.append(ax.quiver(*c, *(0.5 * r * n), lw=max(lw * 0.6, 0.8), arrow_length_ratio=0.25, **kw))
             P = np.vstack([P, c, c + 0.5 * r * n])
-    elif kind == "sphere":
+    else:  # a sphere: a wireframe
         c, r = np.asarray(center(X), float), float(radius(X))
         xs, ys, zs = sphere_mesh(c, r, max(m // 5, 12))
-        out.artists.append(ax.plot_wireframe(xs, ys, zs, lw=wire_lw, label=label, **{**kw, "alpha": 0.5 * alpha}))
+        pen.out.artists.append(ax.plot_wireframe(xs, ys, zs, lw=wire_lw, label=label, **{**kw, "alpha": 0.5 * alpha}))
         P = np.stack([xs.ravel(), ys.ravel(), zs.ravel()], axis=1)
-    elif kind == "line":
-        d = np.asarray(direction(X), float)
-        p = _foot(anchor, np.asarray(closest_point_to_origin(X), float), d, "line")
-        if length is not None:
-            P = np.array([p - 0.5 * float(length) * d, p + 0.5 * float(length) * d])
-        else:
-            seg = clip_line(p, d, *axes_box(ax))
-            if seg is None:  # the line misses the box: nothing to draw
-                return out
-            P = seg
-        line(P, label)
-    elif kind == "plane":
-        n = np.asarray(normal(X), float)
-        p = _foot(anchor, np.asarray(closest_point_to_origin(X), float), n, "plane")
-        if size is None:
-            lo, hi = axes_box(ax)
-            size = float(np.min(hi - lo))
-        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+    pen.out.points = np.asarray(P, dtype=float).reshape(-1, 3)
+    return pen.out
 
-        P = square_points(p, n, size)
-        poly = Poly3DCollection(
-            [P], facecolor=col, edgecolor=col, linewidths=lw * 0.5, linestyles=ls, alpha=0.25 * alpha, label=label
+
+class _Pen:
+    """The artists of one :func:`draw_primitive` call and how it draws lines and markers."""
+
+    def __init__(self, ax: Any, out: Drawn, kw: dict[str, Any], lw: float, ls: str, marker_size: float):
+        self.ax, self.out, self.kw, self.lw, self.ls, self.marker_size = ax, out, kw, lw, ls, marker_size
+
+    def line(self, P: np.ndarray, lab: str | None) -> None:
+        self.out.artists += self.ax.plot(P[:, 0], P[:, 1], P[:, 2], lw=self.lw, ls=self.ls, label=lab, **self.kw)
+
+    def markers(self, P: np.ndarray, lab: str | None) -> None:
+        self.out.artists.append(
+            self.ax.scatter(P[:, 0], P[:, 1], P[:, 2], s=self.marker_size, depthshade=False, label=lab, **self.kw)
         )
-        if zorder is not None:
-            poly.set_zorder(zorder)
-        ax.add_collection3d(poly)
-        out.artists.append(poly)
-    else:  # pragma: no cover - kind_of only returns the six kinds
-        raise ValueError(f"cannot draw a {kind}")
-    out.points = np.asarray(P, dtype=float).reshape(-1, 3)
-    return out
+
+
+def _pair_points(X: Any) -> np.ndarray:
+    """The two points (2, 3) [m] of a point pair."""
+    return np.array([np.asarray(p, float).reshape(3) for p in endpoints(X)])
+
+
+def _draw_flat(
+    pen: _Pen,
+    X: Any,
+    role: Any,
+    label: str | None,
+    col: Any,
+    size: float | None,
+    length: float | None,
+    anchor: Any,
+) -> np.ndarray | None:
+    """A line's segment or a plane's square about the foot of ``anchor``; the points drawn (None: the line
+    misses the axes box)."""
+    ax = pen.ax
+    k = np.asarray(direction(X) if role == "direction" else normal(X), float)
+    p = _foot(anchor, np.asarray(closest_point_to_origin(X), float), k, role)
+    if role == "direction":  # a line
+        if length is not None:
+            P = np.array([p - 0.5 * float(length) * k, p + 0.5 * float(length) * k])
+        else:
+            seg = clip_line(p, k, *axes_box(ax))
+            if seg is None:
+                return None
+            P = seg
+        pen.line(P, label)
+        return P
+    if size is None:
+        lo, hi = axes_box(ax)
+        size = float(np.min(hi - lo))
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    P = square_points(p, k, size)
+    poly = Poly3DCollection(
+        [P],
+        facecolor=col,
+        edgecolor=col,
+        linewidths=pen.lw * 0.5,
+        linestyles=pen.ls,
+        alpha=0.25 * pen.kw["alpha"],
+        label=label,
+    )
+    if "zorder" in pen.kw:
+        poly.set_zorder(pen.kw["zorder"])
+    ax.add_collection3d(poly)
+    pen.out.artists.append(poly)
+    return P

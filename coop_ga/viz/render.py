@@ -100,6 +100,6 @@ def render(
 
 
 def _is_flat(X: Any) -> bool:
-    from ..geometry import kind_of
+    from ..geometry import KIND_SPECS, kind_of
 
-    return kind_of(X) in ("line", "plane")
+    return KIND_SPECS[kind_of(X)].flat

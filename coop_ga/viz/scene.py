@@ -201,7 +201,7 @@ def _render_matplotlib(
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from ..geometry import kind_of
+    from ..geometry import KIND_SPECS, kind_of
 
     with style():
         fig = Figure(figsize=size)
@@ -226,7 +226,7 @@ def _render_matplotlib(
                 anchors.append(drawn.skeleton.end_points.mean(axis=0))
         flats = []
         for p in scene.primitives:
-            if kind_of(p.X) in ("line", "plane"):
+            if KIND_SPECS[kind_of(p.X)].flat:
                 flats.append(p)
                 continue
             pts.append(draw_primitive(ax, p.X, label=p.label, **_styled(p)).points)

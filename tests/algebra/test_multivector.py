@@ -100,7 +100,7 @@ def test_dual_undual_roundtrip_and_grade():
 
 
 def test_inverse_eq80_for_versor_and_error_for_non_invertible():
-    from coop_ga import exp
+    from coop_ga.geometry import exp
 
     V = exp(np.array([0.3, -0.2, 0.1, 0.4, 1.0, -2.0, 0.5]))
     np.testing.assert_allclose(dense(V * V.inverse()), dense(Multivector.scalar(1.0)), atol=1e-12)

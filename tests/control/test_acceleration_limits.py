@@ -67,7 +67,7 @@ def test_diff_ik_respects_the_acceleration_limits(load_system, system, kind):
 
 
 def _former_diff_ik(task, q0, V, gain=10.0, dt=0.01, steps=250, tol=1e-4, damping=1e-3):
-    """The former diff_ik_reach loop (limits='enforce', no constraints): J^G and e by two calls, Eq 48 as the
+    """The former diff_ik_reach loop (limit_mode='enforce', no constraints): J^G and e by two calls, Eq 48 as the
     position ∩ velocity QP of qp.velocity_bounds."""
     lim = task.system.limits
     q, Q = q0.copy(), [q0.copy()]

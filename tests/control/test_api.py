@@ -1,4 +1,4 @@
-"""The controller API of the architecture issue: Similarity targets, options dataclasses, one result base,
+"""The controller API: Similarity targets, options dataclasses, one result base,
 ``damping`` = λ everywhere, warnings once per call at the caller's line."""
 
 from __future__ import annotations
@@ -238,7 +238,7 @@ def test_one_warning_per_condition_and_call_at_the_callers_line():
         V0 = task.similarity(q)
     with warnings.catch_warnings(record=True) as rec:
         warnings.simplefilter("always")
-        r = diff_ik_reach(task, q, V0, steps=30, tol=0.0, limits="none")
+        r = diff_ik_reach(task, q, V0, steps=30, tol=0.0, limit_mode="none")
     deg = [w for w in rec if issubclass(w.category, cg.DegeneracyWarning)]
     assert len(deg) == 1, [str(w.message) for w in rec]
     assert deg[0].filename == __file__

@@ -42,7 +42,7 @@ def test_converges_to_reachable_targets(name, kind, scale):
             r = gauss_newton_ik(t, q_init, Vd)
         assert r.converged, (r.message, r.history)
         assert r.error < 1e-9
-        assert s.limits.position_violation(r.q) == 0.0 and r.limit_violation == 0.0  # limits='enforce' (default)
+        assert s.limits.position_violation(r.q) == 0.0 and r.limit_violation == 0.0  # limit_mode='enforce' (default)
         assert np.linalg.norm(t.error(r.q, Vd)) < 1e-9  # the reported error is the true one
         assert r.iterations <= 15
         assert r.history.shape == (r.iterations + 1,)
@@ -71,7 +71,7 @@ def test_unreachable_target_is_reported():
     s = cg.systems.load("three_franka")
     t = cg.cooperative_task(s, "circle")
     r0 = cg.radius(t.primitive(s.q0))
-    Vd = t.similarity(s.q0) * cg.exp([0, 0, 0, np.log(10.0 / r0), 0, 0, 0])  # 10 m radius, same centre
+    Vd = t.similarity(s.q0) * cg.geometry.exp([0, 0, 0, np.log(10.0 / r0), 0, 0, 0])  # 10 m radius, same centre
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cg.DegeneracyWarning)
         r = gauss_newton_ik(t, s.q0, Vd)
@@ -91,7 +91,7 @@ def test_uncontrollable_direction_is_reported():
     U, sv, _ = np.linalg.svd(J)
     u = U[:, -1]  # left null direction of J at q0
     assert sv[-1] < 1e-9 * sv[0]
-    Vd = t.similarity(s.q0) * cg.exp(0.3 * u)
+    Vd = t.similarity(s.q0) * cg.geometry.exp(0.3 * u)
     r = gauss_newton_ik(t, s.q0, Vd)
     assert not r.converged
     assert r.error == pytest.approx(0.3, rel=1e-6)

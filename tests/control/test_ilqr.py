@@ -241,7 +241,7 @@ def test_zero_iterations_and_already_at_target(franka):
 
 
 def test_start_outside_the_limits(franka):
-    """Enforced limits refuse a start outside them (physically impossible); limits='none' reports, never clips."""
+    """Enforced limits refuse a start outside them (physically impossible); limit_mode='none' reports, never clips."""
     task, q0, Vd = franka
     q = q0.copy()
     hi = task.system.limits.upper
@@ -249,7 +249,7 @@ def test_start_outside_the_limits(franka):
     with pytest.raises(InvalidInputError, match=r"outside the joint limits.*arm0_panda_joint4"):
         ilqr_reach(task, q, Vd)
     with pytest.warns(JointLimitWarning):
-        res = ilqr_reach(task, q, Vd, limits="none")
+        res = ilqr_reach(task, q, Vd, limit_mode="none")
     assert res.joint_limit_violation >= 0.05 - 1e-12 and not res.within_limits
     assert res.trajectory[0, 3] == q[3]  # nothing clipped
 

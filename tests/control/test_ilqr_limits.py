@@ -1,4 +1,4 @@
-"""iLQR under joint limits (the limits issue): every trajectory inside the bounds, binding bounds handled,
+"""iLQR under joint limits: every trajectory inside the bounds, binding bounds handled,
 infeasible targets reported honestly, no run-away steps on the cases of the robustness study."""
 
 from __future__ import annotations
@@ -185,7 +185,7 @@ def test_allegro_left_hand_from_neutral_does_not_run_away():
 
 def test_limits_none_keeps_the_unconstrained_solver(flagship):
     _, task, q0, V = flagship
-    a = ilqr_reach(task, q0, V, limits="none")
+    a = ilqr_reach(task, q0, V, limit_mode="none")
     b = ilqr_reach(task, q0, V)
     assert a.converged and b.converged
     np.testing.assert_allclose(a.q, b.q, atol=1e-9)  # no bound is active on the flagship: the same iterates

@@ -1,4 +1,4 @@
-"""Limit-aware IK (issue "Physically valid control", items 3 and 5; paper Eq 53).
+"""Limit-aware IK (paper Eq 53).
 
 Differential IK as a QP (Eq 48, 61 with position and velocity limits and user rows G q̇ ≤ h),
 Gauss–Newton with bounded steps (Eq 43–47), nullspace secondary tasks that stop at a bound
@@ -115,7 +115,7 @@ def test_velocity_limit_is_respected_by_a_single_step(load_system):
     sol = diff_ik_velocity(task, q, b, dt=0.01, **NO_ACC)
     assert sol.used_qp and sol.n_active >= 6
     assert np.all(np.abs(sol.x) <= lim.velocity + 1e-12)
-    free = diff_ik_velocity(task, q, b, dt=0.01, limits="none", **NO_ACC)
+    free = diff_ik_velocity(task, q, b, dt=0.01, limit_mode="none", **NO_ACC)
     assert not free.used_qp and np.max(np.abs(free.x) / lim.velocity) > 5.0
     q1 = diff_ik_step(task, q, b, dt=0.01, **NO_ACC)
     np.testing.assert_allclose(q1, q + 0.01 * sol.x, atol=1e-15)
@@ -142,7 +142,7 @@ def test_qp_redistributes_motion_where_clamping_fails(load_system):
     q_out = q.copy()
     q_out[j] -= 0.3
     V = task.similarity(q_out)
-    clamp = diff_ik_reach(task, q, V, limits="clamp", **NO_ACC)
+    clamp = diff_ik_reach(task, q, V, limit_mode="clamp", **NO_ACC)
     qp = diff_ik_reach(task, q, V, **NO_ACC)
     print(
         f"clamp: ‖e‖ = {clamp.error:.3g} after {clamp.iterations} steps; QP: ‖e‖ = {qp.error:.3g} after "
@@ -235,7 +235,7 @@ def test_infeasible_constraints_are_reported(franka):
     beyond = LinearConstraint(-e3, [-2.0 * s.limits.velocity[3]], "q̇3 ≥ 2 v")  # beyond the velocity limit
     with pytest.raises(InfeasibleConstraintsError, match="no common point"):
         diff_ik_step(task, q0, np.zeros(7), constraints=beyond)
-    diff_ik_step(task, q0, np.zeros(7), constraints=beyond, limits="none")  # fine without the limits
+    diff_ik_step(task, q0, np.zeros(7), constraints=beyond, limit_mode="none")  # fine without the limits
     r = diff_ik_reach(task, q0, V, constraints=contradictory)
     assert r.infeasible and not r.converged and r.iterations == 0
     assert "stopped at step 0" in r.message and "no common point" in r.message
@@ -274,7 +274,7 @@ def test_gauss_newton_reports_a_target_reachable_only_outside_the_limits(load_sy
     task = cg.cooperative_task(s, "point")
     V = displaced_target(task, q0, translation=(0.1, 0.0, 0.0))
     with pytest.warns(cg.JointLimitWarning, match="outside the joint limits"):
-        free = gauss_newton_ik(task, q0, V, limits="none")
+        free = gauss_newton_ik(task, q0, V, limit_mode="none")
     assert free.converged and free.limit_violation > 0.05
     r = gauss_newton_ik(task, q0, V)
     print(r.message)
@@ -289,7 +289,7 @@ def test_gauss_newton_reports_a_target_reachable_only_outside_the_limits(load_sy
 def test_gauss_newton_is_unchanged_when_no_limit_is_touched(franka):
     _, task, q0, V = franka
     a = gauss_newton_ik(task, q0, V)
-    b = gauss_newton_ik(task, q0, V, limits="none")
+    b = gauss_newton_ik(task, q0, V, limit_mode="none")
     assert a.active_iterations == 0 and a.converged
     np.testing.assert_array_equal(a.history, b.history)
     np.testing.assert_array_equal(a.q, b.q)
@@ -324,7 +324,7 @@ def test_nullspace_secondary_task_stops_at_a_bound_and_keeps_the_primary(load_sy
     s = s0.with_limits(position={names[j]: (s0.limits.lower[j], hi)})
     task = cg.cooperative_task(s, "circle")
     r = nullspace_point_reach(task, q0, 0, target, duration=3.0)
-    c = nullspace_point_reach(task, q0, 0, target, duration=3.0, limits="clamp")
+    c = nullspace_point_reach(task, q0, 0, target, duration=3.0, limit_mode="clamp")
     print(
         f"QP: drift {r.similarity_distance.max():.3g}, point error {r.point_error[-1]:.3g} m, active steps "
         f"{r.active_steps}; clamp: drift {c.similarity_distance.max():.3g}"
@@ -404,7 +404,7 @@ def test_qp_step_cost(load_system):
             f()
         return (time.perf_counter() - t) / n * 1e6
 
-    t_none = per_call(lambda: diff_ik_velocity(task, q, free_b, limits="none"))
+    t_none = per_call(lambda: diff_ik_velocity(task, q, free_b, limit_mode="none"))
     t_free = per_call(lambda: diff_ik_velocity(task, q, free_b))
     t_qp = per_call(lambda: diff_ik_velocity(task, q, sat_b))
     print(
@@ -428,7 +428,7 @@ def test_default_success_rates(load_system, name, kind):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cg.CoopGAWarning)
         for V in _targets(task, q0, rng, 20, 0.05, 15.0, 0.15):
-            ref = gauss_newton_ik(task, q0, V, limits="none")
+            ref = gauss_newton_ik(task, q0, V, limit_mode="none")
             if not (ref.converged and ref.limit_violation == 0.0):
                 continue
             certified += 1

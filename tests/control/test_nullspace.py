@@ -48,9 +48,11 @@ def test_projected_secondary_task_keeps_the_circle(runs):
     assert r.point_error[0] > 0.2
     assert r.point_error[-1] < 0.01  # the arm reaches the new point on the circle (< 1 cm)
     assert r.similarity_distance.max() < 1e-3  # … while the cooperative similarity is held
-    # the default limits='enforce' acted only on the first steps from rest (the acceleration bounds, measured 2);
+    # the default limit_mode='enforce' acted only on the first steps from rest (the acceleration bounds, measured 2);
     # after them the numbers are those of Eq 60 itself
-    assert r.limits == "enforce" and r.active_steps <= 3 and r.limit_violation == 0.0 and r.velocity_violation == 0.0
+    assert (
+        r.limit_mode == "enforce" and r.active_steps <= 3 and r.limit_violation == 0.0 and r.velocity_violation == 0.0
+    )
     assert r.max_acceleration_violation == 0.0 and r.relaxed_steps == 0
 
 
@@ -71,10 +73,10 @@ def test_projector_removes_task_motion(franka):
     assert np.abs(qd2[7:14]).max() > 1e-3
     V = t.similarity(q)
     q1 = nullspace_step(t, q, V, qd2, dt=0.01, primary_gain=0.0)
-    np.testing.assert_array_equal(q1, nullspace_step(t, q, V, qd2, dt=0.01, primary_gain=0.0, limits="none"))
+    np.testing.assert_array_equal(q1, nullspace_step(t, q, V, qd2, dt=0.01, primary_gain=0.0, limit_mode="none"))
     q2 = nullspace_step(t, q, V, qd2, dt=0.01, project=False)
-    d = np.linalg.norm(cg.log(~V * t.similarity(q1)))
-    d_unprojected = np.linalg.norm(cg.log(~V * t.similarity(q2)))
+    d = np.linalg.norm(cg.geometry.log(~V * t.similarity(q1)))
+    d_unprojected = np.linalg.norm(cg.geometry.log(~V * t.similarity(q2)))
     step = np.linalg.norm(q1 - q)
     assert step > 1e-4
     assert d < 10 * step**2  # second order only (J N = 0)
@@ -90,6 +92,6 @@ def test_bad_input(franka):
     with pytest.raises(cg.InvalidInputError):
         nullspace_step(t, s.q0, t.similarity(s.q0), np.zeros(5))
     with pytest.raises(cg.InvalidInputError):
-        nullspace_step(t, s.q0, t.similarity(s.q0), np.zeros(s.nq), limits="wrap")
+        nullspace_step(t, s.q0, t.similarity(s.q0), np.zeros(s.nq), limit_mode="wrap")
     with pytest.raises(cg.InvalidInputError):
         nullspace_step(t, s.q0, t.similarity(s.q0), np.zeros(s.nq), limit_gain=0.0)

@@ -153,15 +153,15 @@ def test_terminal_constraint_variant(franka):
 
 def test_bounds_none_and_bad_input(franka):
     _, _, ocp = _problem(franka)
-    assert ReferenceProblem(ocp, "none").limits is None
+    assert ReferenceProblem(ocp, limit_mode="none").limits is None
     assert ReferenceProblem(ocp).limits is franka.limits
     with pytest.raises(cg.InvalidInputError):
-        ReferenceProblem(ocp, "all")
+        ReferenceProblem(ocp, limit_mode="all")
     with pytest.raises(cg.InvalidInputError, match="joints"):
         ReferenceProblem(ocp, cg.systems.load("three_iiwa14").limits)  # 21 joints too, other names
     with pytest.raises(cg.InvalidInputError):
         ReferenceProblem(ocp, terminal="hard")
-    P = ReferenceProblem(ocp, "none")
+    P = ReferenceProblem(ocp, limit_mode="none")
     with pytest.raises(cg.InvalidInputError):
         P.solve("snopt")
     with pytest.raises(cg.InvalidInputError, match="could not be started"):

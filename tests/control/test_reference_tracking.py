@@ -1,4 +1,4 @@
-"""A cooperative circle tracks a smooth screw reference (coop_ga.reference_trajectory, issue 14 item 5):
+"""A cooperative circle tracks a smooth screw reference (coop_ga.reference_trajectory):
 the three Frankas' circle moves, turns and grows along the minimum-jerk similarity path, driven by
 differential IK with the reference's twist as feed-forward plus feedback on e = log(Ṽ_Sc V_ref)."""
 

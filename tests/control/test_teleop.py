@@ -47,7 +47,7 @@ def test_rotation_signs_are_right_handed():
         ([0, 0, 0, 0, 1, 0], np.array([1.0, 0, 0])),
     ]:  # +y: z → +x
         b = command_to_bivector(cmd, rotation_gain=1e-3)
-        moved = cg.to_euclidean(cg.apply(cg.exp(b), cg.point(p)))
+        moved = cg.to_euclidean(cg.geometry.apply(cg.geometry.exp(b), cg.point(p)))
         d = (np.asarray(moved, float) - p) / 1e-3
         np.testing.assert_allclose(d, expected, atol=1e-3)
 
@@ -61,7 +61,7 @@ def test_pure_dilation_scales_radius(name, kind, beta):
     dt = 0.01
     X0 = t.primitive(s.q0)
     r0, c0 = cg.radius(X0), np.asarray(cg.center(X0), float)
-    tel = Teleoperator(t, s.q0, dt=dt, limits="none")
+    tel = Teleoperator(t, s.q0, dt=dt, limit_mode="none")
     tel.step([0, 0, 0, 0, 0, beta])
     X1 = t.primitive(tel.q)
     r1, c1 = cg.radius(X1), np.asarray(cg.center(X1), float)
@@ -90,7 +90,7 @@ def test_fig21_close_and_open():
 
 
 def test_teleoperation_respects_the_joint_limits():
-    """Closing the Allegro hand for 2 s (β = −1 /s): with the default limits='enforce' every
+    """Closing the Allegro hand for 2 s (β = −1 /s): with the default limit_mode='enforce' every
     configuration stays inside the position limits and every step inside the velocity limits;
     without limits the fingers pass through them."""
     s = _load("allegro")
@@ -100,14 +100,14 @@ def test_teleoperation_respects_the_joint_limits():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", cg.DegeneracyWarning)
         for mode in ("enforce", "none"):
-            tel = Teleoperator(t, s.q0, dt=0.01, limits=mode)
+            tel = Teleoperator(t, s.q0, dt=0.01, limit_mode=mode)
             try:
                 tel.run(ScriptedInput([(2.0, [0, 0, 0, 0, 0, -1])], dt=0.01))
             except cg.DegeneratePrimitiveError:
                 pass
             runs[mode] = np.array(tel.log.q)
     Q = runs["enforce"]
-    assert tel.limits == "none" and Teleoperator(t, s.q0).limits == "enforce"
+    assert tel.limit_mode == "none" and Teleoperator(t, s.q0).limit_mode == "enforce"
     assert Q.shape[0] == 201 and lim.position_violation(Q) == 0.0
     assert lim.velocity_violation(np.diff(Q, axis=0) / 0.01) <= 1e-9
     assert lim.position_violation(runs["none"]) > 0.01

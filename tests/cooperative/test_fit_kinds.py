@@ -1,6 +1,6 @@
 """The least-squares kinds "sphere_fit" (≥ 4 points) and "plane_fit" (≥ 3 points) of the task graph.
 
-Issue 13, item 4 (seed 003 §5.6): the CGA least-squares sphere is the smallest non-negative eigenvalue
+Seed 003 §5.6: the CGA least-squares sphere is the smallest non-negative eigenvalue
 solution S of Σ (P_i·S)² under S² = 1; its similarity and Jacobian come from the same task graph as every
 other kind.  Checked here: the fit against scipy (generalized eigenproblem, SVD, geometric least squares),
 exactness for 4 / 3 points against the "sphere" / "plane" kinds (values and Jacobians), J^G against
@@ -180,11 +180,11 @@ def test_minimal_count_equals_the_exact_kind(fit, exact, k):
     for _ in range(5):
         q = RNG.normal(scale=0.3, size=3 * k)
         a, b = tf.evaluate(q), te.evaluate(q)
-        np.testing.assert_allclose(a.versor, b.versor, atol=1e-13)
+        np.testing.assert_allclose(a.coeffs, b.coeffs, atol=1e-13)
         np.testing.assert_allclose(a.log, b.log, atol=1e-13)
         np.testing.assert_allclose(a.jacobian, b.jacobian, atol=1e-12)
         assert a.well_definedness == pytest.approx(b.well_definedness, abs=1e-15)
-        np.testing.assert_allclose(tf.similarity_numpy(q).coeffs, b.versor, atol=1e-13)
+        np.testing.assert_allclose(tf.similarity_numpy(q).coeffs, b.coeffs, atol=1e-13)
 
 
 # ---------------------------------------------------------------------- Jacobian routes

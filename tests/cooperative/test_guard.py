@@ -1,6 +1,6 @@
 """One guard on every compiled entry point: evaluate, error-and-Jacobian, J̇q̇ and batch raise or warn alike.
 
-Architecture issue, item 3: before, ``error_and_jacobian`` and ``evaluate_batch`` had no
+Before, ``error_and_jacobian`` and ``evaluate_batch`` had no
 chart check and ``jdot_qdot`` no degeneracy check.  Each case below is run through every
 entry point and must give the same exception class (or warning class).
 """

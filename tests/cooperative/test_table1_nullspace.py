@@ -1,4 +1,4 @@
-"""Table 1 (rank of J^G = the primitive's DOF), manipulability (Eq 59) and nullspace (Eq 58)."""
+"""Table 1 on a robot (rank of J^G = the primitive's DOF), manipulability (Eq 59) and nullspace (Eq 58)."""
 
 from __future__ import annotations
 
@@ -16,21 +16,10 @@ from coop_ga.cooperative import (
     manipulability_index,
     nullspace_projector,
 )
+from coop_ga.geometry import KIND_SPECS
 
-#: degrees of freedom of each primitive = rank of J^G at non-degenerate configurations
-DOF = {"point": 3, "point_pair": 6, "line": 4, "circle": 6, "plane": 3, "sphere": 4}
-
-
-@pytest.mark.parametrize("kind", list(DOF))
-def test_rank_equals_primitive_dof(kind: str, cartesian4) -> None:
-    """On the Cartesian system the end points move freely, so rank J^G is the primitive's own DOF."""
-    task = CooperativeTask(cartesian4, kind, codegen=False)
-    rng = np.random.default_rng(11)
-    for _ in range(20):
-        q = rng.uniform(-0.4, 0.4, cartesian4.nq)
-        s = np.linalg.svd(task.jacobian(q), compute_uv=False)
-        rank = int(np.sum(s > 1e-8 * s[0]))
-        assert rank == DOF[kind], (kind, s)
+# The DOF column and the blade sets of Table 1 are facts of the kind table, checked kind by kind against J^G in
+# tests/cooperative/test_kinds.py; here the rank on a robot, manipulability and the nullspace.
 
 
 @pytest.mark.parametrize("name,kind", [("three_franka", k) for k in ("point", "point_pair", "line", "circle", "plane")])
@@ -40,7 +29,7 @@ def test_rank_on_robots(name: str, kind: str) -> None:
     rng = np.random.default_rng(5)
     for _ in range(5):
         q = np.clip(sys.q0 + rng.uniform(-0.3, 0.3, sys.nq), sys.q_lower, sys.q_upper)
-        assert np.linalg.matrix_rank(task.jacobian(q), tol=1e-8) == DOF[kind]
+        assert np.linalg.matrix_rank(task.jacobian(q), tol=1e-8) == KIND_SPECS[kind].dof
 
 
 def test_table1_controllable_space_is_not_a_coordinate_subspace(cartesian4) -> None:
@@ -70,11 +59,11 @@ def test_nullspace_motion_leaves_vsc_unchanged_to_first_order() -> None:
     assert np.linalg.norm(w) > 0.5  # the nullspace is large (21 − 6 = 15 dimensions)
     np.testing.assert_allclose(J @ w, 0.0, atol=1e-12)
     V0 = task.similarity(q)
-    d1 = np.linalg.norm(cg.log(~V0 * task.similarity(q + 1e-3 * w)))
-    d2 = np.linalg.norm(cg.log(~V0 * task.similarity(q + 2e-3 * w)))
+    d1 = np.linalg.norm(cg.geometry.log(~V0 * task.similarity(q + 1e-3 * w)))
+    d2 = np.linalg.norm(cg.geometry.log(~V0 * task.similarity(q + 2e-3 * w)))
     assert d1 < 1e-5 and d2 / d1 == pytest.approx(4.0, rel=0.05)  # second order in the step
     # an unprojected motion moves V_Sc to first order
-    d_free = np.linalg.norm(cg.log(~V0 * task.similarity(q + 1e-3 * v)))
+    d_free = np.linalg.norm(cg.geometry.log(~V0 * task.similarity(q + 1e-3 * v)))
     assert d_free > 100 * d1
 
 
@@ -100,43 +89,6 @@ def test_damped_pinv_and_manipulability() -> None:
         damped_pinv(np.full((7, 3), np.nan))
     with pytest.raises(cg.InvalidInputError):
         damped_pinv(J, -1.0)
-
-
-#: the paper's "controllable bivector space" column of Table 1
-PAPER_ROWS = {
-    "point": ("e1∞", "e2∞", "e3∞"),
-    "point_pair": ("e12", "e23", "e0∞", "e1∞", "e2∞", "e3∞"),
-    "line": ("e12", "e23", "e1∞", "e3∞"),
-    "circle": ("e13", "e23", "e0∞", "e1∞", "e2∞", "e3∞"),
-    "plane": ("e13", "e23", "e3∞"),
-    "sphere": ("e0∞", "e1∞", "e2∞", "e3∞"),
-}
-UNIT_POINTS = {
-    "point": [(0, 0, 0)],
-    "point_pair": [(0, -1, 0), (0, 1, 0)],
-    "line": [(0, 0, 0), (0, 1, 0)],
-    "circle": [(1, 0, 0), (0, 1, 0), (-1, 0, 0)],
-    "plane": [(0, 0, 0), (1, 0, 0), (0, 1, 0)],
-    "sphere": [(1, 0, 0), (0, 1, 0), (0, 0, 1), (-1, 0, 0)],
-}
-
-
-@pytest.mark.parametrize("kind", list(PAPER_ROWS))
-def test_table1_rows_exact_at_the_unit_primitive(kind: str, cartesian4) -> None:
-    """At X_c = X_u the range of J^G is exactly the span of the paper's blades (docs/table1.md)."""
-    from .conftest import BASES
-
-    task = CooperativeTask(cartesian4, kind, codegen=False)
-    q = np.zeros(cartesian4.nq)
-    for i, p in enumerate(UNIT_POINTS[kind]):
-        q[3 * i : 3 * i + 3] = np.array(p, float) - BASES[i]
-    np.testing.assert_allclose(task.log(q), 0.0, atol=1e-12)  # V_Sc = 1
-    J = task.jacobian(q)
-    names = list(cg.TANGENT_BASIS)
-    allowed = [names.index(n) for n in PAPER_ROWS[kind]]
-    excluded = [i for i in range(7) if i not in allowed]
-    assert np.abs(J[excluded]).max(initial=0.0) < 1e-12
-    assert np.linalg.matrix_rank(J[allowed], tol=1e-9) == len(allowed)
 
 
 def test_manipulability_ellipsoid_resolves_eigenvalues_eigh_loses() -> None:

@@ -21,11 +21,11 @@ def test_definition_of_the_task_api() -> None:
     X = task.primitive(q)
     V = task.similarity(q)
     # X_c = V X_u Ṽ (Eq 28)
-    Y = cg.apply(V, cg.unit_primitive("circle"))
+    Y = cg.geometry.apply(V, cg.unit_primitive("circle"))
     k = (X.to_dense() @ Y.to_dense()) / (Y.to_dense() @ Y.to_dense())
     np.testing.assert_allclose(X.to_dense(), k * Y.to_dense(), atol=1e-12)
     assert k > 0
-    np.testing.assert_allclose(task.log(q), cg.log(V), atol=1e-12)
+    np.testing.assert_allclose(task.log(q), cg.geometry.log(V), atol=1e-12)
     pts = sys.end_points(q)
     np.testing.assert_allclose(task.points(q), pts, atol=1e-12)
     # closed-form circumcircle radius / centre of the three TCPs
@@ -46,7 +46,7 @@ def test_compiled_route_matches_vm() -> None:
     for _ in range(5):
         q = sys.random_q(rng, 0.5)
         a, b = fast.evaluate(q), vm.evaluate(q)
-        np.testing.assert_allclose(a.versor, b.versor, atol=1e-13)
+        np.testing.assert_allclose(a.coeffs, b.coeffs, atol=1e-13)
         np.testing.assert_allclose(a.jacobian, b.jacobian, atol=1e-12)
     assert fast.compiled.codegen
 
@@ -60,7 +60,7 @@ def test_batch_equals_sequential() -> None:
     assert V.shape == (6, 12) and B.shape == (6, 7) and J.shape == (6, 7, sys.nq)
     for i, q in enumerate(Q):
         st = task.evaluate(q)
-        np.testing.assert_allclose(V[i], st.versor, atol=1e-13)
+        np.testing.assert_allclose(V[i], st.coeffs, atol=1e-13)
         np.testing.assert_allclose(B[i], st.log, atol=1e-13)
         np.testing.assert_allclose(J[i], st.jacobian, atol=1e-13)
 
@@ -123,14 +123,14 @@ def test_degeneracy_raises_on_every_route(kind, move, cartesian4) -> None:
         task.jacobian_closed_form,
         task.jacobian_ad,
         task.similarity_numpy,
-        lambda q: task.error(q, cg.exp(np.zeros(7))),
+        lambda q: task.error(q, cg.geometry.exp(np.zeros(7))),
         lambda q: task.evaluate_batch(q[None, :]),
     ]
     for route in routes:
         with pytest.raises(cg.DegeneratePrimitiveError):
             route(q)
     # approaching degeneracy warns, with a finite answer.  For point pairs and lines the measure is
-    # scale-free (d / (d + ε·max|p|), reliability issue item 7): two distinct points a few mm apart are
+    # scale-free (d / (d + ε·max|p|)): two distinct points a few mm apart are
     # a well-defined (small) pair, so only coincidence within the floating-point resolution degenerates
     i, x = next(iter(target.items()))
     q_near = q.copy()
@@ -160,6 +160,36 @@ def test_well_definedness_measure_values(cartesian4) -> None:
 def test_task_cache_returns_same_object() -> None:
     sys = systems.load("three_franka")
     assert cooperative_task(sys, "circle") is cooperative_task("three_franka", "circle")
+
+
+def test_task_cache_is_bounded_and_keeps_the_most_recently_used(monkeypatch) -> None:
+    """The cache held every task ever asked for (a sweep over systems grew without bound); it is an LRU of
+    TASK_CACHE_SIZE tasks: the least recently used one goes first, a task dropped stays usable."""
+    import gc
+    import weakref
+
+    from coop_ga.cooperative import task as task_module
+
+    monkeypatch.setattr(task_module, "TASK_CACHE_SIZE", 3)
+    monkeypatch.setattr(task_module, "_TASK_CACHE", task_module.OrderedDict())
+    syss = [systems.cartesian_points(1) for _ in range(5)]
+    opts = {"codegen": False}
+    first = cooperative_task(syss[0], "point", **opts)
+    for s in syss[1:3]:
+        cooperative_task(s, "point", **opts)
+    assert cooperative_task(syss[0], "point", **opts) is first  # a hit makes it the most recent
+    for s in syss[3:]:
+        cooperative_task(s, "point", **opts)  # two more: evicts syss[1] and syss[2], not syss[0]
+    cache = task_module._TASK_CACHE
+    assert len(cache) == 3
+    assert [t.system for t in cache.values()] == [syss[0], syss[3], syss[4]]
+    assert cooperative_task(syss[0], "point", **opts) is first
+    dropped = weakref.ref(cooperative_task(syss[1], "point", **opts))  # rebuilt, evicting syss[3]'s task
+    np.testing.assert_allclose(first.points(np.zeros(3)), [[1.0, 0.0, 0.0]])  # still usable
+    for s in syss[2:]:
+        cooperative_task(s, "point", **opts)
+    gc.collect()
+    assert dropped() is None  # evicted and unreferenced: freed, not kept by the cache
 
 
 def test_overflowing_q_is_reported_as_too_large() -> None:

@@ -1,4 +1,4 @@
-"""Fuzz the task and controller API (reliability issue): for arbitrary inputs — finite, extreme, NaN/inf,
+"""Fuzz the task and controller API: for arbitrary inputs — finite, extreme, NaN/inf,
 wrongly typed, wrongly shaped — (a) no NaN/inf is ever returned, (b) every exception is a CoopGAError,
 (c) no input is mutated.  CI runs the ``default`` hypothesis profile; ``--hypothesis-profile=long`` runs
 10 000 examples per property."""
@@ -59,8 +59,8 @@ def _finite(out) -> bool:
         return _finite(out.coeffs)
     if hasattr(out, "q") and hasattr(out, "error"):
         return _finite(np.asarray(out.q)) and np.isfinite(out.error)
-    if hasattr(out, "versor"):  # TaskState
-        return _finite(out.versor) and _finite(out.jacobian)
+    if hasattr(out, "well_definedness"):  # TaskState
+        return _finite(out.coeffs) and _finite(out.jacobian)
     return True
 
 

@@ -24,11 +24,10 @@ import pytest
 
 import coop_ga as cg
 from coop_ga.errors import PrecisionWarning
-from coop_ga.geometry import N_POINTS
+from coop_ga.geometry import KIND_SPECS, KINDS, N_POINTS
 from coop_ga.geometry.groups import Similarity, rotor_matrix
 
 sim = importlib.import_module("coop_ga.geometry.similarity")
-KINDS = ("point", "point_pair", "line", "circle", "plane", "sphere")
 EPS = float(np.finfo(float).eps)
 
 
@@ -137,7 +136,7 @@ def far_points(kind, rng, rho, size):
 
 
 def unit_points(kind):
-    return [np.array(p) for p in sim._UNIT_POINTS[kind]]
+    return [np.array(p) for p in KIND_SPECS[kind].unit_points]
 
 
 def _run(f):
@@ -186,7 +185,7 @@ def test_the_local_form_is_dropped_by_every_operation():
     assert X.local is not None
     np.testing.assert_array_equal(X.local[0], np.mean([[1e6, 0, 0], [1e6 + 1, 0, 0], [1e6, 1, 0]], axis=0))
     assert not isinstance(X.scale(2.0), cg.Primitive)
-    assert cg.apply(cg.exp(np.zeros(7)), X).local is None
+    assert cg.geometry.apply(cg.geometry.exp(np.zeros(7)), X).local is None
     assert cg.circle([1, 0, 0], [0, 1, 0], [-1, 0, 0]).local is None  # near the origin: nothing to keep
 
 

@@ -82,15 +82,15 @@ def test_similarity_acts_as_scale_rotate_translate(b, x):
     rotvec = np.array([th23, -th13, th12])
     R = Rotation.from_rotvec(rotvec).as_matrix()
     want = np.array(t) + np.exp(beta) * R @ x
-    got = cg.to_euclidean(cg.apply(cg.exp(b), cg.point(x)))
+    got = cg.to_euclidean(cg.geometry.apply(cg.geometry.exp(b), cg.point(x)))
     np.testing.assert_allclose(got, want, atol=1e-9 * (1 + np.abs(want).max()))
 
 
 def test_translation_rotation_conventions():
     x = np.array([1.0, 0.0, 0.0])
-    got = cg.to_euclidean(cg.apply(cg.exp([0, 0, 0, 0, 0.1, 0.2, 0.3]), cg.point(x)))
+    got = cg.to_euclidean(cg.geometry.apply(cg.geometry.exp([0, 0, 0, 0, 0.1, 0.2, 0.3]), cg.point(x)))
     np.testing.assert_allclose(got, [1.1, 0.2, 0.3])
-    got = cg.to_euclidean(cg.apply(cg.exp([np.pi / 2, 0, 0, 0, 0, 0, 0]), cg.point(x)))
+    got = cg.to_euclidean(cg.geometry.apply(cg.geometry.exp([np.pi / 2, 0, 0, 0, 0, 0, 0]), cg.point(x)))
     np.testing.assert_allclose(got, [0.0, 1.0, 0.0], atol=1e-15)  # +90° about +z
 
 
@@ -98,12 +98,12 @@ def test_dilation_scales_by_exp_beta():
     """Fig. 21: −1 on e0∞ gives d = 0.3679 and +1 gives d = 2.718 (Eq 67 literally is the inverse)."""
     x = np.array([0.3, -0.4, 1.2])
     for beta, d in [(-1.0, 0.3679), (1.0, 2.718)]:
-        got = cg.to_euclidean(cg.apply(cg.exp([0, 0, 0, beta, 0, 0, 0]), cg.point(x)))
+        got = cg.to_euclidean(cg.geometry.apply(cg.geometry.exp([0, 0, 0, beta, 0, 0, 0]), cg.point(x)))
         np.testing.assert_allclose(got, d * x, rtol=2e-4)
     # Eq 67 as printed: cosh(β/2) − sinh(β/2) e0∞ scales by e^{−β}
     beta = 1.0
     eq67 = Multivector.from_names({"1": np.cosh(beta / 2), "e0inf": -np.sinh(beta / 2)})
-    got = cg.to_euclidean(cg.apply(eq67, cg.point(x)))
+    got = cg.to_euclidean(cg.geometry.apply(eq67, cg.point(x)))
     np.testing.assert_allclose(got, np.exp(-beta) * x)
 
 
@@ -127,42 +127,42 @@ def test_rotor_log_at_pi_and_beyond_returns_shortest():
 
 def test_log_rejects_invalid_versors_without_nan():
     with pytest.raises(cg.InvalidVersorError, match="zero"):
-        cg.log(Multivector.scalar(0.0).with_blades(SIMILARITY_BLADES))
+        cg.geometry.log(Multivector.scalar(0.0).with_blades(SIMILARITY_BLADES))
     with pytest.raises(cg.InvalidVersorError, match="not a similarity"):
-        cg.log(Multivector.from_names({"1": 1.0, "e01": 0.5}))  # a transversion component
+        cg.geometry.log(Multivector.from_names({"1": 1.0, "e01": 0.5}))  # a transversion component
     with pytest.raises(cg.NonFiniteError):
-        cg.log(Multivector.from_names({"1": np.nan}))
+        cg.geometry.log(Multivector.from_names({"1": np.nan}))
     with pytest.raises(cg.NonFiniteError):
-        cg.exp([0, 0, np.inf, 0, 0, 0, 0])
+        cg.geometry.exp([0, 0, np.inf, 0, 0, 0, 0])
     with pytest.raises(cg.InvalidInputError, match="shape"):
-        cg.exp([0, 0, 0])
+        cg.geometry.exp([0, 0, 0])
     with pytest.raises(cg.InvalidVersorError, match="not a Rotor"):
-        cg.Rotor(cg.exp([0, 0, 0, 0, 1.0, 0, 0]))
+        cg.Rotor(cg.geometry.exp([0, 0, 0, 0, 1.0, 0, 0]))
 
 
 def test_log_is_scale_invariant():
     b = np.array([0.3, 0.2, -0.1, 0.5, 1.0, 2.0, -1.0])
-    np.testing.assert_allclose(cg.log(cg.exp(b).scale(3.5)), b, atol=1e-12)
-    np.testing.assert_allclose(cg.log(cg.exp(b).scale(-3.5)), b, atol=1e-12)
+    np.testing.assert_allclose(cg.geometry.log(cg.geometry.exp(b).scale(3.5)), b, atol=1e-12)
+    np.testing.assert_allclose(cg.geometry.log(cg.geometry.exp(b).scale(-3.5)), b, atol=1e-12)
 
 
 def test_relative_log_in_v1_frame():
     b1 = np.array([0.3, 0.2, -0.1, 0.5, 1.0, 2.0, -1.0])
     d = np.array([0.0, 0.0, 0.0, 0.0, 0.1, 0.0, 0.0])  # body-frame translation along x
-    V1 = cg.exp(b1)
-    V2 = V1 * cg.exp(d)
-    np.testing.assert_allclose(cg.log(~V1 * V2), d, atol=1e-12)
+    V1 = cg.geometry.exp(b1)
+    V2 = V1 * cg.geometry.exp(d)
+    np.testing.assert_allclose(cg.geometry.log(~V1 * V2), d, atol=1e-12)
 
 
 def test_log_jacobian_matches_finite_differences(rng):
     b = np.array([0.3, 0.2, -0.1, 0.5, 1.0, 2.0, -1.0])
-    V = cg.exp(b)
+    V = cg.geometry.exp(b)
     x0 = np.array([V.get(k) for k in SIMILARITY_BLADES])
 
     def f(x):
-        return cg.log(Multivector(SIMILARITY_BLADES, tuple(x)))
+        return cg.geometry.log(Multivector(SIMILARITY_BLADES, tuple(x)))
 
-    J = cg.log_jacobian(V)
+    J = cg.geometry.log_jacobian(V)
     np.testing.assert_allclose(J, central_difference(f, x0, 1e-6), atol=1e-7)
 
 

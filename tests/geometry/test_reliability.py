@@ -64,8 +64,8 @@ def test_item5_exact_antipode_keeps_the_half_turn_convention():
         ("circle", [[1, 0, 0], [-1, 0, 0], [0, 1, 0]]),
         ("plane", [[0, 0, 1], [0, 1, 1], [1, 0, 1]]),
     ]:
-        V = cg.similarity_from_unit(cg.primitive_from_points(kind, [np.array(p, float) for p in pts]))
-        th = cg.log(V)[:3]
+        V = cg.geometry.similarity_from_unit(cg.primitive_from_points(kind, [np.array(p, float) for p in pts]))
+        th = cg.geometry.log(V)[:3]
         assert np.isclose(np.linalg.norm(th), np.pi)
         axis = {"point_pair": [1.0, 0, 0], "circle": [0, 0, 1.0], "plane": [0, 0, 1.0]}[kind]  # e12 ↔ z, e23 ↔ x
         assert abs(abs(np.dot(th / np.pi, axis)) - 1.0) < 1e-12 or kind == "point_pair"
@@ -91,12 +91,12 @@ def test_item5_similarity_near_antiparallel_is_a_unit_versor(kind):
             Rm = np.eye(3) + np.sin(ang) * K + (1 - np.cos(ang)) * K @ K  # rotation by ang about p
             pts2 = (base @ Q.T) @ Rm.T * 1.7 + rng.normal(size=3)
             X2 = cg.primitive_from_points(kind, list(pts2))
-            V = cg.similarity(X1, X2)
+            V = cg.geometry.similarity(X1, X2)
             assert abs((V * V.reverse()).to_dense()[0] - 1.0) < 1e-14
-            lam, res = proportionality(cg.apply(V, X1), X2)
+            lam, res = proportionality(cg.geometry.apply(V, X1), X2)
             assert res < 1e-12 and lam > 0, (delta, res)
             if kind == "point_pair":  # end points map onto end points
-                a, b = cg.endpoints(cg.apply(V, X1))
+                a, b = cg.endpoints(cg.geometry.apply(V, X1))
                 np.testing.assert_allclose(a, pts2[0], atol=1e-12)
                 np.testing.assert_allclose(b, pts2[1], atol=1e-12)
 
@@ -162,8 +162,8 @@ def test_item7_small_and_large_primitives_are_accepted(kind, r):
         np.testing.assert_allclose(cg.closest_point_to_origin(X), want, atol=1e-12 * r)
     # similarity and projection work at every size; a similarity versor that scales by s stores its
     # dilation as cosh/sinh of ½ log s, so applying it carries a relative rounding error ~ε·max(s, 1/s)
-    V = cg.similarity_from_unit(X)
-    lam, res = proportionality(cg.apply(V, cg.unit_primitive(kind)), X)
+    V = cg.geometry.similarity_from_unit(X)
+    lam, res = proportionality(cg.geometry.apply(V, cg.unit_primitive(kind)), X)
     scale = max(r, 1.0 / r) if kind in ("point_pair", "circle", "sphere") else 1.0
     assert res < max(1e-12, 100 * EPS * scale) and lam > 0
     if kind in ("line", "plane"):
@@ -332,7 +332,7 @@ def test_item7_kind_of_is_scale_free_for_large_and_far_rounds_and_noisy_flats():
     for kind in ("line", "plane"):
         for _ in range(50):
             X = cg.primitive_from_points(kind, list(rng.normal(size=(N_POINTS[kind], 3)) * 3))
-            Y = cg.apply(cg.exp(rng.normal(size=7) * 2), X)  # rounding noise in the e∞-free blades
+            Y = cg.geometry.apply(cg.geometry.exp(rng.normal(size=7) * 2), X)  # rounding noise in the e∞-free blades
             assert cg.kind_of(Multivector(Y.blades, Y.coeffs)) == kind
 
 
@@ -351,7 +351,7 @@ BAD = ["abc", {"x": 1}, ["a", "b", "c"], None, [1.0, None, 2.0], [[1.0, 2.0], [3
 def test_item9_bad_inputs_raise_coopga_errors_naming_the_argument(bad):
     """Old: ValueError/TypeError for strings, dicts and lists of strings, AttributeError for None."""
     X = cg.unit_primitive("circle")
-    V = cg.exp(np.zeros(7))
+    V = cg.geometry.exp(np.zeros(7))
     cases = [
         (lambda: cg.point(bad), "x"),
         (lambda: cg.point_pair(bad, [0, 0, 1.0]), "a"),
@@ -362,12 +362,12 @@ def test_item9_bad_inputs_raise_coopga_errors_naming_the_argument(bad):
         (lambda: cg.circle([0, 0, 0], [1, 0, 0], [0, 1, 0], tol=bad), "tol"),
         (lambda: cg.well_definedness("circle", bad), "points"),
         (lambda: cg.well_definedness(bad, np.eye(3)), "kind"),
-        (lambda: cg.exp(bad), "tangent"),
-        (lambda: cg.log(bad), "V"),
-        (lambda: cg.log_jacobian(bad), "V"),
-        (lambda: cg.decompose(bad), "V"),
-        (lambda: cg.apply(bad, X), "apply"),
-        (lambda: cg.apply(V, bad), "apply"),
+        (lambda: cg.geometry.exp(bad), "tangent"),
+        (lambda: cg.geometry.log(bad), "V"),
+        (lambda: cg.geometry.log_jacobian(bad), "V"),
+        (lambda: cg.geometry.decompose(bad), "V"),
+        (lambda: cg.geometry.apply(bad, X), "apply"),
+        (lambda: cg.geometry.apply(V, bad), "apply"),
         (lambda: cg.center(bad), "X"),
         (lambda: cg.radius(bad), "X"),
         (lambda: cg.normal(bad), "X"),
@@ -379,8 +379,8 @@ def test_item9_bad_inputs_raise_coopga_errors_naming_the_argument(bad):
         (lambda: cg.to_euclidean(bad), "P"),
         (lambda: cg.project(bad, X), "P"),
         (lambda: cg.meet(X, bad), "X2"),
-        (lambda: cg.similarity(X, bad), "X"),
-        (lambda: cg.similarity_from_unit(bad), "X"),
+        (lambda: cg.geometry.similarity(X, bad), "X"),
+        (lambda: cg.geometry.similarity_from_unit(bad), "X"),
         (lambda: cg.unit_primitive(bad), "kind"),
         (lambda: rotor_between(bad, [0, 0, 1.0]), "u"),
         (lambda: Multivector.from_names({"e1": bad}), "e1"),
@@ -397,25 +397,27 @@ def test_item9_valid_large_versors_do_not_overflow():
     """Old: OverflowError from log on a valid versor scaled by 1e300."""
     b = np.array([0.3, 0.2, -0.1, 0.5, 1.0, 2.0, -1.0])
     for lam in [1e300, 1e-300, 2.0**1000, -1e300]:
-        np.testing.assert_allclose(cg.log(cg.exp(b).scale(lam)), b, atol=1e-14)
-        VT, VR, VD = cg.decompose(cg.exp(b).scale(lam))  # normalised factors, V ∝ VT VR VD (up to sign)
-        np.testing.assert_allclose((VT * VR * VD).to_dense(), np.sign(lam) * cg.exp(b).to_dense(), atol=1e-14)
+        np.testing.assert_allclose(cg.geometry.log(cg.geometry.exp(b).scale(lam)), b, atol=1e-14)
+        VT, VR, VD = cg.geometry.decompose(
+            cg.geometry.exp(b).scale(lam)
+        )  # normalised factors, V ∝ VT VR VD (up to sign)
+        np.testing.assert_allclose((VT * VR * VD).to_dense(), np.sign(lam) * cg.geometry.exp(b).to_dense(), atol=1e-14)
 
 
 # ====================================================================== item 10
 def test_item10_extreme_finite_inputs_never_give_nan_or_inf():
     b = np.array([0.3, 0.2, -0.1, 0.5, 1.0, 2.0, -1.0])
-    V = cg.exp(b)
-    J = cg.log_jacobian(V)
+    V = cg.geometry.exp(b)
+    J = cg.geometry.log_jacobian(V)
     for lam in [1e300, 1e-300]:  # log is homogeneous of degree 0: J(λV) = J(V)/λ
-        np.testing.assert_allclose(cg.log_jacobian(V.scale(lam)) * lam, J, rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(cg.geometry.log_jacobian(V.scale(lam)) * lam, J, rtol=1e-13, atol=1e-13)
     # rotations by huge angles are reduced exactly; huge dilations are out of range
-    big = cg.exp([1e200, 0, 0, 0, 0, 0, 0])
+    big = cg.geometry.exp([1e200, 0, 0, 0, 0, 0, 0])
     assert all(np.isfinite(c) for c in big.coeffs)
     assert abs((big * big.reverse()).get(0) - 1) < 1e-15
     for bad in ([0, 0, 0, 1500.0, 0, 0, 0], [0, 0, 0, -1400.0, 1e10, 0, 0]):
         with pytest.raises(InvalidInputError, match=r"range|representable"):
-            cg.exp(bad)
+            cg.geometry.exp(bad)
     with pytest.raises(InvalidInputError, match="representable"):
         cg.point([1e200, 0.0, 0.0])
     np.testing.assert_allclose(cg.to_euclidean(cg.point([1e150, -2e149, 3.0])), [1e150, -2e149, 3.0])
@@ -436,7 +438,7 @@ def test_item11_silent_coercion_is_rejected():
         warnings.simplefilter("error")  # not even a ComplexWarning: an exception
         for f in (
             lambda: cg.point([1 + 1j, 0, 0]),
-            lambda: cg.exp(np.zeros(7, complex)),
+            lambda: cg.geometry.exp(np.zeros(7, complex)),
             lambda: cg.circle([0, 0, 0], [1, 0, 0], np.array([0, 1, 0], complex)),
             lambda: cg.point(np.array([True, False, True])),
             lambda: cg.point(["1", "2", "3"]),
@@ -452,20 +454,20 @@ def test_item11_silent_coercion_is_rejected():
         Multivector.zero(),
     ):
         with pytest.raises(InvalidVersorError):
-            cg.apply(notv, X)
+            cg.geometry.apply(notv, X)
     # versors pass: scaled, reflections, huge dilations and translations
     for V in (
-        cg.exp([0.1, 0.2, 0.3, 30.0, 0, 0, 0]),
-        cg.exp([0, 0, 0, 0, 1e12, 0, 0]).scale(1e-200),
+        cg.geometry.exp([0.1, 0.2, 0.3, 30.0, 0, 0, 0]),
+        cg.geometry.exp([0, 0, 0, 0, 1e12, 0, 0]).scale(1e-200),
         Multivector.blade("e1"),
-        cg.exp([0.5, 0, 0, 0, 1, 2, 3]).scale(-7.0),
+        cg.geometry.exp([0.5, 0, 0, 0, 1, 2, 3]).scale(-7.0),
     ):
-        Y = cg.apply(V, X)
+        Y = cg.geometry.apply(V, X)
         assert all(np.isfinite(c) for c in Y.coeffs)
     a = np.array([1.0, 2.0, 3.0])
     a0 = a.copy()
     cg.point_pair(a, a + 1e-3)
-    cg.log(cg.exp(a.tolist() + [0, 0, 0, 0]))
+    cg.geometry.log(cg.geometry.exp(a.tolist() + [0, 0, 0, 0]))
     np.testing.assert_array_equal(a, a0)
 
 
@@ -474,7 +476,7 @@ def test_item12_log_of_large_translators():
     """Old: log rejected valid translators with |t| ≳ 2.5e12 m ('no rotor part')."""
     for t in [1e6, 2.5e12, 1e13, 1e100, 1e300, 1e-300]:
         for b in ([0, 0, 0, 0, t, -t / 3, 0], [0.3, -0.2, 0.1, 0.4, t, 0, t]):
-            got = cg.log(cg.exp(b))
+            got = cg.geometry.log(cg.geometry.exp(b))
             np.testing.assert_allclose(got, b, rtol=1e-14, atol=1e-14 * t)
 
 
@@ -484,7 +486,7 @@ def test_item12_dilation_log_keeps_relative_precision_near_zero():
     for beta in np.concatenate([np.geomspace(1e-300, 5.0, 400), -np.geomspace(1e-300, 5.0, 400)]):
         c, s = np.cosh(beta / 2), np.sinh(beta / 2)
         D = Multivector(DILATOR_BLADES, (float(c), float(s))).with_blades(SIMILARITY_BLADES)
-        got = cg.log(D)[3]
+        got = cg.geometry.log(D)[3]
         ref = 2 * np.arctanh(L(s) / L(c))  # of the stored coefficients, in long double
         worst = max(worst, abs(float((L(got) - ref) / ref)))
     assert worst <= 4 * EPS, worst
@@ -499,7 +501,7 @@ def test_item12_rotor_log_relative_error_across_the_series_switch():
         ax /= np.linalg.norm(ax)
         w, b = np.cos(phi / 2), -np.sin(phi / 2) * ax
         R = Multivector(ROTOR_BLADES, (float(w), *(float(x) for x in b)))
-        got = cg.log(R.with_blades(SIMILARITY_BLADES))[:3]
+        got = cg.geometry.log(R.with_blades(SIMILARITY_BLADES))[:3]
         bl = np.array(b, dtype=L)
         n = np.sqrt(np.sum(bl * bl))
         ref = -2 * np.arctan2(n, L(w)) / n * bl  # of the stored rotor, in long double
@@ -513,7 +515,7 @@ def test_item12_exp_series_across_the_switch():
     for phi in np.concatenate([np.geomspace(1e-6, 0.2, 2000), np.linspace(0.9e-3, 1.1e-3, 500)]):
         ax = rng.normal(size=3)
         th = phi * ax / np.linalg.norm(ax)
-        V = cg.exp([*th, 0, 0, 0, 0])
+        V = cg.geometry.exp([*th, 0, 0, 0, 0])
         p = np.sqrt(np.sum(np.array(th, dtype=L) ** 2))
         ref = [np.cos(p / 2)] + [-np.sin(p / 2) / p * L(x) for x in th]
         got = [V.get(b) for b in ROTOR_BLADES]
@@ -529,4 +531,6 @@ def test_item12_core_accuracy_is_kept():
         ax /= np.linalg.norm(ax)
         ang = rng.choice([rng.uniform(0, np.pi), np.pi - 1e-9])
         b = np.concatenate([ang * ax, [rng.normal()], rng.normal(size=3)])
-        np.testing.assert_allclose(cg.log(cg.exp(b)), b, rtol=0, atol=4e-15 * max(1.0, np.abs(b).max()))
+        np.testing.assert_allclose(
+            cg.geometry.log(cg.geometry.exp(b)), b, rtol=0, atol=4e-15 * max(1.0, np.abs(b).max())
+        )

@@ -58,7 +58,7 @@ def test_from_parts_read_outs():
 def test_between_and_from_unit():
     X = cg.circle([1.0, 0.2, 0], [0, 1.3, 0.1], [-1.0, 0.0, 0.3])
     V = cg.Similarity.from_unit(X)
-    np.testing.assert_allclose(V.coeffs, cg.Similarity(cg.similarity_from_unit(X)).coeffs, atol=1e-15)
+    np.testing.assert_allclose(V.coeffs, cg.Similarity(cg.geometry.similarity_from_unit(X)).coeffs, atol=1e-15)
     Y = cg.circle([2.0, 0.2, 0], [0, 1.0, 0.5], [-1.0, 0.5, 0.3])
     W = cg.Similarity.between(X, Y)
     Z = W.apply(X)
@@ -69,7 +69,7 @@ def test_between_and_from_unit():
 
 def test_log_jacobian_matches_the_function():
     S = cg.Similarity.exp([0.1, 0.2, -0.3, 0.2, 0.5, -1.0, 0.3])
-    np.testing.assert_allclose(S.log_jacobian(), cg.log_jacobian(S.versor), atol=1e-15)
+    np.testing.assert_allclose(S.log_jacobian(), cg.geometry.log_jacobian(S.versor), atol=1e-15)
     assert S.log_jacobian().shape == (7, 12)
 
 

@@ -239,7 +239,7 @@ def test_stance_task_similarity_is_that_of_the_stance_primitive(legs, kind):
     sp = stance_primitive(st.points, kind=None if kind is None else kind)
     assert sp.task_kind == task.kind
     V = Similarity(similarity_from_unit(sp.X, chart_axis=task.chart_axis))
-    np.testing.assert_allclose(V.coeffs, st.versor, atol=1e-12)
+    np.testing.assert_allclose(V.coeffs, st.coeffs, atol=1e-12)
     assert st.jacobian.shape == (7, 18) and np.all(np.isfinite(st.jacobian))
 
 

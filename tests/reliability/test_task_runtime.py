@@ -1,4 +1,4 @@
-"""Reliability issue, runtime layer of the task and the controllers: one regression test per defect item.
+"""Reliability of the runtime layer of the task and the controllers: one regression test per defect.
 
 Items 1–3 (compile cache, CompiledFunction threads) are in ``test_compile_cache.py`` and
 ``test_codegen_threads.py``; items 5, 7 (geometry part), 10–12 in ``tests/geometry/test_reliability.py``.

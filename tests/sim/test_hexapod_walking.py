@@ -84,7 +84,7 @@ def test_stance_plane_error_and_jacobian_equal_the_tasks(k: int) -> None:
         assert np.abs(Jg - st.jacobian).max() < 1e-10
         n = rng.normal(size=3) * 0.1 + np.array([0.0, 0.0, 1.0])
         log_ref = plane_log(n / np.linalg.norm(n), -0.1 - 0.01 * rng.random())
-        ref = Similarity(cg.exp(log_ref))
+        ref = Similarity.exp(log_ref)
         assert np.abs(plane_error(log_m, log_ref) - task.error(q, ref)).max() < 1e-12
         # A = J^G L: q̇_i = J_i⁻¹ (−v + [p_i]× ω) for the stance legs
         L = np.zeros((18, 6))

@@ -1,1 +1,1 @@
-"""Tests of coop_ga.sweep (issue 16)."""
+"""Tests of coop_ga.sweep."""

@@ -22,12 +22,12 @@ def test_frame_axes_of_motor_similarity_and_se3():
     import pinocchio as pin
 
     b = np.array([0.3, -0.2, 0.5, 0.0, 0.1, -0.4, 0.2])
-    _, A = viz.frame_axes(cg.exp(b))  # a motor: rotation, no scale
+    _, A = viz.frame_axes(cg.geometry.exp(b))  # a motor: rotation, no scale
     np.testing.assert_allclose(A.T @ A, np.eye(3), atol=1e-12)
     assert np.linalg.det(A) == pytest.approx(1.0)
     bs = b.copy()
     bs[3] = np.log(2.0)  # dilation: every axis twice as long
-    _, A2 = viz.frame_axes(cg.exp(bs))
+    _, A2 = viz.frame_axes(cg.geometry.exp(bs))
     np.testing.assert_allclose(np.linalg.norm(A2, axis=0), 2.0, atol=1e-12)
     M = pin.SE3(pin.exp3(np.array([0.1, 0.2, 0.3])), np.array([1.0, 2.0, 3.0]))
     o3, A3 = viz.frame_axes(M)

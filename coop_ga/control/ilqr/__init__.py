@@ -14,7 +14,7 @@ The problem (Eq 53) for a joint-space double integrator
       l_f(x_n) = ‖e(q_n)‖²_Q + q̇_nᵀ Q_v q̇_n,      e(q) = log(Ṽ_Sc(q) V_Sd)   (Eq 44),
 
   e the 7-vector on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``;
-* **constraints** (𝒳, 𝒰 of Eq 53), from ``task.system.limits`` unless ``limits="none"``:
+* **constraints** (𝒳, 𝒰 of Eq 53), from ``task.system.limits`` unless ``limit_mode="none"``:
   ``lower ≤ q_k ≤ upper`` and ``|q̇_k| ≤ velocity`` at the knots k = 1 … n, and
   ``|u_k| ≤ acceleration`` (k = 0 … n−1; infinite bounds are absent).
 
@@ -57,7 +57,7 @@ Solver: augmented-Lagrangian box-DDP
   that Gauss–Newton ignores (it converges only linearly on the redundant arms) is used
   where it is accurate and the convergence becomes superlinear.  And every step's joint travel is capped: the line
   search starts at ``α ≤ max_travel / max_k |δq_k|∞`` (a trust region on the joint
-  motion of one iteration, default 0.5 rad).  The study behind this (the limits issue):
+  motion of one iteration, default 0.5 rad).  The study behind this (the robustness benchmark):
   the previous default took a first Newton step that multiplied joint travel by 14
   (118 rad at 71 rad/s on one hexapod target) and the Armijo test accepted it.
 * Line search: Armijo backtracking on the augmented merit (running + terminal + AL
@@ -113,7 +113,7 @@ accepted by the line search on the true (re-evaluated) merit.  An unreachable ta
 (outside the reachable set, or only reachable outside the limits) ends with
 ``converged=False`` and a message naming the active constraints and the residual.
 A start outside the limits raises :class:`~coop_ga.errors.InvalidInputError` (use
-``limits="none"`` to study it).
+``limit_mode="none"`` to study it).
 The package
 -----------
 :mod:`~.problem` (:class:`ReachingOCP`: dynamics, costs, bounds), :mod:`~.options`

@@ -391,7 +391,7 @@ def second_order_correction(
     a_v = R2inv @ y[7:]
     u_c = u - (np.outer(cond.ck, a_q) + dt * a_v[None, :])
     q_c, qd_c = ocp.rollout(u_c)
-    if ocp.limits == "enforce" and ocp.violation(q_c, qd_c, u_c) > 1e-12:
+    if ocp.limit_mode == "enforce" and ocp.violation(q_c, qd_c, u_c) > 1e-12:
         return None
     return u_c
 

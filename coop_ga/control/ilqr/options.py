@@ -21,7 +21,7 @@ class ILQROptions:
         dt: Δt [s] (default 0.01 → 2.5 s; the paper's Δt = 0.001 s contradicts its 2.5 s
             horizon, see the package docstring of :mod:`coop_ga.control.ilqr`).
         R, Q, Qv: weights (scalar, diagonal or matrix; R ≻ 0, Q, Qv ⪰ 0).
-        limits: ``"enforce"`` (position, velocity and acceleration bounds of
+        limit_mode: ``"enforce"`` (position, velocity and acceleration bounds of
             ``task.system.limits``) or ``"none"``.
         terminal: ``"constraint"`` (e(q_n) = 0 by multipliers, default) or ``"soft"`` (Eq 57).
     Solver:
@@ -48,7 +48,7 @@ class ILQROptions:
         restart: if the solve from the default guess stalls short of tol (not when it runs out of
             ``max_iter``), restart once from the minimum-energy controls to the bounded Gauss–Newton IK
             solution; both solves count in ``iterations`` and the histories, and the message says so.
-        warn_limits: with ``limits="none"``, warn when the trajectory leaves the joint limits.
+        warn_limits: with ``limit_mode="none"``, warn when the trajectory leaves the joint limits.
     Avoidance:
         clearance: a :class:`coop_ga.control.avoidance.ClearanceCost` — a running cost on the
             link–obstacle / link–link clearances of a collision model (:mod:`coop_ga.control.ilqr`) — or
@@ -60,7 +60,7 @@ class ILQROptions:
     R: Any = DEFAULT_R
     Q: Any = DEFAULT_Q
     Qv: Any = DEFAULT_QV
-    limits: str = "enforce"
+    limit_mode: str = "enforce"
     terminal: str = "constraint"
     max_iter: int = 60
     max_outer: int = 30
@@ -86,7 +86,7 @@ class ILQROptions:
         check_clearance(self.clearance)
         validation.integer(self.horizon, "horizon", minimum=2)
         validation.positive(self.dt, "dt")
-        validation.choice(self.limits, ("enforce", "none"), "limits")
+        validation.choice(self.limit_mode, ("enforce", "none"), "limit_mode")
         validation.choice(self.terminal, ("constraint", "soft"), "terminal")
         validation.integer(self.max_iter, "max_iter", minimum=0)
         validation.integer(self.max_outer, "max_outer", minimum=1)

@@ -8,6 +8,7 @@ import numpy as np
 
 from ... import validation
 from ...errors import InvalidInputError
+from ...geometry.groups import SimilarityLike
 from ..base import check_problem, check_q
 
 __all__ = ["DEFAULT_Q", "DEFAULT_QV", "DEFAULT_R", "ReachingOCP", "check_clearance"]
@@ -46,7 +47,7 @@ class ReachingOCP:
     R: control weight (scalar, (nq,) or (nq, nq); positive definite).
     Q: precision of the terminal similarity error (scalar, (7,) or (7, 7); PSD).
     Qv: terminal velocity weight (scalar, (nq,) or (nq, nq); PSD; 0 = paper's Eq 57 only).
-    limits: ``"enforce"`` (default: the bounds of ``task.system.limits``) or ``"none"``.
+    limit_mode: ``"enforce"`` (default: the bounds of ``task.system.limits``) or ``"none"``.
     clearance: a :class:`coop_ga.control.avoidance.ClearanceCost` (a running cost on the
         clearances at the knots 1 … n, :mod:`coop_ga.control.ilqr`) or None (default).
 
@@ -58,7 +59,7 @@ class ReachingOCP:
         self,
         task: Any,
         q_init: Any,
-        target: Any,
+        target: SimilarityLike,
         *,
         qd_init: Any = None,
         horizon: int = 250,
@@ -66,7 +67,7 @@ class ReachingOCP:
         R: Any = DEFAULT_R,
         Q: Any = DEFAULT_Q,
         Qv: Any = DEFAULT_QV,
-        limits: str = "enforce",
+        limit_mode: str = "enforce",
         clearance: Any = None,
     ):
         self.task = task
@@ -79,7 +80,7 @@ class ReachingOCP:
         self.R = validation.weight(R, n, "R", definite=True)
         self.Q = validation.weight(Q, 7, "Q", definite=False)
         self.Qv = validation.weight(Qv, n, "Qv", definite=False)
-        self.limits = validation.choice(limits, ("enforce", "none"), "limits")
+        self.limit_mode = validation.choice(limit_mode, ("enforce", "none"), "limit_mode")
         self.R2 = 2.0 * self.R
         self.h = 0.5 * self.dt * self.dt
         # Dense A, B for reference and for other solvers (benchmarks); the iLQR uses blocks.
@@ -88,7 +89,7 @@ class ReachingOCP:
         self.B = np.vstack([self.h * eye, self.dt * eye])
         lim = task.system.limits
         inf = np.full(n, np.inf)
-        if self.limits == "enforce":
+        if self.limit_mode == "enforce":
             self.q_lower, self.q_upper = lim.lower.copy(), lim.upper.copy()
             self.v_max, self.a_max = lim.velocity.copy(), lim.acceleration.copy()
         else:

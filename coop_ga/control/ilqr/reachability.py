@@ -3,28 +3,33 @@ of :mod:`coop_ga.control.ilqr`, "Fast honest failure")."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from ...geometry.kinds import KIND_SPECS, Kind
 from .problem import ReachingOCP
 
 __all__ = ["reach_balls", "unit_distance", "unreachable"]
 
 
-def unit_distance(kind: str, y: np.ndarray) -> float:
-    """Distance of the point y (3,) from the unit primitive X_u of ``kind`` (:func:`coop_ga.geometry.unit_primitive`:
-    the origin; the points (0, ∓1, 0); the e2 axis; the unit circle in z = 0; the plane z = 0; the unit sphere)."""
-    x1, x2, x3 = (float(c) for c in y)
-    if kind == "point":
-        return float(np.linalg.norm(y))
-    if kind == "point_pair":
-        return min(float(np.linalg.norm(y - (0.0, -1.0, 0.0))), float(np.linalg.norm(y - (0.0, 1.0, 0.0))))
-    if kind == "line":
-        return float(np.hypot(x1, x3))
-    if kind == "circle":
-        return float(np.hypot(np.hypot(x1, x2) - 1.0, x3))
-    if kind == "plane":
-        return abs(x3)
-    return abs(float(np.linalg.norm(y)) - 1.0)  # sphere
+def unit_distance(kind: Kind, y: np.ndarray) -> float:
+    """Distance of the point y (3,) [m] from the unit primitive X_u of the exact ``kind``
+    (:func:`coop_ga.geometry.unit_primitive`: the origin; the points (0, ∓1, 0); the e2 axis; the unit circle in
+    z = 0; the plane z = 0; the unit sphere), from its :class:`~coop_ga.geometry.kinds.KindSpec`: X_u passes through
+    the origin with its axis a (flats) or is centred there with radius 1 (rounds)."""
+    spec = KIND_SPECS[kind]
+    y = np.asarray(y, dtype=float)
+    if spec.dimension == 0:  # a point or a point pair: its unit points themselves
+        return min(float(np.linalg.norm(y - p)) for p in spec.unit_points)
+    if spec.axis is None:  # the unit sphere
+        return abs(float(np.linalg.norm(y)) - 1.0)
+    a = np.asarray(spec.axis)
+    along = float(y @ a)
+    off = math.hypot(*(y - along * a))  # distance from the axis through the origin
+    if spec.flat:  # the axis itself (a line) or the plane through the origin normal to it
+        return off if spec.axis_role == "direction" else abs(along)
+    return math.hypot(off - 1.0, along)  # the unit circle about the axis
 
 
 def reach_balls(ocp: ReachingOCP) -> list[tuple[np.ndarray, float]] | None:
@@ -65,14 +70,17 @@ def unreachable(ocp: ReachingOCP, tol: float) -> str | None:
     Cost: microseconds (no task evaluation).
     """
     kind = getattr(ocp.task, "kind", None)
-    balls = reach_balls(ocp) if kind in ("point", "point_pair", "line", "circle", "plane", "sphere") else None
+    spec = KIND_SPECS.get(kind) if isinstance(kind, str) else None
+    if spec is None or spec.least_squares:
+        return None
+    balls = reach_balls(ocp)
     if balls is None or tol > 0.1:
         return None
     t, Rm, s = ocp.target.translation, ocp.target.rotation_matrix, float(ocp.target.scale)
     for i, (c, r) in enumerate(balls):
         if not np.isfinite(r):
             continue
-        gap = s * unit_distance(str(kind), Rm.T @ (c - t) / s) - r  # [m] between the ball and X_d
+        gap = s * unit_distance(spec.primitive_kind, Rm.T @ (c - t) / s) - r  # [m] between the ball and X_d
         margin = 10.0 * max(tol, 1e-3) * (s + 2.0 * (float(np.linalg.norm(c - t)) + r))
         if gap > margin:
             frame = ocp.task.tree.end_frames[i]

@@ -71,7 +71,7 @@ class ILQRResult(SolverResult):
         functions, which happens once per task and process; see ``ilqr_reach``).
     stats: one :class:`ILQRIteration` per accepted iteration.
     joint_limit_violation, velocity_violation, acceleration_violation: largest excursion of
-        q, |q̇|, |u| beyond their limits over the returned trajectory (0 with ``limits="enforce"``).
+        q, |q̇|, |u| beyond their limits over the returned trajectory (0 with ``limit_mode="enforce"``).
     active_constraints: the bounds active at the end (joint, kind, first/last knot).
     outer_iterations: outer iterations (AL multipliers and penalty, terminal shift).
     restoration: the β of the final feasibility blend (0: none was needed).
@@ -171,16 +171,16 @@ def finish(
     pviol = lim.position_violation(q)
     vviol = lim.velocity_violation(qd)
     aviol = lim.acceleration_violation(u)
-    if o.limits == "none" and pviol > 0 and o.warn_limits:
+    if o.limit_mode == "none" and pviol > 0 and o.warn_limits:
         warn(
-            f"iLQR trajectory leaves the joint limits by up to {pviol:.3g} rad (limits='none': not enforced)",
+            f"iLQR trajectory leaves the joint limits by up to {pviol:.3g} rad (limit_mode='none': not enforced)",
             JointLimitWarning,
             key=task.name,
         )
-    feasible = o.limits == "none" or (pviol <= 1e-9 and vviol <= 1e-9 and aviol <= 1e-9)
+    feasible = o.limit_mode == "none" or (pviol <= 1e-9 and vviol <= 1e-9 and aviol <= 1e-9)
     # every iterate is the result of a step accepted on the true merit (or the initial guess)
     converged = bool(errs[-1] < o.tol and feasible)
-    active = active_constraints(ocp, q, qd, u, tol=1e-3) if o.limits == "enforce" else ()
+    active = active_constraints(ocp, q, qd, u, tol=1e-3) if o.limit_mode == "enforce" else ()
     return ILQRResult(
         converged=converged,
         error=errs[-1],
@@ -216,9 +216,9 @@ def finish(
 def _feasible(
     ocp: ReachingOCP, o: ILQROptions, u: np.ndarray, u_ref: np.ndarray, message: str
 ) -> tuple[np.ndarray, float, str]:
-    """The controls returned (``limits="enforce"``: blended toward a strictly feasible reference, as a whole or joint
+    """The controls returned (``limit_mode="enforce"``: blended toward a strictly feasible reference, as a whole or joint
     by joint), the blend's β and the message with what was done."""
-    if o.limits != "enforce":
+    if o.limit_mode != "enforce":
         return u, 0.0, message
     restored = restore(ocp, u, u_ref)
     if restored is not None:
@@ -247,7 +247,7 @@ def _verdict(o: ILQROptions, converged: bool, message: str, error: float, active
     if converged:
         return (
             "converged: terminal error below tol within the limits"
-            if o.limits == "enforce"
+            if o.limit_mode == "enforce"
             else "converged: terminal error below tol (limits not enforced)"
         )
     return f"not converged: {message}; ‖e‖ = {error:.3g}" + (

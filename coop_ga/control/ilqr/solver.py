@@ -11,6 +11,7 @@ import numpy as np
 
 from ...diagnostics import collect_warnings
 from ...errors import DegeneratePrimitiveError, InvalidInputError
+from ...geometry.groups import SimilarityLike
 from ..base import resolve_options
 from .feasibility import reference_controls, restore
 from .lq import Condensation, LQStep, add_state_hessian, controls_to, lq_step, second_order_correction
@@ -26,7 +27,7 @@ __all__ = ["ilqr_reach"]
 def ilqr_reach(
     task: Any,
     q_init: Any,
-    target: Any,
+    target: SimilarityLike,
     options: ILQROptions | None = None,
     *,
     qd_init: Any = None,
@@ -53,7 +54,7 @@ def ilqr_reach(
     Raises
     ------
     InvalidInputError: wrong shapes or values (q_init size, weights, horizon, target, …), or
-        (``limits="enforce"``) a start state outside the limits.
+        (``limit_mode="enforce"``) a start state outside the limits.
     NonFiniteError: NaN/inf in q_init, qd_init, u_init or an option.
     DegeneratePrimitiveError: the primitive is degenerate at ``q_init``.
 
@@ -79,8 +80,8 @@ def ilqr_reach(
         return _restart(ocp, o, res, caught.counts)
 
 
-def _problem(task: Any, q_init: Any, target: Any, qd_init: Any, o: ILQROptions) -> ReachingOCP:
-    """The checked problem; with ``limits="enforce"`` a start outside the position or velocity limits is refused."""
+def _problem(task: Any, q_init: Any, target: SimilarityLike, qd_init: Any, o: ILQROptions) -> ReachingOCP:
+    """The checked problem; with ``limit_mode="enforce"`` a start outside the position or velocity limits is refused."""
     ocp = ReachingOCP(
         task,
         q_init,
@@ -91,18 +92,18 @@ def _problem(task: Any, q_init: Any, target: Any, qd_init: Any, o: ILQROptions) 
         R=o.R,
         Q=o.Q,
         Qv=o.Qv,
-        limits=o.limits,
+        limit_mode=o.limit_mode,
         clearance=o.clearance,
     )
-    if o.limits == "enforce":
+    if o.limit_mode == "enforce":
         lim = task.system.limits
         if lim.position_violation(ocp.q_init) > 1e-9:
             raise InvalidInputError(
                 f"q_init is outside the joint limits ({lim.describe(ocp.q_init, 1e-9)}); move it "
-                "inside, or pass limits='none' to solve without bounds"
+                "inside, or pass limit_mode='none' to solve without bounds"
             )
         if lim.velocity_violation(ocp.qd_init) > 1e-9:
-            raise InvalidInputError("qd_init exceeds the velocity limits; lower it, or pass limits='none'")
+            raise InvalidInputError("qd_init exceeds the velocity limits; lower it, or pass limit_mode='none'")
     return ocp
 
 
@@ -117,11 +118,11 @@ def _restart(ocp: ReachingOCP, o: ILQROptions, res: ILQRResult, warning_counts: 
     from ..gauss_newton import gauss_newton_ik
 
     with collect_warnings(silent=True):
-        ik = gauss_newton_ik(ocp.task, ocp.q_init, ocp.target, limits=o.limits)
+        ik = gauss_newton_ik(ocp.task, ocp.q_init, ocp.target, limit_mode=o.limit_mode)
     if not ik.converged:
         return res
     u_guess = controls_to(ocp, ik.q)
-    if o.limits == "enforce" and ocp.violation(*ocp.rollout(u_guess), u_guess) > 0:
+    if o.limit_mode == "enforce" and ocp.violation(*ocp.rollout(u_guess), u_guess) > 0:
         blended = restore(ocp, u_guess, reference_controls(ocp))  # e.g. a moving start overshoots a bound
         if blended is not None:
             u_guess = blended[0]
@@ -195,7 +196,7 @@ class _Solve:
         t_start = time.perf_counter()
         self.cond = Condensation.of(ocp)
         self.eye2 = np.eye(2 * ocp.nq)
-        bounded = o.limits == "enforce" and bool(np.any(np.isfinite(ocp.q_lower)) or np.any(np.isfinite(ocp.v_max)))
+        bounded = o.limit_mode == "enforce" and bool(np.any(np.isfinite(ocp.q_lower)) or np.any(np.isfinite(ocp.v_max)))
         # AL terms from the start: zero while feasible, a penalty as soon as a bound is crossed
         self.merit = Merit(ocp, o.al_penalty if bounded else 0.0)
         ev = self.merit.evaluate(u)

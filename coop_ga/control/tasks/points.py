@@ -23,6 +23,7 @@ import numpy as np
 from ... import validation
 from ...cooperative.manipulability import damped_pinv
 from ...errors import DegeneratePrimitiveError, InvalidInputError
+from ...geometry.kinds import KIND_SPECS
 from .base import BaseTask
 
 __all__ = ["LINE_PARAMETERS", "LineParameterTask", "PositionTask", "line_from_points"]
@@ -131,8 +132,9 @@ def line_from_points(
 
 
 def check_line_model(model: Any) -> None:
-    """Line parameters need a ``'line'`` or ``'point_pair'`` model."""
-    if model.kind not in ("line", "point_pair"):
+    """Line parameters need a model whose primitive has a direction (a ``'line'`` or ``'point_pair'``)."""
+    spec = KIND_SPECS.get(model.kind)
+    if spec is None or spec.axis_role != "direction":
         raise InvalidInputError(
             f"line parameters are defined for tasks of kind 'line' or 'point_pair', got a '{model.kind}' task "
             f"({model.name})"

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ... import validation
-from ...geometry.groups import Similarity
+from ...geometry.groups import Similarity, SimilarityLike
 from .base import BaseTask
 
 __all__ = ["SIMILARITY_ROWS", "BodyVelocityTask", "SimilarityTask"]
@@ -43,7 +43,13 @@ class SimilarityTask(BaseTask):
     labels = SIMILARITY_ROWS
 
     def __init__(
-        self, target: Any, *, gain: float = 10.0, weight: Any = None, jacobian: str = "body", lm_damping: float = 0.0
+        self,
+        target: SimilarityLike,
+        *,
+        gain: float = 10.0,
+        weight: Any = None,
+        jacobian: str = "body",
+        lm_damping: float = 0.0,
     ):
         super().__init__(gain, weight, lm_damping, "similarity")
         self.target: Similarity = validation.target(target)
