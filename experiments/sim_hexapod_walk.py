@@ -14,7 +14,7 @@ the gait's nominal speed (stride 0.08 m: 0.10 / 0.05 / 0.024 m/s for tripod / ri
 half a cycle, on a staircase that starts at x = 0.05 m so that the middle and front feet meet a riser); ``--command tour`` instead runs the tour
 (start, speed change, turn while walking, stop).
 
-The bar (the issue's, :data:`coop_ga.sim.walking_run.BAR`): walked ≥ 95 % of the commanded distance, no fall
+The bar (:data:`coop_ga.sim.walking_run.BAR`): walked ≥ 95 % of the commanded distance, no fall
 (|roll|, |pitch| ≤ 10°, body height within 2 cm of the ride height over the touching feet, no body or femur on
 the terrain), contact slip ≤ 5 mm per stance, no torque clipped at the URDF effort, no shin contact.
 
@@ -174,12 +174,12 @@ def _metrics(rows: list[dict[str, Any]], args: Any, gifs: set[str]) -> dict[str,
                 "With touchdown from the foot contact sensors and the body's roll, pitch and height regulated "
                 "through the stance plane's similarity error (joint encoders + IMU), the hexapod walks every gait "
                 "on flat ground, a 5.7° slope, 3 cm steps and random tiles — with the terrain map and blind — "
-                "within the issue's bar. The GIFs draw the stance primitive (the plane of the stance feet) over its "
+                "within the bar. The GIFs draw the stance primitive (the plane of the stance feet) over its "
                 "support polygon only, so that the robot stays visible."
                 + (
                     " These are the fast walks (ramped up and down over half a cycle each: 0.05–0.08 m; their "
                     "staircase starts at x = 0.05 m, so that the middle feet climb the first riser and the front "
-                    "feet the second); the issue's 1 m walks are the script's default (not in the gallery: minutes "
+                    "feet the second); the 1 m walks are the script's default (not in the gallery: minutes "
                     "per run)."
                     if args.fast
                     else ""

@@ -1,4 +1,4 @@
-"""Layer 8: legged robots — the hexapod's legs, terrain and contact, the stance feet as a cooperative
+"""Legged robots — the hexapod's legs, terrain and contact, the stance feet as a cooperative
 primitive, body posture control through it, gaits and walking.
 
 * :mod:`~coop_ga.legged.legs` — per-leg motor FK, closed-form and DLS IK, vectorised over legs and batches;

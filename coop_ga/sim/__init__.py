@@ -1,4 +1,4 @@
-"""Layer 10: physics in the loop on MuJoCo.
+"""Physics in the loop on MuJoCo (the layer above legged, below viewer and sweep).
 
 * :mod:`~coop_ga.sim.scene` — :func:`build_scene`: a MuJoCo model built in code (``MjSpec``) from a
   system's Pinocchio model, with collision capsules, visual meshes, motors, a floor and objects;

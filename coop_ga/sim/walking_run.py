@@ -23,7 +23,7 @@ displacement (the command integrated, :meth:`VelocityCommand.path`); ``max_roll_
 − ride_height|, over the plans with ≥ 3 touching feet after ``settle`` s; ``max_slip_m`` (sliding per stance),
 ``max_foot_drift_m``; ``saturated_updates`` / ``effort_ratio`` (the simulation's torque clipping at the URDF
 effort); ``shin_contact_steps``, ``femur_contact_steps``, ``body_contact_steps``; ``fell``: |roll| or |pitch|
-> 10°, a height error > 2 cm, or the body or a femur on the terrain; ``passed``: the issue's bar — walked ≥ 95 %,
+> 10°, a height error > 2 cm, or the body or a femur on the terrain; ``passed``: the bar — walked ≥ 95 %,
 not fallen, slip ≤ 5 mm per stance, no saturation, no shin contact.
 """
 
@@ -47,7 +47,7 @@ from .walking import HexapodWalker, VelocityCommand, WalkingOptions, _fit_plane,
 
 __all__ = ["BAR", "GroundTruth", "WalkRun", "simulate_walk"]
 
-#: the issue's bar for a walk (module docstring)
+#: the bar for a walk (module docstring)
 BAR = {
     "walked_fraction": 0.95,
     "max_tilt_deg": 10.0,
