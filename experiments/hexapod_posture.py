@@ -545,7 +545,8 @@ def assemble(args: Any, legs: Any, s0: Any, infos: list[Any], pm: dict[str, Any]
                 "the robot stays visible; blue: the circle of three feet with its axis; green: the point pair." % (1e3 * r_sphere)
             ),
         },
-        "fast": bool(args.fast), "seed": args.seed, "terrain": "random", "terrain_seed": int(args.terrain_seed),
+        "fast": bool(args.fast),
+        "seed": args.seed, "terrain": "random", "terrain_seed": int(args.terrain_seed),
         "dt_s": dt, "phase_time_s": n_phase * dt, "steps": T - 1, "stance_legs": list(STANCE),
         "lifted_legs": list(LIFTED), "lift_m": LIFT, "primitives": {k: list(lg) for k, _, lg in prims},
         "sphere_radius_m": r_sphere, "max_slip_m": slip, "slip_limit_m": SLIP_LIMIT,

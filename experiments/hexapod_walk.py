@@ -109,7 +109,8 @@ def walk_metrics(args: Any, res: Any, base: Any, legs: Any, distance: float) -> 
     cmd = opts.command()
     kinds = collections.Counter(k for k in res.primitive_kind.tolist() if k)
     return {
-        "gait": args.gait, "terrain": args.terrain, "seed": args.seed, "fast": bool(args.fast), "steps": len(res.t) - 1,
+        "fast": bool(args.fast),
+        "gait": args.gait, "terrain": args.terrain, "seed": args.seed, "steps": len(res.t) - 1,
         "dt_s": res.dt, "duration_s": float(res.t[-1]), "cycle_time_s": res.table.period, "duty": res.table.duty,
         "command": {"vx_m_s": float(cmd[0]), "vy_m_s": float(cmd[1]), "yaw_rate_rad_s": float(cmd[2])},
         "stride_m": opts.stride, "lift_height_m": opts.lift_height, "ride_height_m": opts.ride_height,

@@ -97,7 +97,8 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--squeeze", type=positive_float, default=40.0, help="squeeze set-point [N] (default 40)")
     exp.add("--no-render", action="store_true", help="skip the MuJoCo pictures (keyframes.png, carry.gif)")
     args = exp.parse(argv)
-    return run(exp, bool(args.fast), bool(args.no_squeeze), float(args.squeeze), not args.no_render)
+    fast = bool(args.fast)
+    return run(exp, fast, bool(args.no_squeeze), float(args.squeeze), not args.no_render)
 
 
 def run(exp: Experiment, fast: bool, control: bool, squeeze: float, render: bool) -> int:

@@ -48,11 +48,12 @@ def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0)
     exp.add("--distance", type=positive_float, default=0.5, help="distance to walk [m] (--fast: 0.25 m)")
     exp.add("--jobs", type=int_at_least(1), default=1, help="runs in parallel processes")
-    exp.add("--fast", action="store_true", help="0.25 m walks, half-cycle ramps (CI, the gallery)")
+    exp.add_fast("half-cycle ramps (CI, the gallery)", distance=0.25)
     args = exp.parse(argv)
     t_start = time.perf_counter()
-    distance = 0.25 if args.fast else float(args.distance)
-    specs = [(v, d, distance, bool(args.fast)) for d in DISTURBANCES for v in VARIANTS]
+    distance = float(args.distance)
+    fast = bool(args.fast)
+    specs = [(v, d, distance, fast) for d in DISTURBANCES for v in VARIANTS]
     with exp.stage(f"{len(specs)} walks in MuJoCo"):
         if args.jobs > 1:
             import multiprocessing as mp

@@ -35,7 +35,7 @@ import sys
 import time
 from typing import Any
 
-from coop_ga.harness import Experiment, int_at_least, positive_float
+from coop_ga.harness import Experiment, int_at_least, nonneg_float
 from coop_ga.sim.walking_experiments import run_name
 
 GAITS = ("tripod", "ripple", "wave")
@@ -88,15 +88,19 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--terrain", choices=TERRAINS, default="flat", help="terrain kind (random: tiles under --seed)")
     exp.add("--blind", action="store_true", help="plan without the terrain and without a localisation")
     exp.add("--all", action="store_true", help="every gait × terrain, with the map and blind (24 runs)")
-    exp.add("--distance", type=positive_float, default=1.0, help="distance to walk [m] (--fast: 0.05–0.08 m)")
+    exp.add(
+        "--distance",
+        type=nonneg_float,
+        default=1.0,
+        help="distance to walk [m], the ramps included (0: the ramps only, 0.05–0.08 m)",
+    )
     exp.add("--command", choices=("straight", "tour"), default="straight", help="straight ahead, or the tour")
     exp.add("--gifs", nargs="*", default=None, help=f"runs that get a GIF (default: {' '.join(DEFAULT_GIFS)})")
     exp.add("--jobs", type=int_at_least(1), default=1, help="runs in parallel processes")
-    exp.add(
-        "--fast",
-        action="store_true",
-        help="short walks (ramped up and down over half a cycle each: 0.05–0.08 m), logs of the GIF runs only (CI, "
+    exp.add_fast(
+        "short walks (ramped up and down over half a cycle each: 0.05–0.08 m), logs of the GIF runs only (CI, "
         "the gallery)",
+        distance=0.0,
     )
     args = exp.parse(argv)
     t_start = time.perf_counter()
@@ -107,7 +111,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     gifs = set(DEFAULT_GIFS if args.gifs is None else args.gifs) if args.all else {run_name(*combos[0])}
     seed = int(exp.seed if exp.seed is not None else 0)
-    kw = {"distance": 0.0 if args.fast else args.distance, "fast": args.fast, "tour": args.command == "tour"}
+    fast = bool(args.fast)
+    kw = {"distance": float(args.distance), "fast": fast, "tour": args.command == "tour"}
     kw |= {"out": str(exp.out), "seed": seed}
     specs = [
         (g, t, b, {**kw, "gif": run_name(g, t, b) in gifs, "save": not args.fast or run_name(g, t, b) in gifs})
