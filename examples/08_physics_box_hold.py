@@ -33,6 +33,8 @@ from coop_ga.sim import Box, Disturbance, Simulation, build_scene, replay
 
 #: Files this example writes into --out (the examples' test checks them).
 OUTPUTS = ("run/model.xml", "run/log.npz", "run/metrics.json", "summary.json")
+#: Optional packages this example needs (the test skips it without them): the ``sim`` extra.
+REQUIRES = ("mujoco",)
 
 
 def main(argv: list[str] | None = None) -> int:
