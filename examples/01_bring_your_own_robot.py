@@ -96,6 +96,7 @@ def main(argv: list[str] | None = None) -> int:
         f"radius {r1 * 1e3:.1f} mm (target {0.85 * r0 * 1e3:.1f}), centre height change {(c1 - c0)[2] * 1e3:+.2f} mm"
     )
     lim = system.limits
+    assert lim is not None  # from_urdf reads them from the URDF
     inside = bool(np.all((ik.q >= lim.lower) & (ik.q <= lim.upper)))
 
     backend = "skeleton" if args.fast else "auto"

@@ -9,7 +9,8 @@ limits at every knot) reach the same target; along both trajectories the distanc
 (the bar's length) is printed.  (A ``"line"`` task would leave the hands free to slide along the bar.)
 
 Writes ``trajectory.npz`` (``diffik_trajectory``, ``ilqr_trajectory`` (T, 17), ``target`` (12,) V_Sd
-coefficients), ``metrics.json`` and ``scene.png``.
+coefficients), ``metrics.json`` and ``scene.png``; ``python -m coop_ga.viewer --play DIR/trajectory.npz --key
+ilqr_trajectory`` plays it.
 
 Run::
 
@@ -54,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
     dik = cg.control.diff_ik_reach(task, q0, target)
     ocp = cg.control.ilqr_reach(task, q0, target)
     L0 = float(bar_lengths(task, q0[None])[0])
-    metrics: dict[str, object] = {"bar_length_m": L0}
+    metrics: dict[str, object] = {"system": "g1_arms", "kind": "point_pair", "bar_length_m": L0}  # read by the viewer
     for name, run in (("diffik", dik), ("ilqr", ocp)):
         L = bar_lengths(task, run.trajectory)
         metrics[name] = {

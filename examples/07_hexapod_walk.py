@@ -22,6 +22,7 @@ import json
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -63,7 +64,8 @@ def main(argv: list[str] | None = None) -> int:
         f"stability margin ≥ {run.min_margin * 1e3:.1f} mm, slip ≤ {run.max_slip:.1e} m, "
         f"position limits exceeded by {run.max_limit_violation:.1e} rad"
     )
-    np.savez(args.out / "trajectory.npz", t=run.t, q=run.q, body=run.body, stance=run.stance, **terrain.to_arrays())
+    arrays: dict[str, Any] = {"t": run.t, "q": run.q, "body": run.body, "stance": run.stance, **terrain.to_arrays()}
+    np.savez(args.out / "trajectory.npz", **arrays)
     (args.out / "metrics.json").write_text(json.dumps(metrics, indent=2))
     print(f"wrote {', '.join(OUTPUTS)} to {args.out}")
     ok = run.min_margin > 0 and run.max_limit_violation == 0 and run.max_velocity_violation == 0
