@@ -91,8 +91,9 @@ def main(argv: list[str] | None = None) -> int:
     ik = cg.control.gauss_newton_ik(task, system.q0, target)
     X1 = task.primitive(ik.q)
     r1, c1 = float(cg.radius(X1)), np.asarray(cg.center(X1), float)
+    why = "" if ik.converged else f" ({ik.message})"
     print(
-        f"IK: converged={ik.converged} ({ik.message}) in {ik.iterations} iterations, error {ik.error:.2e}; "
+        f"IK: converged={ik.converged}{why} in {ik.iterations} iterations, error {ik.error:.2e}; "
         f"radius {r1 * 1e3:.1f} mm (target {0.85 * r0 * 1e3:.1f}), centre height change {(c1 - c0)[2] * 1e3:+.2f} mm"
     )
     lim = system.limits

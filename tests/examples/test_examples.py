@@ -9,7 +9,6 @@ optional extra names its import in ``REQUIRES`` and is skipped only when that im
 from __future__ import annotations
 
 import importlib.util
-import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -58,4 +57,3 @@ def test_example_runs(path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[
     for name in outputs:
         f = out / name
         assert f.is_file() and f.stat().st_size > 0, f"{path.name} did not write {name}"
-    sys.modules.pop(f"coop_ga_example_{path.stem}", None)
