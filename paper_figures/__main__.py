@@ -324,8 +324,13 @@ def main(argv: list[str] | None = None) -> int:
     else:
         import multiprocessing as mp
 
+        import importlib
+
+        # by its importable name: under `python -m paper_figures` this module is __main__, which a spawned
+        # worker cannot unpickle a function from
+        worker = importlib.import_module("paper_figures.__main__")._worker
         with ProcessPoolExecutor(max_workers=args.jobs, mp_context=mp.get_context("spawn")) as pool:
-            futures = [pool.submit(_worker, (f, str(out), extra)) for f in figs]
+            futures = [pool.submit(worker, (f, str(out), extra)) for f in figs]
             for i, fut in enumerate(as_completed(futures), 1):
                 r = fut.result()
                 results[r["key"]] = r

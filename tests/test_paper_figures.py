@@ -258,3 +258,16 @@ def test_a_swap_interrupted_between_its_renames_is_recovered(tmp_path, monkeypat
     folder.rename(out / ".fake_fig.previous")
     assert main(["--out", str(out), "--quiet"]) == 1
     assert _snapshot(folder) == before and not (out / ".fake_fig.previous").exists()
+
+
+def test_the_command_runs_figures_in_parallel_processes(tmp_path):
+    """``python -m paper_figures`` with worker processes (the default on several cores): the module is
+    ``__main__`` there, and a spawned worker used to fail unpickling the job function from it."""
+    import subprocess
+    import sys
+
+    cmd = [sys.executable, "-m", "paper_figures", "--only", "table01", "fig07", "--fast", "--jobs", "2"]
+    r = subprocess.run([*cmd, "--out", str(tmp_path)], cwd=paper_figures.ROOT, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert (tmp_path / "table01_controllable_spaces" / "table1.md").exists()
+    assert (tmp_path / "fig07_line_g1_arms" / "metrics.json").exists()
