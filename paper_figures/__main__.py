@@ -322,9 +322,8 @@ def main(argv: list[str] | None = None) -> int:
             results[fig.key] = r = run_one(fig, out, extra, args.verbose)
             report(i, r)
     else:
-        import multiprocessing as mp
-
         import importlib
+        import multiprocessing as mp
 
         # by its importable name: under `python -m paper_figures` this module is __main__, which a spawned
         # worker cannot unpickle a function from
