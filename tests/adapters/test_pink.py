@@ -92,3 +92,39 @@ def test_bad_input_is_refused(circle, load_system):
     t = similarity_task(task, task.similarity(q0))
     with pytest.raises(InvalidInputError, match="nq"):
         t.compute_error(pink_configuration(other, other.q0))
+
+
+def test_pink_barrier_bounds_the_cooperative_task(circle):
+    """The circle moved 10 cm down while pink's PositionBarrier keeps arm 0's hand at most 5 cm lower: without the
+    barrier pink reaches the target, with it the hand stops at the bound (to the discrete barrier's 1 mm)."""
+    from pink.barriers import PositionBarrier
+    from pink.limits import ConfigurationLimit, VelocityLimit
+    from pink.tasks import PostureTask
+
+    task, q0 = circle
+    z_min = task.points(q0)[0, 2] - 0.05
+    target = displaced_target(task, q0, translation=(0.0, 0.0, -0.10), axis=(0, 0, 1), angle=0.0, scale=1.0)
+    lowest, final = {}, {}
+    for use in (False, True):
+        cfg = pink_configuration(task, q0)
+        sim = similarity_task(task, target, gain=0.5)
+        posture = PostureTask(cost=1e-6)
+        posture.set_target(q0)
+        barrier = PositionBarrier(task.end_frames[0], indices=[2], p_min=np.array([z_min]), gain=np.array([10.0]))
+        limits = [ConfigurationLimit(cfg.model), VelocityLimit(cfg.model)]
+        z = []
+        for _ in range(200):
+            v = pink.solve_ik(
+                cfg,
+                [sim, posture],
+                DT,
+                solver="daqp",
+                damping=1e-12,
+                limits=limits,
+                barriers=[barrier] if use else None,
+            )
+            cfg.update(cfg.integrate(v, DT))
+            z.append(task.points(cfg.q)[0, 2])
+        lowest[use], final[use] = min(z), float(np.linalg.norm(sim.compute_error(cfg)))
+    assert final[False] < 1e-9 and lowest[False] < z_min - 0.04
+    assert lowest[True] > z_min - 1e-3 and final[True] > 0.05  # the target is out of reach: not reported as reached
