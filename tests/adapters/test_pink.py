@@ -128,3 +128,31 @@ def test_pink_barrier_bounds_the_cooperative_task(circle):
         lowest[use], final[use] = min(z), float(np.linalg.norm(sim.compute_error(cfg)))
     assert final[False] < 1e-9 and lowest[False] < z_min - 0.04
     assert lowest[True] > z_min - 1e-3 and final[True] > 0.05  # the target is out of reach: not reported as reached
+
+
+def test_pink_holds_the_relative_orientation_of_two_hands(load_system):
+    """The dual task space's relative orientation (a coop_ga DualTask) and the G1 hands' point pair, both as pink
+    tasks: pink reaches the pair's target with the hands' relative orientation kept."""
+    from pink.limits import ConfigurationLimit, VelocityLimit
+
+    from coop_ga.control.tasks import DualTask, DualTaskSpace
+
+    task = cg.cooperative_task(load_system("g1_arms"), "point_pair")
+    q0 = np.asarray(task.system.q0, dtype=float)
+    space = DualTaskSpace(task)
+    target = displaced_target(task, q0, translation=(0.05, 0.0, 0.08), axis=(0, 0, 1), angle=0.5, scale=1.0)
+    drift, final = {}, {}
+    for hold in (False, True):
+        cfg = pink_configuration(task, q0)
+        sim = similarity_task(task, target, gain=0.1)
+        relative = CoopGATask(task, DualTask(space, "relative", space.relative(q0), components="orientation"))
+        limits = [ConfigurationLimit(cfg.model), VelocityLimit(cfg.model)]
+        worst = 0.0
+        for _ in range(200):
+            tasks = [sim, relative] if hold else [sim]
+            cfg.update(cfg.integrate(pink.solve_ik(cfg, tasks, DT, solver="daqp", damping=1e-9, limits=limits), DT))
+            worst = max(worst, float(np.linalg.norm(relative.compute_error(cfg))))
+        assert np.linalg.norm(sim.compute_error(cfg)) < 1e-8
+        drift[hold], final[hold] = worst, float(np.linalg.norm(relative.compute_error(cfg)))
+    assert final[False] > np.deg2rad(2.0) and final[True] < 1e-9
+    assert drift[True] < 0.05 * drift[False], drift

@@ -102,7 +102,7 @@ def _half(M: Multivector) -> Multivector:
     return exp([0.5 * b[i] for i in range(7)]).project(MOTOR_BLADES)
 
 
-def motor_of(x: Any, what: str = "target") -> Motor:
+def _as_motor(x: Any, what: str = "target") -> Motor:
     """A :class:`~coop_ga.Motor` from a Motor, a rigid versor group element or Multivector, a
     ``pinocchio.SE3`` or 8 coefficients on :data:`~coop_ga.geometry.groups.MOTOR_BLADES`."""
     if isinstance(x, Motor):
@@ -236,7 +236,7 @@ class DualTaskSpace:
         against ``target`` (a Motor; module docstring)."""
         which = validation.choice(which, _MOTORS, "which")
         qv = validation.configuration(q, self.nq, "q", owner=self.name)
-        _, _, _, J, e, E = self._function(which)(qv, motor_of(target).coeffs)
+        _, _, _, J, e, E = self._function(which)(qv, _as_motor(target).coeffs)
         return e.ravel(), E, J
 
     def relative(self, q: Any) -> Motor:
@@ -315,12 +315,12 @@ class DualTask(BaseTask):
         self.space = space
         self.rows = _components(components)
         self.mode = validation.choice(jacobian, ("body", "exact"), "jacobian")
-        self.target = motor_of(target)
+        self.target = _as_motor(target)
         self.labels = tuple(f"{self.name} {DUAL_ROWS[k]}" for k in self.rows)
 
     def set_target(self, target: Any) -> None:
         """Move the target M* (a Motor, ``pinocchio.SE3`` or coefficients)."""
-        self.target = motor_of(target)
+        self.target = _as_motor(target)
 
     def _evaluate(self, configuration: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         model = configuration.model
