@@ -804,8 +804,9 @@ def build_scene(
         robot_friction: friction of the robot's geoms (one number or (sliding, torsional, rolling)).
         visuals: add the visual geometry of ``system.visual_model()``.
         visual_cell: decimation cell [m] of visual meshes (``coop_ga.viz.mesh.decimate``; 0 = full meshes).
-        armature, damping, frictionloss: per-joint values (one number or (nq,)); None = the model's
-            (``model.armature``, URDF ``damping`` and ``friction``).
+        armature: per-joint armature (one number or (nq,)); None = ``model.armature``.
+        damping: per-joint damping (one number or (nq,)); None = the URDF's ``damping``.
+        frictionloss: per-joint friction loss (one number or (nq,)); None = the URDF's ``friction``.
         floating_base: the world-fixed part of the system becomes a free body (module docstring).
         timestep: physics step Δt [s] (1 ms).
         integrator: ``"implicitfast"`` (default), ``"euler"`` (semi-implicit Euler; the scheme of

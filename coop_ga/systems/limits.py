@@ -159,7 +159,7 @@ class JointLimits:
         return a
 
     def position_violation(self, q: Any) -> float:
-        """Largest excursion of q (nq,) or (T, nq) outside [lower, upper] [rad or m]; 0 inside."""
+        """Largest excursion [rad or m] of q (nq,) or (T, nq) outside [lower, upper]; 0 inside."""
         a = self._rows(q, "q")
         return float(max(np.max(self.lower - a, initial=0.0), np.max(a - self.upper, initial=0.0), 0.0))
 
