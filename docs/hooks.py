@@ -11,7 +11,8 @@ Generated here, so they cannot drift from their sources:
   show into ``site/``).
 
 Links are written for GitHub (``docs/x.md`` in the README, ``../paper_figures/…`` in ``docs/``) and
-rewritten here for the site.  ``tests/docs`` checks the page list without building.
+rewritten here for the site.  ``tests/docs`` checks the page list and the links without building
+(:func:`generated_pages`, :func:`site_path`).
 """
 
 from __future__ import annotations
@@ -20,9 +21,10 @@ import ast
 import posixpath
 import re
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from mkdocs.structure.files import File, Files
+if TYPE_CHECKING:  # mkdocs is imported by the build; tests/docs reads the page list without it
+    from mkdocs.structure.files import Files
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -96,20 +98,38 @@ def rewrite_links(text: str, source_dir: str, page_uri: str) -> str:
     return LINK.sub(target, text)
 
 
-def on_files(files: Files, config: Any) -> Files:
-    """Add the generated pages and the ``paper_figures`` files they show."""
-    sources = {"index.md": ("", ROOT / "README.md"), "gallery.md": ("paper_figures", FIGURES / "README.md")}
-    sources["examples/index.md"] = ("examples", EXAMPLES / "README.md")
-    pages = {uri: (folder, path.read_text()) for uri, (folder, path) in sources.items()}
-    for uri, (folder, text) in pages.items():
-        files.append(File.generated(config, uri, content=rewrite_links(text, folder, uri)))
+def generated_pages() -> dict[str, tuple[str, str]]:
+    """The generated pages: site path → (the repository folder its links are relative to, Markdown as written)."""
+    pages = {
+        "index.md": ("", (ROOT / "README.md").read_text()),
+        "gallery.md": ("paper_figures", (FIGURES / "README.md").read_text()),
+        "examples/index.md": ("examples", (EXAMPLES / "README.md").read_text()),
+    }
     for path in example_scripts():
-        files.append(File.generated(config, f"examples/{path.stem}.md", content=example_page(path)))
+        pages[f"examples/{path.stem}.md"] = ("examples", example_page(path))
+    return pages
+
+
+def shown_figure_files(pages: dict[str, tuple[str, str]]) -> list[str]:
+    """The ``paper_figures/…`` files (repository paths) that the generated pages and ``docs/*.md`` link or show."""
     texts = list(pages.values()) + [("docs", p.read_text()) for p in DOCS.glob("*.md")]
     shown = {repo for folder, text in texts for repo in repo_links(text, folder)}
-    for repo in sorted(shown):
-        if repo.startswith("paper_figures/") and repo != "paper_figures/README.md" and (ROOT / repo).is_file():
-            files.append(File.generated(config, repo, abs_src_path=str(ROOT / repo)))
+    return sorted(
+        repo
+        for repo in shown
+        if repo.startswith("paper_figures/") and repo != "paper_figures/README.md" and (ROOT / repo).is_file()
+    )
+
+
+def on_files(files: Files, config: Any) -> Files:
+    """Add the generated pages and the ``paper_figures`` files they show."""
+    from mkdocs.structure.files import File
+
+    pages = generated_pages()
+    for uri, (folder, text) in pages.items():
+        files.append(File.generated(config, uri, content=rewrite_links(text, folder, uri)))
+    for repo in shown_figure_files(pages):
+        files.append(File.generated(config, repo, abs_src_path=str(ROOT / repo)))
     return files
 
 
