@@ -44,12 +44,14 @@ def example_page(path: Path) -> str:
     """The page of one example script: its docstring as text, how to run it, then the script itself."""
     source = path.read_text()
     doc = ast.get_docstring(ast.parse(source)) or ""
-    title, _, body = doc.partition("\n")
+    first, _, body = doc.partition("\n")
+    title, _, lead = first.strip().partition(": ")  # "Title: what it shows" → a short title and a lead
+    lead = f"*{lead[0].upper()}{lead[1:]}*\n\n" if lead else ""
     body = body.replace("Run::", "Run:")
     return (
-        f"# {path.stem[:2]} · {title.strip()}\n\n{body.strip()}\n\n"
-        f"Source: `examples/{path.name}` (this page is generated from it). Every example takes `--out DIR`, "
-        "`--fast` and `--help`, and is run by `tests/examples/test_examples.py`.\n\n"
+        f"# {path.stem[:2]} · {title}\n\n{lead}{body.strip()}\n\n"
+        f"## The script\n\n`examples/{path.name}` (this page is generated from it). Every example takes "
+        "`--out DIR`, `--fast` and `--help`, and is run by `tests/examples/test_examples.py`.\n\n"
         f"```python\n{source.rstrip()}\n```\n"
     )
 
