@@ -29,6 +29,14 @@ def test_readme_quickstart_is_what_ci_runs():
     assert "python -m pytest -q" in (ROOT / ".ci" / "run").read_text()
 
 
+def test_readme_stays_a_front_page():
+    """What it is, the two commands, one picture, links: the manual is docs/ (mkdocs.yml)."""
+    assert len(TEXT.splitlines()) <= 120, "the README is the front page: put the details in a docs/ page and link it"
+    assert TEXT.count("![") == 1, "one picture"
+    for page in re.findall(r"\]\((docs/[^)#]+)", TEXT):
+        assert (ROOT / page).is_file(), f"the README links {page}, which does not exist"
+
+
 @pytest.mark.parametrize("code", BLOCKS, ids=[f"block{i}" for i in range(len(BLOCKS))])
 def test_readme_example_runs(code: str) -> None:
     namespace: dict[str, object] = {"__name__": "readme_example"}
