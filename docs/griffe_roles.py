@@ -43,10 +43,19 @@ def link(obj: Any, match: re.Match[str]) -> str:
     return f'<autoref identifier="{ident}" optional>`{text}`</autoref>'
 
 
+def rewrite(obj: Any) -> None:
+    """Replace the roles of one object's docstring (idempotent: a rewritten docstring has none left)."""
+    if obj.docstring is not None and ":" in obj.docstring.value:
+        scope = obj if obj.is_module or obj.is_class else obj.parent
+        obj.docstring.value = ROLE.sub(lambda m: link(scope, m), obj.docstring.value)
+
+
 class SphinxRoles(griffe.Extension):
     """Rewrite the roles of every docstring once the object tree is complete."""
 
     def on_object(self, *, obj: Any, loader: Any, **kwargs: Any) -> None:
-        if obj.docstring is not None and ":" in obj.docstring.value:
-            scope = obj if obj.is_module or obj.is_class else obj.parent
-            obj.docstring.value = ROLE.sub(lambda m: link(scope, m), obj.docstring.value)
+        rewrite(obj)
+
+    def on_package(self, *, pkg: Any, loader: Any, **kwargs: Any) -> None:
+        """The top-level package (``on_object`` is not called for it)."""
+        rewrite(pkg)
