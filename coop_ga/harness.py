@@ -360,12 +360,11 @@ class stage:
 class Experiment:
     """The harness of one script (module docstring): parser, output directory, seed, quiet flag.
 
-    Parameters
-    ----------
-    file: the script's ``__file__`` (its stem names the default output ``results/<stem>``).
-    description: shown by ``--help`` as written (usually the script's ``__doc__``).
-    seed: default of ``--seed`` (``None``: no seed of its own; see :func:`experiment_parser`).
-    out: default of ``--out`` instead of ``results/<stem>``.
+    Args:
+        file: the script's ``__file__`` (its stem names the default output ``results/<stem>``).
+        description: shown by ``--help`` as written (usually the script's ``__doc__``).
+        seed: default of ``--seed`` (``None``: no seed of its own; see :func:`experiment_parser`).
+        out: default of ``--out`` instead of ``results/<stem>``.
 
     After :meth:`parse`: ``args``, ``out`` (created), ``seed``, ``quiet``, ``rng``, ``fast`` (False
     without :meth:`add_fast`) and ``explicit`` (the options the command line gave).

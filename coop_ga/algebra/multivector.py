@@ -343,12 +343,11 @@ def _check_operand(op: str, x: Any) -> None:
 class Multivector:
     """A sparse multivector of G(4,1) in the null basis {e0, e1, e2, e3, e∞}.
 
-    Parameters
-    ----------
-    blades:
-        Sorted tuple of blade bitmasks (bit 0 = e0, 1..3 = e1..e3, 4 = e∞).
-    coeffs:
-        One coefficient per blade: float, numpy array (batch) or CasADi SX/MX.
+    Args:
+        blades:
+            Sorted tuple of blade bitmasks (bit 0 = e0, 1..3 = e1..e3, 4 = e∞).
+        coeffs:
+            One coefficient per blade: float, numpy array (batch) or CasADi SX/MX.
 
     Use :meth:`from_dict` or :meth:`from_names` to build from a mapping.
     """
@@ -738,10 +737,8 @@ class Multivector:
         computation (``|⟨X X̃⟩₀| > 32 ε ‖X‖²`` after rescaling), and its other grades must be
         below ``1e-7 |⟨X X̃⟩₀|`` plus that noise.
 
-        Raises
-        ------
-        InvalidVersorError
-            If X X̃ is zero (zero norm, null blade) or (numerically) not a scalar.
+        Raises:
+            InvalidVersorError: If X X̃ is zero (zero norm, null blade) or (numerically) not a scalar.
         """
         if self.is_symbolic:
             s = (self * self.reverse()).get(0)

@@ -122,17 +122,16 @@ __all__ = ["LOCK_TIMEOUT_S", "Binding", "CompiledFunction", "cache_dir", "gcc_av
 class Binding:
     """One thread's buffers of a :class:`CompiledFunction`.
 
-    Attributes
-    ----------
-    inputs:
-        One Fortran-order array per input, in the input's shape: write into them, then
-        call :meth:`eval`.
-    flat_inputs:
-        Flat (1-D) views of :attr:`inputs` (``np.copyto(b.flat_inputs[0], q)``).
-    outputs:
-        One Fortran-order array per output, overwritten by every :meth:`eval`.
-    eval:
-        Zero-argument callable: evaluate on the current :attr:`inputs` (~0.1 µs, no checks).
+    Attributes:
+        inputs:
+            One Fortran-order array per input, in the input's shape: write into them, then
+            call :meth:`eval`.
+        flat_inputs:
+            Flat (1-D) views of :attr:`inputs` (``np.copyto(b.flat_inputs[0], q)``).
+        outputs:
+            One Fortran-order array per output, overwritten by every :meth:`eval`.
+        eval:
+            Zero-argument callable: evaluate on the current :attr:`inputs` (~0.1 µs, no checks).
     """
 
     __slots__ = ("_buffer", "eval", "flat_inputs", "inputs", "outputs")
@@ -156,30 +155,28 @@ class Binding:
 class CompiledFunction:
     """A CasADi function bound to numpy buffers for low-overhead calls (thread-safe).
 
-    Parameters
-    ----------
-    f:
-        The CasADi function (SX or MX).  Inputs must be dense vectors or matrices.
-    codegen:
-        ``True``: generate and compile C with gcc (cached on disk); ``False``: use
-        CasADi's SX virtual machine; ``"auto"``: C when gcc is available.  When C cannot
-        be had, the VM is used with one :class:`CacheWarning` per process and reason
-        (module docstring); ``COOP_GA_CODEGEN=0`` selects the VM silently.
-    check_finite:
-        Raise :class:`NonFiniteError` when an input contains NaN/inf (cheap; default).
-    flags:
-        gcc flags (part of the cache key).
-    fallback:
-        ``False``: raise :class:`CompilationError` instead of falling back to the VM.
+    Args:
+        f:
+            The CasADi function (SX or MX).  Inputs must be dense vectors or matrices.
+        codegen:
+            ``True``: generate and compile C with gcc (cached on disk); ``False``: use
+            CasADi's SX virtual machine; ``"auto"``: C when gcc is available.  When C cannot
+            be had, the VM is used with one :class:`CacheWarning` per process and reason
+            (module docstring); ``COOP_GA_CODEGEN=0`` selects the VM silently.
+        check_finite:
+            Raise :class:`NonFiniteError` when an input contains NaN/inf (cheap; default).
+        flags:
+            gcc flags (part of the cache key).
+        fallback:
+            ``False``: raise :class:`CompilationError` instead of falling back to the VM.
 
-    Attributes
-    ----------
-    codegen:
-        Whether compiled C is actually used.
-    fallback_reason:
-        Why the VM is used although C was requested (None otherwise).
-    function:
-        The evaluated ``casadi.Function`` (the ``casadi.external`` or ``f`` itself).
+    Attributes:
+        codegen:
+            Whether compiled C is actually used.
+        fallback_reason:
+            Why the VM is used although C was requested (None otherwise).
+        function:
+            The evaluated ``casadi.Function`` (the ``casadi.external`` or ``f`` itself).
     """
 
     def __init__(

@@ -130,24 +130,22 @@ def _obstacles(obstacles: Any) -> tuple[Sphere | Plane, ...]:
 class CollisionModel:
     """Signed clearances of ``system``'s capsules from obstacles and from each other (module docstring).
 
-    Parameters
-    ----------
-    system: a :class:`coop_ga.systems.System`.
-    obstacles: spheres / planes (:func:`~coop_ga.collision.distance.as_obstacle` inputs), world frame.
-    capsules: the robot's capsules; default :func:`~coop_ga.collision.capsules.fit_capsules` (collision meshes).
-    self_collision: include capsule–capsule pairs.
-    exclude_adjacent: drop pairs of directly connected bodies.
-    margin: subtracted from every distance [m] (≥ 0: a safety distance).
-    exclude_overlapping: drop the pairs that overlap at ``system.q0``.
-    srdf: drop the pairs a robot's SRDF disables (``<disable_collisions>``; module docstring).
+    Args:
+        system: a :class:`coop_ga.systems.System`.
+        obstacles: spheres / planes (:func:`~coop_ga.collision.distance.as_obstacle` inputs), world frame.
+        capsules: the robot's capsules; default :func:`~coop_ga.collision.capsules.fit_capsules` (collision meshes).
+        self_collision: include capsule–capsule pairs.
+        exclude_adjacent: drop pairs of directly connected bodies.
+        margin: subtracted from every distance [m] (≥ 0: a safety distance).
+        exclude_overlapping: drop the pairs that overlap at ``system.q0``.
+        srdf: drop the pairs a robot's SRDF disables (``<disable_collisions>``; module docstring).
 
-    Attributes
-    ----------
-    labels: one per distance; ``kinds``: ``"obstacle"`` / ``"self"`` per distance;
-    pairs: (n, 2) int — (capsule, obstacle) for obstacle rows, (capsule, capsule) for self rows;
-    inter_branch: (n,) bool — self rows between different branches (arm–arm); False elsewhere;
-    n_obstacle_rows: the obstacle rows come first (``2 × n_capsules`` for two obstacles);
-    excluded: ``(label, reason)`` of every capsule pair left out.
+    Attributes:
+        labels: one per distance; ``kinds``: ``"obstacle"`` / ``"self"`` per distance;
+        pairs: (n, 2) int — (capsule, obstacle) for obstacle rows, (capsule, capsule) for self rows;
+        inter_branch: (n,) bool — self rows between different branches (arm–arm); False elsewhere;
+        n_obstacle_rows: the obstacle rows come first (``2 × n_capsules`` for two obstacles);
+        excluded: ``(label, reason)`` of every capsule pair left out.
     """
 
     def __init__(

@@ -42,15 +42,14 @@ O = TypeVar("O")
 class SolverResult:
     """Fields every controller result has (module docstring).
 
-    Attributes
-    ----------
-    converged: True iff the final error is below the solver's ``tol`` (and, for solvers
-        with limits, the limits hold).
-    error: final ‖e‖, e the 7-vector task error (mixed units: rad, log-scale, body length).
-    iterations: iterations or steps taken.
-    message: why the solver stopped.
-    q: (nq,) final configuration [rad or m].
-    warnings: ``{condition: count}`` of the warnings that occurred during the call.
+    Attributes:
+        converged: True iff the final error is below the solver's ``tol`` (and, for solvers
+            with limits, the limits hold).
+        error: final ‖e‖, e the 7-vector task error (mixed units: rad, log-scale, body length).
+        iterations: iterations or steps taken.
+        message: why the solver stopped.
+        q: (nq,) final configuration [rad or m].
+        warnings: ``{condition: count}`` of the warnings that occurred during the call.
     """
 
     converged: bool

@@ -130,17 +130,16 @@ class TaskDynamics:
 def task_space_dynamics(task: Any, q: Any, qd: Any, *, rcond: float = 1e-8, damping: float = 0.0) -> TaskDynamics:
     """Cooperative task-space dynamics at (q, q̇) (Eq 35–38).
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask`.
-    q: (nq,) [rad].  qd: (nq,) [rad/s].
-    rcond, damping: pseudo-inverse options of :func:`task_inertia` (J is rank deficient).
+    Args:
+        task: a :class:`coop_ga.CooperativeTask`.
+        q: (nq,) [rad].  qd: (nq,) [rad/s].
+        rcond: pseudo-inverse option of :func:`task_inertia` (J is rank deficient).
+        damping: pseudo-inverse option of :func:`task_inertia`.
 
-    Returns
-    -------
-    A :class:`TaskDynamics`; unpacks as ``Lambda (7,7), mu (7,), g (7,), J (7,nq), Jdot_qd (7,)``.
-    ``mu`` and ``g`` are task-space wrenches (dual to the 7 bivector rows) such that
-    ``τ = Jᵀ (Λ 𝒱̇_d + μ + g_S)`` realises the task acceleration 𝒱̇_d on range(J) (Eq 51–52).
+    Returns:
+        A :class:`TaskDynamics`; unpacks as ``Lambda (7,7), mu (7,), g (7,), J (7,nq), Jdot_qd (7,)``.
+        ``mu`` and ``g`` are task-space wrenches (dual to the 7 bivector rows) such that
+        ``τ = Jᵀ (Λ 𝒱̇_d + μ + g_S)`` realises the task acceleration 𝒱̇_d on range(J) (Eq 51–52).
     """
     q = check_q(task, q, "q")
     qd = check_q(task, qd, "qd")

@@ -168,13 +168,12 @@ def gauss_newton_ik(
     """Solve ``V_Sc(q) = V_Sd`` by damped Gauss–Newton with Armijo backtracking (Eq 43–47),
     within the joint limits by default (bounded least-squares steps, module docstring).
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask`.
-    q_init: (nq,) initial configuration [rad or m] (projected onto the limits, with a
-        :class:`~coop_ga.errors.JointLimitWarning`, if it lies outside and ``limit_mode != 'none'``).
-    target: V_Sd, a :class:`~coop_ga.Similarity` (e.g. from :func:`coop_ga.control.displaced_target`).
-    options: :class:`GaussNewtonOptions`; keyword ``overrides`` replace its fields.
+    Args:
+        task: a :class:`coop_ga.CooperativeTask`.
+        q_init: (nq,) initial configuration [rad or m] (projected onto the limits, with a
+            :class:`~coop_ga.errors.JointLimitWarning`, if it lies outside and ``limit_mode != 'none'``).
+        target: V_Sd, a :class:`~coop_ga.Similarity` (e.g. from :func:`coop_ga.control.displaced_target`).
+        options: :class:`GaussNewtonOptions`; keyword ``overrides`` replace its fields.
 
     Returns an :class:`IKResult`; ``converged`` iff ‖e‖ < ``tol`` and q is inside the limits
     (for ``limit_mode='none'``: ‖e‖ < tol; ``limit_violation`` says how far outside q is).

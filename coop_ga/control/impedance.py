@@ -355,22 +355,20 @@ def simulate_impedance(
 ) -> ImpedanceResult:
     """Simulate the similarity impedance controller (Eq 49–52) on the system's rigid-body dynamics.
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask` (its system's Pinocchio model is the plant).
-    q_init: (nq,) initial configuration [rad]; qd_init: (nq,) initial velocity (default 0).
-    target: V_Sd, a :class:`~coop_ga.Similarity`; constant (V̇_Sd = 0).
-    options: :class:`ImpedanceOptions` (gains, duration, Δt, nullspace handling, …);
-        keyword ``overrides`` replace its fields (``simulate_impedance(t, q, V, K=25, D=10)``).
+    Args:
+        task: a :class:`coop_ga.CooperativeTask` (its system's Pinocchio model is the plant).
+        q_init: (nq,) initial configuration [rad]; qd_init: (nq,) initial velocity (default 0).
+        target: V_Sd, a :class:`~coop_ga.Similarity`; constant (V̇_Sd = 0).
+        options: :class:`ImpedanceOptions` (gains, duration, Δt, nullspace handling, …);
+            keyword ``overrides`` replace its fields (``simulate_impedance(t, q, V, K=25, D=10)``).
 
     The commanded torque is saturated to ±effort of ``task.system.limits`` unless
     ``torque_limits='none'``; position and velocity limits are monitored, not enforced (module
     docstring, "Limits"): the result counts the violations and one
     :class:`~coop_ga.errors.JointLimitWarning` per call reports them.
 
-    Returns
-    -------
-    :class:`ImpedanceResult`.  Raises :class:`NonFiniteError` if the state diverges.
+    Returns:
+        :class:`ImpedanceResult`.  Raises :class:`NonFiniteError` if the state diverges.
     """
     o = resolve_options(ImpedanceOptions, options, overrides, "simulate_impedance")
     dt, duration = o.dt, o.duration

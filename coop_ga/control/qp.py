@@ -364,15 +364,18 @@ def solve_qp(
     with Eq 53's bounds), Gauss–Newton (A = J_e, b = −e, x = Δq: Eq 45–46 in a box) and the
     two levels of the nullspace step (Eq 58, 60: A = J^G, then A = I with E = the row space of J^G).
 
-    Parameters
-    ----------
-    A: (k, n) task matrix; b: (k,) target (A = I, b = x₂ gives ``min ‖x − x₂‖²``).
-    damping: λ ≥ 0 (floored at :data:`MIN_RELATIVE_DAMPING` · ‖A‖_F inside the QP).
-    lb, ub: (n,) bounds (±inf allowed; None: unbounded).  G, h: (m, n), (m,) inequalities.
-    E, f: (p, n), (p,) equalities; their rows must be linearly independent.
-    x_free: the unconstrained minimiser if the caller has it (default: :func:`damped_lstsq`,
-        valid only without E); when it is feasible it is returned without solving a QP.
-    labels: names of the rows of G (for messages); what: the caller, for messages.
+    Args:
+        A: (k, n) task matrix; b: (k,) target (A = I, b = x₂ gives ``min ‖x − x₂‖²``).
+        damping: λ ≥ 0 (floored at :data:`MIN_RELATIVE_DAMPING` · ‖A‖_F inside the QP).
+        lb: (n,) lower bounds (±inf allowed; None: unbounded).
+        ub: (n,) upper bounds (±inf allowed; None: unbounded).
+        G: (m, n) inequalities ``G x ≤ h``.
+        h: (m,) their right-hand side.
+        E: (p, n) equalities ``E x = f``; their rows must be linearly independent.
+        f: (p,) their right-hand side.
+        x_free: the unconstrained minimiser if the caller has it (default: :func:`damped_lstsq`,
+            valid only without E); when it is feasible it is returned without solving a QP.
+        labels: names of the rows of G (for messages); what: the caller, for messages.
 
     Robustness: DAQP's answer is verified (bounds, rows, finiteness).  With a tiny λ the
     Hessian ``AᵀA + λ²I`` has a condition number up to 1e12 (e.g. Gauss–Newton's λ² = 1e-9 on

@@ -107,26 +107,25 @@ FATROP_BOUND_RELAX = 1e-8
 class ReferenceSolution:
     """Solution of the constrained reaching OCP by a reference NLP solver (module docstring).
 
-    Attributes
-    ----------
-    solver: ``"ipopt"`` or ``"fatrop"``.  terminal: ``"soft"`` or ``"constraint"``.
-    success: the solver reported success.  status: its return status (string).
-    u: (n, nq) controls [rad/s²]; q: (n+1, nq) [rad] and qd: (n+1, nq) [rad/s] the states
-        X_k of the NLP (not re-integrated); t: (n+1,) knot times [s].
-    cost: the NLP objective at the solution (soft: ``Σ uᵀRu + eᵀQe + q̇_nᵀQ_v q̇_n``;
-        constraint: ``Σ uᵀRu + q̇_nᵀQ_v q̇_n``).
-    cost_rollout: ``ocp.cost(u)`` — the soft cost of Eq 53 of the controls, re-integrated
-        by :meth:`ReachingOCP.rollout` (comparable across solvers and with iLQR).
-    error_vector: (7,) e(q_n) from ``task.graph.error_expression``; terminal_error: its norm.
-    violations: largest violation of each bound family over the knots —
-        ``{"position" [rad], "velocity" [rad/s], "acceleration" [rad/s²]}`` (0 = satisfied);
-        max_violation: their maximum.  defect: largest residual of the dynamics equalities.
-    active: number of (knot, joint) bound entries within :data:`ACTIVE_TOL` of their bound,
-        per family.
-    iterations: solver iterations.  solve_time_s / solve_cpu_s: the solver's wall / CPU time
-        of the solve [s] (``t_wall_total`` / ``t_proc_total``); wall_time_s: wall time of
-        ``opti.solve()`` (includes creating the nlpsol); build_time_s: building the Opti problem.
-    limits: the bounds imposed (None: none).  stats: CasADi's solver statistics (scalars).
+    Attributes:
+        solver: ``"ipopt"`` or ``"fatrop"``.  terminal: ``"soft"`` or ``"constraint"``.
+        success: the solver reported success.  status: its return status (string).
+        u: (n, nq) controls [rad/s²]; q: (n+1, nq) [rad] and qd: (n+1, nq) [rad/s] the states
+            X_k of the NLP (not re-integrated); t: (n+1,) knot times [s].
+        cost: the NLP objective at the solution (soft: ``Σ uᵀRu + eᵀQe + q̇_nᵀQ_v q̇_n``;
+            constraint: ``Σ uᵀRu + q̇_nᵀQ_v q̇_n``).
+        cost_rollout: ``ocp.cost(u)`` — the soft cost of Eq 53 of the controls, re-integrated
+            by :meth:`ReachingOCP.rollout` (comparable across solvers and with iLQR).
+        error_vector: (7,) e(q_n) from ``task.graph.error_expression``; terminal_error: its norm.
+        violations: largest violation of each bound family over the knots —
+            ``{"position" [rad], "velocity" [rad/s], "acceleration" [rad/s²]}`` (0 = satisfied);
+            max_violation: their maximum.  defect: largest residual of the dynamics equalities.
+        active: number of (knot, joint) bound entries within :data:`ACTIVE_TOL` of their bound,
+            per family.
+        iterations: solver iterations.  solve_time_s / solve_cpu_s: the solver's wall / CPU time
+            of the solve [s] (``t_wall_total`` / ``t_proc_total``); wall_time_s: wall time of
+            ``opti.solve()`` (includes creating the nlpsol); build_time_s: building the Opti problem.
+        limits: the bounds imposed (None: none).  stats: CasADi's solver statistics (scalars).
     """
 
     solver: str
@@ -163,15 +162,14 @@ def _bound_rows(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray,
 class ReferenceProblem:
     """The constrained reaching OCP transcribed in :class:`casadi.Opti` (module docstring).
 
-    Parameters
-    ----------
-    ocp: the :class:`~coop_ga.control.ilqr.ReachingOCP` (task, q_init, q̇_init, target,
-        horizon n, Δt, R, Q, Q_v).
-    limits: the bounds, a :class:`~coop_ga.systems.limits.JointLimits` of the OCP's joints, or None
-        (default): ``ocp.task.system.limits``.
-    limit_mode: ``"enforce"`` (those bounds), ``"none"`` (no bounds: the unconstrained OCP) or None
-        (default): the OCP's own ``limit_mode``.
-    terminal: ``"soft"`` (default, Eq 57: ``eᵀQe`` in the cost) or ``"constraint"`` (``e(q_n) = 0``).
+    Args:
+        ocp: the :class:`~coop_ga.control.ilqr.ReachingOCP` (task, q_init, q̇_init, target,
+            horizon n, Δt, R, Q, Q_v).
+        limits: the bounds, a :class:`~coop_ga.systems.limits.JointLimits` of the OCP's joints, or None
+            (default): ``ocp.task.system.limits``.
+        limit_mode: ``"enforce"`` (those bounds), ``"none"`` (no bounds: the unconstrained OCP) or None
+            (default): the OCP's own ``limit_mode``.
+        terminal: ``"soft"`` (default, Eq 57: ``eᵀQe`` in the cost) or ``"constraint"`` (``e(q_n) = 0``).
 
     The Opti problem is built once; :meth:`solve` may be called several times (each solver
     creates its nlpsol on its first solve).
@@ -445,20 +443,22 @@ def solve_reference(
 ) -> ReferenceSolution:
     """Solve the constrained reaching OCP (module docstring) with IPOPT or FATROP through CasADi Opti.
 
-    Parameters
-    ----------
-    ocp: a :class:`~coop_ga.control.ilqr.ReachingOCP` (the problem data, Eq 53–57).
-    limits: a :class:`~coop_ga.systems.limits.JointLimits`, or None (default: ``ocp.task.system.limits``).
-    limit_mode: ``"enforce"``, ``"none"`` (no bounds) or None (default: the OCP's ``limit_mode``).
-    solver: ``"ipopt"`` or ``"fatrop"``.
-    terminal: ``"soft"`` (Eq 57, the OCP's cost) or ``"constraint"`` (``e(q_n) = 0``).
-    u_init: (n, nq) initial control guess [rad/s²] (default 0); the initial states are its roll-out.
-    tol, constr_viol_tol, max_iter, solver_options, verbose: see :meth:`ReferenceProblem.solve`.
+    Args:
+        ocp: a :class:`~coop_ga.control.ilqr.ReachingOCP` (the problem data, Eq 53–57).
+        limits: a :class:`~coop_ga.systems.limits.JointLimits`, or None (default: ``ocp.task.system.limits``).
+        limit_mode: ``"enforce"``, ``"none"`` (no bounds) or None (default: the OCP's ``limit_mode``).
+        solver: ``"ipopt"`` or ``"fatrop"``.
+        terminal: ``"soft"`` (Eq 57, the OCP's cost) or ``"constraint"`` (``e(q_n) = 0``).
+        u_init: (n, nq) initial control guess [rad/s²] (default 0); the initial states are its roll-out.
+        tol: see :meth:`ReferenceProblem.solve`.
+        constr_viol_tol: see :meth:`ReferenceProblem.solve`.
+        max_iter: see :meth:`ReferenceProblem.solve`.
+        solver_options: see :meth:`ReferenceProblem.solve`.
+        verbose: see :meth:`ReferenceProblem.solve`.
 
-    Returns
-    -------
-    :class:`ReferenceSolution` (trajectories, cost, terminal error, bound violations,
-    iterations, times, status).
+    Returns:
+        :class:`ReferenceSolution` (trajectories, cost, terminal error, bound violations,
+        iterations, times, status).
     """
     problem = ReferenceProblem(ocp, limits, limit_mode=limit_mode, terminal=terminal)
     return problem.solve(

@@ -552,7 +552,8 @@ def run_ik(
 
     Args:
         configuration: the start (moved along the run: at the end it holds the last q and q̇).
-        tasks, limits: as :func:`solve_step`; ``step_options`` (damping, equality, levels, …) are passed on.
+        tasks: as :func:`solve_step`.
+        limits: as :func:`solve_step`; ``step_options`` (damping, equality, levels, …) are passed on.
         dt: Δt [s]; steps: the step budget; tol: stop when ``hooks.error`` < tol.
         hooks: :class:`RunHooks` (stop criterion, custom step, correction, recording, clipping).
 

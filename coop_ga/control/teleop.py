@@ -175,17 +175,19 @@ class TeleopLog:
 class Teleoperator:
     """State of a teleoperated cooperative system: ``step(command)`` advances Eq 61 once.
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask` (e.g. the allegro sphere).
-    q_init: (nq,) initial configuration.
-    dt: Δt [s] (Eq 61; 0.01 s in §4.5).  damping: λ of the damped least squares.
-    limit_mode: ``'enforce'`` (default: each step is the QP of :func:`coop_ga.control.diff_ik_step`,
-        within the position, velocity and acceleration limits of ``task.system.limits``), ``'clamp'``
-        (ablation: clip q after an unconstrained step) or ``'none'``.
-    gains / rz_mode: see :func:`command_to_bivector`.
-    acceleration_limit: with ``'enforce'``, the system's acceleration limits too (the hand starts at rest;
-        ``velocity`` is the last step's q̇).
+    Args:
+        task: a :class:`coop_ga.CooperativeTask` (e.g. the allegro sphere).
+        q_init: (nq,) initial configuration.
+        dt: Δt [s] (Eq 61; 0.01 s in §4.5).  damping: λ of the damped least squares.
+        limit_mode: ``'enforce'`` (default: each step is the QP of :func:`coop_ga.control.diff_ik_step`,
+            within the position, velocity and acceleration limits of ``task.system.limits``), ``'clamp'``
+            (ablation: clip q after an unconstrained step) or ``'none'``.
+        translation_gain: see :func:`command_to_bivector`.
+        rotation_gain: see :func:`command_to_bivector`.
+        dilation_gain: see :func:`command_to_bivector`.
+        rz_mode: see :func:`command_to_bivector`.
+        acceleration_limit: with ``'enforce'``, the system's acceleration limits too (the hand starts at rest;
+            ``velocity`` is the last step's q̇).
     """
 
     def __init__(

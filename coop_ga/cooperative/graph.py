@@ -112,14 +112,13 @@ def _closest_to_origin(kind: Kind, a: list[Any], o: Any) -> list[Any]:
 class TaskGraph:
     """Symbolic graph of the cooperative task ``kind`` on the end frames of ``tree``.
 
-    Parameters
-    ----------
-    tree: the :class:`~coop_ga.kinematics.KinematicTree` of the task's end frames (in order).
-    kind: primitive kind (``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``), or a
-        least-squares kind ``'sphere_fit'`` / ``'plane_fit'`` over all the tree's end frames
-        (:mod:`coop_ga.cooperative.primitive`: the fit is part of this graph, so its V_Sc, B_Sc and J^G
-        come from the same code as every other kind's).
-    name: used to name the CasADi functions (and the compiled libraries).
+    Args:
+        tree: the :class:`~coop_ga.kinematics.KinematicTree` of the task's end frames (in order).
+        kind: primitive kind (``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``), or a
+            least-squares kind ``'sphere_fit'`` / ``'plane_fit'`` over all the tree's end frames
+            (:mod:`coop_ga.cooperative.primitive`: the fit is part of this graph, so its V_Sc, B_Sc and J^G
+            come from the same code as every other kind's).
+        name: used to name the CasADi functions (and the compiled libraries).
     """
 
     def __init__(self, tree: KinematicTree, kind: str, name: str, chart_axis: Any = None):

@@ -68,13 +68,12 @@ _F64 = np.dtype(np.float64)
 class TaskState:
     """Everything one evaluation returns (arrays are copies).
 
-    Attributes
-    ----------
-    similarity: V_Sc (Eq 28), a :class:`~coop_ga.Similarity`.
-    log: (7,) B_Sc on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``.
-    jacobian: (7, nq) J^G, body frame (Eq 30).
-    points: (n, 3) end points [m], world frame.
-    well_definedness: scalar in [0, 1] (see module docstring).
+    Attributes:
+        similarity: V_Sc (Eq 28), a :class:`~coop_ga.Similarity`.
+        log: (7,) B_Sc on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``.
+        jacobian: (7, nq) J^G, body frame (Eq 30).
+        points: (n, 3) end points [m], world frame.
+        well_definedness: scalar in [0, 1] (see module docstring).
     """
 
     similarity: Similarity
@@ -97,34 +96,34 @@ def _binding(cf: CompiledFunction) -> Any:
 class CooperativeTask:
     """Cooperative task space of ``system`` with primitive ``kind`` (§3.1–3.4).
 
-    Parameters
-    ----------
-    system:
-        A :class:`coop_ga.systems.System` (or anything with ``model``, ``end_frames``,
-        ``name``, ``q0``).
-    kind:
-        ``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``, or a least-squares kind
-        ``'sphere_fit'`` (≥ 4 points) / ``'plane_fit'`` (≥ 3 points): the CGA least-squares sphere /
-        plane of any number of end points (:mod:`coop_ga.cooperative.primitive`); V_Sc is then the
-        similarity of that sphere / plane (:attr:`primitive_kind`), built in the same task graph.
-    points:
-        Indices into ``system.end_frames`` giving the end points and their order
-        (default: the first :attr:`KindSpec.n_points <coop_ga.geometry.kinds.KindSpec.n_points>`; for the least-squares kinds all end frames).  The
-        order fixes the orientation (see :mod:`coop_ga.cooperative.primitive`; for ``plane_fit`` the
-        normal follows the points' Newell normal, counter-clockwise seen from its tip).
-    codegen:
-        ``"auto"`` (C via gcc when available), ``True`` or ``False`` (CasADi VM).
-    warn_below, raise_below:
-        Well-definedness thresholds (dimensionless) for :class:`~coop_ga.errors.DegeneracyWarning`
-        and :class:`~coop_ga.errors.DegeneratePrimitiveError`.
-    chart_axis:
-        The axis the minimal rotation of V_Sc is measured from (:func:`coop_ga.geometry.similarity_from_unit`):
-        ``None`` — the unit primitive's (+e2 for point pairs/lines, +e3 for circles/planes; Eq 26);
-        a 3-vector; or ``"auto"`` (default) — the unit primitive's, unless the primitive at
-        ``system.q0`` points more than 90° away from it, then its axis at q0.  The chart jumps by a
-        half-turn where the primitive's axis is opposite the reference, so "auto" keeps that as far
-        as possible from the nominal configuration.  Targets must be expressed in the same chart:
-        :meth:`target_from_primitive` and :func:`~coop_ga.control.displaced_target` do so.
+    Args:
+        system:
+            A :class:`coop_ga.systems.System` (or anything with ``model``, ``end_frames``,
+            ``name``, ``q0``).
+        kind:
+            ``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``, or a least-squares kind
+            ``'sphere_fit'`` (≥ 4 points) / ``'plane_fit'`` (≥ 3 points): the CGA least-squares sphere /
+            plane of any number of end points (:mod:`coop_ga.cooperative.primitive`); V_Sc is then the
+            similarity of that sphere / plane (:attr:`primitive_kind`), built in the same task graph.
+        points:
+            Indices into ``system.end_frames`` giving the end points and their order
+            (default: the first :attr:`KindSpec.n_points <coop_ga.geometry.kinds.KindSpec.n_points>`; for the least-squares kinds all end frames).  The
+            order fixes the orientation (see :mod:`coop_ga.cooperative.primitive`; for ``plane_fit`` the
+            normal follows the points' Newell normal, counter-clockwise seen from its tip).
+        codegen:
+            ``"auto"`` (C via gcc when available), ``True`` or ``False`` (CasADi VM).
+        warn_below:
+            Well-definedness threshold (dimensionless) of a :class:`~coop_ga.errors.DegeneracyWarning`.
+        raise_below:
+            Well-definedness threshold (dimensionless) of a :class:`~coop_ga.errors.DegeneratePrimitiveError`.
+        chart_axis:
+            The axis the minimal rotation of V_Sc is measured from (:func:`coop_ga.geometry.similarity_from_unit`):
+            ``None`` — the unit primitive's (+e2 for point pairs/lines, +e3 for circles/planes; Eq 26);
+            a 3-vector; or ``"auto"`` (default) — the unit primitive's, unless the primitive at
+            ``system.q0`` points more than 90° away from it, then its axis at q0.  The chart jumps by a
+            half-turn where the primitive's axis is opposite the reference, so "auto" keeps that as far
+            as possible from the nominal configuration.  Targets must be expressed in the same chart:
+            :meth:`target_from_primitive` and :func:`~coop_ga.control.displaced_target` do so.
     """
 
     def __init__(

@@ -15,7 +15,7 @@ Conventions
   ``torques`` T (n, 3) [N m]: pure torques the end bodies exert on the object (``−end_wrenches[:, 3:]``,
   about the end points; zero for point contacts).
 * A similarity wrench 𝒲 (7,) is dual to the body twist ``b = [θ12, θ13, θ23, β, t1, t2, t3]``
-  (README, Conventions): ``𝒲ᵀ b`` is a power [W].  Its rows: torques about the primitive's body axes
+  (docs/conventions.md): ``𝒲ᵀ b`` is a power [W].  Its rows: torques about the primitive's body axes
   (𝒲_12 about body z, −𝒲_13 about body y, 𝒲_23 about body x) [N m]; 𝒲_β, the dilation "force" [N m]
   (the work per unit of ln r); 𝒲_t = r Rᵀ f [N m]: the body translation rows of J^G are velocities in
   units of the radius r (``b_t = Rᵀ ċ / r``), so their dual is the force times r.  All seven are

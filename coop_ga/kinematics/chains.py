@@ -103,15 +103,14 @@ def motor_from_se3(M: Any) -> Multivector:
 class Joint:
     """One 1-DOF joint of the tree.
 
-    Attributes
-    ----------
-    name: Pinocchio joint name.
-    index: Pinocchio joint id.
-    q_index: position of its coordinate in q (``model.idx_qs``).
-    parent: Pinocchio id of the parent joint (0 = world).
-    kind: ``"revolute"`` or ``"prismatic"``.
-    axis: unit axis in the joint frame.
-    placement: constant motor of ``model.jointPlacements[index]`` (parent joint frame).
+    Attributes:
+        name: Pinocchio joint name.
+        index: Pinocchio joint id.
+        q_index: position of its coordinate in q (``model.idx_qs``).
+        parent: Pinocchio id of the parent joint (0 = world).
+        kind: ``"revolute"`` or ``"prismatic"``.
+        axis: unit axis in the joint frame.
+        placement: constant motor of ``model.jointPlacements[index]`` (parent joint frame).
     """
 
     name: str
@@ -185,14 +184,13 @@ def _as_q(q: Any, nq: int, what: str = "q") -> Any:
 class KinematicTree:
     """The motor kinematics of a Pinocchio model restricted to the paths to ``end_frames``.
 
-    Parameters
-    ----------
-    model:
-        ``pinocchio.Model`` with revolute/prismatic joints only (lock others with
-        ``pinocchio.buildReducedModel`` first); ``nq == nv``.
-    end_frames:
-        Names of the frames whose motors/points are the chain ends, in the order
-        the cooperative layer will use them.
+    Args:
+        model:
+            ``pinocchio.Model`` with revolute/prismatic joints only (lock others with
+            ``pinocchio.buildReducedModel`` first); ``nq == nv``.
+        end_frames:
+            Names of the frames whose motors/points are the chain ends, in the order
+            the cooperative layer will use them.
     """
 
     def __init__(self, model: Any, end_frames: Sequence[str]):

@@ -210,18 +210,17 @@ def _coincidence(A: _Axis, B: _Axis) -> float:
 class SingularityReport:
     """Result of :func:`classify_singularities`.
 
-    Attributes
-    ----------
-    q: the configuration (nq,) [rad].
-    lines: the joint-axis lines (OPNS, unit direction, world frame).
-    relations: ``{(i, j): relation}`` for every pair i < j (:func:`axis_relation`).
-    moments: (n, n) ``|meet(L_i, L_j)| = d sin α`` [m].
-    shoulder, wrist: S = L1 ∩ L2 and W = L5 ∩ L6 (else L6 ∩ L7) (3,) [m] (None if those axes do not meet).
-    residuals: per class, the residual [m] of its construction (inf if its precondition fails:
-        no coincident axes, no common point).
-    classes: the classes whose residual is ≤ tol.
-    diagnostics: ``wrist_on_first_axis`` (the seed's shoulder condition, |P_W ∧ L1| [m]),
-        ``spherical_wrist`` (max distance of W from the three wrist axes [m]).
+    Attributes:
+        q: the configuration (nq,) [rad].
+        lines: the joint-axis lines (OPNS, unit direction, world frame).
+        relations: ``{(i, j): relation}`` for every pair i < j (:func:`axis_relation`).
+        moments: (n, n) ``|meet(L_i, L_j)| = d sin α`` [m].
+        shoulder, wrist: S = L1 ∩ L2 and W = L5 ∩ L6 (else L6 ∩ L7) (3,) [m] (None if those axes do not meet).
+        residuals: per class, the residual [m] of its construction (inf if its precondition fails:
+            no coincident axes, no common point).
+        classes: the classes whose residual is ≤ tol.
+        diagnostics: ``wrist_on_first_axis`` (the seed's shoulder condition, |P_W ∧ L1| [m]),
+            ``spherical_wrist`` (max distance of W from the three wrist axes [m]).
     """
 
     q: np.ndarray

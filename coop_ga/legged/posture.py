@@ -1081,7 +1081,8 @@ def posture_to(
         target: a :class:`~coop_ga.Similarity` — the target V_Sc of the one primitive seen from B (e.g.
             :func:`body_motion_target`) — or a :class:`BodyMotion`, the body displacement to make (every
             primitive's target is ``M⁻¹ V``).
-        legs, options: as :func:`posture_step` (``options.frame`` is ignored: commands are primitive-frame).
+        legs: as :func:`posture_step`.
+        options: as :func:`posture_step` (``options.frame`` is ignored: commands are primitive-frame).
         primitives: the stance primitives (:func:`stance_primitive_tasks`; fixed at the start); None:
             ``options.kind``.  ``("circle", "point_pair")`` carries every body motion.
 

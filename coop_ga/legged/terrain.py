@@ -202,7 +202,7 @@ class Terrain:
     @classmethod
     def random(cls, seed: int = 0, tile: float = 0.08, amplitude: float = 0.025, extent: float = 3.0) -> Terrain:
         """A height field of square horizontal tiles of side ``tile`` [m] over [−extent, extent]² [m], heights
-        uniform in [0, ``amplitude``] [m] from ``numpy.random.default_rng(seed)``; z = 0 outside."""
+        [m] uniform in [0, ``amplitude``] from ``numpy.random.default_rng(seed)``; z = 0 outside."""
         s = validation.integer(seed, "seed", minimum=0)
         t = validation.positive(tile, "tile")
         amp = validation.nonnegative(amplitude, "amplitude")

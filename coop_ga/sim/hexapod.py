@@ -235,17 +235,16 @@ def terrain_geoms(terrain: Any, region: Any) -> list[dict[str, Any]]:
 class HexapodScene:
     """The hexapod's MuJoCo scene (module docstring) and where to find things in it.
 
-    Attributes
-    ----------
-    scene: the :class:`~coop_ga.sim.Scene` (its ``system`` is the registered ``hexapod``).
-    terrain: the :class:`~coop_ga.legged.Terrain`; region: ((x0, x1), (y0, y1)) [m] where it exists.
-    geometry: the :class:`HexapodGeometry`.
-    foot_sites: (6,) site ids of ``{leg}_foot`` in :data:`HEXAPOD_LEGS` order.
-    touch_adr: (6,) ``sensordata`` address of each ``{leg}_touch``; imu_adr: addresses of ``imu_quat`` (4),
-        ``imu_gyro`` (3), ``imu_acc`` (3).
-    foot_radius: [m] the foot balls' radius (``legs.foot_radius``).
-    foot_geoms, tibia_geoms, femur_geoms, coxa_geoms: (6,) geom ids per leg; body_geom: the body box's geom.
-    terrain_geom_ids: (m,) ids of the terrain geoms.
+    Attributes:
+        scene: the :class:`~coop_ga.sim.Scene` (its ``system`` is the registered ``hexapod``).
+        terrain: the :class:`~coop_ga.legged.Terrain`; region: ((x0, x1), (y0, y1)) [m] where it exists.
+        geometry: the :class:`HexapodGeometry`.
+        foot_sites: (6,) site ids of ``{leg}_foot`` in :data:`HEXAPOD_LEGS` order.
+        touch_adr: (6,) ``sensordata`` address of each ``{leg}_touch``; imu_adr: addresses of ``imu_quat`` (4),
+            ``imu_gyro`` (3), ``imu_acc`` (3).
+        foot_radius: [m] the foot balls' radius (``legs.foot_radius``).
+        foot_geoms, tibia_geoms, femur_geoms, coxa_geoms: (6,) geom ids per leg; body_geom: the body box's geom.
+        terrain_geom_ids: (m,) ids of the terrain geoms.
     """
 
     scene: Scene

@@ -535,26 +535,25 @@ def _joint_dynamics(model: Any, armature: Any, damping: Any, frictionloss: Any) 
 class Scene:
     """A MuJoCo scene of a system (module docstring): the spec, the compiled model and the index maps.
 
-    Attributes
-    ----------
-    system: the :class:`~coop_ga.systems.System`.
-    spec: the ``mujoco.MjSpec`` (edit it, then :meth:`recompile`).
-    model: the compiled ``mujoco.MjModel``.
-    objects: the scene objects.
-    floating_base: whether the system's world-fixed part is a free body (:attr:`base_body`).
-    base_body: name of that free body (``None`` for a fixed base).
-    qpos_index, qvel_index, actuator_index: (nq,) int arrays, Pinocchio q / q̇ / joint index → MuJoCo
-        ``qpos`` / ``qvel`` address and actuator id.
-    site_ids: (k,) int — the site of each end frame, in ``system.end_frames`` order.
-    end_bodies: (k,) int — the MuJoCo body carrying each end frame (whose geoms' contacts are the
-        end point's contact force, :meth:`coop_ga.sim.Simulation.end_forces`).
-    object_ids: object name → body id; free objects also in ``object_qpos`` / ``object_qvel``
-        (name → address of the freejoint's 7 qpos / 6 qvel).
-    robot_bodies: ids of every MuJoCo body of the robot (static link bodies and the base included).
-    excluded: (body, body, reason) of every excluded robot body pair.
-    visual_skipped: visual objects left out (their mesh vanished at ``visual_cell``).
-    capsules: the robot's :class:`~coop_ga.collision.Capsule` list (empty with ``collision=False``);
-    capsule_geoms: (len(capsules),) int — the MuJoCo geom of each capsule (geom ``<link>_capsule<i>``).
+    Attributes:
+        system: the :class:`~coop_ga.systems.System`.
+        spec: the ``mujoco.MjSpec`` (edit it, then :meth:`recompile`).
+        model: the compiled ``mujoco.MjModel``.
+        objects: the scene objects.
+        floating_base: whether the system's world-fixed part is a free body (:attr:`base_body`).
+        base_body: name of that free body (``None`` for a fixed base).
+        qpos_index, qvel_index, actuator_index: (nq,) int arrays, Pinocchio q / q̇ / joint index → MuJoCo
+            ``qpos`` / ``qvel`` address and actuator id.
+        site_ids: (k,) int — the site of each end frame, in ``system.end_frames`` order.
+        end_bodies: (k,) int — the MuJoCo body carrying each end frame (whose geoms' contacts are the
+            end point's contact force, :meth:`coop_ga.sim.Simulation.end_forces`).
+        object_ids: object name → body id; free objects also in ``object_qpos`` / ``object_qvel``
+            (name → address of the freejoint's 7 qpos / 6 qvel).
+        robot_bodies: ids of every MuJoCo body of the robot (static link bodies and the base included).
+        excluded: (body, body, reason) of every excluded robot body pair.
+        visual_skipped: visual objects left out (their mesh vanished at ``visual_cell``).
+        capsules: the robot's :class:`~coop_ga.collision.Capsule` list (empty with ``collision=False``);
+        capsule_geoms: (len(capsules),) int — the MuJoCo geom of each capsule (geom ``<link>_capsule<i>``).
     """
 
     system: Any
@@ -804,8 +803,9 @@ def build_scene(
         robot_friction: friction of the robot's geoms (one number or (sliding, torsional, rolling)).
         visuals: add the visual geometry of ``system.visual_model()``.
         visual_cell: decimation cell [m] of visual meshes (``coop_ga.viz.mesh.decimate``; 0 = full meshes).
-        armature, damping, frictionloss: per-joint values (one number or (nq,)); None = the model's
-            (``model.armature``, URDF ``damping`` and ``friction``).
+        armature: per-joint armature (one number or (nq,)); None = ``model.armature``.
+        damping: per-joint damping (one number or (nq,)); None = the URDF's ``damping``.
+        frictionloss: per-joint friction loss (one number or (nq,)); None = the URDF's ``friction``.
         floating_base: the world-fixed part of the system becomes a free body (module docstring).
         timestep: physics step Δt [s] (1 ms).
         integrator: ``"implicitfast"`` (default), ``"euler"`` (semi-implicit Euler; the scheme of

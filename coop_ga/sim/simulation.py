@@ -272,7 +272,8 @@ class Simulation:
     Args:
         scene: a :class:`~coop_ga.sim.Scene`.
         controller: ``controller(t, q, q̇, sensors) -> τ`` (nq,) [N m]; None: zero torque.
-        q, qd: initial robot state (nq,) (default ``system.q0``, 0).
+        q: initial robot configuration (nq,) (default ``system.q0``).
+        qd: initial robot velocity (nq,) (default 0).
         base_pose: initial (position (3,), quaternion (w, x, y, z)) of a free base (``floating_base=True``).
         dt: the physics step [s] you expect (None: the scene's ``timestep``); a different value raises —
             the step is part of the model: ``build_scene(..., timestep=dt)``.

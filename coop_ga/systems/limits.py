@@ -46,14 +46,13 @@ def _frozen(a: np.ndarray) -> np.ndarray:
 class JointLimits:
     """Per-joint bounds, all (nq,) arrays in q order (read-only).
 
-    Attributes
-    ----------
-    joint_names: names in q order.
-    lower, upper: position limits [rad or m] (±inf: unbounded).
-    velocity: |q̇| ≤ velocity [rad/s or m/s] (> 0).
-    acceleration: |q̈| ≤ acceleration [rad/s² or m/s²] (> 0, inf = unbounded).
-    effort: |τ| ≤ effort [N m or N] (> 0, inf = unbounded).
-    velocity_defaulted: True where the velocity limit is :data:`DEFAULT_VELOCITY_LIMIT`.
+    Attributes:
+        joint_names: names in q order.
+        lower, upper: position limits [rad or m] (±inf: unbounded).
+        velocity: |q̇| ≤ velocity [rad/s or m/s] (> 0).
+        acceleration: |q̈| ≤ acceleration [rad/s² or m/s²] (> 0, inf = unbounded).
+        effort: |τ| ≤ effort [N m or N] (> 0, inf = unbounded).
+        velocity_defaulted: True where the velocity limit is :data:`DEFAULT_VELOCITY_LIMIT`.
     """
 
     joint_names: tuple[str, ...]
@@ -159,7 +158,7 @@ class JointLimits:
         return a
 
     def position_violation(self, q: Any) -> float:
-        """Largest excursion of q (nq,) or (T, nq) outside [lower, upper] [rad or m]; 0 inside."""
+        """Largest excursion [rad or m] of q (nq,) or (T, nq) outside [lower, upper]; 0 inside."""
         a = self._rows(q, "q")
         return float(max(np.max(self.lower - a, initial=0.0), np.max(a - self.upper, initial=0.0), 0.0))
 

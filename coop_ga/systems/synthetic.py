@@ -24,11 +24,10 @@ CARTESIAN_BASES = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], 
 def cartesian_points(n_points: int, bases: Any = None, limit: float = 5.0) -> System:
     """A :class:`System` of ``n_points`` free points (3 prismatic joints each, nq = 3 n).
 
-    Parameters
-    ----------
-    n_points: number of chains, 1 … len(bases).
-    bases: (n_points, 3) [m] the end points at q = 0 (default :data:`CARTESIAN_BASES`).
-    limit: joint range ±limit [m].
+    Args:
+        n_points: number of chains, 1 … len(bases).
+        bases: (n_points, 3) [m] the end points at q = 0 (default :data:`CARTESIAN_BASES`).
+        limit: joint range ±limit [m].
 
     The system is named ``cartesian<n>``, its end frames ``tip0 … tip<n-1>``, q0 = 0.
     """

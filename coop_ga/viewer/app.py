@@ -273,7 +273,8 @@ def serve(
     Args:
         task: a :class:`~coop_ga.CooperativeTask` (e.g. ``coop_ga.cooperative_task("three_franka", "circle")``).
         q0: (nq,) start configuration (default ``task.system.q0``).
-        host, port: where to serve (port 0: a free port, see :attr:`Viewer.port`).
+        host: the address to serve on.
+        port: the port to serve on (0: a free port, see :attr:`Viewer.port`).
         rate: control steps per second of wall time (Δt = 1/rate in Eq 61).
         max_faces: triangles per robot sent to the browser (None: full meshes).
         block: serve until Ctrl+C (True) or return the running :class:`Viewer` at once (False).
@@ -514,7 +515,10 @@ def play(
             (or None) per frame.
         t: (T,) times [s] (default: 0.01 s per frame, Eq 61).
         target: a target :class:`~coop_ga.Similarity` (drawn black and dashed; needs a kind or a task).
-        host, port, max_faces, block: as :func:`serve`.
+        host: as :func:`serve`.
+        port: as :func:`serve`.
+        max_faces: as :func:`serve`.
+        block: as :func:`serve`.
 
     Returns:
         The :class:`Viewer`.

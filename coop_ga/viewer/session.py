@@ -172,8 +172,10 @@ class TeleopSession:
         q0: (nq,) start configuration [rad | m] (default ``task.system.q0``).
         dt: Δt [s] of one step (Eq 61); the viewer steps at 1/dt Hz in wall time.
         servo_gain: α [1/s]: the commanded body velocity is ``b = α e`` until an axis saturates.
-        translation_gain, rotation_gain, dilation_gain: k_t [body lengths/s], k_r [rad/s], k_d [1/s] of
-            :func:`~coop_ga.control.command_to_bivector`: the top speeds of the device axes.
+        translation_gain: k_t [body lengths/s] of :func:`~coop_ga.control.command_to_bivector` (the top
+            speed of a translation axis of the device).
+        rotation_gain: k_r [rad/s], the top speed of a rotation axis.
+        dilation_gain: k_d [1/s], the top speed of the dilation axis.
         rz_mode: the sixth axis, ``'dilation'`` or ``'rotation'`` (default: :func:`default_rz_mode`).
         limit_mode: ``'enforce'`` (QP within the limits), ``'clamp'`` or ``'none'`` (:class:`~coop_ga.control.Teleoperator`).
         damping: λ of the damped least squares.

@@ -197,7 +197,11 @@ def animate(
         frames: how many frames (rows spread evenly; default: real time at ``fps``, at most T).
         target: a target :class:`~coop_ga.Primitive` drawn black and dashed.
         paths: draw the end-point paths up to each frame.
-        view, size, dpi, backend, pad: as :func:`~coop_ga.viz.render_scene` (size [in] and dpi of a frame).
+        view: as :func:`~coop_ga.viz.render_scene`.
+        size: as :func:`~coop_ga.viz.render_scene`: the size [in] of a frame.
+        dpi: as :func:`~coop_ga.viz.render_scene`: the dpi of a frame.
+        backend: as :func:`~coop_ga.viz.render_scene`.
+        pad: as :func:`~coop_ga.viz.render_scene`.
         title: a first title line (the second is ``t = … s``).
         progress: a progress bar on stderr.
 

@@ -30,15 +30,14 @@ def set_equal_3d(
 ) -> tuple[np.ndarray, float]:
     """Give a 3-D axes equal scales on x, y, z around ``points``.
 
-    Parameters
-    ----------
-    ax: a matplotlib ``Axes3D``.
-    points: (N, 3) world points [m] (or several arrays, stacked) that must be visible.
-    pad: margin [m] added on every side of the bounding box.
-    floor: put the lowest point (minus ``pad``) at the bottom of the box instead of
-        centring the box vertically (for robots standing on z = 0).
-    tight: the box is the padded bounding box itself (each axis its own range, the box
-        aspect proportional to them, so the scale is still equal); default: a cube.
+    Args:
+        ax: a matplotlib ``Axes3D``.
+        points: (N, 3) world points [m] (or several arrays, stacked) that must be visible.
+        pad: margin [m] added on every side of the bounding box.
+        floor: put the lowest point (minus ``pad``) at the bottom of the box instead of
+            centring the box vertically (for robots standing on z = 0).
+        tight: the box is the padded bounding box itself (each axis its own range, the box
+            aspect proportional to them, so the scale is still equal); default: a cube.
 
     Returns the box centre (3,) [m] and its largest half side [m].
     """

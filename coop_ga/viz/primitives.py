@@ -130,19 +130,22 @@ def draw_primitive(
 ) -> Drawn:
     """Draw the primitive ``X`` (any of the six kinds, see the module docstring) on a 3-D axes.
 
-    Parameters
-    ----------
-    ax: a matplotlib ``Axes3D``.
-    X: a :class:`coop_ga.Primitive` (or a primitive multivector; its kind is inferred).
-    color, lw, ls, alpha, label, zorder: matplotlib styling (default colour
-        ``PALETTE.primitive``); ``label`` is given to one artist only (for legends).
-    m: samples of a circle, meridians of a sphere (``m // 5``, at least 12).
-    size: side [m] of a plane's square (default: the smallest side of the current axes box).
-    length: length [m] of a line's segment (default: the line clipped to the current axes box;
-        set the limits first).
-    anchor: (3,) [m] point whose foot on a line / plane centres the segment / square
-        (default: the point nearest the origin).
-    normal_arrow: also draw a circle's normal as an arrow of half its radius.
+    Args:
+        ax: a matplotlib ``Axes3D``.
+        X: a :class:`coop_ga.Primitive` (or a primitive multivector; its kind is inferred).
+        color: matplotlib colour (default ``PALETTE.primitive``).
+        lw: matplotlib line width.
+        ls: matplotlib line style.
+        alpha: matplotlib opacity.
+        label: legend label, given to one artist only.
+        zorder: matplotlib drawing order.
+        m: samples of a circle, meridians of a sphere (``m // 5``, at least 12).
+        size: side [m] of a plane's square (default: the smallest side of the current axes box).
+        length: length [m] of a line's segment (default: the line clipped to the current axes box;
+            set the limits first).
+        anchor: (3,) [m] point whose foot on a line / plane centres the segment / square
+            (default: the point nearest the origin).
+        normal_arrow: also draw a circle's normal as an arrow of half its radius.
 
     Returns a :class:`~coop_ga.viz.axes.Drawn` with the artists and the points drawn (N, 3) [m].
     """

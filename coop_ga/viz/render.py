@@ -45,18 +45,17 @@ def render(
 ) -> Path:
     """Write a PNG of ``system`` at ``q`` (nq,) and of ``primitives``, headless.
 
-    Parameters
-    ----------
-    system: a :class:`coop_ga.systems.System` (or any object with ``model``, ``end_frames``).
-    q: configuration (nq,) [rad | m].
-    primitives: :class:`coop_ga.Primitive` objects, or ``(primitive, kwargs)`` pairs whose
-        keyword arguments go to :func:`~coop_ga.viz.draw_primitive` (``color``, ``lw``, ``ls``,
-        ``alpha``, ``size``, ``length``, ``normal_arrow``, ``marker_size``).
-    path: output file; view: camera (elevation, azimuth) [deg]; size: figure size [in];
-        dpi: resolution; title: figure title (default: the system's name);
-        end_labels: label the end points with ``system.labels``; pad: margin [m].
-    backend: as :func:`~coop_ga.viz.render_scene`: ``"auto"`` (the robot from its visual
-        meshes, VTK or matplotlib), ``"vtk"``, ``"matplotlib"`` or ``"skeleton"``.
+    Args:
+        system: a :class:`coop_ga.systems.System` (or any object with ``model``, ``end_frames``).
+        q: configuration (nq,) [rad | m].
+        primitives: :class:`coop_ga.Primitive` objects, or ``(primitive, kwargs)`` pairs whose
+            keyword arguments go to :func:`~coop_ga.viz.draw_primitive` (``color``, ``lw``, ``ls``,
+            ``alpha``, ``size``, ``length``, ``normal_arrow``, ``marker_size``).
+        path: output file; view: camera (elevation, azimuth) [deg]; size: figure size [in];
+            dpi: resolution; title: figure title (default: the system's name);
+            end_labels: label the end points with ``system.labels``; pad: margin [m].
+        backend: as :func:`~coop_ga.viz.render_scene`: ``"auto"`` (the robot from its visual
+            meshes, VTK or matplotlib), ``"vtk"``, ``"matplotlib"`` or ``"skeleton"``.
 
     The same machinery as :func:`~coop_ga.viz.render_scene` with one robot in the neutral
     role.  Returns the path written.

@@ -162,15 +162,14 @@ def render_scene(
 ) -> Path:
     """Write the PNG of ``scene`` (module docstring), headless.
 
-    Parameters
-    ----------
-    scene: the :class:`Scene`.  path: output PNG (parents created).
-    view: camera (elevation, azimuth) [deg], as matplotlib's ``view_init``; size: figure size [in];
-        dpi: resolution.
-    title: panel title.  backend: ``"auto"`` (VTK meshes if an offscreen OpenGL context can be
-        made, else matplotlib meshes; ``$COOP_GA_RENDERER`` replaces it), ``"vtk"``,
-        ``"matplotlib"`` (meshes, depth-sorted) or ``"skeleton"`` (stick figures).
-    legend: a legend of the labelled items.  pad: margin around the content [m].
+    Args:
+        scene: the :class:`Scene`.  path: output PNG (parents created).
+        view: camera (elevation, azimuth) [deg], as matplotlib's ``view_init``; size: figure size [in];
+            dpi: resolution.
+        title: panel title.  backend: ``"auto"`` (VTK meshes if an offscreen OpenGL context can be
+            made, else matplotlib meshes; ``$COOP_GA_RENDERER`` replaces it), ``"vtk"``,
+            ``"matplotlib"`` (meshes, depth-sorted) or ``"skeleton"`` (stick figures).
+        legend: a legend of the labelled items.  pad: margin around the content [m].
 
     Everything drawn is framed by the camera (mesh backends) or by axes with equal scales
     (skeleton).  Returns the path written.  Raises :class:`~coop_ga.errors.InvalidInputError`

@@ -134,7 +134,7 @@ def test_beta_row_is_the_gradient_of_ln_r_by_central_differences(circle):
 
 
 def test_translation_rows_are_body_velocities_in_units_of_the_radius(circle):
-    """b_t = Rᵀ ċ / r (README, Conventions): a common point velocity v moves the centre by v."""
+    """b_t = Rᵀ ċ / r (docs/conventions.md): a common point velocity v moves the centre by v."""
     V, B, G = _pose(circle, UNEVEN)
     v = np.array([0.3, -0.2, 0.5])
     b = G @ np.tile(v, 3)

@@ -60,7 +60,8 @@ class PositionTask(BaseTask):
         gain: α [1/s].  max_speed: cap on ‖α e‖ [m/s] (None: none).
         form: ``'task'`` (rows J_p, v) or ``'joint'`` (rows I, J_p⁺ v: Eq 60's secondary velocity).
         damping: λ of the pseudo-inverse of the ``'joint'`` form.
-        weight, lm_damping: as :class:`~coop_ga.control.tasks.BaseTask`.
+        weight: as :class:`~coop_ga.control.tasks.BaseTask`.
+        lm_damping: as :class:`~coop_ga.control.tasks.BaseTask`.
     """
 
     def __init__(
