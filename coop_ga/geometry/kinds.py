@@ -119,6 +119,12 @@ class KindSpec:
         return self.n_points + int(self.flat)
 
     @property
+    def fit_name(self) -> FitKind | None:
+        """Its name as a :data:`FitKind` for a least-squares kind, None for an exact kind (the branch of the fit
+        code, typed)."""
+        return cast(FitKind, self.name) if self.least_squares else None
+
+    @property
     def has_radius(self) -> bool:
         """Round and spanned by more than one point: a point pair, circle or sphere (a point's radius is 0)."""
         return not self.flat and self.n_points > 1
