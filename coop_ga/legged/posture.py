@@ -93,7 +93,7 @@ from ..geometry.groups import Similarity, bivector_to_tangent, tangent_to_bivect
 from ..geometry.kinds import FIT_KINDS, KIND_SPECS, CooperativeKind, Kind
 from ..validation import array, choice, integer, nonnegative, positive, vector
 from .body import LEG_ORDER, BodyState, body_tangent, check_rotation, stance_indices
-from .stance import CARRIED, ROWS, carried_rows, uncarried
+from .stance import CARRIED, ROWS, _primitive_kind, carried_rows, uncarried
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..cooperative.task import CooperativeTask
@@ -137,18 +137,6 @@ _CLIP_TOL = 1e-10
 _REL, _ABS = 1e-9, 1e-12
 #: relative singular value below which a direction of the carried map counts as unseen (the null space N)
 _RANK_TOL = 1e-9
-
-
-def _base_kind(kind: str) -> Kind:
-    """``"sphere_fit"`` → ``"sphere"`` (the LSQ kinds of :mod:`coop_ga.legged.stance` carry what their kind carries)."""
-    if not isinstance(kind, str):
-        raise InvalidInputError(f"kind must be a stance primitive kind (str), got {kind!r}")
-    spec = KIND_SPECS.get(kind)
-    if spec is None or spec.primitive_kind not in CARRIED:
-        raise InvalidInputError(
-            f"posture control needs a stance plane, circle, sphere or point pair, got kind {kind!r}"
-        )
-    return spec.primitive_kind
 
 
 def _all_feet(kind: str) -> bool:
@@ -196,7 +184,7 @@ class PostureOptions:
         nonnegative(self.gain, "PostureOptions.gain")
         choice(self.frame, ("primitive", "body"), "PostureOptions.frame")
         if self.kind is not None:
-            _base_kind(self.kind)
+            _primitive_kind(self.kind)
         choice(self.uncontrollable, ("raise", "report"), "PostureOptions.uncontrollable")
         g = positive(self.limit_gain, "PostureOptions.limit_gain")
         if g > 1.0:
@@ -519,7 +507,7 @@ def _resolve_one(lm: LegModel, q: np.ndarray, stance: tuple[str, ...], kind: str
     chosen, why_legs = _resolve_legs(kind, legs, stance, feet)
     if _all_feet(kind):
         names = stance_order(chosen)
-        want = None if kind == "auto" else _base_kind(kind)
+        want = None if kind == "auto" else _primitive_kind(kind)
         if want is not None and len(names) < KIND_SPECS[want].n_points:
             raise InvalidInputError(f"a stance {want} needs ≥ {KIND_SPECS[want].n_points} feet, got {len(names)} "
                                     f"({', '.join(names)})")  # fmt: skip
@@ -532,7 +520,7 @@ def _resolve_one(lm: LegModel, q: np.ndarray, stance: tuple[str, ...], kind: str
     order = tuple(LEG_ORDER[int(np.flatnonzero(lm.end_frame_index == i)[0])] for i in task.point_indices)
     if math.isnan(w):
         w = float(task.evaluate(q).well_definedness)
-    base = _base_kind(task_kind)
+    base = _primitive_kind(task_kind)
     return PrimitiveTask(base, task_kind, order, task, reason, w, carried_rows(base))
 
 
@@ -809,7 +797,7 @@ def _prims_for_step(
     tlegs = tuple(LEG_ORDER[int(np.flatnonzero(lm.end_frame_index == i)[0])] for i in task.point_indices)
     if not set(tlegs) <= {LEG_ORDER[i] for i in idx}:
         raise InvalidInputError(f"the task's feet {list(tlegs)} are not all in stance ({[LEG_ORDER[i] for i in idx]})")
-    base = _base_kind(task.kind)
+    base = _primitive_kind(task.kind)
     w = float(task.evaluate(state.q).well_definedness)
     return (PrimitiveTask(base, task.kind, tlegs, task, "task given", w, carried_rows(base)),)
 

@@ -147,26 +147,28 @@ _UNCARRIED: dict[tuple[str, int], tuple[str, str]] = {
 }
 
 
-def _base(kind: str) -> Kind:
+def _primitive_kind(kind: str) -> Kind:
     """The exact kind (:attr:`~coop_ga.geometry.kinds.KindSpec.primitive_kind`) of a stance kind: a least-squares
-    kind carries what the kind it fits carries."""
+    kind carries what the kind it fits carries (``"sphere_fit"`` → ``"sphere"``)."""
     spec = KIND_SPECS.get(kind) if isinstance(kind, str) else None
     if spec is None or spec.primitive_kind not in CARRIED:
-        raise InvalidInputError(f"kind must be one of {tuple(CARRIED)} (or their _fit kinds), got {kind!r}")
+        raise InvalidInputError(
+            f"a stance primitive kind is one of {', '.join(CARRIED)} (or a _fit kind of those), got {kind!r}"
+        )
     return spec.primitive_kind
 
 
 def carried_rows(kind: str) -> np.ndarray:
     """(7,) bool: the rows of a primitive-frame twist that a stance primitive of ``kind`` (``"sphere"``,
     ``"circle"``, ``"plane"``, ``"point_pair"`` or a ``_fit`` kind) carries with the feet fixed (:data:`CARRIED`)."""
-    return np.array(CARRIED[_base(kind)], dtype=bool)
+    return np.array(CARRIED[_primitive_kind(kind)], dtype=bool)
 
 
 def uncarried(kind: str, row: int) -> tuple[str, str]:
     """``(meaning, alternative)`` of a row (index into :data:`ROWS`) that a stance primitive of ``kind`` cannot
     carry: what that row means for the primitive, and which stance primitive carries the motion instead.
     Raises :class:`~coop_ga.errors.InvalidInputError` for a carried row."""
-    k = _base(kind)
+    k = _primitive_kind(kind)
     if not 0 <= int(row) < 7 or CARRIED[k][int(row)]:
         raise InvalidInputError(f"row {row!r} is not an uncarried row of a {k} (uncarried: "
                                 f"{[ROWS[i] for i in range(7) if not CARRIED[k][i]]})")  # fmt: skip
