@@ -3,7 +3,7 @@
 Every module that needs to know something about a kind — how many points span it, whether it is flat,
 its unit primitive and axis, its degrees of freedom, how its points degenerate, which least-squares
 kind fits it — reads it here instead of comparing kind names, so adding a kind means adding a row
-(and its graph builder, docs/contributing.md) and ``tests/geometry/test_kinds.py`` checks every
+(and its graph builder, docs/contributing.md) and ``tests/cooperative/test_kinds.py`` checks every
 fact of every row against computation.
 
 =============  ======  =====  ====  ===========================  ==============  ==================================
