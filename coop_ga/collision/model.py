@@ -195,35 +195,8 @@ class CollisionModel:
         self_pairs: list[tuple[int, int]] = []
         inter: list[bool] = [False] * len(pairs)
         if self_collision and nc > 1:
-            paths = [self._body_path(int(f)) for f in self._fid]
-            disabled = _srdf_disabled(system) if srdf else {}
-            cand: list[tuple[int, int, bool]] = []
-            for i in range(nc):
-                for j in range(i + 1, nc):
-                    lab = f"{self.capsules[i].link} – {self.capsules[j].link}"
-                    pi, pj = paths[i], paths[j]
-                    if pi[0] == pj[0] or (pi[0][0] == "w" and pj[0][0] == "w"):
-                        self.excluded.append((lab, "same rigid body"))  # (all world-fixed bodies are one)
-                        continue
-                    why = disabled.get(frozenset((self.capsules[i].frame, self.capsules[j].frame)))
-                    if why is not None:
-                        self.excluded.append((lab, f"SRDF disable_collisions ({why})"))
-                        continue
-                    adjacent = (len(pj) > 1 and pj[1] == pi[0]) or (len(pi) > 1 and pi[1] == pj[0])
-                    if exclude_adjacent and adjacent:
-                        self.excluded.append((lab, "adjacent links (share a joint)"))
-                        continue
-                    cand.append((i, j, pi[0] in pj or pj[0] in pi))
-            if exclude_overlapping and cand:
-                A, B, _ = self._ends(np.asarray(system.q0, float), jac=False)
-                I = np.array([c[0] for c in cand])
-                J = np.array([c[1] for c in cand])
-                d0, _, _ = _capsule_capsule_distance(
-                    _cols(A[I]), _cols(B[I]), self._radius[I], _cols(A[J]), _cols(B[J]), self._radius[J]
-                )
-                d0 = np.atleast_1d(np.asarray(d0, float))
-            else:
-                d0 = np.full(len(cand), np.inf)
+            cand = self._self_candidates(system, exclude_adjacent, srdf)
+            d0 = self._clearance_at_q0(system, cand) if exclude_overlapping and cand else np.full(len(cand), np.inf)
             for (i, j, same_branch), dd in zip(cand, d0):
                 lab = f"{self.capsules[i].link} – {self.capsules[j].link}"
                 if dd <= 0.0:
@@ -272,6 +245,41 @@ class CollisionModel:
             for j in model.supports[int(f.parentJoint)]:
                 if j > 0:
                     self._mask[i, model.idx_vs[j]] = True
+
+    def _self_candidates(self, system: Any, exclude_adjacent: bool, srdf: bool) -> list[tuple[int, int, bool]]:
+        """The capsule pairs (i < j) that may collide, with whether they share a branch; the others go to
+        :attr:`excluded` with the reason (same rigid body, the SRDF, adjacent links)."""
+        nc = len(self.capsules)
+        paths = [self._body_path(int(f)) for f in self._fid]
+        disabled = _srdf_disabled(system) if srdf else {}
+        cand: list[tuple[int, int, bool]] = []
+        for i in range(nc):
+            for j in range(i + 1, nc):
+                lab = f"{self.capsules[i].link} – {self.capsules[j].link}"
+                pi, pj = paths[i], paths[j]
+                if pi[0] == pj[0] or (pi[0][0] == "w" and pj[0][0] == "w"):
+                    self.excluded.append((lab, "same rigid body"))  # (all world-fixed bodies are one)
+                    continue
+                why = disabled.get(frozenset((self.capsules[i].frame, self.capsules[j].frame)))
+                if why is not None:
+                    self.excluded.append((lab, f"SRDF disable_collisions ({why})"))
+                    continue
+                adjacent = (len(pj) > 1 and pj[1] == pi[0]) or (len(pi) > 1 and pi[1] == pj[0])
+                if exclude_adjacent and adjacent:
+                    self.excluded.append((lab, "adjacent links (share a joint)"))
+                    continue
+                cand.append((i, j, pi[0] in pj or pj[0] in pi))
+        return cand
+
+    def _clearance_at_q0(self, system: Any, cand: list[tuple[int, int, bool]]) -> np.ndarray:
+        """Clearance (len(cand),) [m] of each candidate capsule pair at ``system.q0``."""
+        A, B, _ = self._ends(np.asarray(system.q0, float), jac=False)
+        I = np.array([c[0] for c in cand])
+        J = np.array([c[1] for c in cand])
+        d0, _, _ = _capsule_capsule_distance(
+            _cols(A[I]), _cols(B[I]), self._radius[I], _cols(A[J]), _cols(B[J]), self._radius[J]
+        )
+        return np.atleast_1d(np.asarray(d0, float))
 
     def _body_path(self, fid: int) -> list[Body]:
         """Rigid bodies from the frame's body to the world: ``("j", joint id)`` for a moving body, and

@@ -482,6 +482,173 @@ def _security_spheres(obstacles: Any, margin: float) -> tuple[np.ndarray, np.nda
     return np.array([c for c, _ in cr]).reshape(-1, 3), np.array([r + margin for _, r in cr])
 
 
+def _path_options(
+    max_iter: Any, window: Any, escape: Any, charge_rule: Any, margin: Any
+) -> tuple[int, int, float, str, float]:
+    """The checked options of :func:`potential_path` (max_iter, window, escape, charge_rule, margin [m])."""
+    max_iter = validation.integer(max_iter, "max_iter", minimum=1)
+    if max_iter > MAX_ITERATIONS:
+        raise InvalidInputError(
+            f"max_iter = {max_iter} is above {MAX_ITERATIONS} (each iteration is a step of the path); "
+            "take a larger step instead"
+        )
+    window = validation.integer(window, "window", minimum=2)
+    escape = validation.positive(escape, "escape")
+    charge_rule = validation.choice(charge_rule, CHARGE_RULES, "charge_rule")
+    margin = validation.nonnegative(margin, "margin")
+    return max_iter, window, escape, charge_rule, margin
+
+
+def _check_outside(x0: np.ndarray, g: np.ndarray, C: np.ndarray, R: np.ndarray) -> None:
+    """Refuse a start or goal (3,) [m] inside a safety sphere (centres C (k, 3), radii R (k,) [m])."""
+    for name, p in (("start", x0), ("goal", g)):
+        for i in range(len(C)):
+            d = float(np.linalg.norm(p - C[i]))
+            if d <= R[i] * (1.0 + _SAFETY):
+                raise InvalidInputError(
+                    f"{name} {p.tolist()} lies inside safety sphere {i} (centre {C[i].tolist()}, R = {R[i]:.6g} m, "
+                    f"distance {d:.6g} m); move it out or reduce the margin"
+                )
+
+
+class _FieldWalk:
+    """One :func:`potential_path` in progress: the conformal point, the path so far, the guard and the outcome
+    (``status``, ``message``, ``blocking``); :meth:`step` is one iteration of §VI-B."""
+
+    def __init__(
+        self, x0: np.ndarray, g: np.ndarray, C: np.ndarray, R: np.ndarray, Q: np.ndarray, h: float, tol: float,
+        window: int, escape: float,
+    ) -> None:  # fmt: skip
+        self.g, self.C, self.R, self.Q = g, C, R, Q
+        self.h, self.tol, self.window, self.escape = h, tol, window, escape
+        self.d_start = float(np.linalg.norm(g - x0))
+        self.S = [point(c) - _EINF.scale(0.5 * r * r) for c, r in zip(C, R)]
+        self.guard = _Guard(self.S, C, R)
+        self.Pg = point(g)
+        self.P: Multivector = point(x0)
+        self.x = x0.copy()
+        self.path = [self.x.copy()]
+        self.f0 = self.guard.f(self.P)
+        self.guard_steps = 0
+        self.status, self.message = "max_iterations", ""
+        self.blocking: tuple[int, ...] = ()
+
+    def step(self, it: int) -> bool:
+        """Iteration ``it`` (§VI-B, steps 1–4); True when the path stops (``status`` and ``message`` set)."""
+        # 1) distance to the goal in CGA
+        dist = float(np.sqrt(max(-2.0 * float((self.P | self.Pg).get(0)), 0.0)))
+        if self._arrived(it, dist):
+            return True
+        if dist > self.escape * self.d_start:
+            self.status, self.message = "escaped", self._escaped_message(it, dist)
+            return True
+        # 2) Euclidean part of the conformal point by the additive split (Eq 25)
+        _, xe = additive_split(self.P)
+        xe_ = np.array([float(xe.get(b)) for b in _B_E])
+        delta = self._delta(xe_, dist)
+        if delta is None:
+            return True
+        # 4) the new conformal point (Eq 3)
+        self.x = xe_ + delta
+        self.P = point(self.x)
+        self.f0 = self.guard.f(self.P) if len(self.S) else self.f0
+        self.path.append(self.x.copy())
+        return self._stalled(dist)
+
+    def _arrived(self, it: int, dist: float) -> bool:
+        """Land on the goal once it is within a step and that segment is safe, or stop within ``tol`` of it."""
+        if dist <= self.h:
+            delta = self.g - self.x
+            bad, P1 = self.guard.unsafe(self.f0, self.x, delta) if len(self.S) else (np.zeros(0, int), point(self.g))
+            if bad.size == 0:
+                self.x, self.P = self.g.copy(), P1
+                self.path.append(self.x.copy())
+                self.status, self.message = "reached", f"reached the goal in {it} steps"
+                return True
+        if dist <= self.tol:
+            self.status = "reached"
+            self.message = f"within tol = {self.tol:g} m of the goal after {it} steps (distance {dist:.3g} m)"
+            return True
+        return False
+
+    def _escaped_message(self, it: int, dist: float) -> str:
+        q = float(np.sum(self.Q))
+        return (
+            f"the path ran away: {dist:.4g} m from the goal after {it} steps (> {self.escape:g} × the start distance "
+            f"{self.d_start:.4g} m); the obstacle charges sum to Σq = {q:.4g}"
+            + (
+                " ≥ 1: the far field points outward and field lines escape to infinity"
+                if q >= 1.0
+                else " < 1: the field line returns only after a very long detour"
+            )
+        )
+
+    def _delta(self, xe_: np.ndarray, dist: float) -> np.ndarray | None:
+        """3) the unitary field step (Eq 27) at ``xe_``, through the safety guard; None (and the outcome set) at a
+        field equilibrium or when the guard leaves no step."""
+        C, Q, g, h = self.C, self.Q, self.g, self.h
+        E = _field(xe_, C, Q, g) if len(self.S) else -(xe_ - g) / float(np.linalg.norm(xe_ - g)) ** 3
+        nE = float(np.linalg.norm(E))
+        if not nE > 1e-12 / max(dist, 1e-300) ** 2:
+            self.status = "local_minimum"
+            self.message = (
+                f"the Coulomb field vanishes at {xe_.tolist()} ({dist:.4g} m from the goal): an equilibrium point"
+            )
+            return None
+        delta = h * E / nE
+        if len(self.S):
+            delta, changed, self.blocking = _guarded(self.guard, self.f0, xe_, delta, h)
+            self.guard_steps += changed
+            if delta is None:
+                self.status = "local_minimum"
+                self.message = (
+                    f"blocked at {xe_.tolist()} ({dist:.4g} m from the goal): the field points into safety "
+                    f"sphere(s) {list(self.blocking)} and no tangent step is left (a concave trap)"
+                )
+        return delta
+
+    def _stalled(self, dist: float) -> bool:
+        """No net progress over the last ``window`` steps (a local minimum: the outcome set)."""
+        path, window, h = self.path, self.window, self.h
+        if not (len(path) > window and float(np.linalg.norm(path[-1] - path[-1 - window])) < 0.2 * window * h):
+            return False
+        self.status = "local_minimum"
+        near = [i for i in range(len(self.S)) if -self.f0[i] < h * self.R[i] * 1.5]
+        why = (
+            f"oscillating against safety sphere(s) {near} (a trap of the guarded field)"
+            if near
+            else "oscillating about an equilibrium point of the Coulomb field (a saddle of U)"
+        )
+        self.blocking = tuple(near)
+        self.message = (
+            f"no net progress: {float(np.linalg.norm(path[-1] - path[-1 - window])):.3g} m over the last {window} "
+            f"steps of {h:g} m, {dist:.4g} m from the goal — {why}"
+        )
+        return True
+
+    def result(self, it: int) -> PotentialPath:
+        """The :class:`PotentialPath` after ``it`` iterations."""
+        arr = np.array(self.path)
+        final = float(np.linalg.norm(arr[-1] - self.g))
+        reached = self.status == "reached"
+        clear = np.array([_segment_clearance(arr, self.C[i], self.R[i]) for i in range(len(self.S))])
+        return PotentialPath(
+            path=arr,
+            reached=reached,
+            status=self.status,
+            message=self.message,
+            iterations=it,
+            final_distance=final,
+            clearance=clear,
+            charges=self.Q,
+            security_radii=self.R,
+            centers=self.C,
+            guard_steps=self.guard_steps,
+            stall_point=None if reached else arr[-1].copy(),
+            blocking=tuple(int(b) for b in self.blocking),
+        )
+
+
 def potential_path(
     start: Any,
     goal: Any,
@@ -517,125 +684,18 @@ def potential_path(
     Never raises for a failure of the method: see ``status`` and ``message`` of the result.
     """
     x0, g, h, tol_ = _path_ends(start, goal, step, tol)
-    max_iter = validation.integer(max_iter, "max_iter", minimum=1)
-    if max_iter > MAX_ITERATIONS:
-        raise InvalidInputError(
-            f"max_iter = {max_iter} is above {MAX_ITERATIONS} (each iteration is a step of the path); "
-            "take a larger step instead"
-        )
-    window = validation.integer(window, "window", minimum=2)
-    escape = validation.positive(escape, "escape")
-    charge_rule = validation.choice(charge_rule, CHARGE_RULES, "charge_rule")
-    margin = validation.nonnegative(margin, "margin")
-    d_start = float(np.linalg.norm(g - x0))
+    max_iter, window, escape, charge_rule, margin = _path_options(max_iter, window, escape, charge_rule, margin)
     C, R = _security_spheres(obstacles, margin)
-    S = [point(c) - _EINF.scale(0.5 * r * r) for c, r in zip(C, R)]
-    for name, p in (("start", x0), ("goal", g)):
-        for i in range(len(S)):
-            d = float(np.linalg.norm(p - C[i]))
-            if d <= R[i] * (1.0 + _SAFETY):
-                raise InvalidInputError(
-                    f"{name} {p.tolist()} lies inside safety sphere {i} (centre {C[i].tolist()}, R = {R[i]:.6g} m, "
-                    f"distance {d:.6g} m); move it out or reduce the margin"
-                )
-    Q = charges(R, C, g, charge_rule) if len(S) else np.zeros(0)
-    guard = _Guard(S, C, R)
-    Pg = point(g)
-    P: Multivector = point(x0)
-    x = x0.copy()
-    path = [x.copy()]
-    f0 = guard.f(P)
-    guard_steps = 0
-    status, message = "max_iterations", ""
-    blocking: tuple[int, ...] = ()
+    _check_outside(x0, g, C, R)
+    Q = charges(R, C, g, charge_rule) if len(C) else np.zeros(0)
+    walk = _FieldWalk(x0, g, C, R, Q, h, tol_, window, escape)
     it = 0
     for it in range(1, max_iter + 1):
-        # 1) distance to the goal in CGA
-        dist = float(np.sqrt(max(-2.0 * float((P | Pg).get(0)), 0.0)))
-        if dist <= h:
-            delta = g - x
-            bad, P1 = guard.unsafe(f0, x, delta) if len(S) else (np.zeros(0, int), point(g))
-            if bad.size == 0:
-                x, P = g.copy(), P1
-                path.append(x.copy())
-                status, message = "reached", f"reached the goal in {it} steps"
-                break
-        if dist <= tol_:
-            status, message = "reached", f"within tol = {tol_:g} m of the goal after {it} steps (distance {dist:.3g} m)"
-            break
-        if dist > escape * d_start:
-            status = "escaped"
-            message = (
-                f"the path ran away: {dist:.4g} m from the goal after {it} steps (> {escape:g} × the start distance "
-                f"{d_start:.4g} m); the obstacle charges sum to Σq = {float(np.sum(Q)):.4g}"
-                + (
-                    " ≥ 1: the far field points outward and field lines escape to infinity"
-                    if float(np.sum(Q)) >= 1.0
-                    else " < 1: the field line returns only after a very long detour"
-                )
-            )
-            break
-        # 2) Euclidean part of the conformal point by the additive split (Eq 25)
-        _, xe = additive_split(P)
-        xe_ = np.array([float(xe.get(b)) for b in _B_E])
-        # 3) the unitary field step (Eq 27)
-        E = _field(xe_, C, Q, g) if len(S) else -(xe_ - g) / float(np.linalg.norm(xe_ - g)) ** 3
-        nE = float(np.linalg.norm(E))
-        if not nE > 1e-12 / max(dist, 1e-300) ** 2:
-            status = "local_minimum"
-            message = f"the Coulomb field vanishes at {xe_.tolist()} ({dist:.4g} m from the goal): an equilibrium point"
-            break
-        delta = h * E / nE
-        if len(S):
-            delta, changed, blocking = _guarded(guard, f0, xe_, delta, h)
-            guard_steps += changed
-            if delta is None:
-                status = "local_minimum"
-                message = (
-                    f"blocked at {xe_.tolist()} ({dist:.4g} m from the goal): the field points into safety "
-                    f"sphere(s) {list(blocking)} and no tangent step is left (a concave trap)"
-                )
-                break
-        # 4) the new conformal point (Eq 3)
-        x = xe_ + delta
-        P = point(x)
-        f0 = guard.f(P) if len(S) else f0
-        path.append(x.copy())
-        if len(path) > window and float(np.linalg.norm(path[-1] - path[-1 - window])) < 0.2 * window * h:
-            status = "local_minimum"
-            near = [i for i in range(len(S)) if -f0[i] < h * R[i] * 1.5]
-            why = (
-                f"oscillating against safety sphere(s) {near} (a trap of the guarded field)"
-                if near
-                else "oscillating about an equilibrium point of the Coulomb field (a saddle of U)"
-            )
-            blocking = tuple(near)
-            message = (
-                f"no net progress: {float(np.linalg.norm(path[-1] - path[-1 - window])):.3g} m over the last {window} "
-                f"steps of {h:g} m, {dist:.4g} m from the goal — {why}"
-            )
+        if walk.step(it):
             break
     else:
-        message = f"max_iter = {max_iter} steps without reaching the goal"
-    arr = np.array(path)
-    final = float(np.linalg.norm(arr[-1] - g))
-    reached = status == "reached"
-    clear = np.array([_segment_clearance(arr, C[i], R[i]) for i in range(len(S))])
-    return PotentialPath(
-        path=arr,
-        reached=reached,
-        status=status,
-        message=message,
-        iterations=it,
-        final_distance=final,
-        clearance=clear,
-        charges=Q,
-        security_radii=R,
-        centers=C,
-        guard_steps=guard_steps,
-        stall_point=None if reached else arr[-1].copy(),
-        blocking=tuple(int(b) for b in blocking),
-    )
+        walk.message = f"max_iter = {max_iter} steps without reaching the goal"
+    return walk.result(it)
 
 
 def _guarded(

@@ -66,7 +66,7 @@ import numpy as np
 from ..algebra.multivector import Multivector
 from ..geometry.groups import SIMILARITY_BLADES, bivector_to_tangent, tangent_to_bivector
 from ..geometry.groups import log as sim_log
-from ..geometry.kinds import KIND_SPECS, Kind, kind_spec
+from ..geometry.kinds import KIND_SPECS, CooperativeKind, Kind, kind_spec
 from ..geometry.primitives import point as conformal_point
 from ..geometry.primitives import well_definedness
 from ..geometry.similarity import primitive_parameters, similarity_from_parameters, similarity_from_unit
@@ -121,7 +121,7 @@ class TaskGraph:
         name: used to name the CasADi functions (and the compiled libraries).
     """
 
-    def __init__(self, tree: KinematicTree, kind: str, name: str, chart_axis: Any = None):
+    def __init__(self, tree: KinematicTree, kind: CooperativeKind, name: str, chart_axis: Any = None):
         self.tree = tree
         #: the facts of the kind (:data:`~coop_ga.geometry.kinds.KIND_SPECS`)
         self.spec = kind_spec(kind)
@@ -154,16 +154,16 @@ class TaskGraph:
         n = self.n_points
         pts = [tuple(p[3 * i + j] for j in range(3)) for i in range(n)]
         res = None
-        if self.spec.least_squares:  # least-squares sphere / plane, read out about the centroid directly
-            w = fit_well_definedness(self.kind, pts)
-            bar_l, c_rel, r, o, res = fit_at(self.kind, pts, fit_root(self.kind, pts) if root is None else root)
+        if (fit := self.spec.fit_name) is not None:  # least-squares sphere / plane, read out about the centroid
+            w = fit_well_definedness(fit, pts)
+            bar_l, c_rel, r, o, res = fit_at(fit, pts, fit_root(fit, pts) if root is None else root)
             bar = tuple(bar_l)
             kind = self.primitive_kind
         else:
-            w = well_definedness(self.kind, pts) if n > 1 else ca.SX(1.0)
+            w = well_definedness(self.primitive_kind, pts) if n > 1 else ca.SX(1.0)
             bar = tuple(sum(pt[j] for pt in pts) / n for j in range(3))
             rel = [conformal_point([pt[j] - bar[j] for j in range(3)]) for pt in pts]
-            X_rel = cooperative_primitive(self.kind, rel)
+            X_rel = cooperative_primitive(self.primitive_kind, rel)
             kind, c_rel, r, o = primitive_parameters(X_rel)
         a = [c_rel[j] + bar[j] for j in range(3)]  # a point of the primitive (its centre for round kinds)
         c = _closest_to_origin(kind, a, o) if KIND_SPECS[kind].flat else a
@@ -179,7 +179,8 @@ class TaskGraph:
     def pose_function(self) -> ca.Function:
         """``p (3n) → (V (12), B (7), G = −2 Ṽ ∂V/∂p (7 × 3n), w, c2)``."""
         p = ca.SX.sym("p", 3 * self.n_points)
-        if not self.spec.least_squares:
+        fit = self.spec.fit_name
+        if fit is None:
             V, w, c2 = self.pose_from_points(p)
             Vv = _coeffs_expr(V)
             G = _body_columns(V, ca.jacobian(Vv, p))
@@ -195,7 +196,7 @@ class TaskGraph:
         dV = ca.jacobian(Vv, p) - ca.mtimes(ca.jacobian(Vv, e), ca.jacobian(res, p) / re)
         inner = ca.Function("pose_at_root", [p, e], [Vv, sim_log(V), _body_columns(V, dV), w, c2])
         p2 = ca.SX.sym("p", 3 * self.n_points)
-        root = fit_root(self.kind, [tuple(p2[3 * i + j] for j in range(3)) for i in range(self.n_points)])
+        root = fit_root(fit, [tuple(p2[3 * i + j] for j in range(3)) for i in range(self.n_points)])
         outs = list(inner(p2, root))
         return ca.Function(f"pose_{self.kind}", [p2], outs, ["p"], ["V", "B", "G", "w", "c2"])
 
@@ -338,14 +339,14 @@ class TaskGraph:
         (world origin, no centroid shift, no chain rule), ``J^G = −2 Ṽ ∂V/∂q``."""
         q = ca.SX.sym("q", self.nq)
         pts = self.tree.end_points(q)
-        if self.spec.least_squares:  # the fit end to end in world coordinates, no chain rule
-            bar, c_rel, r, o = fit_parameters(self.kind, [tuple(pt) for pt in pts])
+        if (fit := self.spec.fit_name) is not None:  # the fit end to end in world coordinates, no chain rule
+            bar, c_rel, r, o = fit_parameters(fit, [tuple(pt) for pt in pts])
             a = [c_rel[j] + bar[j] for j in range(3)]
             if self.spec.flat:  # plane: the closest point to the world origin
                 a = _closest_to_origin(self.primitive_kind, a, o)
             V = similarity_from_parameters(self.primitive_kind, a, r, o, chart_axis=self.chart_axis)
         else:
-            X = cooperative_primitive(self.kind, [conformal_point(list(pt)) for pt in pts])
+            X = cooperative_primitive(self.primitive_kind, [conformal_point(list(pt)) for pt in pts])
             V = similarity_from_unit(X, chart_axis=self.chart_axis)
         Vv = _coeffs_expr(V)
         return ca.Function("coop_ad", [q], [Vv, ca.densify(_body_columns(V, ca.jacobian(Vv, q)))])

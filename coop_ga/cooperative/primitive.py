@@ -87,7 +87,7 @@ from ..algebra import backend as B
 from ..algebra.basis import blade_index
 from ..algebra.multivector import Multivector
 from ..errors import DegeneratePrimitiveError, InvalidInputError
-from ..geometry.kinds import COOPERATIVE_KINDS, FIT_KINDS, FLAT_KINDS, KIND_SPECS, KindSpec, kind_spec
+from ..geometry.kinds import COOPERATIVE_KINDS, FIT_KINDS, FLAT_KINDS, KIND_SPECS, FitKind, Kind, KindSpec, kind_spec
 from ..geometry.primitives import Primitive, _check_kind, well_definedness
 from ..geometry.primitives import plane as _plane_from_points
 
@@ -255,7 +255,7 @@ def _fit_spec(kind: str, k: int | None, what: str = "this function") -> KindSpec
     return spec
 
 
-def fit_root(kind: str, pts: Sequence[Sequence[Any]]) -> Any:
+def fit_root(kind: FitKind, pts: Sequence[Sequence[Any]]) -> Any:
     """The scalar that fixes the least-squares primitive of ``pts`` (k 3-vectors, numeric or CasADi): the
     Pratt eigenvalue η of a ``sphere_fit``, the smallest eigenvalue λ₁ of the scatter matrix of a
     ``plane_fit`` [m²] — by the Newton iterations of the module docstring."""
@@ -264,7 +264,7 @@ def fit_root(kind: str, pts: Sequence[Sequence[Any]]) -> Any:
     return _smallest_eigenvalue(_scatter(q), _CUBIC_ITERS) if spec.flat else _sphere_root(q)
 
 
-def fit_at(kind: str, pts: Sequence[Sequence[Any]], root: Any) -> tuple[list[Any], list[Any], Any, Any, Any]:
+def fit_at(kind: FitKind, pts: Sequence[Sequence[Any]], root: Any) -> tuple[list[Any], list[Any], Any, Any, Any]:
     """``(centroid, c, r, o, residual)`` of the least-squares primitive of ``pts`` *given* its root
     (:func:`fit_root`) in closed form; ``residual`` (the secular function s(η), resp. det(C − λI)) vanishes
     at the exact root, so the implicit-function theorem gives the derivative of the fit:
@@ -278,7 +278,7 @@ def fit_at(kind: str, pts: Sequence[Sequence[Any]], root: Any) -> tuple[list[Any
     return bar, centre, r, None, res
 
 
-def fit_parameters(kind: str, pts: Sequence[Sequence[Any]]) -> tuple[list[Any], list[Any], Any, Any]:
+def fit_parameters(kind: FitKind, pts: Sequence[Sequence[Any]]) -> tuple[list[Any], list[Any], Any, Any]:
     """``(centroid, c, r, o)`` of the least-squares primitive of ``pts`` (k 3-vectors; floats, numpy arrays of
     one shape (a batch) or CasADi SX scalars): ``c`` the centre (sphere) or the centroid, a point of the
     plane (plane), *relative to the centroid* [m]; ``r`` the radius [m] (sphere; None for a plane); ``o``
@@ -288,7 +288,7 @@ def fit_parameters(kind: str, pts: Sequence[Sequence[Any]]) -> tuple[list[Any], 
     return bar, c, r, o
 
 
-def fit_well_definedness(kind: str, pts: Any) -> Any:
+def fit_well_definedness(kind: FitKind, pts: Any) -> Any:
     """Scale-free well-definedness of a least-squares kind's points (1 best, 0 degenerate; module docstring):
     the largest :func:`coop_ga.well_definedness` of any 4 (sphere) or 3 (plane) of them, for the plane also
     capped by the scatter matrix's eigen-gap.  ``pts``: (k, 3) numeric, or k CasADi/float 3-vectors.
@@ -315,7 +315,7 @@ def fit_well_definedness(kind: str, pts: Any) -> Any:
     return w if symbolic else float(w)
 
 
-def fit_primitive(kind: str, points: Any, *, raise_below: float = 1e-6) -> Primitive:
+def fit_primitive(kind: FitKind, points: Any, *, raise_below: float = 1e-6) -> Primitive:
     """The least-squares primitive (a ``"sphere"`` or ``"plane"`` :class:`~coop_ga.geometry.primitives.Primitive`)
     of numeric ``points`` (k, 3) [m]; :class:`~coop_ga.errors.DegeneratePrimitiveError` when their
     :func:`fit_well_definedness` is ≤ ``raise_below``."""
@@ -358,7 +358,7 @@ def _wedge(vs: Sequence[Multivector]) -> Multivector:
     return X
 
 
-def cooperative_primitive(kind: str, points: Sequence[Multivector]) -> Primitive:
+def cooperative_primitive(kind: Kind, points: Sequence[Multivector]) -> Primitive:
     """X_c = P_1 ∧ … ∧ P_n (Eq 14), with ``∧ e∞`` appended for lines and planes.
 
     ``points`` are conformal points (numpy or CasADi coefficients), as many as the kind
@@ -374,7 +374,9 @@ def cooperative_primitive(kind: str, points: Sequence[Multivector]) -> Primitive
     return Primitive.tag(X.grade(len(vs)), kind)
 
 
-def primitive_jacobian(kind: str, points: Sequence[Multivector], dpoints: Sequence[Sequence[Any]]) -> list[Multivector]:
+def primitive_jacobian(
+    kind: Kind, points: Sequence[Multivector], dpoints: Sequence[Sequence[Any]]
+) -> list[Multivector]:
     """Columns ∂X_c/∂q_j = Σ_i P_1 ∧ … ∧ ∂P_i/∂q_j ∧ … ∧ P_n (Eq 15).
 
     ``dpoints[i][j]`` is ∂P_i/∂q_j (a vector multivector, Eq 17) or None when joint j

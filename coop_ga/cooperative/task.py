@@ -129,7 +129,7 @@ class CooperativeTask:
     def __init__(
         self,
         system: Any,
-        kind: str,
+        kind: CooperativeKind,
         points: Sequence[int] | None = None,
         *,
         codegen: bool | str = "auto",
@@ -192,14 +192,15 @@ class CooperativeTask:
             validation.choice(chart_axis, ("auto",), "chart_axis")
             q0 = validation.configuration(self.system.q0, self.nq, "system.q0")
             pts = self.tree.end_points_array(q0)
-            if self.spec.least_squares:
-                if not fit_well_definedness(self.kind, pts) > self.raise_below:
+            if (fit := self.spec.fit_name) is not None:
+                if not fit_well_definedness(fit, pts) > self.raise_below:
                     return None
-                o = fit_parameters(self.kind, [tuple(p) for p in pts.tolist()])[3]
-            elif self.spec.n_points > 1 and not well_definedness(self.kind, pts) > self.raise_below:
+                o = fit_parameters(fit, [tuple(p) for p in pts.tolist()])[3]
+            elif self.spec.n_points > 1 and not well_definedness(self.primitive_kind, pts) > self.raise_below:
                 return None  # degenerate at q0: no nominal axis (the guard reports it on use)
             else:
-                _, _, _, o = primitive_parameters(cooperative_primitive(self.kind, [conformal_point(p) for p in pts]))
+                X = cooperative_primitive(self.primitive_kind, [conformal_point(p) for p in pts])
+                _, _, _, o = primitive_parameters(X)
             o = np.asarray(o, dtype=float).reshape(3)
             if float(o @ np.asarray(unit_axis)) >= 0.0:
                 return None  # within 90° of the unit axis: the canonical chart (Eq 26) is far from its flip
@@ -363,9 +364,9 @@ class CooperativeTask:
     def primitive(self, q: Any) -> Primitive:
         """X_c(q) = ∧ P_i(q) (∧ e∞) (Eq 14), from the compiled end points (for the least-squares kinds the
         fitted sphere / plane, :func:`~coop_ga.cooperative.primitive.fit_primitive`)."""
-        if self.spec.least_squares:
-            return fit_primitive(self.kind, self.points(q), raise_below=self.raise_below)
-        return cooperative_primitive(self.kind, [conformal_point(p) for p in self.points(q)])
+        if (fit := self.spec.fit_name) is not None:
+            return fit_primitive(fit, self.points(q), raise_below=self.raise_below)
+        return cooperative_primitive(self.primitive_kind, [conformal_point(p) for p in self.points(q)])
 
     # ------------------------------------------------------------------ other Jacobians
     def analytic_jacobian(self, q: Any) -> np.ndarray:
@@ -490,11 +491,11 @@ class CooperativeTask:
         """V_Sc from the numpy multivector code (no CasADi, world origin), for cross-checks."""
         qv = validation.configuration(q, self.nq, owner=f"task '{self.name}'")
         pts = self.tree.end_points_array(qv)
-        if self.spec.least_squares:
-            w = fit_well_definedness(self.kind, pts)
+        if (fit := self.spec.fit_name) is not None:
+            w = fit_well_definedness(fit, pts)
             if not w > self.warn_below:
                 self.guard.degeneracy(float(w), pts)
-            bar, c, r, o = fit_parameters(self.kind, [tuple(p) for p in pts.tolist()])
+            bar, c, r, o = fit_parameters(fit, [tuple(p) for p in pts.tolist()])
             a = np.array(bar) + np.array([float(v) for v in c])
             if o is not None:
                 o = np.array([float(v) for v in o])
@@ -502,11 +503,11 @@ class CooperativeTask:
             return Similarity(
                 similarity_from_parameters(self.primitive_kind, a, r, o, chart_axis=self.chart_axis), check=False
             )
-        w = well_definedness(self.kind, pts) if self.spec.n_points > 1 else 1.0
+        w = well_definedness(self.primitive_kind, pts) if self.spec.n_points > 1 else 1.0
         if not w > self.warn_below:
             self.guard.degeneracy(float(w), pts)
         V = similarity_from_unit(
-            cooperative_primitive(self.kind, [conformal_point(p) for p in pts]), chart_axis=self.chart_axis
+            cooperative_primitive(self.primitive_kind, [conformal_point(p) for p in pts]), chart_axis=self.chart_axis
         )
         return Similarity(V, check=False)
 
@@ -545,7 +546,9 @@ _TASK_CACHE: OrderedDict[tuple[Any, ...], CooperativeTask] = OrderedDict()
 _TASK_CACHE_LOCK = threading.Lock()
 
 
-def cooperative_task(system: Any, kind: str, points: Sequence[int] | None = None, **options: Any) -> CooperativeTask:
+def cooperative_task(
+    system: Any, kind: CooperativeKind, points: Sequence[int] | None = None, **options: Any
+) -> CooperativeTask:
     """The cooperative task of ``system`` (a System or a registered name) with primitive ``kind``.
 
     Tasks are cached per (system, kind, points, options), so the compiled functions are

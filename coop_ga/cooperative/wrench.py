@@ -83,6 +83,7 @@ from .. import validation
 from ..codegen import CompiledFunction
 from ..errors import InvalidInputError
 from ..geometry.groups import ROTOR_BLADES, decompose, rotor_matrix
+from ..geometry.kinds import KIND_SPECS, Kind
 from ..geometry.similarity import UNIT_AXIS
 from .graph import TaskGraph, versor_expr
 
@@ -122,16 +123,17 @@ def _blocks(a: Any, b: Any) -> ca.SX:
     return ca.vertcat(ca.horzcat(a, z), ca.horzcat(z, b))
 
 
-def _null_projectors(kind: str, o: ca.SX | None, n: int) -> tuple[ca.SX, ca.SX]:
+def _null_projectors(kind: Kind, o: ca.SX | None, n: int) -> tuple[ca.SX, ca.SX]:
     """``(P_Z, P_A)`` (6 × 6): projectors onto the rigid twists (v at c, ω) that leave the primitive
     unchanged (ker G A) and that leave every end point fixed (ker A)."""
+    spec = KIND_SPECS[kind]
     Z, I3 = ca.SX.zeros(3, 3), ca.SX.eye(3)
     oo = ca.mtimes(o, o.T) if o is not None else Z
-    if kind in ("point", "sphere"):
+    if spec.axis is None:  # point, sphere
         PZ = _blocks(Z, I3)  # every rotation about c
-    elif kind in ("point_pair", "circle"):
+    elif not spec.flat:  # point pair, circle
         PZ = _blocks(Z, oo)  # the spin about the axis through c
-    elif kind == "line":
+    elif spec.axis_role == "direction":  # line
         PZ = _blocks(oo, oo)  # slide along and spin about the line
     else:  # plane: slides in the plane and the spin about its normal
         PZ = _blocks(I3 - oo, oo)
@@ -461,7 +463,7 @@ def squeeze_capacity(task: Any, q: Any, effort: Any, bias: Any = None) -> dict[s
     """
     from .manipulability import force_manipulability
 
-    if task.primitive_kind not in ("point_pair", "circle", "sphere"):
+    if not KIND_SPECS[task.primitive_kind].has_radius:  # point pair, circle, sphere
         raise InvalidInputError(f"a {task.primitive_kind} has no dilation (e0∞): no squeeze capacity")
     st = task.evaluate(q)
     eff = validation.vector(effort, task.nq, "effort")

@@ -3,7 +3,7 @@
 Every module that needs to know something about a kind — how many points span it, whether it is flat,
 its unit primitive and axis, its degrees of freedom, how its points degenerate, which least-squares
 kind fits it — reads it here instead of comparing kind names, so adding a kind means adding a row
-(and its graph builder, docs/contributing.md) and ``tests/geometry/test_kinds.py`` checks every
+(and its graph builder, docs/contributing.md) and ``tests/cooperative/test_kinds.py`` checks every
 fact of every row against computation.
 
 =============  ======  =====  ====  ===========================  ==============  ==================================
@@ -117,6 +117,12 @@ class KindSpec:
     def grade(self) -> int:
         """Grade of its direct (OPNS) blade: the number of spanning points, plus one for ``∧ e∞``."""
         return self.n_points + int(self.flat)
+
+    @property
+    def fit_name(self) -> FitKind | None:
+        """Its name as a :data:`FitKind` for a least-squares kind, None for an exact kind (the branch of the fit
+        code, typed)."""
+        return cast(FitKind, self.name) if self.least_squares else None
 
     @property
     def has_radius(self) -> bool:

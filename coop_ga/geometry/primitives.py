@@ -136,7 +136,7 @@ class Primitive(Multivector):
     kind: Kind
 
     def __init__(
-        self, blades: tuple[int, ...], coeffs: tuple[Any, ...], kind: str, local: tuple[Any, Primitive] | None = None
+        self, blades: tuple[int, ...], coeffs: tuple[Any, ...], kind: Kind, local: tuple[Any, Primitive] | None = None
     ):
         super().__init__(blades, coeffs)
         self.kind = _check_kind(kind)
@@ -148,7 +148,7 @@ class Primitive(Multivector):
         self.local = local
 
     @classmethod
-    def tag(cls, X: Multivector, kind: str) -> Primitive:
+    def tag(cls, X: Multivector, kind: Kind) -> Primitive:
         """X tagged with ``kind`` (no local form)."""
         if not isinstance(X, Multivector):
             raise InvalidInputError(f"Primitive.tag(X, kind): X must be a coop_ga Multivector, got {type(X).__name__}")
@@ -268,7 +268,7 @@ def _tol(tol: Any, name: str = "tol") -> float:
 
 
 # ---------------------------------------------------------------------- well-definedness
-def well_definedness(kind: str, points: Any) -> Any:
+def well_definedness(kind: Kind, points: Any) -> Any:
     """Scale-free measure of how far points are from degenerating the primitive ``kind``.
 
     ``points`` is an (n, 3) array (or (n, N, 3) for a batch, or a list of n coordinate
@@ -548,7 +548,7 @@ def _local_wedge(kind: Kind, P: np.ndarray) -> tuple[Multivector, tuple[np.ndarr
 
 
 def primitive_from_points(
-    kind: str, pts: Any, tol: float = 1e-9, *, _names: tuple[str, ...] | None = None
+    kind: Kind, pts: Any, tol: float = 1e-9, *, _names: tuple[str, ...] | None = None
 ) -> Primitive:
     """Build a primitive of ``kind`` from its defining points (Eq 2/14).
 

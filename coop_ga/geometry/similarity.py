@@ -83,7 +83,7 @@ __all__ = [
 _AXIS_READOUT: dict[AxisRole, Any] = {"direction": direction, "normal": normal}
 
 
-def unit_primitive(kind: str) -> Primitive:
+def unit_primitive(kind: Kind) -> Primitive:
     """The unit primitive X_u of ``kind`` (Table 1; :attr:`~coop_ga.geometry.kinds.KindSpec.unit_points`):
     origin; points (0,∓1,0); the e2 axis; the unit circle in z = 0 (normal +z); the plane z = 0 (normal +z);
     the unit sphere."""
@@ -338,7 +338,7 @@ def _unit_params(kind: Kind):
     return z, r, UNIT_AXIS[kind]
 
 
-def chart_reference(kind: str, axis: Any) -> tuple[tuple[float, float, float], Multivector] | None:
+def chart_reference(kind: Kind, axis: Any) -> tuple[tuple[float, float, float], Multivector] | None:
     """The reference ``(a, R_min(o_u → a))`` of a chart about the unit axis ``a`` (3,), or None (the
     canonical chart).  With it, the minimal rotation of the similarity is measured from a instead of
     from the unit primitive's axis o_u, so its half-turn discontinuity sits at −a (see
@@ -404,7 +404,7 @@ def similarity(X_from: Multivector, X_to: Multivector) -> Multivector:
     )
 
 
-def similarity_from_parameters(kind: str, c: Any, r: Any, o: Any, chart_axis: Any = None) -> Multivector:
+def similarity_from_parameters(kind: Kind, c: Any, r: Any, o: Any, chart_axis: Any = None) -> Multivector:
     """V_S(X_u, X) from the read-outs ``(c, r, o)`` of X (module table) instead of X itself.
 
     The same versor as :func:`similarity_from_unit` for a primitive with center (or closest

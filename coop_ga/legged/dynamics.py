@@ -233,6 +233,239 @@ def plan_to_floating_q(q: Any, body: Any) -> np.ndarray:
     return np.concatenate([bb[:, :3], yaw[:, None], pitch[:, None], roll[:, None], qq], axis=1)
 
 
+class _Rollout:
+    """One :func:`contact_rollout`: the floating model, the plan in its coordinates, the active contacts,
+    the simulated state and the samples recorded so far (one method per stage of the module docstring)."""
+
+    def __init__(
+        self, system: Any, plan: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], opts: RolloutOptions,
+        gains: tuple[float, float],
+    ) -> None:  # fmt: skip
+        import pinocchio as pin
+
+        self.pin = pin
+        self.tt, self.qq, self.bb, self.st = plan
+        self.opts = opts
+        self.kp, self.kd = gains
+        legs = LegModel.from_system(system)
+        model = system.model
+        self.model, self.data = model, model.createData()
+        nv = model.nv
+        if model.nq != nv or nv != 6 + legs.nq:
+            raise InvalidInputError(f"system '{system.name}' is not 6 body joints + {legs.nq} leg joints")
+        self.n_legs_q = legs.nq
+        iq = legs.model_q_index.ravel()  # leg joints in the model's q/v (LEGS order, coxa/femur/tibia)
+        leg_idx = np.asarray(legs.q_index).ravel()  # ... and in the 18-vector
+        self.leg_cols = np.empty(legs.nq, dtype=int)
+        self.leg_cols[leg_idx] = iq  # 18-vector entry k ↔ model coordinate leg_cols[k]
+        self.body_cols = np.setdiff1d(np.arange(nv), iq)
+        self.effort = np.asarray(model.effortLimit)[self.leg_cols]
+
+        self.Qp = np.zeros((self.tt.size, nv))
+        self.Qp[:, self.body_cols] = plan_to_floating_q(self.qq, self.bb)[:, :6]
+        self.Qp[:, self.leg_cols] = self.qq
+        self.Vp = np.gradient(self.Qp, self.tt, axis=0)
+
+        self.foot_ids = [model.getFrameId(f"{leg}_foot") for leg in LEGS]
+        self.foot_joint = [int(model.frames[f].parentJoint) for f in self.foot_ids]
+        self.foot_place = [model.frames[f].placement for f in self.foot_ids]
+        self.mass = float(sum(inertia.mass for inertia in model.inertias))
+        self.gz = float(np.asarray(model.gravity.linear)[2])
+        self.tau_ff = np.array([self.feedforward(k) for k in range(self.tt.size)])
+        self.plan_feet = np.array([self.foot_world(self.Qp[k]) for k in range(self.tt.size)])
+        self.bp = pin.BaumgarteCorrectorParameters(float(opts.baumgarte[0]), float(opts.baumgarte[1]))
+        self.prox = pin.ProximalSettings(1e-12, 1e-12, 0.0, 1)
+
+        self.anchors: dict[int, np.ndarray] = {}
+        self.td_err: list[float] = []
+        T = self.tt.size
+        self.q_out = np.zeros((T, nv))
+        self.on_out = np.zeros((T, 6), dtype=bool)  # contacts active when the sample was recorded
+        self.feet_out = np.zeros((T, 6, 3))
+        self.tau_out = np.zeros((T, legs.nq))
+        self.f_out = np.zeros((T, 6, 3))
+        self.n_sat = self.n_tot = self.n_steps = 0
+        self.qs, self.vs = self.Qp[0].copy(), self.Vp[0].copy()
+        self.cms: Any = None
+        self.cds: Any = None
+        self.on: list[int] = []
+
+    def feedforward(self, k: int) -> np.ndarray:
+        """Static equal-load leg torques (18,) at plan sample k."""
+        pin, model, data, st = self.pin, self.model, self.data, self.st
+        if not self.opts.feedforward or not st[k].any():
+            return np.zeros(self.n_legs_q)
+        qk = self.Qp[k]
+        tau = pin.computeGeneralizedGravity(model, data, qk).copy()
+        pin.computeJointJacobians(model, data, qk)
+        pin.updateFramePlacements(model, data)
+        f = np.array([0.0, 0.0, -self.gz * self.mass / int(st[k].sum())])
+        for i in np.flatnonzero(st[k]):
+            J = pin.getFrameJacobian(model, data, self.foot_ids[i], pin.LOCAL_WORLD_ALIGNED)[:3]
+            tau -= J.T @ f
+        return np.asarray(tau[self.leg_cols])
+
+    def foot_world(self, qk: np.ndarray) -> np.ndarray:
+        """The six feet (6, 3) in W [m] at the model configuration ``qk``."""
+        self.pin.framesForwardKinematics(self.model, self.data, qk)
+        return np.array([self.data.oMf[f].translation for f in self.foot_ids])
+
+    def contacts(self, active: np.ndarray, k: int) -> None:
+        """Make the legs ``active`` the rigid contacts: new ones anchored where their simulated foot is."""
+        pin, model = self.pin, self.model
+        on = [int(i) for i in np.flatnonzero(active)]
+        world = self.foot_world(self.qs)
+        for i in list(self.anchors):
+            if i not in on:
+                del self.anchors[i]
+        for i in on:
+            if i not in self.anchors:
+                self.anchors[i] = world[i].copy()
+                self.td_err.append(float(world[i, 2] - self.plan_feet[k, i, 2]))
+        cms, cds = pin.StdVec_RigidConstraintModel(), pin.StdVec_RigidConstraintData()
+        for i in on:
+            cm = pin.RigidConstraintModel(
+                pin.ContactType.CONTACT_3D,
+                model,
+                self.foot_joint[i],
+                self.foot_place[i],
+                0,
+                pin.SE3(np.eye(3), self.anchors[i]),
+                pin.LOCAL_WORLD_ALIGNED,
+            )
+            cm.setBaumgarteCorrectorParameters(self.bp)
+            cms.append(cm)
+        for cm in cms:
+            cds.append(cm.createData())
+        pin.initConstraintDynamics(model, self.data, cms, cds)
+        self.cms, self.cds, self.on = cms, cds, on
+
+    def impact(self) -> None:
+        """The inelastic touch-down impact: the velocity jumps so that the active contacts are at rest."""
+        v = self.pin.impulseDynamics(self.model, self.data, self.qs, self.vs, self.cms, self.cds, 0.0, self.prox)
+        self.vs = np.array(v, dtype=float).copy()
+
+    def torque(self, qref: np.ndarray, vref: np.ndarray, ff: np.ndarray) -> np.ndarray:
+        """The joint PD torque (18,) toward ``qref``, ``vref`` plus ``ff`` (saturated if asked)."""
+        c = self.leg_cols
+        tau = self.kp * (qref[c] - self.qs[c]) + self.kd * (vref[c] - self.vs[c]) + ff
+        return np.clip(tau, -self.effort, self.effort) if self.opts.saturate else tau
+
+    def accelerations(self, tau: np.ndarray) -> np.ndarray:
+        """Constraint dynamics with the leg torques ``tau`` (the body joints get none)."""
+        tau_full = np.zeros(self.model.nv)
+        tau_full[self.leg_cols] = tau
+        a = self.pin.constraintDynamics(
+            self.model, self.data, self.qs, self.vs, tau_full, self.cms, self.cds, self.prox
+        )
+        return np.array(a, dtype=float)
+
+    def record(self, k: int, tau: np.ndarray) -> None:
+        """Store sample k: configuration, torque, active contacts, feet and contact forces."""
+        self.q_out[k] = self.qs
+        self.tau_out[k] = tau
+        self.on_out[k, self.on] = True
+        self.feet_out[k] = self.foot_world(self.qs)
+        lam = np.asarray(self.data.lambda_c, dtype=float).reshape(-1, 3)
+        for j, i in enumerate(self.on):
+            self.f_out[k, i] = lam[j]
+
+    def interval(self, k: int, dt: float) -> None:
+        """Integrate the plan interval [t_k, t_{k+1}] in equal sub-steps ≤ ``dt`` (semi-implicit Euler)."""
+        Qp, Vp, tau_ff = self.Qp, self.Vp, self.tau_ff
+        h_int = self.tt[k + 1] - self.tt[k]
+        n_sub = max(1, math.ceil(h_int / dt - 1e-9))
+        h = h_int / n_sub
+        for s in range(n_sub):
+            a0 = s / n_sub
+            qref = (1 - a0) * Qp[k] + a0 * Qp[k + 1]
+            vref = (1 - a0) * Vp[k] + a0 * Vp[k + 1]
+            ff = (1 - a0) * tau_ff[k] + a0 * tau_ff[k + 1]
+            tau = self.torque(qref, vref, ff)
+            self.n_sat += int(np.sum(np.abs(tau) >= self.effort * (1 - 1e-12)))
+            self.n_tot += tau.size
+            acc = self.accelerations(tau)
+            self.vs = self.vs + h * acc
+            self.qs = self.qs + h * self.vs
+            self.n_steps += 1
+        self.record(k + 1, tau)
+
+    def run(self, dt: float) -> None:
+        """Simulate the whole plan from its first state (after the impact of the initial contacts)."""
+        st = self.st
+        self.contacts(st[0], 0)
+        if self.on:
+            self.impact()
+        tau = self.torque(self.Qp[0], self.Vp[0], self.tau_ff[0])
+        self.accelerations(tau)
+        self.record(0, tau)
+        for k in range(self.tt.size - 1):
+            if k > 0 and np.any(st[k] != st[k - 1]):
+                new = bool(np.any(st[k] & ~st[k - 1]))
+                self.contacts(st[k], k)
+                if new and self.on:
+                    self.impact()
+            self.interval(k, dt)
+
+    def body_drift(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Simulated body poses (T, 7) and their position [m] and rotation [rad] drift from the plan (T,)."""
+        T, bb = self.tt.size, self.bb
+        body_sim = np.zeros((T, 7))
+        drift_p = np.zeros(T)
+        drift_r = np.zeros(T)
+        for k in range(T):
+            x, y, z, yaw, pitch, roll = self.q_out[k, self.body_cols]
+            R = _rz(yaw) @ _ry(pitch) @ _rx(roll)
+            body_sim[k] = np.concatenate([[x, y, z], _matrix_to_quat(R)])
+            Rp = _quat_to_matrix(bb[k, 3:] / np.linalg.norm(bb[k, 3:]))
+            drift_p[k] = float(np.linalg.norm(body_sim[k, :3] - bb[k, :3]))
+            c = (np.trace(Rp.T @ R) - 1.0) / 2.0
+            drift_r[k] = float(np.arccos(np.clip(c, -1.0, 1.0)))
+        return body_sim, drift_p, drift_r
+
+    def result(self, dt: float) -> RolloutResult:
+        """The read-outs of the simulated run (:class:`RolloutResult`)."""
+        tt = self.tt
+        body_sim, drift_p, drift_r = self.body_drift()
+        q_sim = self.q_out[:, self.leg_cols]
+        jerr = np.abs(q_sim - self.qq).max(axis=1)
+        stance_f = self.f_out[self.on_out]
+        swing = ~self.on_out
+        foot_err = float(np.linalg.norm(self.feet_out - self.plan_feet, axis=-1)[swing].max()) if swing.any() else 0.0
+        fz = stance_f[:, 2] if stance_f.size else np.zeros(0)
+        min_fn = float(fz.min()) if fz.size else float("nan")
+        pos = fz > 1e-9
+        ratio = float((np.linalg.norm(stance_f[pos, :2], axis=1) / fz[pos]).max()) if pos.any() else float("nan")
+        sat = self.n_sat / max(self.n_tot, 1)
+        msg = (
+            f"rigid-contact roll-out of {tt[-1] - tt[0]:.3g} s ({self.n_steps} steps of ≤ {dt:g} s, "
+            f"K_p = {self.kp:g} N·m/rad): "
+            f"body drift {1e3 * drift_p[-1]:.2f} mm at the end (max {1e3 * drift_p.max():.2f} mm, "
+            f"{math.degrees(drift_r.max()):.2f}°), joint error ≤ {jerr.max():.4f} rad, "
+            f"swing feet within {1e3 * foot_err:.2f} mm of the plan, min normal force {min_fn:.3g} N, "
+            f"friction needed {ratio:.3g}, {100 * sat:.1f} % torque-saturated"
+        )
+        return RolloutResult(
+            t=tt.copy(),
+            q=q_sim,
+            body=body_sim,
+            body_plan=self.bb.copy(),
+            position_drift=drift_p,
+            rotation_drift=drift_r,
+            joint_error=jerr,
+            tau=self.tau_out,
+            saturation=float(sat),
+            contact_force=self.f_out,
+            min_normal_force=min_fn,
+            max_friction_ratio=ratio,
+            touchdown_height_error=np.array(self.td_err),
+            feet=self.feet_out,
+            max_swing_foot_error=foot_err,
+            n_steps=self.n_steps,
+            message=msg,
+        )
+
+
 def contact_rollout(
     t: Any,
     q: Any,
@@ -256,8 +489,6 @@ def contact_rollout(
     then the impact of the initial contacts).  Raises :class:`~coop_ga.errors.UnknownNameError` if
     ``hexapod_floating`` is not registered, :class:`~coop_ga.errors.InvalidInputError` for bad plans.
     """
-    import pinocchio as pin
-
     from ..systems import load, names
 
     opts = options if options is not None else RolloutOptions()
@@ -266,195 +497,11 @@ def contact_rollout(
     kp = validation.nonnegative(opts.kp, "options.kp")
     kd = validation.nonnegative(opts.kd, "options.kd")
     dt = validation.positive(opts.dt, "options.dt")
-    tt, qq, bb, st = _check_plan(t, q, body, stance, dt)
+    plan = _check_plan(t, q, body, stance, dt)
     if system is None:
         if FLOATING_SYSTEM not in names():
             raise UnknownNameError(f"the physics check needs the registered system '{FLOATING_SYSTEM}'")
         system = load(FLOATING_SYSTEM)
-    legs = LegModel.from_system(system)
-    model = system.model
-    data = model.createData()
-    nv = model.nv
-    if model.nq != nv or nv != 6 + legs.nq:
-        raise InvalidInputError(f"system '{system.name}' is not 6 body joints + {legs.nq} leg joints")
-    iq = legs.model_q_index.ravel()  # leg joints in the model's q/v (LEGS order, coxa/femur/tibia)
-    leg_idx = np.asarray(legs.q_index).ravel()  # ... and in the 18-vector
-    leg_cols = np.empty(legs.nq, dtype=int)
-    leg_cols[leg_idx] = iq  # 18-vector entry k ↔ model coordinate leg_cols[k]
-    body_cols = np.setdiff1d(np.arange(nv), iq)
-    effort = np.asarray(model.effortLimit)[leg_cols]
-
-    Qp = np.zeros((tt.size, nv))
-    Qp[:, body_cols] = plan_to_floating_q(qq, bb)[:, :6]
-    Qp[:, leg_cols] = qq
-    Vp = np.gradient(Qp, tt, axis=0)
-
-    foot_ids = [model.getFrameId(f"{leg}_foot") for leg in LEGS]
-    foot_joint = [int(model.frames[f].parentJoint) for f in foot_ids]
-    foot_place = [model.frames[f].placement for f in foot_ids]
-    mass = float(sum(inertia.mass for inertia in model.inertias))
-    gz = float(np.asarray(model.gravity.linear)[2])
-
-    def feedforward(k: int) -> np.ndarray:
-        """Static equal-load leg torques (18,) at plan sample k."""
-        if not opts.feedforward or not st[k].any():
-            return np.zeros(legs.nq)
-        qk = Qp[k]
-        tau = pin.computeGeneralizedGravity(model, data, qk).copy()
-        pin.computeJointJacobians(model, data, qk)
-        pin.updateFramePlacements(model, data)
-        f = np.array([0.0, 0.0, -gz * mass / int(st[k].sum())])
-        for i in np.flatnonzero(st[k]):
-            J = pin.getFrameJacobian(model, data, foot_ids[i], pin.LOCAL_WORLD_ALIGNED)[:3]
-            tau -= J.T @ f
-        return tau[leg_cols]
-
-    tau_ff = np.array([feedforward(k) for k in range(tt.size)])
-
-    def foot_world(qk: np.ndarray) -> np.ndarray:
-        pin.framesForwardKinematics(model, data, qk)
-        return np.array([data.oMf[f].translation for f in foot_ids])
-
-    plan_feet = np.array([foot_world(Qp[k]) for k in range(tt.size)])
-    bp = pin.BaumgarteCorrectorParameters(float(opts.baumgarte[0]), float(opts.baumgarte[1]))
-    prox = pin.ProximalSettings(1e-12, 1e-12, 0.0, 1)
-
-    anchors: dict[int, np.ndarray] = {}
-    td_err: list[float] = []
-
-    def contacts(active: np.ndarray, qk: np.ndarray, k: int) -> tuple[Any, Any, list[int]]:
-        on = [int(i) for i in np.flatnonzero(active)]
-        world = foot_world(qk)
-        for i in list(anchors):
-            if i not in on:
-                del anchors[i]
-        for i in on:
-            if i not in anchors:
-                anchors[i] = world[i].copy()
-                td_err.append(float(world[i, 2] - plan_feet[k, i, 2]))
-        cms, cds = pin.StdVec_RigidConstraintModel(), pin.StdVec_RigidConstraintData()
-        for i in on:
-            cm = pin.RigidConstraintModel(
-                pin.ContactType.CONTACT_3D,
-                model,
-                foot_joint[i],
-                foot_place[i],
-                0,
-                pin.SE3(np.eye(3), anchors[i]),
-                pin.LOCAL_WORLD_ALIGNED,
-            )
-            cm.setBaumgarteCorrectorParameters(bp)
-            cms.append(cm)
-        for cm in cms:
-            cds.append(cm.createData())
-        pin.initConstraintDynamics(model, data, cms, cds)
-        return cms, cds, on
-
-    qs, vs = Qp[0].copy(), Vp[0].copy()
-    cms, cds, on = contacts(st[0], qs, 0)
-    if on:
-        vs = np.array(pin.impulseDynamics(model, data, qs, vs, cms, cds, 0.0, prox), dtype=float).copy()
-
-    T = tt.size
-    q_out = np.zeros((T, nv))
-    on_out = np.zeros((T, 6), dtype=bool)  # contacts active when the sample was recorded
-    feet_out = np.zeros((T, 6, 3))
-    tau_out = np.zeros((T, legs.nq))
-    f_out = np.zeros((T, 6, 3))
-    n_sat = n_tot = n_steps = 0
-
-    def torque(qk: np.ndarray, vk: np.ndarray, qref: np.ndarray, vref: np.ndarray, ff: np.ndarray) -> np.ndarray:
-        tau = kp * (qref[leg_cols] - qk[leg_cols]) + kd * (vref[leg_cols] - vk[leg_cols]) + ff
-        return np.clip(tau, -effort, effort) if opts.saturate else tau
-
-    def step_forces(tau_full: np.ndarray) -> np.ndarray:
-        a = pin.constraintDynamics(model, data, qs, vs, tau_full, cms, cds, prox)
-        return np.array(a, dtype=float)
-
-    def record(k: int, tau: np.ndarray) -> None:
-        q_out[k] = qs
-        tau_out[k] = tau
-        on_out[k, on] = True
-        feet_out[k] = foot_world(qs)
-        lam = np.asarray(data.lambda_c, dtype=float).reshape(-1, 3)
-        for j, i in enumerate(on):
-            f_out[k, i] = lam[j]
-
-    tau_full = np.zeros(nv)
-    tau = torque(qs, vs, Qp[0], Vp[0], tau_ff[0])
-    tau_full[leg_cols] = tau
-    step_forces(tau_full)
-    record(0, tau)
-    for k in range(T - 1):
-        if k > 0 and np.any(st[k] != st[k - 1]):
-            new = bool(np.any(st[k] & ~st[k - 1]))
-            cms, cds, on = contacts(st[k], qs, k)
-            if new and on:
-                vs = np.array(pin.impulseDynamics(model, data, qs, vs, cms, cds, 0.0, prox), dtype=float).copy()
-        h_int = tt[k + 1] - tt[k]
-        n_sub = max(1, math.ceil(h_int / dt - 1e-9))
-        h = h_int / n_sub
-        for s in range(n_sub):
-            a0 = s / n_sub
-            qref = (1 - a0) * Qp[k] + a0 * Qp[k + 1]
-            vref = (1 - a0) * Vp[k] + a0 * Vp[k + 1]
-            ff = (1 - a0) * tau_ff[k] + a0 * tau_ff[k + 1]
-            tau = torque(qs, vs, qref, vref, ff)
-            n_sat += int(np.sum(np.abs(tau) >= effort * (1 - 1e-12)))
-            n_tot += tau.size
-            tau_full[:] = 0.0
-            tau_full[leg_cols] = tau
-            acc = step_forces(tau_full)
-            vs = vs + h * acc
-            qs = qs + h * vs
-            n_steps += 1
-        record(k + 1, tau)
-
-    # ---- read-outs
-    body_sim = np.zeros((T, 7))
-    drift_p = np.zeros(T)
-    drift_r = np.zeros(T)
-    for k in range(T):
-        x, y, z, yaw, pitch, roll = q_out[k, body_cols]
-        R = _rz(yaw) @ _ry(pitch) @ _rx(roll)
-        body_sim[k] = np.concatenate([[x, y, z], _matrix_to_quat(R)])
-        Rp = _quat_to_matrix(bb[k, 3:] / np.linalg.norm(bb[k, 3:]))
-        drift_p[k] = float(np.linalg.norm(body_sim[k, :3] - bb[k, :3]))
-        c = (np.trace(Rp.T @ R) - 1.0) / 2.0
-        drift_r[k] = float(np.arccos(np.clip(c, -1.0, 1.0)))
-    q_sim = q_out[:, leg_cols]
-    jerr = np.abs(q_sim - qq).max(axis=1)
-    stance_f = f_out[on_out]
-    swing = ~on_out
-    foot_err = float(np.linalg.norm(feet_out - plan_feet, axis=-1)[swing].max()) if swing.any() else 0.0
-    fz = stance_f[:, 2] if stance_f.size else np.zeros(0)
-    min_fn = float(fz.min()) if fz.size else float("nan")
-    pos = fz > 1e-9
-    ratio = float((np.linalg.norm(stance_f[pos, :2], axis=1) / fz[pos]).max()) if pos.any() else float("nan")
-    sat = n_sat / max(n_tot, 1)
-    msg = (
-        f"rigid-contact roll-out of {tt[-1] - tt[0]:.3g} s ({n_steps} steps of ≤ {dt:g} s, K_p = {kp:g} N·m/rad): "
-        f"body drift {1e3 * drift_p[-1]:.2f} mm at the end (max {1e3 * drift_p.max():.2f} mm, "
-        f"{math.degrees(drift_r.max()):.2f}°), joint error ≤ {jerr.max():.4f} rad, "
-        f"swing feet within {1e3 * foot_err:.2f} mm of the plan, min normal force {min_fn:.3g} N, "
-        f"friction needed {ratio:.3g}, {100 * sat:.1f} % torque-saturated"
-    )
-    return RolloutResult(
-        t=tt.copy(),
-        q=q_sim,
-        body=body_sim,
-        body_plan=bb.copy(),
-        position_drift=drift_p,
-        rotation_drift=drift_r,
-        joint_error=jerr,
-        tau=tau_out,
-        saturation=float(sat),
-        contact_force=f_out,
-        min_normal_force=min_fn,
-        max_friction_ratio=ratio,
-        touchdown_height_error=np.array(td_err),
-        feet=feet_out,
-        max_swing_foot_error=foot_err,
-        n_steps=n_steps,
-        message=msg,
-    )
+    rollout = _Rollout(system, plan, opts, (kp, kd))
+    rollout.run(dt)
+    return rollout.result(dt)

@@ -149,6 +149,95 @@ class DLSResult:
         return bool(np.all(self.converged))
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """A read-only copy of ``a``."""
+    a = np.array(a)
+    a.setflags(write=False)
+    return a
+
+
+def _bad_leg(leg: str, what: str) -> UnsupportedJointError:
+    """The error for a leg whose structure the closed-form IK cannot handle."""
+    return UnsupportedJointError(
+        f"leg '{leg}': {what}. The leg kinematics need a coxa yaw joint and two parallel pitch "
+        "joints (femur, tibia) with all offsets in the leg's vertical plane (README of "
+        "robots/hexapod)"
+    )
+
+
+def _check_leg_names(system: Any, legs: tuple[str, ...], foot_frames: tuple[str, ...]) -> None:
+    """Every leg's ``{leg}_{coxa,femur,tibia}_joint`` and ``{leg}_foot`` exist in ``system.model``.
+
+    Raises:
+        UnknownNameError: a missing joint or frame (the message lists the model's joints).
+    """
+    model = system.model
+    names = list(model.names)
+    frames = [f.name for f in model.frames]
+    for leg, ff in zip(legs, foot_frames):
+        for j in JOINTS:
+            if f"{leg}_{j}_joint" not in names:
+                raise UnknownNameError(
+                    f"system '{getattr(system, 'name', '?')}' has no joint '{leg}_{j}_joint'. "
+                    f"Joints: {', '.join(names[1:])}"
+                )
+        if ff not in frames:
+            raise UnknownNameError(f"system '{getattr(system, 'name', '?')}' has no frame '{ff}'")
+
+
+def _leg_geometry(
+    model: Any, tree: Any, leg: str, jids: np.ndarray, foot_frame: str, body_parent: int | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Check one leg's structure and read its geometry (:class:`LegModel`'s attributes of one leg).
+
+    Args:
+        model: the Pinocchio model; tree: its :class:`~coop_ga.kinematics.KinematicTree`.
+        jids: (3,) joint ids of (coxa, femur, tibia); foot_frame: the leg's ``{leg}_foot`` frame.
+        body_parent: the joint the previous legs' coxa joints hang from (None for the first leg).
+
+    Returns:
+        mount position (3,) [m] and rotation (3, 3) (B ← coxa frame), the joint signs (3,) (coxa, femur,
+        tibia) and the in-plane offsets (3, 2) [m] (femur joint, femur link, tibia link as (x, z)).
+
+    Raises:
+        UnsupportedJointError: not a yaw + two parallel pitch joints with in-plane offsets, its coxa hanging from
+            another body than ``body_parent``, or a zero-length link.
+    """
+    names = list(model.names)
+    jc, jf, jt = (int(x) for x in jids)
+    fr = model.frames[model.getFrameId(foot_frame)]
+    if int(model.parents[jf]) != jc or int(model.parents[jt]) != jf or int(fr.parentJoint) != jt:
+        raise _bad_leg(leg, "joints are not chained coxa → femur → tibia → foot")
+    if body_parent is not None and int(model.parents[jc]) != body_parent:
+        raise _bad_leg(leg, "its coxa joint hangs from a different body than the other legs'")
+    for jid in (jc, jf, jt):
+        if tree.joints[jid].kind != "revolute" or int(model.nqs[jid]) != 1:
+            raise _bad_leg(leg, f"joint '{names[jid]}' is not a 1-DOF revolute joint")
+    ac = np.array(tree.joints[jc].axis)
+    af, at = np.array(tree.joints[jf].axis), np.array(tree.joints[jt].axis)
+    if abs(abs(ac[2]) - 1.0) > _GEOM_TOL:
+        raise _bad_leg(leg, f"the coxa axis {ac.tolist()} is not the z axis of its joint frame")
+    for a, nm in ((af, "femur"), (at, "tibia")):
+        if abs(abs(a[1]) - 1.0) > _GEOM_TOL:
+            raise _bad_leg(leg, f"the {nm} axis {a.tolist()} is not the y axis of its joint frame")
+    for jid, nm in ((jf, "femur"), (jt, "tibia")):
+        Pl = model.jointPlacements[jid]
+        if np.abs(np.asarray(Pl.rotation) - np.eye(3)).max() > _GEOM_TOL:
+            raise _bad_leg(leg, f"the {nm} joint placement is rotated")
+    t_f = np.asarray(model.jointPlacements[jf].translation, float)
+    t_t = np.asarray(model.jointPlacements[jt].translation, float)
+    t_p = np.asarray(fr.placement.translation, float)
+    if max(abs(t_f[1]), abs(t_t[1]), abs(t_p[1])) > _GEOM_TOL:
+        raise _bad_leg(leg, "an offset leaves the leg's vertical plane (non-zero y)")
+    Pc = model.jointPlacements[jc]
+    signs = np.array((np.sign(ac[2]), -np.sign(af[1]), -np.sign(at[1])))
+    offs = np.array((t_f[[0, 2]], t_t[[0, 2]], t_p[[0, 2]]))
+    L2, L3 = np.hypot(*offs[1]), np.hypot(*offs[2])
+    if min(L2, L3) < 1e-6:
+        raise _bad_leg(leg, "the femur or tibia has zero length")
+    return np.asarray(Pc.translation, float), np.asarray(Pc.rotation, float), signs, offs
+
+
 @dataclass(frozen=True, eq=False)
 class LegModel:
     """Per-leg geometry read from a Pinocchio model (not hard-coded), and the leg kinematics.
@@ -221,17 +310,8 @@ class LegModel:
             raise InvalidInputError(f"LegModel.from_system needs a coop_ga System, got {type(system).__name__}")
         legs = _leg_names(legs)
         names = list(model.names)
-        frames = [f.name for f in model.frames]
         foot_frames = tuple(f"{leg}_foot" for leg in legs)
-        for leg, ff in zip(legs, foot_frames):
-            for j in JOINTS:
-                if f"{leg}_{j}_joint" not in names:
-                    raise UnknownNameError(
-                        f"system '{getattr(system, 'name', '?')}' has no joint '{leg}_{j}_joint'. "
-                        f"Joints: {', '.join(names[1:])}"
-                    )
-            if ff not in frames:
-                raise UnknownNameError(f"system '{getattr(system, 'name', '?')}' has no frame '{ff}'")
+        _check_leg_names(system, legs, foot_frames)
         tree = KinematicTree(model, foot_frames)
         n = len(legs)
         jids = np.zeros((n, 3), dtype=int)
@@ -242,48 +322,8 @@ class LegModel:
         for i, leg in enumerate(legs):
             for k, j in enumerate(JOINTS):
                 jids[i, k] = model.getJointId(f"{leg}_{j}_joint")
-            jc, jf, jt = (int(x) for x in jids[i])
-            fr = model.frames[model.getFrameId(foot_frames[i])]
-
-            def bad(what: str, leg: str = leg) -> UnsupportedJointError:
-                return UnsupportedJointError(
-                    f"leg '{leg}': {what}. The leg kinematics need a coxa yaw joint and two parallel pitch "
-                    "joints (femur, tibia) with all offsets in the leg's vertical plane (README of "
-                    "robots/hexapod)"
-                )
-
-            if int(model.parents[jf]) != jc or int(model.parents[jt]) != jf or int(fr.parentJoint) != jt:
-                raise bad("joints are not chained coxa → femur → tibia → foot")
-            if body_parent is None:
-                body_parent = int(model.parents[jc])
-            elif int(model.parents[jc]) != body_parent:
-                raise bad("its coxa joint hangs from a different body than the other legs'")
-            for jid in (jc, jf, jt):
-                if tree.joints[jid].kind != "revolute" or int(model.nqs[jid]) != 1:
-                    raise bad(f"joint '{names[jid]}' is not a 1-DOF revolute joint")
-            ac = np.array(tree.joints[jc].axis)
-            af, at = np.array(tree.joints[jf].axis), np.array(tree.joints[jt].axis)
-            if abs(abs(ac[2]) - 1.0) > _GEOM_TOL:
-                raise bad(f"the coxa axis {ac.tolist()} is not the z axis of its joint frame")
-            for a, nm in ((af, "femur"), (at, "tibia")):
-                if abs(abs(a[1]) - 1.0) > _GEOM_TOL:
-                    raise bad(f"the {nm} axis {a.tolist()} is not the y axis of its joint frame")
-            for jid, nm in ((jf, "femur"), (jt, "tibia")):
-                Pl = model.jointPlacements[jid]
-                if np.abs(np.asarray(Pl.rotation) - np.eye(3)).max() > _GEOM_TOL:
-                    raise bad(f"the {nm} joint placement is rotated")
-            t_f = np.asarray(model.jointPlacements[jf].translation, float)
-            t_t = np.asarray(model.jointPlacements[jt].translation, float)
-            t_p = np.asarray(fr.placement.translation, float)
-            if max(abs(t_f[1]), abs(t_t[1]), abs(t_p[1])) > _GEOM_TOL:
-                raise bad("an offset leaves the leg's vertical plane (non-zero y)")
-            Pc = model.jointPlacements[jc]
-            mpos[i], mrot[i] = np.asarray(Pc.translation, float), np.asarray(Pc.rotation, float)
-            signs[i] = (np.sign(ac[2]), -np.sign(af[1]), -np.sign(at[1]))
-            offs[i] = (t_f[[0, 2]], t_t[[0, 2]], t_p[[0, 2]])
-            L2, L3 = np.hypot(*offs[i, 1]), np.hypot(*offs[i, 2])
-            if min(L2, L3) < 1e-6:
-                raise bad("the femur or tibia has zero length")
+            mpos[i], mrot[i], signs[i], offs[i] = _leg_geometry(model, tree, leg, jids[i], foot_frames[i], body_parent)
+            body_parent = int(model.parents[int(jids[i, 0])])
         # indices: the leg joints in the model's q order form the 18-vector
         mq = np.array([[int(model.idx_qs[int(j)]) for j in row] for row in jids])
         order = np.argsort(mq.ravel(), kind="stable")
@@ -293,11 +333,7 @@ class LegModel:
         end_frames = list(getattr(system, "end_frames", ()))
         efi = np.array([end_frames.index(f) if f in end_frames else -1 for f in foot_frames])
 
-        def ro(a: np.ndarray) -> np.ndarray:
-            a = np.array(a)
-            a.setflags(write=False)
-            return a
-
+        ro = _read_only
         return cls(
             legs=legs,
             q_index=ro(rank.reshape(n, 3)),
@@ -782,6 +818,30 @@ class LegModel:
         return UnreachableError(msg, legs=tuple(legs), violation=float(v.max()))
 
     # ------------------------------------------------------------------ damped least squares
+    def _backtrack(
+        self, Q0: np.ndarray, dq: np.ndarray, P: np.ndarray, active: np.ndarray, en: np.ndarray, clip: bool
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """One backtracked step of :meth:`dls_ik`: halve a leg's step ``dq`` (B, 6, 3) [rad] from ``Q0`` (B, 6, 3)
+        until its foot error against the targets ``P`` (B, 6, 3) [m] does not exceed ``en`` (B, 6) (the damped
+        Gauss-Newton step alone can cycle across the straight-knee singularity when the target is out of
+        reach); a leg that finds no descent in ``_MAX_HALVINGS`` stays put.  Only ``active`` (B, 6) legs move;
+        ``clip`` projects onto the joint limits.  Returns the new joints (B, 6, 3) and each leg's step factor
+        (B, 6) (0: it did not move)."""
+        step = np.where(active, 1.0, 0.0)
+        sub = np.arange(Q0.shape[0])  # entries whose step is being (re)tried
+        Qr = Q0.copy()
+        for h in range(_MAX_HALVINGS + 1):
+            Qs = Q0[sub] + step[sub, :, None] * dq[sub]
+            if clip:
+                Qs = np.clip(Qs, self.q_lower, self.q_upper)
+            Qr[sub] = Qs
+            worse = active[sub] & (np.linalg.norm(P[sub] - self._feet_of(Qs), axis=-1) > en[sub])
+            if not worse.any():
+                break
+            step[sub] = np.where(worse, 0.5 * step[sub] if h < _MAX_HALVINGS - 1 else 0.0, step[sub])
+            sub = sub[worse.any(axis=-1)]
+        return Qr, step
+
     def dls_ik(
         self,
         feet: Any,
@@ -841,23 +901,7 @@ class LegModel:
             dq = np.linalg.solve(Jt @ J + eye, Jt @ e[..., None])[..., 0]
             big = np.abs(dq).max(axis=-1, keepdims=True)
             dq = dq * np.minimum(1.0, max_step / np.maximum(big, 1e-300))
-            # backtracking: halve a leg's step until its foot error does not grow (the damped
-            # Gauss-Newton step alone can cycle across the straight-knee singularity when the
-            # target is out of reach); a leg that finds no descent in _MAX_HALVINGS stays put
-            Q0 = Q[rows]
-            step = np.where(active, 1.0, 0.0)
-            sub = np.arange(rows.size)  # entries whose step is being (re)tried
-            Qr = Q0.copy()
-            for h in range(_MAX_HALVINGS + 1):
-                Qs = Q0[sub] + step[sub, :, None] * dq[sub]
-                if clip_to_limits:
-                    Qs = np.clip(Qs, self.q_lower, self.q_upper)
-                Qr[sub] = Qs
-                worse = active[sub] & (np.linalg.norm(Pf[rows[sub]] - self._feet_of(Qs), axis=-1) > en[sub])
-                if not worse.any():
-                    break
-                step[sub] = np.where(worse, 0.5 * step[sub] if h < _MAX_HALVINGS - 1 else 0.0, step[sub])
-                sub = sub[worse.any(axis=-1)]
+            Qr, step = self._backtrack(Q[rows], dq, Pf[rows], active, en, clip_to_limits)
             Q[rows] = Qr
             it[rows] += active & (step > 0.0)
         Q = Q.reshape(*batch, n, 3)

@@ -90,9 +90,10 @@ import numpy as np
 from .. import validation
 from ..errors import InvalidInputError, UnreachableError
 from ..geometry.groups import Similarity, bivector_to_tangent, tangent_to_bivector
+from ..geometry.kinds import FIT_KINDS, KIND_SPECS, CooperativeKind, Kind
 from ..validation import array, choice, integer, nonnegative, positive, vector
 from .body import LEG_ORDER, BodyState, body_tangent, check_rotation, stance_indices
-from .stance import CARRIED, ROWS, carried_rows, uncarried
+from .stance import CARRIED, ROWS, _primitive_kind, carried_rows, uncarried
 
 if TYPE_CHECKING:  # pragma: no cover
     from ..cooperative.task import CooperativeTask
@@ -138,16 +139,12 @@ _REL, _ABS = 1e-9, 1e-12
 _RANK_TOL = 1e-9
 
 
-def _base_kind(kind: str) -> str:
-    """``"sphere_fit"`` → ``"sphere"`` (the LSQ kinds of :mod:`coop_ga.legged.stance` carry what their kind carries)."""
-    if not isinstance(kind, str):
-        raise InvalidInputError(f"kind must be a stance primitive kind (str), got {kind!r}")
-    k = kind[:-4] if kind.endswith("_fit") else kind
-    if k not in CARRIED:
-        raise InvalidInputError(
-            f"posture control needs a stance plane, circle, sphere or point pair, got kind {kind!r}"
-        )
-    return k
+def _all_feet(kind: str) -> bool:
+    """A primitive of ``kind`` goes through all the stance feet: ``"auto"``, a kind with a least-squares fit
+    (sphere, plane: any number of feet) or a least-squares kind; the others (circle, point pair) through exactly
+    their :attr:`~coop_ga.geometry.kinds.KindSpec.n_points` chosen feet."""
+    spec = KIND_SPECS.get(kind)
+    return kind == "auto" or (spec is not None and (spec.least_squares or spec.fit_kind is not None))
 
 
 @dataclass(frozen=True)
@@ -187,7 +184,7 @@ class PostureOptions:
         nonnegative(self.gain, "PostureOptions.gain")
         choice(self.frame, ("primitive", "body"), "PostureOptions.frame")
         if self.kind is not None:
-            _base_kind(self.kind)
+            _primitive_kind(self.kind)
         choice(self.uncontrollable, ("raise", "report"), "PostureOptions.uncontrollable")
         g = positive(self.limit_gain, "PostureOptions.limit_gain")
         if g > 1.0:
@@ -210,8 +207,8 @@ class PrimitiveTask:
     carries with the feet fixed (:data:`coop_ga.legged.stance.CARRIED`).
     """
 
-    kind: str
-    task_kind: str
+    kind: Kind
+    task_kind: CooperativeKind
     legs: tuple[str, ...]
     task: Any
     reason: str
@@ -442,7 +439,7 @@ def stance_posture_task(
 
 def _specs(primitives: Any) -> list[tuple[str, tuple[str, ...] | None]]:
     """``primitives`` → [(kind, legs or None)] (see :func:`stance_primitive_tasks`)."""
-    kinds = (*CARRIED, "sphere_fit", "plane_fit", "auto")
+    kinds = (*CARRIED, *(f for f, k in FIT_KINDS.items() if k in CARRIED), "auto")
 
     def one(x: Any) -> tuple[str, tuple[str, ...] | None] | None:
         if isinstance(x, str):
@@ -483,16 +480,19 @@ def _resolve_legs(kind: str, legs: tuple[str, ...] | None, stance: tuple[str, ..
         if bad:
             raise InvalidInputError(f"primitive {kind}{legs}: leg(s) {bad} not in stance ({', '.join(stance)})")
         return legs, "legs given"
-    if kind in ("sphere", "sphere_fit", "plane", "plane_fit", "auto"):
+    if _all_feet(kind):
         return stance, "all stance feet"
-    n = 3 if kind == "circle" else 2
+    spec = KIND_SPECS[kind]
+    n = spec.n_points
     if len(stance) < n:
         raise InvalidInputError(f"a stance {kind} needs {n} stance feet, the stance has {len(stance)}")
     import itertools
 
-    if kind == "circle":  # the best-conditioned circle (§5.3)
-        tri = max(itertools.combinations(stance, 3), key=lambda c: well_definedness("circle", [feet[x] for x in c]))
-        return tuple(tri), "the 3 stance feet of the best-conditioned circle"
+    if spec.axis_role == "normal":  # a circle: the best-conditioned one (§5.3)
+        tri = max(
+            itertools.combinations(stance, n), key=lambda c: well_definedness(spec.primitive_kind, [feet[x] for x in c])
+        )
+        return tuple(tri), f"the {n} stance feet of the best-conditioned {kind}"
     # point pair: the two stance feet farthest apart across B's xy (turns about the vertical best conditioned)
     pair = max(itertools.combinations(stance, 2), key=lambda c: float(np.linalg.norm((feet[c[0]] - feet[c[1]])[:2])))
     return tuple(pair), "the 2 stance feet farthest apart in B's xy"
@@ -505,21 +505,22 @@ def _resolve_one(lm: LegModel, q: np.ndarray, stance: tuple[str, ...], kind: str
     fk = lm.fk(q)
     feet = {x: fk[LEG_ORDER.index(x)] for x in stance}
     chosen, why_legs = _resolve_legs(kind, legs, stance, feet)
-    if kind in ("auto", "sphere", "sphere_fit", "plane", "plane_fit"):
+    if _all_feet(kind):
         names = stance_order(chosen)
-        want = None if kind == "auto" else _base_kind(kind)
-        if want == "sphere" and len(names) < 4:
-            raise InvalidInputError(f"a stance sphere needs ≥ 4 feet, got {len(names)} ({', '.join(names)})")
+        want = None if kind == "auto" else _primitive_kind(kind)
+        if want is not None and len(names) < KIND_SPECS[want].n_points:
+            raise InvalidInputError(f"a stance {want} needs ≥ {KIND_SPECS[want].n_points} feet, got {len(names)} "
+                                    f"({', '.join(names)})")  # fmt: skip
         sp = stance_primitive(np.array([feet[x] for x in names]), w_min=w_min, kind=want)
         task_kind, reason, w = sp.task_kind, sp.reason, sp.well_definedness
     else:
-        names, task_kind, w = tuple(chosen), kind, math.nan
+        names, task_kind, w = tuple(chosen), KIND_SPECS[kind].name, math.nan
         reason = f"{kind} of {why_legs}"
     task = stance_task(lm.system, names, task_kind)
     order = tuple(LEG_ORDER[int(np.flatnonzero(lm.end_frame_index == i)[0])] for i in task.point_indices)
     if math.isnan(w):
         w = float(task.evaluate(q).well_definedness)
-    base = _base_kind(task_kind)
+    base = _primitive_kind(task_kind)
     return PrimitiveTask(base, task_kind, order, task, reason, w, carried_rows(base))
 
 
@@ -796,9 +797,67 @@ def _prims_for_step(
     tlegs = tuple(LEG_ORDER[int(np.flatnonzero(lm.end_frame_index == i)[0])] for i in task.point_indices)
     if not set(tlegs) <= {LEG_ORDER[i] for i in idx}:
         raise InvalidInputError(f"the task's feet {list(tlegs)} are not all in stance ({[LEG_ORDER[i] for i in idx]})")
-    base = _base_kind(str(task.kind))
+    base = _primitive_kind(task.kind)
     w = float(task.evaluate(state.q).well_definedness)
-    return (PrimitiveTask(base, str(task.kind), tlegs, task, "task given", w, carried_rows(base)),)
+    return (PrimitiveTask(base, task.kind, tlegs, task, "task given", w, carried_rows(base)),)
+
+
+def _step_args(
+    lm: LegModel, state: BodyState, idx: tuple[int, ...], command: Any, nullspace_twist: Any, swing_q: Any,
+    swing_feet_W: Any,
+) -> tuple[np.ndarray, np.ndarray | None]:  # fmt: skip
+    """:func:`posture_step`'s checked command (7,) and null-space twist (6,) (or None); the swing arguments and the
+    start state's joint limits checked."""
+    c_in = vector(command, 7, "command_twist_B")
+    u_ref = None if nullspace_twist is None else vector(nullspace_twist, 6, "nullspace_twist")
+    _swing_args(swing_q, swing_feet_W, idx)
+    if _violation(lm, state.q) > 1e-12:
+        raise InvalidInputError(
+            f"state.q is outside the joint limits by {_violation(lm, state.q):.3g} rad; posture_step starts inside them"
+        )
+    return c_in, u_ref
+
+
+def _with_nullspace(
+    u_seen: np.ndarray, u_ref: np.ndarray | None, lin: _Linear, prims: Sequence[PrimitiveTask]
+) -> np.ndarray:
+    """``u_seen`` plus the caller's body twist ``u_ref`` (6,) where no primitive looks (its part in the null space
+    N of the carried rows); ``u_seen`` itself without one."""
+    if u_ref is None:
+        return u_seen
+    return u_seen + _split(u_ref, _null_basis(lin.carried_map(prims)))[1]
+
+
+def _slips(
+    lm: LegModel, state: BodyState, new: BodyState, lin: _Linear, u: np.ndarray, idx: tuple[int, ...],
+    opt: PostureOptions,
+) -> tuple[float, float]:  # fmt: skip
+    """The largest drift [m] in W of a stance foot from where it stood in ``state``: after the step (``new``), and
+    after the linearised step (the body moved by u Δt, the stance joints by L u Δt)."""
+    anchors = state.feet_world(lm)
+    q_lin = state.q.copy()
+    q_lin[lin.cols] = state.q[lin.cols] + lin.L @ u * opt.dt
+    lin_state = state.moved(u[:3], u[3:], opt.dt, q=q_lin)
+    linear_slip = float(np.max(np.linalg.norm((lin_state.feet_world(lm) - anchors)[list(idx)], axis=1)))
+    slip = float(np.max(np.linalg.norm((new.feet_world(lm) - anchors)[list(idx)], axis=1)))
+    return slip, linear_slip
+
+
+def _tracking_errors(
+    prims: Sequence[PrimitiveTask], cmds: list[np.ndarray], refused: list[np.ndarray], lin: _Linear,
+    new: BodyState, c_in: np.ndarray, opt: PostureOptions,
+) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+    """Per primitive (m, 7): command − achieved twist on the carried rows, plus the refused rows' command; and the
+    first primitive's achieved twist (7,) in the command's frame."""
+    errs, achieved0 = [], np.zeros(7)
+    for i, (p, c) in enumerate(zip(prims, cmds)):
+        b_ach = np.asarray((lin.V[i].inverse() @ p.task.similarity(new.q)).log(), dtype=float) / opt.dt
+        b_ach = np.where(p.carried, b_ach, 0.0)
+        c_full = c_in if opt.frame == "primitive" else c
+        errs.append(np.where(p.carried, c - b_ach, 0.0) + np.where(refused[i], c_full, 0.0))
+        if i == 0:
+            achieved0 = b_ach if opt.frame == "primitive" else lin.ad(0) @ b_ach
+    return np.array(errs), achieved0
 
 
 def posture_step(
@@ -843,42 +902,21 @@ def posture_step(
             primitives cannot carry (``uncontrollable="raise"``).
     """
     lm, opt, idx = _posture_args(state, stance_legs, legs, options)
-    c_in = vector(command_twist_B, 7, "command_twist_B")
-    u_ref = np.zeros(6) if nullspace_twist is None else vector(nullspace_twist, 6, "nullspace_twist")
-    _swing_args(swing_q, swing_feet_W, idx)
-    if _violation(lm, state.q) > 1e-12:
-        raise InvalidInputError(
-            f"state.q is outside the joint limits by {_violation(lm, state.q):.3g} rad; posture_step starts inside them"
-        )
+    c_in, u_ref = _step_args(lm, state, idx, command_twist_B, nullspace_twist, swing_q, swing_feet_W)
     prims = _prims_for_step(lm, state, idx, opt, primitives, task)
     lin = _linearise(lm, state.q, idx, prims)
     cmds, refused, u_N, names, u_seen = _commands(c_in, opt.frame, lin, prims, opt.uncontrollable)
-    if nullspace_twist is not None:  # the caller's motion where no primitive looks
-        u_seen = u_seen + _split(u_ref, _null_basis(lin.carried_map(prims)))[1]
+    u_seen = _with_nullspace(u_seen, u_ref, lin, prims)
     u, active, at_pos, sec = _solve(lin, u_seen, lm, state.q, idx, opt)
-    anchors = state.feet_world(lm)
     new, scale, back = _advance(lm, state, u, idx, opt)
-    q_lin = state.q.copy()
-    q_lin[lin.cols] = state.q[lin.cols] + lin.L @ u * opt.dt
-    lin_state = state.moved(u[:3], u[3:], opt.dt, q=q_lin)
-    linear_slip = float(np.max(np.linalg.norm((lin_state.feet_world(lm) - anchors)[list(idx)], axis=1)))
     new = _swing(lm, new, idx, swing_q, swing_feet_W)
-    errs, achieved0 = [], np.zeros(7)
-    for i, (p, c) in enumerate(zip(prims, cmds)):
-        b_ach = np.asarray((lin.V[i].inverse() @ p.task.similarity(new.q)).log(), dtype=float) / opt.dt
-        b_ach = np.where(p.carried, b_ach, 0.0)
-        c_full = c_in if opt.frame == "primitive" else c
-        errs.append(np.where(p.carried, c - b_ach, 0.0) + np.where(refused[i], c_full, 0.0))
-        if i == 0:
-            achieved0 = b_ach if opt.frame == "primitive" else lin.ad(0) @ b_ach
-    E = np.array(errs)
-    slip = float(np.max(np.linalg.norm((new.feet_world(lm) - anchors)[list(idx)], axis=1)))
-    p0 = prims[0]
+    slip, linear_slip = _slips(lm, state, new, lin, u, idx, opt)
+    E, achieved0 = _tracking_errors(prims, cmds, refused, lin, new, c_in, opt)
     return new, PostureStep(
-        kind=p0.kind,
-        task_kind=p0.task_kind,
+        kind=prims[0].kind,
+        task_kind=prims[0].task_kind,
         stance_legs=tuple(LEG_ORDER[i] for i in idx),
-        task_legs=p0.legs,
+        task_legs=prims[0].legs,
         well_definedness=lin.w[0],
         command=c_in.copy(),
         command_primitive=c_in.copy() if opt.frame == "primitive" else np.linalg.solve(lin.ad(0), c_in),
@@ -896,7 +934,7 @@ def posture_step(
         backtracks=back,
         scale=scale,
         max_limit_violation=_violation(lm, new.q),
-        kind_reason=p0.reason,
+        kind_reason=prims[0].reason,
         primitives=tuple(p.describe() for p in prims),
         tracking_errors=E,
         uncontrollable=names,

@@ -51,6 +51,7 @@ from .. import validation
 from ..cooperative.primitive import fit_parameters, fit_primitive, fit_well_definedness
 from ..cooperative.task import CooperativeTask, cooperative_task
 from ..errors import DegeneratePrimitiveError, InvalidInputError
+from ..geometry.kinds import KIND_SPECS, CooperativeKind, Kind, KindSpec
 from ..geometry.primitives import Primitive, center, circle, normal, plane, radius, sphere, well_definedness
 
 __all__ = [
@@ -146,24 +147,28 @@ _UNCARRIED: dict[tuple[str, int], tuple[str, str]] = {
 }
 
 
-def _base(kind: str) -> str:
-    k = kind[:-4] if kind.endswith("_fit") else kind
-    if k not in CARRIED:
-        raise InvalidInputError(f"kind must be one of {tuple(CARRIED)} (or their _fit kinds), got {kind!r}")
-    return k
+def _primitive_kind(kind: str) -> Kind:
+    """The exact kind (:attr:`~coop_ga.geometry.kinds.KindSpec.primitive_kind`) of a stance kind: a least-squares
+    kind carries what the kind it fits carries (``"sphere_fit"`` → ``"sphere"``)."""
+    spec = KIND_SPECS.get(kind) if isinstance(kind, str) else None
+    if spec is None or spec.primitive_kind not in CARRIED:
+        raise InvalidInputError(
+            f"a stance primitive kind is one of {', '.join(CARRIED)} (or a _fit kind of those), got {kind!r}"
+        )
+    return spec.primitive_kind
 
 
 def carried_rows(kind: str) -> np.ndarray:
     """(7,) bool: the rows of a primitive-frame twist that a stance primitive of ``kind`` (``"sphere"``,
     ``"circle"``, ``"plane"``, ``"point_pair"`` or a ``_fit`` kind) carries with the feet fixed (:data:`CARRIED`)."""
-    return np.array(CARRIED[_base(kind)], dtype=bool)
+    return np.array(CARRIED[_primitive_kind(kind)], dtype=bool)
 
 
 def uncarried(kind: str, row: int) -> tuple[str, str]:
     """``(meaning, alternative)`` of a row (index into :data:`ROWS`) that a stance primitive of ``kind`` cannot
     carry: what that row means for the primitive, and which stance primitive carries the motion instead.
     Raises :class:`~coop_ga.errors.InvalidInputError` for a carried row."""
-    k = _base(kind)
+    k = _primitive_kind(kind)
     if not 0 <= int(row) < 7 or CARRIED[k][int(row)]:
         raise InvalidInputError(f"row {row!r} is not an uncarried row of a {k} (uncarried: "
                                 f"{[ROWS[i] for i in range(7) if not CARRIED[k][i]]})")  # fmt: skip
@@ -197,8 +202,8 @@ class StancePrimitive:
         because w < w_min).
     """
 
-    kind: str
-    task_kind: str
+    kind: Kind
+    task_kind: CooperativeKind
     X: Primitive
     well_definedness: float
     indices: tuple[int, ...]
@@ -241,9 +246,35 @@ def _plane_of(P: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
 
 
 def _degenerate(kind: str, w: float, P: np.ndarray) -> DegeneratePrimitiveError:
+    how = KIND_SPECS[kind].degenerate.removeprefix("are ")  # "coplanar", "collinear" (KindSpec.degenerate)
     return DegeneratePrimitiveError(
         f"stance {kind} of {P.shape[0]} feet (points) {np.round(P, 4).tolist()}: the feet are (nearly) "
-        f"{'coplanar' if kind == 'sphere' else 'collinear'} (well-definedness {w:.3g}); no {kind} through them"
+        f"{how} (well-definedness {w:.3g}); no {kind} through them"
+    )
+
+
+def _exact_or_fit(spec: KindSpec, k: int) -> CooperativeKind:
+    """The task-graph kind of ``spec``'s primitive through ``k`` points: the exact kind for exactly
+    :attr:`~KindSpec.n_points` of them, its least-squares :attr:`~KindSpec.fit_kind` for more."""
+    return spec.name if k == spec.n_points or spec.fit_kind is None else spec.fit_kind
+
+
+def _circle_of(P: np.ndarray, idx: tuple[int, ...]) -> StancePrimitive:
+    """The stance circle through the 3 feet ``P`` (3, 3) [m] (asked for by name; collinear feet raise)."""
+    w = float(well_definedness("circle", P))
+    if not w > _RAISE_BELOW:
+        raise _degenerate("circle", w, P)
+    X = circle(*P)
+    return StancePrimitive(
+        "circle",
+        "circle",
+        X,
+        w,
+        idx,
+        f"circle through the 3 feet requested (well-definedness {w:.3g})",
+        np.asarray(center(X), float).reshape(3),
+        float(radius(X)),
+        np.asarray(normal(X), float).reshape(3),
     )
 
 
@@ -263,43 +294,36 @@ def stance_primitive(
     if kind is not None:
         validation.choice(kind, ("sphere", "plane", "circle"), "kind")
     idx = tuple(range(k))
-    if kind == "sphere" and k < 4:
-        raise InvalidInputError(f"a stance sphere needs at least 4 feet, got {k} (use 'plane' or 'circle')")
-    if kind == "circle":
-        if k != 3:
-            raise InvalidInputError(f"a stance circle goes through exactly 3 feet, got {k} (use 'plane' or 'sphere')")
-        w = float(well_definedness("circle", P))
-        if not w > _RAISE_BELOW:
-            raise _degenerate("circle", w, P)
-        X = circle(*P)
-        return StancePrimitive(
-            "circle",
-            "circle",
-            X,
-            w,
-            idx,
-            f"circle through the 3 feet requested (well-definedness {w:.3g})",
-            np.asarray(center(X), float).reshape(3),
-            float(radius(X)),
-            np.asarray(normal(X), float).reshape(3),
+    spec = KIND_SPECS[kind] if kind is not None else None
+    if spec is not None and spec.fit_kind is not None and k < spec.n_points:
+        raise InvalidInputError(
+            f"a stance {kind} needs at least {spec.n_points} feet, got {k} (use 'plane' or 'circle')"
         )
+    if spec is not None and spec.fit_kind is None:  # the circle: no least-squares kind, exactly its points
+        if k != spec.n_points:
+            raise InvalidInputError(
+                f"a stance {kind} goes through exactly {spec.n_points} feet, got {k} (use 'plane' or 'sphere')"
+            )
+        return _circle_of(P, idx)
     sw: float | None = None
     sr: float | None = None
     why = ""
-    if k >= 4 and kind in (None, "sphere"):
+    sph = KIND_SPECS["sphere"]
+    forced = spec is sph  # the sphere was asked for (None: the decision rule may choose it)
+    if k >= sph.n_points and (spec is None or forced):
         sw, c, r = _sphere_of(P)
-        task_kind = "sphere" if k == 4 else "sphere_fit"
+        task_kind = _exact_or_fit(sph, k)
         what = "the sphere through the 4 feet" if k == 4 else f"the least-squares sphere of the {k} feet"
-        if (sw >= w_min and r <= r_max) or (kind == "sphere" and sw > _RAISE_BELOW):
+        if (sw >= w_min and r <= r_max) or (forced and sw > _RAISE_BELOW):
             sr = r
-            X = sphere(*P) if k == 4 else fit_primitive("sphere_fit", P, raise_below=_RAISE_BELOW)
+            X = sphere(*P) if task_kind == sph.name else fit_primitive("sphere_fit", P, raise_below=_RAISE_BELOW)
             why = (
                 f"sphere: {what}, well-definedness {sw:.3g} ≥ w_min {w_min:g} and radius {r:.4g} m ≤ r_max {r_max:g} m"
                 if kind is None
                 else f"sphere requested: {what}, well-definedness {sw:.3g}, radius {r:.4g} m"
             )
             return StancePrimitive("sphere", task_kind, X, sw, idx, why, c, r, None, sw, r)
-        if kind == "sphere":
+        if forced:
             raise _degenerate("sphere", sw, P)
         if sw < w_min:
             why = f"{what} is ill-defined, the feet are (nearly) coplanar: well-definedness {sw:.3g} < w_min {w_min:g}"
@@ -309,16 +333,16 @@ def stance_primitive(
     w, c, n = _plane_of(P)
     if not w > _RAISE_BELOW:
         raise _degenerate("plane", w, P)
-    if k == 3:
+    pl = KIND_SPECS["plane"]
+    task_kind = _exact_or_fit(pl, k)
+    if task_kind == pl.name:
         X = plane(*P)
-        task_kind = "plane"
         what = "plane through the 3 feet"
     else:
         X = fit_primitive("plane_fit", P, raise_below=_RAISE_BELOW)
-        task_kind = "plane_fit"
         what = f"least-squares plane of the {k} feet"
     reason = f"{what} (well-definedness {w:.3g})" + (f": {why}" if why else "")
-    if kind == "plane":
+    if spec is pl:
         reason = "requested: " + reason
     return StancePrimitive("plane", task_kind, X, w, idx, reason, c, None, n, sw, sr)
 
@@ -349,22 +373,19 @@ def stance_order(stance_legs: Any) -> tuple[str, ...]:
     return tuple(leg for leg in STANCE_ORDER if leg in names)
 
 
-def _task_kind(kind: str | None, k: int, legs: tuple[str, ...]) -> str:
+def _task_kind(kind: str | None, k: int, legs: tuple[str, ...]) -> CooperativeKind:
     if kind is None:
         kind = "plane" if k == 3 else "sphere"
     validation.choice(kind, STANCE_KINDS, "kind")
-    need = {"sphere": 4, "sphere_fit": 4, "plane": 3, "plane_fit": 3, "circle": 3, "point_pair": 2}[kind]
-    exact = kind in ("circle", "point_pair")
+    spec = KIND_SPECS[kind]
+    need = spec.n_points
+    exact = not spec.least_squares and spec.fit_kind is None  # through exactly its points (circle, point pair)
     if k < need or (exact and k != need):
         raise InvalidInputError(
             f"a stance {kind} needs {f'exactly {need}' if exact else f'at least {need}'} stance feet, "
             f"got {k} in stance_legs ({', '.join(legs)})"
         )
-    if kind == "sphere" and k > 4:
-        return "sphere_fit"
-    if kind == "plane" and k > 3:
-        return "plane_fit"
-    return kind
+    return spec.name if spec.least_squares else _exact_or_fit(spec, k)
 
 
 #: the order of a point pair's two feet in :func:`stance_task` (right side first, rear to front)
@@ -402,7 +423,9 @@ def stance_task(
     legs = stance_order(stance_legs)
     k = len(legs)
     tk = _task_kind(kind, k, legs)
-    if tk == "point_pair":  # right before left, rear before front: the pair points toward +y (or +x), far from
+    if (
+        KIND_SPECS[tk].axis_role == "direction"
+    ):  # a point pair: right before left, rear before front: the pair points toward +y (or +x), far from
         legs = tuple(sorted(legs, key=_PAIR_ORDER.index))  # the −e2 antipode of the unit pair's axis (the chart's cut)
     frames = tuple(system.end_frames)
     missing = [f"{leg}_foot" for leg in legs if f"{leg}_foot" not in frames]

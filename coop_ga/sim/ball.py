@@ -470,6 +470,33 @@ def _squeeze_error(run: BallRun, windows: list[tuple[float, float]]) -> float:
     return float(np.max(np.abs(tr["squeeze"][k] / tr["squeeze_set"][k] - 1.0)))
 
 
+def _squeeze_metrics(run: BallRun, pt: dict[str, tuple[float, float]]) -> dict[str, float]:
+    """The squeeze and dilation entries of :func:`ball_metrics` (``pt``: the plan's phase times [s])."""
+    tr = run.trace
+
+    def tail(name: str, frac: float) -> tuple[float, float]:
+        a, b = pt[name]
+        return b - frac * (b - a), b
+
+    hold_windows = [
+        tail("settle", 0.6),
+        tail("tighten", 0.4),
+        tail("loosen", 0.4),
+        tail("undilate", 0.3),
+        pt["disturb"],
+    ]
+    rd, i_tight, i_loose = tr["radius_target"], _rows(run, *pt["tighten"]), _rows(run, *pt["loosen"])
+    return {
+        "squeeze_error_hold": _squeeze_error(run, hold_windows),
+        "squeeze_tight_N": float(np.mean(tr["squeeze"][_rows(run, *tail("tighten", 0.3))])),
+        "squeeze_loose_N": float(np.mean(tr["squeeze"][_rows(run, *tail("loosen", 0.3))])),
+        "dilation_tight_mm": float(1e3 * (rd[i_tight[0]] - rd[i_tight[-1]])),
+        "dilation_loose_mm": float(1e3 * (rd[i_loose[-1]] - rd[i_loose[0]])),
+        "dilated_squeeze_N": float(np.mean(tr["squeeze"][_rows(run, *tail("dilate", 0.3))])),
+        "undilated_squeeze_N": float(np.mean(tr["squeeze"][_rows(run, *tail("undilate", 0.3))])),
+    }
+
+
 def ball_metrics(run: BallRun) -> dict[str, Any]:
     """The run's measured claims (lengths [m] unless named _mm, forces [N]):
 
@@ -508,19 +535,6 @@ def ball_metrics(run: BallRun) -> dict[str, Any]:
     moved = pos[i_settle1] - pos[i_move0]
     pushes = _pushes(run, pos)
     slip = np.nanmax(slip_series(run, pt["squeeze"][1])[after], axis=0)
-
-    def tail(name: str, frac: float) -> tuple[float, float]:
-        a, b = pt[name]
-        return b - frac * (b - a), b
-
-    hold_windows = [
-        tail("settle", 0.6),
-        tail("tighten", 0.4),
-        tail("loosen", 0.4),
-        tail("undilate", 0.3),
-        pt["disturb"],
-    ]
-    rd, i_tight, i_loose = tr["radius_target"], _rows(run, *pt["tighten"]), _rows(run, *pt["loosen"])
     dropped = bool(np.linalg.norm(pos[-1] - plan_end) > 0.01 or np.min(fmag[after]) < 1e-6)
     ped_top = st.plan.centre[2] - st.ball_radius
     m = {
@@ -536,13 +550,7 @@ def ball_metrics(run: BallRun) -> dict[str, Any]:
         "push_displacement_max_mm": max(pushes.values()),
         "slip_mm": (1e3 * slip).tolist(),
         "slip_max_mm": float(1e3 * np.max(slip)),
-        "squeeze_error_hold": _squeeze_error(run, hold_windows),
-        "squeeze_tight_N": float(np.mean(tr["squeeze"][_rows(run, *tail("tighten", 0.3))])),
-        "squeeze_loose_N": float(np.mean(tr["squeeze"][_rows(run, *tail("loosen", 0.3))])),
-        "dilation_tight_mm": float(1e3 * (rd[i_tight[0]] - rd[i_tight[-1]])),
-        "dilation_loose_mm": float(1e3 * (rd[i_loose[-1]] - rd[i_loose[0]])),
-        "dilated_squeeze_N": float(np.mean(tr["squeeze"][_rows(run, *tail("dilate", 0.3))])),
-        "undilated_squeeze_N": float(np.mean(tr["squeeze"][_rows(run, *tail("undilate", 0.3))])),
+        **_squeeze_metrics(run, pt),
         "weight_estimate_kg": float(tr["weight_estimate"][min(int(np.searchsorted(t, pt["disturb"][0])), len(t) - 1)]),
         "saturated_updates": int(run.log.saturated_updates),
         "control_updates": int(run.log.control_updates),

@@ -28,6 +28,7 @@ import numpy as np
 from .. import validation
 from ..diagnostics import collect_warnings
 from ..errors import CoopGAError, InvalidInputError
+from ..geometry.kinds import Kind, kind_spec
 from ..viz.style import PALETTE
 from .drawing import DEFAULT_MAX_FACES, BodyNode, PathNode, PointsNode, PrimitiveNode, RobotNode
 from .recording import Recording, load_recording
@@ -329,7 +330,7 @@ def _frame_primitives(system: Any, Q: np.ndarray, primitives: Any) -> tuple[list
     if isinstance(primitives, str):
         from ..cooperative import cooperative_task
 
-        primitives = cooperative_task(system, primitives)
+        primitives = cooperative_task(system, kind_spec(primitives).name)  # checked: an unknown kind raises
     if not (hasattr(primitives, "primitive") and hasattr(primitives, "points")):
         if isinstance(primitives, Sequence) and len(primitives) == len(Q):
             return list(primitives), {}
@@ -456,8 +457,9 @@ class _PlaybackPage:
         self.slider.value = min(int(np.searchsorted(t, now)), len(t) - 1)
 
 
-def _primitive_kind(kind: str) -> str:
-    return {"sphere_fit": "sphere", "plane_fit": "plane"}.get(kind, kind)
+def _primitive_kind(kind: str) -> Kind:
+    """The exact kind of a task kind (``"sphere"`` for ``"sphere_fit"``; :attr:`KindSpec.primitive_kind`)."""
+    return kind_spec(kind).primitive_kind
 
 
 def play_recording(

@@ -55,19 +55,22 @@ from ..cooperative.manipulability import manipulability
 from ..diagnostics import collect_warnings
 from ..errors import CoopGAError, InvalidInputError
 from ..geometry.groups import Similarity
+from ..geometry.kinds import KIND_SPECS, KINDS, Kind, kind_spec
 
 __all__ = ["DILATION_KINDS", "Readout", "TeleopSession", "WarningRecord", "default_rz_mode", "quaternion_to_matrix"]
 
-#: primitive kinds that a dilation changes (the scale slider acts on them)
-DILATION_KINDS = ("point_pair", "circle", "sphere")
+#: primitive kinds that a dilation changes (the scale slider acts on them): the rounds with a radius
+DILATION_KINDS: tuple[Kind, ...] = tuple(k for k in KINDS if KIND_SPECS[k].has_radius)
 
 #: labels of the bivector rows (coop_ga.TANGENT_BASIS order)
 ROWS = ("e12", "e13", "e23", "e0∞", "e1∞", "e2∞", "e3∞")
 
 
-def default_rz_mode(kind: str) -> str:
-    """The sixth device axis for a primitive kind: ``'dilation'`` if a dilation changes it, else ``'rotation'``."""
-    return "dilation" if kind in DILATION_KINDS or kind == "point" else "rotation"
+def default_rz_mode(kind: Kind) -> str:
+    """The sixth device axis for a primitive kind: ``'dilation'`` if a dilation changes it (or it has no axis to turn
+    about: a point), else ``'rotation'``.  Raises :class:`~coop_ga.errors.UnknownNameError` for an unknown kind."""
+    spec = kind_spec(kind)
+    return "dilation" if spec.has_radius or spec.axis is None else "rotation"
 
 
 def quaternion_to_matrix(wxyz: Any) -> np.ndarray:
@@ -201,7 +204,7 @@ class TeleopSession:
         limit_margin: float = 1e-3,
     ):
         self.task = task
-        self.kind: str = task.primitive_kind
+        self.kind: Kind = task.primitive_kind
         self.rz_mode = (
             default_rz_mode(self.kind)
             if rz_mode is None

@@ -98,13 +98,14 @@ def _per_frame_primitives(system: Any, Q: np.ndarray, primitives: Any) -> list[A
     """One primitive (or None) per row of Q: None; a kind (the system's first end points); a callable
     q → primitive (e.g. ``task.primitive``); a sequence with one per row; or one primitive for all."""
     from ..geometry import N_POINTS, Primitive, primitive_from_points
+    from ..geometry.kinds import KIND_SPECS
 
     if primitives is None:
         return [None] * len(Q)
     if isinstance(primitives, str):
-        kind = validation.choice(primitives, tuple(N_POINTS), "primitives (a kind)")
-        n = N_POINTS[kind]
-        return [primitive_from_points(kind, system.end_points(q)[:n]) for q in Q]
+        spec = KIND_SPECS[validation.choice(primitives, tuple(N_POINTS), "primitives (a kind)")]
+        n = spec.n_points
+        return [primitive_from_points(spec.primitive_kind, system.end_points(q)[:n]) for q in Q]
     if isinstance(primitives, Primitive):
         return [primitives] * len(Q)
     if callable(primitives):

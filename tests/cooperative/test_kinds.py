@@ -212,6 +212,7 @@ def test_max_degree_is_how_the_coefficients_scale(kind: str) -> None:
 def test_least_squares_partner_fits_its_kind(kind: str) -> None:
     """A least-squares kind fits its primitive_kind; with n_points points the fit is that exact primitive."""
     spec = KIND_SPECS[kind]
+    assert spec.fit_name == (kind if spec.least_squares else None)
     if not spec.least_squares:
         assert spec.primitive_kind == kind
         if spec.fit_kind is not None:
