@@ -3,7 +3,11 @@
 and constrained sampling-based planning with OMPL (:mod:`~coop_ga.plan.ompl`, optional: the ``plan`` extra).
 """
 
+from .carried import CarriedBox, box_sphere_distance, points_frame
+from .ompl import PLANNERS, PlannerOptions, PlanningProblem, PlanResult, Validity, plan, seed_ompl
+from .projection import PROJECTION_OPTIONS, Projection, project
 from .regions import (
+    EndPoints,
     Readout,
     Region,
     RegionSample,
@@ -16,6 +20,14 @@ from .regions import (
 )
 
 __all__ = [
+    "PLANNERS",
+    "PROJECTION_OPTIONS",
+    "CarriedBox",
+    "EndPoints",
+    "PlanResult",
+    "PlannerOptions",
+    "PlanningProblem",
+    "Projection",
     "Readout",
     "Region",
     "RegionSample",
@@ -23,6 +35,12 @@ __all__ = [
     "Residual",
     "RigidGrasp",
     "Stack",
+    "Validity",
+    "box_sphere_distance",
     "finite_difference_jacobian",
+    "plan",
+    "points_frame",
+    "project",
     "readout",
+    "seed_ompl",
 ]

@@ -62,6 +62,7 @@ from .. import validation
 from ..errors import InvalidInputError
 
 __all__ = [
+    "EndPoints",
     "Readout",
     "Region",
     "RegionSample",
@@ -339,6 +340,31 @@ def _rigid_pairs(n: int) -> tuple[tuple[int, int], ...]:
     return tuple((j, i) for i in range(1, n) for j in range(max(0, i - 3), i))
 
 
+class EndPoints:
+    """The end points of ``frames`` of ``system`` by Pinocchio: ``(P (n, 3) [m], [J_i (3, nq)])`` world frame
+    (``LOCAL_WORLD_ALIGNED``; the Jacobians only when asked).  One Pinocchio data per object (not shared
+    between threads)."""
+
+    def __init__(self, system: Any, frames: Sequence[str]) -> None:
+        import pinocchio as pin
+
+        self._pin, self._model = pin, system.model
+        self._data = self._model.createData()
+        self._fids = [self._model.getFrameId(f) for f in frames]
+
+    def __call__(self, q: np.ndarray, jacobians: bool = False) -> tuple[np.ndarray, list[np.ndarray]]:
+        pin, model, data = self._pin, self._model, self._data
+        if jacobians:
+            pin.computeJointJacobians(model, data, q)
+        else:
+            pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        P = np.array([data.oMf[f].translation for f in self._fids])
+        if not jacobians:
+            return P, []
+        return P, [pin.getFrameJacobian(model, data, f, pin.LOCAL_WORLD_ALIGNED)[:3] for f in self._fids]
+
+
 class RigidGrasp:
     """The rigid grasp of a carried object as an equality path constraint (module docstring).
 
@@ -350,40 +376,25 @@ class RigidGrasp:
     """
 
     def __init__(self, task: Any, q_ref: Any, mode: str = "distances") -> None:
-        import pinocchio as pin
-
         self.task, self.nq = task, int(task.nq)
         self.mode = validation.choice(mode, ("distances", "scale"), "mode")
         q0 = validation.configuration(q_ref, self.nq, "q_ref")
-        self._pin = pin
-        model = task.system.model
-        self._model, self._data = model, model.createData()
-        self._fids = [model.getFrameId(f) for f in task.end_frames]
+        self.end_points = EndPoints(task.system, task.end_frames)
         if self.mode == "scale":
             if not task.spec.has_radius:
                 raise InvalidInputError(f"a {task.kind} has no scale: use mode='distances'")
             self.pairs: tuple[tuple[int, int], ...] = ()
             self.reference = np.array([float(readout(task, q0).log_scale)])  # type: ignore[arg-type]
         else:
-            self.pairs = _rigid_pairs(len(self._fids))
+            self.pairs = _rigid_pairs(len(task.end_frames))
             if not self.pairs:
                 raise InvalidInputError(f"a {task.kind} task has one end point: no grasp distances to hold")
             self.reference = self._distances(q0)[0]
         self.dim = len(self.reference)
 
     def points(self, q: np.ndarray, jacobians: bool = False) -> tuple[np.ndarray, list[np.ndarray]]:
-        """End points (n, 3) [m] by Pinocchio and, with ``jacobians``, their (3, nq) world Jacobians."""
-        pin, model, data = self._pin, self._model, self._data
-        if jacobians:
-            pin.computeJointJacobians(model, data, q)
-        else:
-            pin.forwardKinematics(model, data, q)
-        pin.updateFramePlacements(model, data)
-        P = np.array([data.oMf[f].translation for f in self._fids])
-        Js = (
-            [pin.getFrameJacobian(model, data, f, pin.LOCAL_WORLD_ALIGNED)[:3] for f in self._fids] if jacobians else []
-        )
-        return P, Js
+        """End points (n, 3) [m] and, with ``jacobians``, their (3, nq) world Jacobians (:class:`EndPoints`)."""
+        return self.end_points(q, jacobians)
 
     def _distances(self, q: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray]:
         P, Js = self.points(q, jacobian)
@@ -395,6 +406,14 @@ class RigidGrasp:
             if jacobian:
                 J[k] = (v / d[k]) @ (Js[i] - Js[j])
         return d, J
+
+    def value(self, q: Any) -> np.ndarray:
+        """The residual alone (dim,) (no Jacobian: one forward kinematics)."""
+        if self.mode == "scale":
+            return self.evaluate(q)[0]
+        qv = validation.configuration(q, self.nq, "q")
+        self.task.evaluate_views(qv)  # the degeneracy guard
+        return self._distances(qv, False)[0] - self.reference
 
     def evaluate(self, q: Any) -> tuple[np.ndarray, np.ndarray]:
         """``(r (dim,), J (dim, nq))``: distances (or log-scale) minus their reference values."""
@@ -419,6 +438,10 @@ class Stack:
         if any(int(p.nq) != self.nq for p in self.parts):
             raise InvalidInputError(f"Stack: residuals of different nq {[p.nq for p in self.parts]}")
         self.dim = sum(int(p.dim) for p in self.parts)
+
+    def value(self, q: Any) -> np.ndarray:
+        """The stacked residuals alone."""
+        return np.concatenate([p.value(q) if hasattr(p, "value") else p.evaluate(q)[0] for p in self.parts])
 
     def evaluate(self, q: Any) -> tuple[np.ndarray, np.ndarray]:
         """``(r, J)`` of every part, stacked."""
