@@ -31,11 +31,11 @@ import numpy as np
 from ..collision import CollisionModel, Plane, Sphere
 from ..errors import InvalidInputError
 from .carried import CarriedBox
-from .ompl import PlanningProblem
+from .ompl import PlannerOptions, PlanningProblem
 from .projection import project
 from .regions import EndPoints, Region, RigidGrasp
 
-__all__ = ["BoxLift", "EndPointTargets", "box_lift_problem"]
+__all__ = ["BOX_LIFT_OPTIONS", "BoxLift", "EndPointTargets", "box_lift_problem"]
 
 SYSTEM = "three_franka"
 GRASP_RADIUS, GRASP_HEIGHT = 0.3, 0.45  # [m] ρ and the TCPs' height
@@ -46,6 +46,11 @@ TILT = math.radians(10.0)  # [rad] the box's largest tilt (path and goal)
 SHELF_HEIGHT, SHELF_RADIUS, SHELF_OVERHANG = 0.55, 0.04, 0.05  # [m]
 GOAL_SHIFT = (-0.14, -0.08)  # [m] the goal centre's y range relative to the start
 GOAL_TOL_XY, GOAL_TOL_Z = 0.02, 0.01  # [m]
+
+#: the planner settings of the scene: RRTConnect on the projected space, extensions of at most 0.5 rad, the
+#: sampling box the start and goal configurations widened by 0.4 rad per joint (the lift moves each joint by
+#: less than 0.5 rad; over the whole joint limits, 0 of 6 seeds planned within 10 s), a 10 s budget
+BOX_LIFT_OPTIONS = PlannerOptions(range=0.5, window=0.4, time_limit=10.0)
 
 
 class EndPointTargets:

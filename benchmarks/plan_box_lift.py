@@ -1,0 +1,172 @@
+#!/usr/bin/env python
+"""Box lift past a shelf lip with OMPL over a cooperative region: the exact constraint Jacobian against OMPL's
+finite-difference one, in the same run.
+
+    python benchmarks/plan_box_lift.py [--seeds 50] [--fd-seeds 50] [--time-limit 10] [--ci] [--out DIR] [--quiet]
+
+Scene: :func:`coop_ga.plan.box_lift.box_lift_problem` — three_franka holds a 0.52 × 0.48 × 0.2 m box at its
+upper rim; goal region: the cooperative circle's centre 0.2 m higher (± 1 cm), 8–14 cm towards −y, normal within
+10° of vertical; path constraint: the rigid grasp (three TCP distances); path region: the box upright within
+10°; validity: joint limits, arm capsules clear of each other and of the shelf lip (five 4 cm spheres), the box
+clear of the lip and the table.  Planner: OMPL's RRTConnect on a ProjectedStateSpace (``BOX_LIFT_OPTIONS``:
+range 0.5 rad, sampling window 0.4 rad around the start and goal configurations), one thread.
+
+Per seed (the numpy seed of the goal samples; OMPL's generator is seeded once per process, so a plan's tree
+also depends on the plans before it), two plans, interleaved: ``exact`` (the constraint's ``jacobian`` is the
+chain rule through the compiled J^G and Pinocchio's point Jacobians) and ``finite_difference`` (the Python
+constraint leaves ``jacobian`` to OMPL's default central differences: 2·nq = 42 calls of the residual).
+A plan succeeds when OMPL returns an exact solution within the time limit and the interpolated path (steps of
+``delta`` = 0.05 rad, the collision-check resolution) passes every validity check with the constraint held to
+10 × its tolerance.
+
+Printed and written to ``<out>/plan_box_lift.json``: success rate (within the limit), median / 90th-percentile
+planning time [s] (goal sampling + planning + simplification), median path length [rad], the worst constraint
+violation along any interpolated path, constraint calls, the ratio finite-difference / exact of the median
+times (the speed claim is this ratio; times are noisy on the shared machine, the load is recorded), and the
+failures with their reasons.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(__file__))
+from _timing import print_table
+
+VARIANTS = ("exact", "finite_difference")
+
+
+def _record(r: Any, limit: float) -> dict[str, Any]:
+    seg = float(np.max(np.linalg.norm(np.diff(r.path, axis=0), axis=1))) if len(r.path) > 1 else float("nan")
+    return {
+        "success": bool(r.success and r.time <= limit),
+        "solved": bool(r.success),
+        "status": r.status,
+        "message": r.message,
+        "time_s": r.time,
+        "goal_time_s": r.goal_time,
+        "plan_time_s": r.plan_time,
+        "simplify_time_s": r.simplify_time,
+        "length_rad": r.length,
+        "max_violation": r.max_violation,
+        "max_segment_rad": seg,
+        "waypoints": len(r.path),
+        "constraint_calls": r.constraint_calls,
+    }
+
+
+def _summary(recs: list[dict[str, Any]]) -> dict[str, Any]:
+    t = np.array([r["time_s"] for r in recs])
+    ok = [r for r in recs if r["success"]]
+    return {
+        "plans": len(recs),
+        "successes": len(ok),
+        "success_rate": len(ok) / max(len(recs), 1),
+        "median_time_s": float(np.median(t)) if len(t) else float("nan"),
+        "p90_time_s": float(np.percentile(t, 90)) if len(t) else float("nan"),
+        "median_length_rad": float(np.median([r["length_rad"] for r in ok])) if ok else float("nan"),
+        "worst_violation": float(max((r["max_violation"] for r in ok), default=float("nan"))),
+        "max_segment_rad": float(max((r["max_segment_rad"] for r in ok), default=float("nan"))),
+        "median_constraint_calls": float(np.median([r["constraint_calls"] for r in recs])) if recs else 0.0,
+        "failures": [
+            f"seed {r['seed']}: {r['message'] or r['status']} ({r['time_s']:.1f} s)" for r in recs if not r["success"]
+        ],
+    }
+
+
+def run(seeds: int, fd_seeds: int, time_limit: float, quiet: bool) -> dict[str, Any]:
+    from tqdm import tqdm
+
+    from coop_ga.plan import plan
+    from coop_ga.plan.box_lift import BOX_LIFT_OPTIONS, box_lift_problem
+
+    scene = box_lift_problem()
+    opts = {v: BOX_LIFT_OPTIONS.__class__(**{**BOX_LIFT_OPTIONS.__dict__, "jacobian": v, "time_limit": time_limit})
+            for v in VARIANTS}  # fmt: skip
+    records: dict[str, list[dict[str, Any]]] = {v: [] for v in VARIANTS}
+    load = [os.getloadavg()[0]]
+    for seed in tqdm(range(seeds), desc="box lift", disable=quiet):
+        for v in VARIANTS:
+            if v == "finite_difference" and seed >= fd_seeds:
+                continue
+            r = plan(scene.problem, opts[v], seed=seed)
+            records[v].append({"seed": seed, **_record(r, time_limit)})
+        load.append(os.getloadavg()[0])
+    summary = {v: _summary(records[v]) for v in VARIANTS}
+    ratio = summary["finite_difference"]["median_time_s"] / summary["exact"]["median_time_s"]
+    return {
+        "scene": "coop_ga.plan.box_lift.box_lift_problem()",
+        "options": dict(BOX_LIFT_OPTIONS.__dict__),
+        "time_limit_s": time_limit,
+        "load_1min": {"min": min(load), "max": max(load)},
+        "cpu_count": os.cpu_count(),
+        "summary": summary,
+        "fd_over_exact_median_time": ratio,
+        "records": records,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("--seeds", type=int, default=50, help="plans per variant (default 50)")
+    ap.add_argument(
+        "--fd-seeds", type=int, default=None, help="plans of the finite-difference variant (default: --seeds)"
+    )
+    ap.add_argument("--time-limit", type=float, default=10.0, help="seconds per plan (default 10)")
+    ap.add_argument("--ci", action="store_true", help="3 seeds per variant (the CI test reads the JSON)")
+    ap.add_argument("--out", default="results/benchmarks/plan_box_lift", help="output folder")
+    ap.add_argument("--quiet", action="store_true")
+    a = ap.parse_args(argv)
+    seeds = 3 if a.ci else a.seeds
+    fd = seeds if a.fd_seeds is None else min(a.fd_seeds, seeds)
+    t0 = time.perf_counter()
+    doc = run(seeds, fd, a.time_limit, a.quiet)
+    doc["wall_s"] = time.perf_counter() - t0
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "plan_box_lift.json").write_text(json.dumps(_clean(doc), indent=1, allow_nan=False))
+    if not a.quiet:
+        rows = []
+        for v in VARIANTS:
+            s = doc["summary"][v]
+            rows.append([v, f"{s['successes']}/{s['plans']}", f"{100 * s['success_rate']:.0f} %",
+                         f"{s['median_time_s']:.2f}", f"{s['p90_time_s']:.2f}", f"{s['median_length_rad']:.3f}",
+                         f"{s['worst_violation']:.2g}", f"{s['median_constraint_calls']:.0f}"])  # fmt: skip
+        print_table(
+            f"box lift, {a.time_limit:g} s per plan (load {doc['load_1min']['min']:.1f}–{doc['load_1min']['max']:.1f} "
+            f"on {doc['cpu_count']} cores)",
+            ["jacobian", "solved", "rate", "median s", "p90 s", "length rad", "worst ‖r‖", "constraint calls"],
+            rows,
+        )
+        capped = doc["summary"]["finite_difference"]["success_rate"] < 0.5
+        print(
+            f"\nfinite-difference / exact median time: {doc['fd_over_exact_median_time']:.2f}×"
+            + (" (a lower bound: most finite-difference plans ran into the time limit)" if capped else "")
+        )
+        for v in VARIANTS:
+            for f in doc["summary"][v]["failures"]:
+                print(f"  {v} failure: {f}")
+    return 0
+
+
+def _clean(x: Any) -> Any:
+    """NaN / inf → None (strict JSON), recursively."""
+    if isinstance(x, dict):
+        return {k: _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    return x
+
+
+if __name__ == "__main__":
+    sys.exit(main())
