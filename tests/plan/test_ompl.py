@@ -175,3 +175,16 @@ def test_exact_constraint_jacobian_equals_omplss_finite_differences(scene, resul
         fd.function(q, out)
         assert np.max(np.abs(out)) < 1e-4
         assert np.max(np.abs(Je - Jf)) < 1e-6 and np.max(np.abs(Je)) > 0.1
+
+
+def test_toppra_times_the_path_within_the_limits(scene, result):
+    from coop_ga.plan.timing import time_parameterise
+
+    lim = scene.problem.system.limits
+    tm = time_parameterise(result.path, lim)
+    assert tm.duration > 0 and np.allclose(tm.q[0], result.path[0]) and np.allclose(tm.q[-1], result.path[-1])
+    assert np.max(np.abs(tm.qd[[0, -1]])) < 1e-9  # from rest to rest
+    assert tm.velocity_excess == 0.0 and np.all(np.abs(tm.qd) <= lim.velocity + 1e-9)
+    assert np.all(np.abs(tm.qdd) <= lim.acceleration * 1.01)  # TOPP-RA's constant-acceleration grid: ≤ 1 %
+    err = max(np.max(np.abs(scene.problem.path_constraint.value(q))) for q in tm.q)
+    assert err < 1e-3  # the spline between waypoints 0.05 rad apart leaves the grasp by < 1 mm
