@@ -11,7 +11,8 @@ joint limits, free of collisions — with OMPL's own pieces only:
 * the state space is OMPL's ``ProjectedStateSpace`` (or ``AtlasStateSpace``) over a ``RealVectorStateSpace``
   whose bounds are the joint limits; OMPL projects samples and interpolates along the manifold (its discrete
   geodesic, steps of ``delta``), and its ``ConstrainedMotionValidator`` checks every step;
-* the planner is OMPL's (``RRTConnect``, ``KPIECE1``, ``RRT``, ``BiTRRT``) through ``SimpleSetup``;
+* the planner is OMPL's (``RRTConnect``, ``KPIECE1``, ``RRT``; the bindings of ``ompl`` 2.0.1 have no BiTRRT)
+  through ``SimpleSetup``;
 * validity (:class:`Validity`): the joint limits, :class:`~coop_ga.collision.CollisionModel` (self and obstacle
   clearances of the arms' capsules), the carried box's clearance (:class:`~coop_ga.plan.carried.CarriedBox`)
   and an optional inequality path region (e.g. the box upright within a cone);
@@ -47,7 +48,7 @@ from .projection import project
 __all__ = ["PLANNERS", "PlanResult", "PlannerOptions", "PlanningProblem", "Validity", "plan", "seed_ompl"]
 
 #: the OMPL geometric planners :func:`plan` accepts
-PLANNERS = ("RRTConnect", "KPIECE1", "RRT", "BiTRRT")
+PLANNERS = ("RRTConnect", "KPIECE1", "RRT")
 
 #: residual reported by a constraint function where the primitive degenerates (a state far off the manifold)
 _DEGENERATE_RESIDUAL = 1e3
