@@ -295,7 +295,8 @@ def _goal_configurations(problem: PlanningProblem, o: PlannerOptions, valid: Val
             break
         target = problem.goal.target(problem.goal.sample(rng))
         p = project(Stack([problem.path_constraint, target]), problem.system, q_seed)
-        if p.converged and np.max(np.abs(_value(problem.path_constraint, p.q))) <= o.tolerance and valid(p.q):
+        on = p.converged and np.max(np.abs(_value(problem.path_constraint, p.q))) <= o.tolerance
+        if on and problem.goal.contains(p.q, 1e-6) and valid(p.q):
             out.append(p.q)
     return out
 

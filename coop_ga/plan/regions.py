@@ -284,24 +284,42 @@ class Region:
         return bool(np.max(np.abs(self.evaluate(q)[0]), initial=0.0) <= tol)
 
     # ------------------------------------------------------------------ sampling
-    def sample(self, rng: np.random.Generator) -> RegionSample:
-        """A uniformly random point of the region: centre uniform in its box, axis uniform on the cone's cap,
-        log-scale uniform in its interval (every bounded coordinate must be finite)."""
+    def sample(self, rng: np.random.Generator, tries: int = 100) -> RegionSample:
+        """A random point of the region: centre uniform in its box, axis uniform on the cone's cap, log-scale
+        uniform in its interval (every bounded coordinate must be finite).
+
+        A flat's centre is its point closest to the frame's origin, so it is tied to its axis (a line's lies
+        ⟂ to its direction, a plane's along its normal): the sampled centre is projected accordingly, and a
+        sample whose projected centre leaves the box is drawn again (up to ``tries`` times; then
+        :class:`~coop_ga.errors.InvalidInputError`: the box and the cone hardly intersect)."""
         if not (np.all(np.isfinite(self.lower)) and np.all(np.isfinite(self.upper))):
             raise InvalidInputError("sample() needs finite centre bounds; give centre_lower and centre_upper")
-        x = rng.uniform(self.lower, self.upper)
-        o = None
-        if self.cone_axis is not None:
-            z = rng.uniform(math.cos(self.cone_angle), 1.0)
-            phi = rng.uniform(0.0, 2.0 * math.pi)
-            s = math.sqrt(max(1.0 - z * z, 0.0))
-            a = self.cone_axis
-            e1 = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-            e1 /= np.linalg.norm(e1)
-            e2 = np.cross(a, e1)
-            o = z * a + s * (math.cos(phi) * e1 + math.sin(phi) * e2)
-        b = None if self.beta is None else float(rng.uniform(*self.beta))
-        return RegionSample(x, o, b)
+        spec = self.task.spec
+        for _ in range(tries):
+            x = rng.uniform(self.lower, self.upper)
+            o = None if self.cone_axis is None else self._cone_sample(rng)
+            if spec.flat and o is not None:
+                x = x - (x @ o) * o if spec.axis_role == "direction" else (x @ o) * o
+                if np.any(x < self.lower - 1e-12) or np.any(x > self.upper + 1e-12):
+                    continue
+            b = None if self.beta is None else float(rng.uniform(*self.beta))
+            return RegionSample(x, o, b)
+        raise InvalidInputError(
+            f"no consistent {self.task.kind} in the region after {tries} samples: a flat's closest point to the "
+            "frame's origin is tied to its axis; widen the centre bounds or the cone"
+        )
+
+    def _cone_sample(self, rng: np.random.Generator) -> np.ndarray:
+        """A direction uniform on the cap of the cone (region frame)."""
+        assert self.cone_axis is not None
+        z = rng.uniform(math.cos(self.cone_angle), 1.0)
+        phi = rng.uniform(0.0, 2.0 * math.pi)
+        s = math.sqrt(max(1.0 - z * z, 0.0))
+        a = self.cone_axis
+        e1 = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(a, e1)
+        return z * a + s * (math.cos(phi) * e1 + math.sin(phi) * e2)
 
     def target(self, sample: RegionSample) -> RegionTarget:
         """The equality residual to ``sample`` (a goal sampler's projection target)."""

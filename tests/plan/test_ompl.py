@@ -186,6 +186,17 @@ def test_other_ompl_planners_and_the_atlas_space_solve_the_box_lift(scene, plann
     assert scene.problem.goal.contains(r.path[-1], 1e-6)
 
 
+@pytest.mark.parametrize("name", ["hand_sphere_problem", "arms_line_problem"])
+def test_the_hand_sphere_and_the_two_arm_line_scenes_plan(name):
+    from coop_ga.plan import scenes
+
+    problem = getattr(scenes, name)()
+    r = plan(problem, scenes.SCENE_OPTIONS, seed=0, time_limit=60.0)
+    assert r.success and r.valid and r.max_violation <= 10 * scenes.SCENE_OPTIONS.tolerance, r.message
+    assert problem.goal.contains(r.path[-1], 1e-6) and not problem.goal.contains(r.path[0], 1e-3)
+    assert np.max(np.abs(problem.path_constraint.evaluate(r.path[-1])[0])) <= 10 * scenes.SCENE_OPTIONS.tolerance
+
+
 def test_toppra_times_the_path_within_the_limits(scene, result):
     pytest.importorskip("toppra")
     from coop_ga.plan.timing import time_parameterise

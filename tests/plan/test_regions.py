@@ -81,7 +81,8 @@ def test_region_and_target_jacobians_match_finite_differences(load_system, kind,
     assert np.all(np.abs(r) > 1e-3)  # every row active
     Jfd = finite_difference_jacobian(reg, q, h=1e-6, central=True)
     assert np.max(np.abs(J - Jfd)) < 1e-7 * max(1.0, np.max(np.abs(J)))
-    tgt = reg.target(reg.sample(rng))
+    wide = Region(task, -1.0, 1.0, cone_axis=reg.cone_axis, cone_angle=0.05, log_scale=reg.beta, frame=_frame())
+    tgt = reg.target(wide.sample(rng))
     r, J = tgt.evaluate(q)
     Jfd = finite_difference_jacobian(tgt, q, h=1e-6, central=True)
     assert np.max(np.abs(J - Jfd)) < 1e-7 * max(1.0, np.max(np.abs(J)))
@@ -132,6 +133,20 @@ def test_contains_distance_and_sampling(load_system, rng):
         assert np.all(smp.centre >= inside.lower) and np.all(smp.centre <= inside.upper)
         assert smp.axis @ inside.cone_axis >= math.cos(0.1) - 1e-12 and abs(np.linalg.norm(smp.axis) - 1) < 1e-12
         assert inside.beta[0] <= smp.log_scale <= inside.beta[1]
+
+
+@pytest.mark.parametrize("kind", ["line", "plane"])
+def test_flat_samples_are_consistent_with_their_axis(load_system, kind, rng):
+    _, task, _ = _setup(load_system, kind)
+    reg = Region(task, -0.2, 0.2, cone_axis=[0.0, 0.3, 1.0] if kind == "plane" else [0.0, 1.0, 0.1], cone_angle=0.3,
+                 frame=_frame())  # fmt: skip
+    for _ in range(20):
+        smp = reg.sample(rng)
+        if kind == "line":  # the closest point to the origin is ⟂ to the direction
+            assert abs(smp.centre @ smp.axis) < 1e-12
+        else:  # and along the normal for a plane
+            assert np.linalg.norm(np.cross(smp.centre, smp.axis)) < 1e-12
+        assert np.all(smp.centre >= reg.lower - 1e-12) and np.all(smp.centre <= reg.upper + 1e-12)
 
 
 def test_bad_regions_are_refused(load_system):
