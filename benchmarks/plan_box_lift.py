@@ -2,7 +2,8 @@
 """Box lift past a shelf lip with OMPL over a cooperative region: the exact constraint Jacobian against OMPL's
 finite-difference one, in the same run.
 
-    python benchmarks/plan_box_lift.py [--seeds 50] [--fd-seeds 50] [--time-limit 10] [--ci] [--out DIR] [--quiet]
+    python benchmarks/plan_box_lift.py [--seeds 50] [--fd-seeds 50] [--scene-seeds 20] [--time-limit 10] [--ci]
+                                       [--out DIR] [--quiet]
 
 Scene: :func:`coop_ga.plan.box_lift.box_lift_problem` — three_franka holds a 0.52 × 0.48 × 0.2 m box at its
 upper rim; goal region: the cooperative circle's centre 0.2 m higher (± 1 cm), 8–14 cm towards −y, normal within
@@ -10,6 +11,11 @@ upper rim; goal region: the cooperative circle's centre 0.2 m higher (± 1 cm), 
 10°; validity: joint limits, arm capsules clear of each other and of the shelf lip (five 4 cm spheres), the box
 clear of the lip and the table.  Planner: OMPL's RRTConnect on a ProjectedStateSpace (``BOX_LIFT_OPTIONS``:
 range 0.5 rad, sampling window 0.4 rad around the start and goal configurations), one thread.
+
+Two more scenes (:mod:`coop_ga.plan.scenes`, ``--scene-seeds`` plans each): ``hand_sphere`` — the Allegro hand
+moves the sphere of its four fingertips 8 mm up, its radius held; ``arms_line`` — two G1 arms lift the line
+through their wrists 8 cm (direction within 10°), the hands' distance held.  Both without obstacles (the
+hands' and arms' own capsules only): they show the sphere and line regions, not a hard search.
 
 Per seed (the numpy seed of the goal samples; OMPL's generator is seeded once per process, so a plan's tree
 also depends on the plans before it), two plans, interleaved: ``exact`` (the constraint's ``jacobian`` is the
@@ -82,78 +88,96 @@ def _summary(recs: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def run(seeds: int, fd_seeds: int, time_limit: float, quiet: bool) -> dict[str, Any]:
+def _scenes() -> dict[str, tuple[Any, Any]]:
+    """name → (problem, options) of the three scenes."""
+    from coop_ga.plan.box_lift import BOX_LIFT_OPTIONS, box_lift_problem
+    from coop_ga.plan.scenes import SCENE_OPTIONS, arms_line_problem, hand_sphere_problem
+
+    return {
+        "box_lift": (box_lift_problem().problem, BOX_LIFT_OPTIONS),
+        "hand_sphere": (hand_sphere_problem(), SCENE_OPTIONS),
+        "arms_line": (arms_line_problem(), SCENE_OPTIONS),
+    }
+
+
+def run_scene(name: str, problem: Any, options: Any, seeds: int, fd_seeds: int, limit: float, quiet: bool) -> dict:
+    """Both variants on ``seeds`` seeds (the finite-difference one on the first ``fd_seeds``), interleaved."""
+    import dataclasses
+
     from tqdm import tqdm
 
     from coop_ga.plan import plan
-    from coop_ga.plan.box_lift import BOX_LIFT_OPTIONS, box_lift_problem
 
-    scene = box_lift_problem()
-    opts = {v: BOX_LIFT_OPTIONS.__class__(**{**BOX_LIFT_OPTIONS.__dict__, "jacobian": v, "time_limit": time_limit})
-            for v in VARIANTS}  # fmt: skip
+    opts = {v: dataclasses.replace(options, jacobian=v, time_limit=limit) for v in VARIANTS}
     records: dict[str, list[dict[str, Any]]] = {v: [] for v in VARIANTS}
     load = [os.getloadavg()[0]]
-    for seed in tqdm(range(seeds), desc="box lift", disable=quiet):
+    for seed in tqdm(range(seeds), desc=name, disable=quiet):
         for v in VARIANTS:
             if v == "finite_difference" and seed >= fd_seeds:
                 continue
-            r = plan(scene.problem, opts[v], seed=seed)
-            records[v].append({"seed": seed, **_record(r, time_limit)})
+            r = plan(problem, opts[v], seed=seed)
+            records[v].append({"seed": seed, **_record(r, limit)})
         load.append(os.getloadavg()[0])
     summary = {v: _summary(records[v]) for v in VARIANTS}
-    ratio = summary["finite_difference"]["median_time_s"] / summary["exact"]["median_time_s"]
     return {
-        "scene": "coop_ga.plan.box_lift.box_lift_problem()",
-        "options": dict(BOX_LIFT_OPTIONS.__dict__),
-        "time_limit_s": time_limit,
+        "options": dataclasses.asdict(options),
         "load_1min": {"min": min(load), "max": max(load)},
-        "cpu_count": os.cpu_count(),
         "summary": summary,
-        "fd_over_exact_median_time": ratio,
+        "fd_over_exact_median_time": summary["finite_difference"]["median_time_s"] / summary["exact"]["median_time_s"],
         "records": records,
     }
 
 
+def _print(doc: dict[str, Any], limit: float) -> None:
+    for name, sc in doc["scenes"].items():
+        rows = []
+        for v in VARIANTS:
+            s = sc["summary"][v]
+            rows.append([v, f"{s['successes']}/{s['plans']}", f"{100 * s['success_rate']:.0f} %",
+                         f"{s['median_time_s']:.2f}", f"{s['p90_time_s']:.2f}", f"{s['median_length_rad']:.3f}",
+                         f"{s['worst_violation']:.2g}", f"{s['median_constraint_calls']:.0f}"])  # fmt: skip
+        ld = sc["load_1min"]
+        print_table(
+            f"{name}, {limit:g} s per plan (load {ld['min']:.1f}–{ld['max']:.1f} on {doc['cpu_count']} cores)",
+            ["jacobian", "solved", "rate", "median s", "p90 s", "length rad", "worst ‖r‖", "constraint calls"],
+            rows,
+        )
+        capped = sc["summary"]["finite_difference"]["success_rate"] < 0.5
+        print(
+            f"finite-difference / exact median time: {sc['fd_over_exact_median_time']:.2f}×"
+            + (" (a lower bound: most finite-difference plans ran into the time limit)" if capped else "")
+        )
+        for v in VARIANTS:
+            for f in sc["summary"][v]["failures"]:
+                print(f"  {v} failure: {f}")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--seeds", type=int, default=50, help="plans per variant (default 50)")
+    ap.add_argument("--seeds", type=int, default=50, help="box-lift plans per variant (default 50)")
     ap.add_argument(
-        "--fd-seeds", type=int, default=None, help="plans of the finite-difference variant (default: --seeds)"
+        "--fd-seeds", type=int, default=None, help="box-lift plans of the finite-difference variant (default: --seeds)"
     )
+    ap.add_argument("--scene-seeds", type=int, default=20, help="plans per variant of the other scenes (default 20)")
     ap.add_argument("--time-limit", type=float, default=10.0, help="seconds per plan (default 10)")
-    ap.add_argument("--ci", action="store_true", help="3 seeds per variant (the CI test reads the JSON)")
+    ap.add_argument("--ci", action="store_true", help="2 seeds per variant and scene (the CI test reads the JSON)")
     ap.add_argument("--out", default="results/benchmarks/plan_box_lift", help="output folder")
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
-    seeds = 3 if a.ci else a.seeds
+    seeds = 2 if a.ci else a.seeds
     fd = seeds if a.fd_seeds is None else min(a.fd_seeds, seeds)
+    other = 2 if a.ci else a.scene_seeds
     t0 = time.perf_counter()
-    doc = run(seeds, fd, a.time_limit, a.quiet)
+    doc: dict[str, Any] = {"time_limit_s": a.time_limit, "cpu_count": os.cpu_count(), "scenes": {}}
+    for name, (problem, options) in _scenes().items():
+        n, nfd = (seeds, fd) if name == "box_lift" else (other, other)
+        doc["scenes"][name] = run_scene(name, problem, options, n, nfd, a.time_limit, a.quiet)
     doc["wall_s"] = time.perf_counter() - t0
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "plan_box_lift.json").write_text(json.dumps(_clean(doc), indent=1, allow_nan=False))
     if not a.quiet:
-        rows = []
-        for v in VARIANTS:
-            s = doc["summary"][v]
-            rows.append([v, f"{s['successes']}/{s['plans']}", f"{100 * s['success_rate']:.0f} %",
-                         f"{s['median_time_s']:.2f}", f"{s['p90_time_s']:.2f}", f"{s['median_length_rad']:.3f}",
-                         f"{s['worst_violation']:.2g}", f"{s['median_constraint_calls']:.0f}"])  # fmt: skip
-        print_table(
-            f"box lift, {a.time_limit:g} s per plan (load {doc['load_1min']['min']:.1f}–{doc['load_1min']['max']:.1f} "
-            f"on {doc['cpu_count']} cores)",
-            ["jacobian", "solved", "rate", "median s", "p90 s", "length rad", "worst ‖r‖", "constraint calls"],
-            rows,
-        )
-        capped = doc["summary"]["finite_difference"]["success_rate"] < 0.5
-        print(
-            f"\nfinite-difference / exact median time: {doc['fd_over_exact_median_time']:.2f}×"
-            + (" (a lower bound: most finite-difference plans ran into the time limit)" if capped else "")
-        )
-        for v in VARIANTS:
-            for f in doc["summary"][v]["failures"]:
-                print(f"  {v} failure: {f}")
+        _print(doc, a.time_limit)
     return 0
 
 
