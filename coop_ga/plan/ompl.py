@@ -69,11 +69,12 @@ _SEEDED: list[int] = []
 
 
 def seed_ompl(seed: int) -> None:
-    """Seed OMPL's random generators (effective once per process, before OMPL draws its first number)."""
+    """Seed OMPL's random generators with ``seed + 1`` (OMPL refuses 0); effective once per process, before
+    OMPL draws its first number."""
     _, _, ou = _ompl()
     if not _SEEDED:
         ou.setLogLevel(ou.LogLevel.LOG_WARN)
-        ou.RNG.setSeed(int(seed))
+        ou.RNG.setSeed(int(seed) + 1)
         _SEEDED.append(int(seed))
 
 
