@@ -1,6 +1,14 @@
-"""Planning over cooperative regions: regions of a primitive's natural coordinates with exact Jacobians
-(:mod:`~coop_ga.plan.regions`), projection onto their constraint manifolds (:mod:`~coop_ga.plan.projection`)
-and constrained sampling-based planning with OMPL (:mod:`~coop_ga.plan.ompl`, optional: the ``plan`` extra).
+"""Planning over cooperative regions.
+
+* :mod:`~coop_ga.plan.regions` — regions of a primitive's natural coordinates (centre, axis cone, log-scale) in
+  a user frame, the rigid grasp, with exact Jacobians through the compiled J^G;
+* :mod:`~coop_ga.plan.projection` — projection onto a residual's zero set by the bounded Gauss–Newton of
+  :mod:`coop_ga.control`;
+* :mod:`~coop_ga.plan.ompl` — constrained sampling-based planning with OMPL (the ``plan`` extra);
+* :mod:`~coop_ga.plan.carried` — a box carried by the end points and its clearances;
+* :mod:`~coop_ga.plan.timing` — TOPP-RA time parameterisation within the joint limits (the ``plan`` extra);
+* :mod:`~coop_ga.plan.box_lift`, :mod:`~coop_ga.plan.scenes` — the benchmark scenes (box lift past a shelf lip,
+  an Allegro sphere, a two-arm G1 line).
 """
 
 from .carried import CarriedBox, box_sphere_distance, points_frame
