@@ -3,7 +3,7 @@
 finite-difference one, in the same run.
 
     python benchmarks/plan_box_lift.py [--seeds 50] [--fd-seeds 50] [--scene-seeds 20] [--time-limit 10] [--ci]
-                                       [--out DIR] [--quiet]
+                                       [--seed 0] [--out DIR] [--quiet]
 
 Scene: :func:`coop_ga.plan.box_lift.box_lift_problem` — three_franka holds a 0.52 × 0.48 × 0.2 m box at its
 upper rim; goal region: the cooperative circle's centre 0.2 m higher (± 1 cm), 8–14 cm towards −y, normal within
@@ -34,7 +34,6 @@ failures with their reasons.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -100,8 +99,11 @@ def _scenes() -> dict[str, tuple[Any, Any]]:
     }
 
 
-def run_scene(name: str, problem: Any, options: Any, seeds: int, fd_seeds: int, limit: float, quiet: bool) -> dict:
-    """Both variants on ``seeds`` seeds (the finite-difference one on the first ``fd_seeds``), interleaved."""
+def run_scene(
+    name: str, problem: Any, options: Any, first: int, seeds: int, fd_seeds: int, limit: float, quiet: bool
+) -> dict:
+    """Both variants on the seeds ``first … first + seeds − 1`` (the finite-difference one on the first
+    ``fd_seeds``), interleaved."""
     import dataclasses
 
     from tqdm import tqdm
@@ -111,9 +113,9 @@ def run_scene(name: str, problem: Any, options: Any, seeds: int, fd_seeds: int, 
     opts = {v: dataclasses.replace(options, jacobian=v, time_limit=limit) for v in VARIANTS}
     records: dict[str, list[dict[str, Any]]] = {v: [] for v in VARIANTS}
     load = [os.getloadavg()[0]]
-    for seed in tqdm(range(seeds), desc=name, disable=quiet):
+    for seed in tqdm(range(first, first + seeds), desc=name, disable=quiet):
         for v in VARIANTS:
-            if v == "finite_difference" and seed >= fd_seeds:
+            if v == "finite_difference" and seed >= first + fd_seeds:
                 continue
             r = plan(problem, opts[v], seed=seed)
             records[v].append({"seed": seed, **_record(r, limit)})
@@ -153,29 +155,27 @@ def _print(doc: dict[str, Any], limit: float) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter)
-    ap.add_argument("--seeds", type=int, default=50, help="box-lift plans per variant (default 50)")
-    ap.add_argument(
-        "--fd-seeds", type=int, default=None, help="box-lift plans of the finite-difference variant (default: --seeds)"
-    )
-    ap.add_argument("--scene-seeds", type=int, default=20, help="plans per variant of the other scenes (default 20)")
-    ap.add_argument("--time-limit", type=float, default=10.0, help="seconds per plan (default 10)")
-    ap.add_argument("--ci", action="store_true", help="2 seeds per variant and scene (the CI test reads the JSON)")
-    ap.add_argument("--out", default="results/benchmarks/plan_box_lift", help="output folder")
-    ap.add_argument("--quiet", action="store_true")
-    a = ap.parse_args(argv)
+    from coop_ga.harness import Experiment, int_at_least, positive_float
+
+    exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/plan_box_lift"))
+    exp.add("--seeds", type=int_at_least(1), default=50, help="box-lift plans per variant")
+    exp.add("--fd-seeds", type=int_at_least(0), default=None, help="box-lift plans of the finite-difference variant "
+            "(None: --seeds)")  # fmt: skip
+    exp.add("--scene-seeds", type=int_at_least(1), default=20, help="plans per variant of the other scenes")
+    exp.add("--time-limit", type=positive_float, default=10.0, help="seconds per plan")
+    exp.add("--ci", action="store_true", help="2 seeds per variant and scene (the times mean nothing)")
+    a = exp.parse(argv)
     seeds = 2 if a.ci else a.seeds
     fd = seeds if a.fd_seeds is None else min(a.fd_seeds, seeds)
     other = 2 if a.ci else a.scene_seeds
     t0 = time.perf_counter()
-    doc: dict[str, Any] = {"time_limit_s": a.time_limit, "cpu_count": os.cpu_count(), "scenes": {}}
+    doc: dict[str, Any] = {"time_limit_s": a.time_limit, "cpu_count": os.cpu_count(), "first_seed": a.seed,
+                           "scenes": {}}  # fmt: skip
     for name, (problem, options) in _scenes().items():
         n, nfd = (seeds, fd) if name == "box_lift" else (other, other)
-        doc["scenes"][name] = run_scene(name, problem, options, n, nfd, a.time_limit, a.quiet)
+        doc["scenes"][name] = run_scene(name, problem, options, a.seed, n, nfd, a.time_limit, bool(a.quiet))
     doc["wall_s"] = time.perf_counter() - t0
-    out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "plan_box_lift.json").write_text(json.dumps(_clean(doc), indent=1, allow_nan=False))
+    (exp.out / "plan_box_lift.json").write_text(json.dumps(_clean(doc), indent=1, allow_nan=False))
     if not a.quiet:
         _print(doc, a.time_limit)
     return 0

@@ -54,7 +54,8 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--plans", type=int_at_least(1), default=PLANS, help=f"plans (seeds) to run (default {PLANS})")
     exp.add_fast(f"{FAST_PLANS} plans, small renders (CI)", plans=FAST_PLANS)
     args = exp.parse(argv)
-    return run(exp, int(args.plans), int(args.seed), bool(args.fast))
+    fast = bool(args.fast)  # (the render size only; the plan count is the --fast preset)
+    return run(exp, int(args.plans), int(args.seed), fast)
 
 
 def _box_edges(R: np.ndarray, c: np.ndarray, half: np.ndarray) -> list[np.ndarray]:
