@@ -2,7 +2,7 @@
 
 Layers, bottom to top: the root modules errors → diagnostics → validation → codegen, then
 algebra → geometry → kinematics → linkages → systems → collision → viz → cooperative → control →
-legged → sim → sweep → harness → adapters.  A module may import its own layer and the layers below it
+plan → legged → sim → viewer → sweep → harness → adapters.  A module may import its own layer and the layers below it
 (every import counts, also one inside a function); a root module only the root modules
 before it.  Import cycles are looked for among the imports a module runs when it is
 imported (module level, ``if TYPE_CHECKING:`` blocks excluded).
@@ -27,6 +27,7 @@ ORDER = [
     "viz",
     "cooperative",
     "control",
+    "plan",
     "legged",
     "sim",
     "viewer",
