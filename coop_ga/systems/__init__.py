@@ -3,6 +3,7 @@
 * :mod:`~coop_ga.systems.system`: :class:`System` (a Pinocchio model, its end frames, q0 and
   limits), :func:`from_urdf`, :func:`from_model`, :func:`append_robots`, :func:`prefixed`,
   :func:`unique_frames`;
+* :mod:`~coop_ga.systems.mjcf`: :func:`from_mjcf`, :func:`model_from_mjcf` (MJCF files, compiled by MuJoCo);
 * :mod:`~coop_ga.systems.limits`: :class:`JointLimits` (position, velocity, acceleration, effort);
 * :mod:`~coop_ga.systems.registry`: :func:`register`, :func:`names`, :func:`load`;
 * :mod:`~coop_ga.systems.library`: the paper's systems (registered on import);
@@ -16,6 +17,7 @@ from __future__ import annotations
 
 from . import library as _library  # noqa: F401  (registers the paper's systems)
 from .limits import DEFAULT_VELOCITY_LIMIT, JointLimits
+from .mjcf import from_mjcf, model_from_mjcf
 from .registry import load, names, register
 from .synthetic import CARTESIAN_BASES, cartesian_points
 from .system import ROBOTS_DIR, System, VisualSource, append_robots, from_model, from_urdf, prefixed, unique_frames
@@ -29,9 +31,11 @@ __all__ = [
     "VisualSource",
     "append_robots",
     "cartesian_points",
+    "from_mjcf",
     "from_model",
     "from_urdf",
     "load",
+    "model_from_mjcf",
     "names",
     "prefixed",
     "register",

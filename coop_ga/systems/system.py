@@ -518,13 +518,13 @@ def append_robots(parts: Sequence[tuple[Any, Any]]) -> Any:
 DEFAULT_Q0_MARGIN = 0.01
 
 
-def _default_q0(model: Any) -> np.ndarray:
-    """The neutral configuration, strictly inside the limits: moved to mid-range for joints whose limits exclude
-    it, and :data:`DEFAULT_Q0_MARGIN` of the range inside for joints whose neutral value lies on a bound (a
-    joint whose two bounds coincide stays on them)."""
+def _default_q0(model: Any, start: Any = None) -> np.ndarray:
+    """The neutral configuration (or ``start``, (nq,)), strictly inside the limits: moved to mid-range for joints
+    whose limits exclude it, and :data:`DEFAULT_Q0_MARGIN` of the range inside for joints whose value lies on a
+    bound (a joint whose two bounds coincide stays on them)."""
     import pinocchio as pin
 
-    q = np.array(pin.neutral(model), dtype=float)
+    q = np.array(pin.neutral(model) if start is None else start, dtype=float)
     lo, hi = np.array(model.lowerPositionLimit), np.array(model.upperPositionLimit)
     bad = (q < lo) | (q > hi)
     q[bad] = 0.5 * (lo[bad] + hi[bad])
