@@ -3,6 +3,8 @@
 * :mod:`~coop_ga.systems.system`: :class:`System` (a Pinocchio model, its end frames, q0 and
   limits), :func:`from_urdf`, :func:`from_model`, :func:`append_robots`, :func:`prefixed`,
   :func:`unique_frames`;
+* :mod:`~coop_ga.systems.groups`: named control groups (``groups=``/``active=`` instead of ``locked_joints``),
+  :func:`locked_joints`;
 * :mod:`~coop_ga.systems.mjcf`: :func:`from_mjcf`, :func:`model_from_mjcf` (MJCF files, compiled by MuJoCo);
 * :mod:`~coop_ga.systems.limits`: :class:`JointLimits` (position, velocity, acceleration, effort);
 * :mod:`~coop_ga.systems.registry`: :func:`register`, :func:`names`, :func:`load`;
@@ -16,6 +18,7 @@ Run ``python -m coop_ga.systems`` to list the registered systems with their DOF 
 from __future__ import annotations
 
 from . import library as _library  # noqa: F401  (registers the paper's systems)
+from .groups import group_joints, locked_joints
 from .limits import DEFAULT_VELOCITY_LIMIT, JointLimits
 from .mjcf import from_mjcf, model_from_mjcf
 from .registry import load, names, register
@@ -34,7 +37,9 @@ __all__ = [
     "from_mjcf",
     "from_model",
     "from_urdf",
+    "group_joints",
     "load",
+    "locked_joints",
     "model_from_mjcf",
     "names",
     "prefixed",

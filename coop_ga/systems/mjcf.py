@@ -35,14 +35,14 @@ MuJoCo is an optional dependency (the ``sim`` extra): ``pip install 'coop_ga[sim
 from __future__ import annotations
 
 import importlib
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..errors import CoopGAError, InvalidInputError, UnknownNameError, UnsupportedJointError
-from .system import System, _default_q0, _names, _path, from_model
+from .system import System, _default_q0, _path, from_model, resolve_locked
 
 __all__ = ["from_mjcf", "model_from_mjcf"]
 
@@ -218,6 +218,8 @@ def from_mjcf(
     q0: Any = None,
     keyframe: str | None = None,
     q_lock: Any = None,
+    groups: Mapping[str, Any] | None = None,
+    active: Sequence[str] | None = None,
 ) -> System:
     """Build a system from an MJCF file (fixed base, hinge and slide joints), read through MuJoCo.
 
@@ -225,7 +227,8 @@ def from_mjcf(
     (one per chain).  ``locked_joints`` are removed at ``q_lock`` (full ``qpos``, default: the file's
     ``qpos0``, i.e. every joint at its ``ref``).  ``q0``: the system's nominal q (after locking);
     ``keyframe``: the name of a ``<key>`` whose ``qpos`` gives ``q_lock`` and (for the kept joints)
-    ``q0`` instead; by default q0 is ``qpos0`` moved strictly inside the limits.  The system has no
+    ``q0`` instead; by default q0 is ``qpos0`` moved strictly inside the limits.  ``groups``/``active``:
+    named control groups instead of ``locked_joints`` (:func:`~coop_ga.systems.from_model`).  The system has no
     visual geometry (it is drawn as a skeleton).
 
     Example::
@@ -242,7 +245,7 @@ def from_mjcf(
     full = model_from_mjcf(p)
     qkey = _keyframe_q(p, keyframe)
     qpos0 = np.array(_compile(p).qpos0, dtype=float) if qkey is None else qkey
-    locked = _names(locked_joints, "locked_joints")
+    locked = resolve_locked(full, locked_joints, groups, active)
     if q0 is None:
         start = qpos0 if qkey is not None else _default_q0(full, qpos0)
         q0 = np.array([start[full.idx_qs[j]] for j in range(1, full.njoints) if full.names[j] not in locked])

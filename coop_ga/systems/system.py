@@ -20,7 +20,7 @@ Systems are registered by name in :mod:`coop_ga.systems.registry`; ``load(name)`
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -32,6 +32,7 @@ from .. import validation
 from ..diagnostics import warn
 from ..errors import InvalidInputError, JointLimitWarning, UnknownNameError
 from ..kinematics.chains import KinematicTree
+from .groups import locked_joints as _group_locked
 from .limits import JointLimits
 
 __all__ = [
@@ -537,6 +538,26 @@ def _default_q0(model: Any, start: Any = None) -> np.ndarray:
     return q
 
 
+def resolve_locked(
+    model: Any,
+    locked_joints: Sequence[str] = (),
+    groups: Mapping[str, Any] | None = None,
+    active: Sequence[str] | None = None,
+) -> tuple[str, ...]:
+    """The joints to lock: ``locked_joints``, or the joints outside the ``active`` named ``groups``
+    (:func:`coop_ga.systems.groups.locked_joints`); the two ways are exclusive."""
+    locked = _names(locked_joints, "locked_joints")
+    if groups is None and active is None:
+        return locked
+    if groups is None or active is None:
+        raise InvalidInputError("named control groups need both groups= and active= (the groups that move)")
+    if locked:
+        raise InvalidInputError(
+            "give either locked_joints= or groups=/active=, not both (put the joints to lock outside the active groups)"
+        )
+    return tuple(_group_locked(list(_pin_model(model).names)[1:], groups, active))
+
+
 def from_model(
     model: Any,
     end_frames: Sequence[str],
@@ -548,6 +569,8 @@ def from_model(
     description: str = "",
     visual_model: Any = None,
     visuals: Sequence[VisualSource] = (),
+    groups: Mapping[str, Any] | None = None,
+    active: Sequence[str] | None = None,
 ) -> System:
     """Build a :class:`System` from a ``pinocchio.Model``.
 
@@ -556,6 +579,10 @@ def from_model(
     configuration moved strictly inside the limits (to mid-range where the limits exclude it,
     :data:`DEFAULT_Q0_MARGIN` of the range inside a bound it lies on); a given ``q0`` must be finite
     and inside the limits.
+
+    Instead of ``locked_joints``, named control groups: ``groups`` ``{name: joint names or regular
+    expressions}`` and ``active`` (the group names whose joints move); every other joint is locked
+    (:mod:`coop_ga.systems.groups`).
 
     ``visual_model``: a visual ``pinocchio.GeometryModel`` built for ``model`` (before
     locking), so that :mod:`coop_ga.viz` draws the robot's meshes; or ``visuals``, the
@@ -577,7 +604,7 @@ def from_model(
                 f"visual_model must be a pinocchio.GeometryModel, got {type(visual_model).__name__}"
             )
         sources += (VisualSource(geometry=visual_model, model=pin.Model(model)),)
-    locked = _names(locked_joints, "locked_joints")
+    locked = resolve_locked(model, locked_joints, groups, active)
     if locked:
         known = set(model.names)
         missing = [j for j in locked if j not in known]
@@ -619,12 +646,15 @@ def from_urdf(
     q0: Any = None,
     q_lock: Any = None,
     package_dirs: Sequence[str | Path] | None = None,
+    groups: Mapping[str, Any] | None = None,
+    active: Sequence[str] | None = None,
 ) -> System:
     """Build a system from any URDF Pinocchio loads (fixed base).
 
     ``package_dirs``: folders that resolve the ``package://`` mesh URIs of its ``<visual>``
     elements (default: the URDF's folder and three of its parents); the visual geometry is
-    read only when the system is drawn (:meth:`System.visual_model`).
+    read only when the system is drawn (:meth:`System.visual_model`).  ``groups``/``active``: named control
+    groups instead of ``locked_joints`` (:func:`from_model`).
 
     Example::
 
@@ -645,5 +675,7 @@ def from_urdf(
         locked_joints=locked_joints,
         q_lock=q_lock,
         description=f"from URDF {p}",
+        groups=groups,
+        active=active,
         visuals=(VisualSource(urdf=p.resolve(), package_dirs=dirs),),
     )

@@ -120,6 +120,9 @@ def test_from_mjcf_system_q0_keyframe_locking_and_effort(arm_xml: Path) -> None:
     d.qpos[:] = mm.key_qpos[0]
     mujoco.mj_kinematics(mm, d)
     np.testing.assert_allclose(k.end_points(k.q0)[0], d.site_xpos[0], atol=1e-14)
+    # named control groups: the same locking
+    g = cg.systems.from_mjcf(arm_xml, ["tip"], groups={"arm": "j[12]", "slide": ["j3"]}, active=["arm", "slide"])
+    assert g.joint_names == ["j1", "j2", "j3"]
 
 
 def _xml_with(tmp_path: Path, joint: str) -> Path:
