@@ -5,6 +5,8 @@
   :func:`unique_frames`;
 * :mod:`~coop_ga.systems.groups`: named control groups (``groups=``/``active=`` instead of ``locked_joints``),
   :func:`locked_joints`;
+* :mod:`~coop_ga.systems.points`: :class:`EndPoint` (a point anywhere on a link as an end frame, §5.4),
+  :func:`add_end_points`;
 * :mod:`~coop_ga.systems.mjcf`: :func:`from_mjcf`, :func:`model_from_mjcf` (MJCF files, compiled by MuJoCo);
 * :mod:`~coop_ga.systems.limits`: :class:`JointLimits` (position, velocity, acceleration, effort);
 * :mod:`~coop_ga.systems.registry`: :func:`register`, :func:`names`, :func:`load`;
@@ -21,6 +23,7 @@ from . import library as _library  # noqa: F401  (registers the paper's systems)
 from .groups import group_joints, locked_joints
 from .limits import DEFAULT_VELOCITY_LIMIT, JointLimits
 from .mjcf import from_mjcf, model_from_mjcf
+from .points import EndPoint, add_end_points
 from .registry import load, names, register
 from .synthetic import CARTESIAN_BASES, cartesian_points
 from .system import ROBOTS_DIR, System, VisualSource, append_robots, from_model, from_urdf, prefixed, unique_frames
@@ -29,9 +32,11 @@ __all__ = [
     "CARTESIAN_BASES",
     "DEFAULT_VELOCITY_LIMIT",
     "ROBOTS_DIR",
+    "EndPoint",
     "JointLimits",
     "System",
     "VisualSource",
+    "add_end_points",
     "append_robots",
     "cartesian_points",
     "from_mjcf",

@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import CoopGAError, InvalidInputError, UnknownNameError, UnsupportedJointError
+from .points import EndPoint
 from .system import System, _default_q0, _path, from_model, resolve_locked
 
 __all__ = ["from_mjcf", "model_from_mjcf"]
@@ -211,7 +212,7 @@ def _keyframe_q(mjcf_path: Any, keyframe: Any) -> np.ndarray | None:
 
 def from_mjcf(
     mjcf_path: str | Path,
-    end_frames: Sequence[str],
+    end_frames: Sequence[str | EndPoint],
     locked_joints: Sequence[str] = (),
     *,
     name: str | None = None,
@@ -224,7 +225,7 @@ def from_mjcf(
     """Build a system from an MJCF file (fixed base, hinge and slide joints), read through MuJoCo.
 
     The counterpart of :func:`~coop_ga.systems.from_urdf`.  ``end_frames``: body or ``<site>`` names
-    (one per chain).  ``locked_joints`` are removed at ``q_lock`` (full ``qpos``, default: the file's
+    (one per chain), or :class:`~coop_ga.systems.points.EndPoint` entries on a body.  ``locked_joints`` are removed at ``q_lock`` (full ``qpos``, default: the file's
     ``qpos0``, i.e. every joint at its ``ref``).  ``q0``: the system's nominal q (after locking);
     ``keyframe``: the name of a ``<key>`` whose ``qpos`` gives ``q_lock`` and (for the kept joints)
     ``q0`` instead; by default q0 is ``qpos0`` moved strictly inside the limits.  ``groups``/``active``:

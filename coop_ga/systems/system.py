@@ -34,6 +34,7 @@ from ..errors import InvalidInputError, JointLimitWarning, UnknownNameError
 from ..kinematics.chains import KinematicTree
 from .groups import locked_joints as _group_locked
 from .limits import JointLimits
+from .points import EndPoint, add_end_points, end_frame_names
 
 __all__ = [
     "ROBOTS_DIR",
@@ -405,6 +406,21 @@ class System:
         """World motors of the end frames (equal to Pinocchio's ``oMf``)."""
         return self.tree.frame_motors(self.check_q(q))
 
+    def with_end_frames(self, end_frames: Sequence[str | EndPoint], *, name: str | None = None) -> System:
+        """A copy of this system with other end frames: frame names of :attr:`model` and :class:`EndPoint`
+        entries (points anywhere on a link, added to a copy of the model as operational frames; paper §5.4).
+
+        Same joints, q0, limits and visuals; labels are the new frame names.  Example (Fig. 9's chest point)::
+
+            load("g1_arms").with_end_frames([EndPoint("torso_link", (0.15, 0, 0.2), name="chest_point"),
+                                             "right_rubber_hand", "left_rubber_hand"])
+        """
+        if name is not None and (not isinstance(name, str) or not name):
+            raise InvalidInputError(f"name must be a non-empty string (or None: this system's), got {name!r}")
+        names = end_frame_names(end_frames)
+        model = add_end_points(self.model, [e for e in end_frames if isinstance(e, EndPoint)])
+        return dataclasses.replace(self, name=name or self.name, model=model, end_frames=names, labels=())
+
     def __repr__(self) -> str:
         return f"System({self.name!r}, nq={self.nq}, end_frames={list(self.end_frames)})"
 
@@ -560,7 +576,7 @@ def resolve_locked(
 
 def from_model(
     model: Any,
-    end_frames: Sequence[str],
+    end_frames: Sequence[str | EndPoint],
     *,
     name: str = "custom",
     q0: Any = None,
@@ -579,6 +595,9 @@ def from_model(
     configuration moved strictly inside the limits (to mid-range where the limits exclude it,
     :data:`DEFAULT_Q0_MARGIN` of the range inside a bound it lies on); a given ``q0`` must be finite
     and inside the limits.
+
+    ``end_frames``: frame names, or :class:`~coop_ga.systems.points.EndPoint` entries — points anywhere on a
+    link (paper §5.4), added to a copy of the model as operational frames before locking.
 
     Instead of ``locked_joints``, named control groups: ``groups`` ``{name: joint names or regular
     expressions}`` and ``active`` (the group names whose joints move); every other joint is locked
@@ -604,6 +623,10 @@ def from_model(
                 f"visual_model must be a pinocchio.GeometryModel, got {type(visual_model).__name__}"
             )
         sources += (VisualSource(geometry=visual_model, model=pin.Model(model)),)
+    frames = end_frame_names(end_frames)
+    points = [e for e in end_frames if isinstance(e, EndPoint)]
+    if points:
+        model = add_end_points(model, points)
     locked = resolve_locked(model, locked_joints, groups, active)
     if locked:
         known = set(model.names)
@@ -624,7 +647,7 @@ def from_model(
     return System(
         name=name,
         model=model,
-        end_frames=_names(end_frames, "end_frames"),
+        end_frames=_names(frames, "end_frames"),
         q0=q0,
         description=description,
         visuals=sources,
@@ -639,7 +662,7 @@ def _default_package_dirs(urdf: Path) -> tuple[str, ...]:
 
 def from_urdf(
     urdf_path: str | Path,
-    end_frames: Sequence[str],
+    end_frames: Sequence[str | EndPoint],
     locked_joints: Sequence[str] = (),
     *,
     name: str | None = None,
