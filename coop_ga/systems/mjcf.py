@@ -16,15 +16,16 @@ sequences, ``fromto``, includes, inertias from geoms are all resolved by MuJoCo 
 * inertias (``body_mass``, ``body_ipos``, ``body_iquat``, ``body_inertia``), position limits
   (``range`` of a limited joint, else unbounded), ``armature``, ``damping``, ``frictionloss``,
   efforts (``actfrcrange``, else the ``forcerange`` × gear of a force-limited actuator on the joint)
-  and gravity are copied.
+  and gravity are copied;
+* the visual geometry (:func:`from_mjcf`): MuJoCo's geoms as coal shapes and meshes at their pose in the body.
 
 MuJoCo has no velocity limits (they get :data:`~coop_ga.systems.limits.DEFAULT_VELOCITY_LIMIT`).  Tendons,
 equality constraints and actuators' dynamics are not part of a kinematic model and are not read.
 **Free and ball joints are refused** (:class:`~coop_ga.errors.UnsupportedJointError`): coop_ga's
 kinematics are fixed-base with one coordinate per joint; remove the ``<freejoint/>`` to fix the base.
 
-Why not ``pinocchio.buildModelFromMJCF``: Pinocchio 4.1's parser drops the pose of the first body under
-``<worldbody>``, converts a slide joint's ``range`` as an angle under ``<compiler angle="degree">`` and
+Why not ``pinocchio.buildModelFromMJCF``: Pinocchio 4.1's parser reads only the first body tree under
+``<worldbody>`` (the three Frankas of a ``coop_ga.sim`` scene give a 7-joint model), drops that body's pose, converts a slide joint's ``range`` as an angle under ``<compiler angle="degree">`` and
 shifts a hinge's range by its ``ref`` — FK and limits that disagree with MuJoCo on the same file.  MuJoCo
 is the reference reader of its own format; ``tests/systems/test_mjcf.py`` checks the model built here
 against MuJoCo's ``xpos``/``xmat``, ``site_xpos``, ``jnt_range`` and ``mj_fullM``.
@@ -43,7 +44,7 @@ import numpy as np
 
 from ..errors import CoopGAError, InvalidInputError, UnknownNameError, UnsupportedJointError
 from .points import EndPoint
-from .system import System, _default_q0, _path, from_model, resolve_locked
+from .system import System, VisualSource, _default_q0, _path, from_model, resolve_locked
 
 __all__ = ["from_mjcf", "model_from_mjcf"]
 
@@ -174,11 +175,16 @@ def model_from_mjcf(mjcf_path: str | Path) -> Any:
     :class:`~coop_ga.errors.UnsupportedJointError` for a free or ball joint, :class:`InvalidInputError`
     for a missing or invalid file, :class:`~coop_ga.errors.CoopGAError` without MuJoCo.
     """
+    model = _build(_compile(mjcf_path))
+    model.name = Path(str(mjcf_path)).stem
+    return model
+
+
+def _build(mm: Any) -> Any:
+    """:func:`model_from_mjcf` of a compiled ``mujoco.MjModel``."""
     import pinocchio as pin
 
-    mm = _compile(mjcf_path)
     model = pin.Model()
-    model.name = Path(str(mjcf_path)).stem
     model.gravity = pin.Motion(np.asarray(mm.opt.gravity, dtype=float), np.zeros(3))
     eff = _efforts(mm)
     # where body b's frame is: (its joint, its placement in that joint, its BODY frame id)
@@ -198,16 +204,68 @@ def model_from_mjcf(mjcf_path: str | Path) -> Any:
     return model
 
 
-def _keyframe_q(mjcf_path: Any, keyframe: Any) -> np.ndarray | None:
+def _keyframe_q(mm: Any, keyframe: Any) -> np.ndarray:
+    """``qpos`` of the keyframe named ``keyframe``, or ``qpos0`` for None."""
     if keyframe is None:
-        return None
+        return np.array(mm.qpos0, dtype=float)
     if not isinstance(keyframe, str):
         raise InvalidInputError(f"keyframe must be the name of a <key> of the MJCF file, got {keyframe!r}")
-    mm = _compile(mjcf_path)
     keys = [str(mm.key(k).name) for k in range(mm.nkey)]
     if keyframe not in keys:
         raise UnknownNameError(f"unknown keyframe {keyframe!r}; the file's keyframes: {keys or 'none'}")
     return np.array(mm.key_qpos[keys.index(keyframe)], dtype=float)
+
+
+def _shape(mm: Any, g: int) -> Any:
+    """A coal shape for MuJoCo geom ``g`` (sizes are MuJoCo's half-lengths), or None (plane, height field, SDF)."""
+    coal = importlib.import_module("coal")  # ships with the pin wheels; untyped
+
+    mj = _mujoco()
+    t, size = int(mm.geom_type[g]), np.asarray(mm.geom_size[g], dtype=float)
+    T = mj.mjtGeom
+    if t == int(T.mjGEOM_SPHERE):
+        return coal.Sphere(size[0])
+    if t == int(T.mjGEOM_BOX):
+        return coal.Box(*(2.0 * size))
+    if t == int(T.mjGEOM_ELLIPSOID):
+        return coal.Ellipsoid(*size)
+    if t in (int(T.mjGEOM_CAPSULE), int(T.mjGEOM_CYLINDER)):
+        return (coal.Capsule if t == int(T.mjGEOM_CAPSULE) else coal.Cylinder)(size[0], 2.0 * size[1])
+    if t != int(T.mjGEOM_MESH):
+        return None
+    m = int(mm.geom_dataid[g])
+    va, vn, fa, fn = (int(x[m]) for x in (mm.mesh_vertadr, mm.mesh_vertnum, mm.mesh_faceadr, mm.mesh_facenum))
+    bvh = coal.BVHModelOBBRSS()
+    bvh.beginModel(fn, vn)
+    bvh.addVertices(np.asarray(mm.mesh_vert[va : va + vn], dtype=float))
+    bvh.addTriangles(np.asarray(mm.mesh_face[fa : fa + fn], dtype=np.int64))
+    bvh.endModel()
+    return bvh
+
+
+def _geometry(mm: Any, model: Any) -> Any:
+    """The visual ``pinocchio.GeometryModel`` of a compiled MJCF on :func:`model_from_mjcf`'s model: the geoms that
+    collide with nothing (``contype = conaffinity = 0``, MuJoCo's visual-only convention), or every geom when the
+    file has none of those; planes, height fields and SDFs are left out."""
+    import pinocchio as pin
+
+    visual = (np.asarray(mm.geom_contype) == 0) & (np.asarray(mm.geom_conaffinity) == 0)
+    chosen = np.flatnonzero(visual) if visual.any() else np.arange(mm.ngeom)
+    out = pin.GeometryModel()
+    for g in chosen:
+        shape = _shape(mm, int(g))
+        if shape is None:
+            continue
+        b = int(mm.geom_bodyid[g])
+        fid = model.getFrameId(_name(mm, "body", b), pin.FrameType.BODY) if b else 0
+        f = model.frames[fid]
+        obj = pin.GeometryObject(
+            _name(mm, "geom", int(g)), f.parentJoint, fid, f.placement * _se3(mm.geom_pos[g], mm.geom_quat[g]), shape
+        )
+        mat = int(mm.geom_matid[g])
+        obj.meshColor = np.asarray(mm.mat_rgba[mat] if mat >= 0 else mm.geom_rgba[g], dtype=float)
+        out.addGeometryObject(obj)
+    return out
 
 
 def from_mjcf(
@@ -221,6 +279,7 @@ def from_mjcf(
     q_lock: Any = None,
     groups: Mapping[str, Any] | None = None,
     active: Sequence[str] | None = None,
+    visuals: bool = True,
 ) -> System:
     """Build a system from an MJCF file (fixed base, hinge and slide joints), read through MuJoCo.
 
@@ -229,8 +288,9 @@ def from_mjcf(
     ``qpos0``, i.e. every joint at its ``ref``).  ``q0``: the system's nominal q (after locking);
     ``keyframe``: the name of a ``<key>`` whose ``qpos`` gives ``q_lock`` and (for the kept joints)
     ``q0`` instead; by default q0 is ``qpos0`` moved strictly inside the limits.  ``groups``/``active``:
-    named control groups instead of ``locked_joints`` (:func:`~coop_ga.systems.from_model`).  The system has no
-    visual geometry (it is drawn as a skeleton).
+    named control groups instead of ``locked_joints`` (:func:`~coop_ga.systems.from_model`).  ``visuals``: the
+    file's visual-only geoms (``contype = conaffinity = 0``; every geom if it has none) as the system's visual
+    geometry (boxes, spheres, capsules, cylinders, ellipsoids and meshes, as MuJoCo compiled them).
 
     Example::
 
@@ -243,12 +303,12 @@ def from_mjcf(
         raise InvalidInputError(f"name must be a non-empty string (or None: the file's stem), got {name!r}")
     if keyframe is not None and (q0 is not None or q_lock is not None):
         raise InvalidInputError("give either keyframe= or q0=/q_lock=, not both")
-    full = model_from_mjcf(p)
-    qkey = _keyframe_q(p, keyframe)
-    qpos0 = np.array(_compile(p).qpos0, dtype=float) if qkey is None else qkey
+    mm = _compile(p)
+    full = _build(mm)
+    qpos0 = _keyframe_q(mm, keyframe)
     locked = resolve_locked(full, locked_joints, groups, active)
     if q0 is None:
-        start = qpos0 if qkey is not None else _default_q0(full, qpos0)
+        start = qpos0 if keyframe is not None else _default_q0(full, qpos0)
         q0 = np.array([start[full.idx_qs[j]] for j in range(1, full.njoints) if full.names[j] not in locked])
     return from_model(
         full,
@@ -258,4 +318,5 @@ def from_mjcf(
         locked_joints=locked,
         q_lock=qpos0 if q_lock is None else q_lock,
         description=f"from MJCF {p}",
+        visuals=(VisualSource(geometry=_geometry(mm, full), model=full),) if visuals else (),
     )

@@ -4,7 +4,7 @@ A hand-written arm with what MJCF files do (degrees, Euler angles, joint anchors
 body, a body without joints, an unaligned slide, sites, a keyframe) and the three Frankas exported by
 ``coop_ga.sim`` (``MjSpec.to_xml``) and read back: FK of every body and site against ``xpos``/``xmat``/``site_xpos``,
 limits against ``jnt_range``, the joint-space inertia against ``mj_fullM``, and a cooperative circle on the
-read-back Frankas equal to the registered system's.
+read-back Frankas equal to the registered system's; the visual geoms' poses against ``geom_xpos``/``geom_xmat``.
 """
 
 from __future__ import annotations
@@ -67,6 +67,22 @@ def _mj(xml: Path) -> tuple[object, object]:
     return m, mujoco.MjData(m)
 
 
+def _visual_error(s: cg.systems.System, mm: object, d: object, q: np.ndarray) -> tuple[int, float]:
+    """(number of visual objects, largest |Δ| of their world poses against MuJoCo's geom_xpos/geom_xmat) at q."""
+    vm = s.visual_model()
+    gd = vm.createData()
+    pin.updateGeometryPlacements(s.model, s.model.createData(), vm, gd, q)
+    names = [mm.geom(i).name or f"geom{i}" for i in range(mm.ngeom)]
+    d.qpos[:] = q
+    mujoco.mj_kinematics(mm, d)
+    worst = 0.0
+    for i, obj in enumerate(vm.geometryObjects):
+        g = names.index(obj.name)
+        worst = max(worst, np.abs(gd.oMg[i].translation - d.geom_xpos[g]).max())
+        worst = max(worst, np.abs(gd.oMg[i].rotation - d.geom_xmat[g].reshape(3, 3)).max())
+    return vm.ngeoms, worst
+
+
 def test_model_from_mjcf_matches_mujoco_fk_limits_and_inertia(arm_xml: Path) -> None:
     model = cg.systems.model_from_mjcf(arm_xml)
     mm, d = _mj(arm_xml)
@@ -120,6 +136,10 @@ def test_from_mjcf_system_q0_keyframe_locking_and_effort(arm_xml: Path) -> None:
     d.qpos[:] = mm.key_qpos[0]
     mujoco.mj_kinematics(mm, d)
     np.testing.assert_allclose(k.end_points(k.q0)[0], d.site_xpos[0], atol=1e-14)
+    # the visual geometry: the four geoms (cylinder, capsule, box, sphere) where MuJoCo puts them
+    n, err = _visual_error(s, mm, d, np.array([0.4, -0.3, 0.8, 0.05]))
+    assert n == 4 and err < 1e-12, (n, err)
+    assert cg.systems.from_mjcf(arm_xml, ["tip"], visuals=False).visual_model() is None
     # named control groups: the same locking
     g = cg.systems.from_mjcf(arm_xml, ["tip"], groups={"arm": "j[12]", "slide": ["j3"]}, active=["arm", "slide"])
     assert g.joint_names == ["j1", "j2", "j3"]
@@ -159,7 +179,7 @@ def test_three_franka_exported_by_sim_reads_back(tmp_path: Path) -> None:
 
     s0 = cg.systems.load("three_franka")
     xml = tmp_path / "three_franka.xml"
-    build_scene(s0, visuals=False, collision=False, floor=None).write_model(xml)
+    build_scene(s0, collision=False, floor=None).write_model(xml)
     s = cg.systems.from_mjcf(xml, s0.end_frames)
     assert s.joint_names == s0.joint_names
     assert s.limits is not None and s0.limits is not None
@@ -177,6 +197,9 @@ def test_three_franka_exported_by_sim_reads_back(tmp_path: Path) -> None:
         worst_mj = max(worst_mj, np.abs(p - d.site_xpos[sites]).max())
         worst_ours = max(worst_ours, np.abs(p - s0.end_points(q)).max())
     assert worst_mj < 1e-9 and worst_ours < 1e-12, (worst_mj, worst_ours)
+    # the visual meshes (inline in the file) come back on the right links
+    n, err = _visual_error(s, mm, d, s0.random_q(rng))
+    assert n == mm.ngeom == 33 and err < 1e-12, (n, err)
     # a cooperative circle on the read-back model is the registered system's circle
     task, task0 = cg.cooperative_task(s, "circle"), cg.cooperative_task(s0, "circle")
     for q in (s0.q0, s0.random_q(rng, 0.5)):
