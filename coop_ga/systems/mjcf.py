@@ -25,9 +25,10 @@ equality constraints and actuators' dynamics are not part of a kinematic model a
 kinematics are fixed-base with one coordinate per joint; remove the ``<freejoint/>`` to fix the base.
 
 Why not ``pinocchio.buildModelFromMJCF``: Pinocchio 4.1's parser reads only the first body tree under
-``<worldbody>`` (the three Frankas of a ``coop_ga.sim`` scene give a 7-joint model), drops that body's pose, converts a slide joint's ``range`` as an angle under ``<compiler angle="degree">`` and
-shifts a hinge's range by its ``ref`` — FK and limits that disagree with MuJoCo on the same file.  MuJoCo
-is the reference reader of its own format; ``tests/systems/test_mjcf.py`` checks the model built here
+``<worldbody>`` (the three Frankas of a ``coop_ga.sim`` scene give a 7-joint model), drops that body's
+pose, converts a slide joint's ``range`` as an angle under ``<compiler angle="degree">`` and shifts a
+hinge's range by its ``ref`` — FK and limits that disagree with MuJoCo on the same file.  MuJoCo is the
+reference reader of its own format; ``tests/systems/test_mjcf.py`` checks the model built here
 against MuJoCo's ``xpos``/``xmat``, ``site_xpos``, ``jnt_range`` and ``mj_fullM``.
 
 MuJoCo is an optional dependency (the ``sim`` extra): ``pip install 'coop_ga[sim]'``.
