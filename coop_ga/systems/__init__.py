@@ -7,6 +7,7 @@
   :func:`locked_joints`;
 * :mod:`~coop_ga.systems.points`: :class:`EndPoint` (a point anywhere on a link as an end frame, §5.4),
   :func:`add_end_points`;
+* :mod:`~coop_ga.systems.joints`: :func:`continuous_as_revolute` (continuous joints as angles, nq = nv);
 * :mod:`~coop_ga.systems.mjcf`: :func:`from_mjcf`, :func:`model_from_mjcf` (MJCF files, compiled by MuJoCo);
 * :mod:`~coop_ga.systems.limits`: :class:`JointLimits` (position, velocity, acceleration, effort);
 * :mod:`~coop_ga.systems.registry`: :func:`register`, :func:`names`, :func:`load`;
@@ -21,6 +22,7 @@ from __future__ import annotations
 
 from . import library as _library  # noqa: F401  (registers the paper's systems)
 from .groups import group_joints, locked_joints
+from .joints import continuous_as_revolute
 from .limits import DEFAULT_VELOCITY_LIMIT, JointLimits
 from .mjcf import from_mjcf, model_from_mjcf
 from .points import EndPoint, add_end_points
@@ -39,6 +41,7 @@ __all__ = [
     "add_end_points",
     "append_robots",
     "cartesian_points",
+    "continuous_as_revolute",
     "from_mjcf",
     "from_model",
     "from_urdf",

@@ -33,6 +33,7 @@ from ..diagnostics import warn
 from ..errors import InvalidInputError, JointLimitWarning, UnknownNameError
 from ..kinematics.chains import KinematicTree
 from .groups import locked_joints as _group_locked
+from .joints import continuous_as_revolute
 from .limits import JointLimits
 from .points import EndPoint, add_end_points, end_frame_names
 
@@ -574,6 +575,27 @@ def resolve_locked(
     return tuple(_group_locked(list(_pin_model(model).names)[1:], groups, active))
 
 
+def _locked_model(model: Any, locked: Sequence[str], q_lock: Any) -> Any:
+    """``model`` with the joints ``locked`` removed at ``q_lock`` (default: neutral) by ``pinocchio.buildReducedModel``."""
+    import pinocchio as pin
+
+    if not locked:
+        return model
+    known = set(model.names)
+    missing = [j for j in locked if j not in known]
+    if missing:
+        raise UnknownNameError(
+            f"unknown locked_joints {missing}. Joints of the model: {', '.join(list(model.names)[1:])}"
+        )
+    ql = pin.neutral(model) if q_lock is None else validation.configuration(q_lock, model.nq, "q_lock")
+    try:
+        return pin.buildReducedModel(model, [model.getJointId(j) for j in locked], ql)
+    except (ValueError, RuntimeError) as e:
+        raise InvalidInputError(
+            f"locked_joints {list(locked)}: pinocchio.buildReducedModel refused them ({str(e).splitlines()[0]})"
+        ) from None
+
+
 def from_model(
     model: Any,
     end_frames: Sequence[str | EndPoint],
@@ -599,6 +621,9 @@ def from_model(
     ``end_frames``: frame names, or :class:`~coop_ga.systems.points.EndPoint` entries — points anywhere on a
     link (paper §5.4), added to a copy of the model as operational frames before locking.
 
+    Continuous (unbounded revolute) joints get the angle as their one coordinate, unbounded
+    (:func:`~coop_ga.systems.joints.continuous_as_revolute`); ``q_lock`` and ``q0`` are in those coordinates.
+
     Instead of ``locked_joints``, named control groups: ``groups`` ``{name: joint names or regular
     expressions}`` and ``active`` (the group names whose joints move); every other joint is locked
     (:mod:`coop_ga.systems.groups`).
@@ -623,25 +648,12 @@ def from_model(
                 f"visual_model must be a pinocchio.GeometryModel, got {type(visual_model).__name__}"
             )
         sources += (VisualSource(geometry=visual_model, model=pin.Model(model)),)
+    model = continuous_as_revolute(model)  # q = θ for continuous joints, not (cos θ, sin θ)
     frames = end_frame_names(end_frames)
     points = [e for e in end_frames if isinstance(e, EndPoint)]
     if points:
         model = add_end_points(model, points)
-    locked = resolve_locked(model, locked_joints, groups, active)
-    if locked:
-        known = set(model.names)
-        missing = [j for j in locked if j not in known]
-        if missing:
-            raise UnknownNameError(
-                f"unknown locked_joints {missing}. Joints of the model: {', '.join(list(model.names)[1:])}"
-            )
-        ql = pin.neutral(model) if q_lock is None else validation.configuration(q_lock, model.nq, "q_lock")
-        try:
-            model = pin.buildReducedModel(model, [model.getJointId(j) for j in locked], ql)
-        except (ValueError, RuntimeError) as e:
-            raise InvalidInputError(
-                f"locked_joints {list(locked)}: pinocchio.buildReducedModel refused them ({str(e).splitlines()[0]})"
-            ) from None
+    model = _locked_model(model, resolve_locked(model, locked_joints, groups, active), q_lock)
     if q0 is None:
         q0 = _default_q0(model)
     return System(
