@@ -36,6 +36,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from .points import EndPoint, add_end_points
 from .registry import register
 from .system import ROBOTS_DIR, System, VisualSource, append_robots, prefixed
 
@@ -154,16 +155,6 @@ def g1_model():
     return m
 
 
-def _add_frame(model, name: str, parent_frame: str, offset) -> None:
-    """Add an OP_FRAME ``name`` rigidly attached at ``offset`` [m] in ``parent_frame``."""
-    import pinocchio as pin
-
-    pf = model.getFrameId(parent_frame)
-    f = model.frames[pf]
-    placement = f.placement * pin.SE3(np.eye(3), np.asarray(offset, dtype=float))
-    model.addFrame(pin.Frame(name, f.parentJoint, pf, placement, pin.FrameType.OP_FRAME))
-
-
 # ---------------------------------------------------------------------- Allegro hand
 #: Allegro tip frames: index, middle, ring, thumb.
 _ALLEGRO_TIPS = ("link_3.0_tip", "link_7.0_tip", "link_11.0_tip", "link_15.0_tip")
@@ -269,8 +260,7 @@ G1_CHEST_OFFSET = (0.15, 0.0, 0.20)
 
 @register("g1_torso_arms", "Unitree G1 waist + arms; end points a chest point, right hand, left hand (Fig. 9)")
 def _g1_torso_arms() -> System:
-    m = g1_model()
-    _add_frame(m, "chest_point", "torso_link", G1_CHEST_OFFSET)
+    m = add_end_points(g1_model(), [EndPoint("torso_link", G1_CHEST_OFFSET, name="chest_point")])
     return System(
         name="g1_torso_arms",
         model=m,

@@ -20,7 +20,7 @@ Systems are registered by name in :mod:`coop_ga.systems.registry`; ``load(name)`
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -32,7 +32,10 @@ from .. import validation
 from ..diagnostics import warn
 from ..errors import InvalidInputError, JointLimitWarning, UnknownNameError
 from ..kinematics.chains import KinematicTree
+from .groups import locked_joints as _group_locked
+from .joints import continuous_as_revolute
 from .limits import JointLimits
+from .points import EndPoint, add_end_points, end_frame_names
 
 __all__ = [
     "ROBOTS_DIR",
@@ -404,6 +407,21 @@ class System:
         """World motors of the end frames (equal to Pinocchio's ``oMf``)."""
         return self.tree.frame_motors(self.check_q(q))
 
+    def with_end_frames(self, end_frames: Sequence[str | EndPoint], *, name: str | None = None) -> System:
+        """A copy of this system with other end frames: frame names of :attr:`model` and :class:`EndPoint`
+        entries (points anywhere on a link, added to a copy of the model as operational frames; paper §5.4).
+
+        Same joints, q0, limits and visuals; labels are the new frame names.  Example (Fig. 9's chest point)::
+
+            load("g1_arms").with_end_frames([EndPoint("torso_link", (0.15, 0, 0.2), name="chest_point"),
+                                             "right_rubber_hand", "left_rubber_hand"])
+        """
+        if name is not None and (not isinstance(name, str) or not name):
+            raise InvalidInputError(f"name must be a non-empty string (or None: this system's), got {name!r}")
+        names = end_frame_names(end_frames)
+        model = add_end_points(self.model, [e for e in end_frames if isinstance(e, EndPoint)])
+        return dataclasses.replace(self, name=name or self.name, model=model, end_frames=names, labels=())
+
     def __repr__(self) -> str:
         return f"System({self.name!r}, nq={self.nq}, end_frames={list(self.end_frames)})"
 
@@ -518,13 +536,13 @@ def append_robots(parts: Sequence[tuple[Any, Any]]) -> Any:
 DEFAULT_Q0_MARGIN = 0.01
 
 
-def _default_q0(model: Any) -> np.ndarray:
-    """The neutral configuration, strictly inside the limits: moved to mid-range for joints whose limits exclude
-    it, and :data:`DEFAULT_Q0_MARGIN` of the range inside for joints whose neutral value lies on a bound (a
-    joint whose two bounds coincide stays on them)."""
+def _default_q0(model: Any, start: Any = None) -> np.ndarray:
+    """The neutral configuration (or ``start``, (nq,)), strictly inside the limits: moved to mid-range for joints
+    whose limits exclude it, and :data:`DEFAULT_Q0_MARGIN` of the range inside for joints whose value lies on a
+    bound (a joint whose two bounds coincide stays on them)."""
     import pinocchio as pin
 
-    q = np.array(pin.neutral(model), dtype=float)
+    q = np.array(pin.neutral(model) if start is None else start, dtype=float)
     lo, hi = np.array(model.lowerPositionLimit), np.array(model.upperPositionLimit)
     bad = (q < lo) | (q > hi)
     q[bad] = 0.5 * (lo[bad] + hi[bad])
@@ -537,9 +555,50 @@ def _default_q0(model: Any) -> np.ndarray:
     return q
 
 
+def resolve_locked(
+    model: Any,
+    locked_joints: Sequence[str] = (),
+    groups: Mapping[str, Any] | None = None,
+    active: Sequence[str] | None = None,
+) -> tuple[str, ...]:
+    """The joints to lock: ``locked_joints``, or the joints outside the ``active`` named ``groups``
+    (:func:`coop_ga.systems.groups.locked_joints`); the two ways are exclusive."""
+    locked = _names(locked_joints, "locked_joints")
+    if groups is None and active is None:
+        return locked
+    if groups is None or active is None:
+        raise InvalidInputError("named control groups need both groups= and active= (the groups that move)")
+    if locked:
+        raise InvalidInputError(
+            "give either locked_joints= or groups=/active=, not both (put the joints to lock outside the active groups)"
+        )
+    return tuple(_group_locked(list(_pin_model(model).names)[1:], groups, active))
+
+
+def _locked_model(model: Any, locked: Sequence[str], q_lock: Any) -> Any:
+    """``model`` with the joints ``locked`` removed at ``q_lock`` (default: neutral) by ``pinocchio.buildReducedModel``."""
+    import pinocchio as pin
+
+    if not locked:
+        return model
+    known = set(model.names)
+    missing = [j for j in locked if j not in known]
+    if missing:
+        raise UnknownNameError(
+            f"unknown locked_joints {missing}. Joints of the model: {', '.join(list(model.names)[1:])}"
+        )
+    ql = pin.neutral(model) if q_lock is None else validation.configuration(q_lock, model.nq, "q_lock")
+    try:
+        return pin.buildReducedModel(model, [model.getJointId(j) for j in locked], ql)
+    except (ValueError, RuntimeError) as e:
+        raise InvalidInputError(
+            f"locked_joints {list(locked)}: pinocchio.buildReducedModel refused them ({str(e).splitlines()[0]})"
+        ) from None
+
+
 def from_model(
     model: Any,
-    end_frames: Sequence[str],
+    end_frames: Sequence[str | EndPoint],
     *,
     name: str = "custom",
     q0: Any = None,
@@ -548,6 +607,8 @@ def from_model(
     description: str = "",
     visual_model: Any = None,
     visuals: Sequence[VisualSource] = (),
+    groups: Mapping[str, Any] | None = None,
+    active: Sequence[str] | None = None,
 ) -> System:
     """Build a :class:`System` from a ``pinocchio.Model``.
 
@@ -556,6 +617,16 @@ def from_model(
     configuration moved strictly inside the limits (to mid-range where the limits exclude it,
     :data:`DEFAULT_Q0_MARGIN` of the range inside a bound it lies on); a given ``q0`` must be finite
     and inside the limits.
+
+    ``end_frames``: frame names, or :class:`~coop_ga.systems.points.EndPoint` entries — points anywhere on a
+    link (paper §5.4), added to a copy of the model as operational frames before locking.
+
+    Continuous (unbounded revolute) joints get the angle as their one coordinate, unbounded
+    (:func:`~coop_ga.systems.joints.continuous_as_revolute`); ``q_lock`` and ``q0`` are in those coordinates.
+
+    Instead of ``locked_joints``, named control groups: ``groups`` ``{name: joint names or regular
+    expressions}`` and ``active`` (the group names whose joints move); every other joint is locked
+    (:mod:`coop_ga.systems.groups`).
 
     ``visual_model``: a visual ``pinocchio.GeometryModel`` built for ``model`` (before
     locking), so that :mod:`coop_ga.viz` draws the robot's meshes; or ``visuals``, the
@@ -577,27 +648,18 @@ def from_model(
                 f"visual_model must be a pinocchio.GeometryModel, got {type(visual_model).__name__}"
             )
         sources += (VisualSource(geometry=visual_model, model=pin.Model(model)),)
-    locked = _names(locked_joints, "locked_joints")
-    if locked:
-        known = set(model.names)
-        missing = [j for j in locked if j not in known]
-        if missing:
-            raise UnknownNameError(
-                f"unknown locked_joints {missing}. Joints of the model: {', '.join(list(model.names)[1:])}"
-            )
-        ql = pin.neutral(model) if q_lock is None else validation.configuration(q_lock, model.nq, "q_lock")
-        try:
-            model = pin.buildReducedModel(model, [model.getJointId(j) for j in locked], ql)
-        except (ValueError, RuntimeError) as e:
-            raise InvalidInputError(
-                f"locked_joints {list(locked)}: pinocchio.buildReducedModel refused them ({str(e).splitlines()[0]})"
-            ) from None
+    model = continuous_as_revolute(model)  # q = θ for continuous joints, not (cos θ, sin θ)
+    frames = end_frame_names(end_frames)
+    points = [e for e in end_frames if isinstance(e, EndPoint)]
+    if points:
+        model = add_end_points(model, points)
+    model = _locked_model(model, resolve_locked(model, locked_joints, groups, active), q_lock)
     if q0 is None:
         q0 = _default_q0(model)
     return System(
         name=name,
         model=model,
-        end_frames=_names(end_frames, "end_frames"),
+        end_frames=_names(frames, "end_frames"),
         q0=q0,
         description=description,
         visuals=sources,
@@ -612,19 +674,22 @@ def _default_package_dirs(urdf: Path) -> tuple[str, ...]:
 
 def from_urdf(
     urdf_path: str | Path,
-    end_frames: Sequence[str],
+    end_frames: Sequence[str | EndPoint],
     locked_joints: Sequence[str] = (),
     *,
     name: str | None = None,
     q0: Any = None,
     q_lock: Any = None,
     package_dirs: Sequence[str | Path] | None = None,
+    groups: Mapping[str, Any] | None = None,
+    active: Sequence[str] | None = None,
 ) -> System:
     """Build a system from any URDF Pinocchio loads (fixed base).
 
     ``package_dirs``: folders that resolve the ``package://`` mesh URIs of its ``<visual>``
     elements (default: the URDF's folder and three of its parents); the visual geometry is
-    read only when the system is drawn (:meth:`System.visual_model`).
+    read only when the system is drawn (:meth:`System.visual_model`).  ``groups``/``active``: named control
+    groups instead of ``locked_joints`` (:func:`from_model`).
 
     Example::
 
@@ -645,5 +710,7 @@ def from_urdf(
         locked_joints=locked_joints,
         q_lock=q_lock,
         description=f"from URDF {p}",
+        groups=groups,
+        active=active,
         visuals=(VisualSource(urdf=p.resolve(), package_dirs=dirs),),
     )
