@@ -98,6 +98,8 @@ FIGURES: tuple[Figure, ...] = (
     Figure("obstacles", "ours_obstacle_circle", "experiments/obstacle_circle.py", addition=True),
     Figure("potential_field", "ours_potential_field", "experiments/potential_field.py", addition=True),
     Figure("linkages", "ours_linkages", "experiments/linkages.py", addition=True),
+    # constrained planning over a cooperative region (OMPL): the gallery runs the script's --fast version
+    Figure("planning_box_lift", "ours_planning_box_lift", "experiments/plan_box_lift.py", ("--fast",), addition=True),
     # physics in the loop (MuJoCo): the gallery runs the scripts' --fast (gallery-length) version
     Figure("sim_box_carry", "ours_sim_box_carry", "experiments/sim_box_carry.py", ("--fast",), addition=True),
     Figure(
