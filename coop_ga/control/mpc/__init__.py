@@ -2,7 +2,7 @@
 
 Three loops, slowest first (:class:`CooperativeMPC`; the physics loop of :mod:`coop_ga.sim.mpc_track`):
 
-1. **The MPC tick** (every ``period``, e.g. 50 ms): the iLQR of :mod:`coop_ga.control.ilqr` (Eq 53–57 on the
+1. **The MPC tick** (every ``period``, default 40 ms): the iLQR of :mod:`coop_ga.control.ilqr` (Eq 53–57 on the
    joint double integrator) re-solved from the measured (q, q̇) toward the target ``V_d(t + n·Δt)`` — the
    time-varying target (a callable or a sampled reference, :class:`TargetSchedule`) taken one horizon ahead,
    so that the plan arrives on the moving target instead of lagging behind it.

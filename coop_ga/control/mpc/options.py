@@ -17,7 +17,10 @@ class MPCOptions:
     """Settings of the receding-horizon controller (:mod:`coop_ga.control.mpc`).
 
     Inner problem (the iLQR of :mod:`coop_ga.control.ilqr`, Eq 53–57, re-solved every tick):
-        horizon: knots n of the plan (≥ 2).  dt: knot spacing [s]; the plan looks ``horizon · dt`` ahead.
+        horizon: knots n of the plan (≥ 2).  dt: knot spacing [s]; the plan looks ``horizon · dt`` ahead
+            (default 0.2 s: with the terminal cost only (Eq 57), re-planning toward V_d(t + T) is, for a
+            double integrator, the closed loop ``q̈ = 3(x_d(t+T) − x − T ẋ)/T²`` — no lag on a ramp, and at
+            ω = 2π/4 s an amplitude ratio of 0.98 for T = 0.2 s but 0.63 for T = 1 s).
         R, Q, Qv: control, terminal-error and terminal-velocity weights (Eq 56–57).  Qv is small by
             default: a moving target is not reached at rest.
         terminal: ``"soft"`` (Eq 57; default: a receding horizon needs no exact terminal equality) or
@@ -39,8 +42,8 @@ class MPCOptions:
         limit_gain: γ of the position limit (:func:`~coop_ga.control.limits.default_limits`).
     """
 
-    horizon: int = 20
-    dt: float = 0.05
+    horizon: int = 10
+    dt: float = 0.02
     R: Any = DEFAULT_R
     Q: Any = DEFAULT_Q
     Qv: Any = 1.0
@@ -49,7 +52,7 @@ class MPCOptions:
     first_iter: int = 20
     clearance_weight: float = 1e4
     clearance_activation: float = 0.08
-    period: float = 0.05
+    period: float = 0.04
     time_budget: float | None = None
     filter_dt: float = 0.01
     d_safe: float = 0.03
