@@ -224,8 +224,15 @@ class TrackingController:
         return self.mpc.torque(q, qd, a + KP * (q_r - q) + KD * (qd_r - qd))
 
 
-def run_track(case: TrackCase, options: MPCOptions | None = None, *, progress: bool = False) -> TrackRun:
-    """Build, simulate ``case.duration`` s and return the :class:`TrackRun` (module docstring)."""
+def run_track(
+    case: TrackCase,
+    options: MPCOptions | None = None,
+    *,
+    path: Callable[[float], np.ndarray] | None = None,
+    progress: bool = False,
+) -> TrackRun:
+    """Build, simulate ``case.duration`` s and return the :class:`TrackRun` (module docstring); ``path``
+    (t → centre (3,) [m]) replaces the seed's sphere path."""
     import coop_ga as cg
 
     system = cg.systems.load("three_franka")
@@ -236,7 +243,8 @@ def run_track(case: TrackCase, options: MPCOptions | None = None, *, progress: b
 
     c0, r0 = np.asarray(P.center(X0), float), float(P.radius(X0))
     target = figure_eight_target(c0, r0)
-    path = obstacle_path(case.seed, c0, case.duration) if case.obstacle else None
+    if path is None and case.obstacle:
+        path = obstacle_path(case.seed, c0, case.duration)
     start = path(0.0) if path is not None else np.array([2.5, 2.5, 0.5])  # parked far away, still simulated
     spheres = [MovingSphere(case.sphere_radius, path, OBSTACLE)] if path is not None else []
     mpc = CooperativeMPC(task, target, options, obstacles=spheres)
