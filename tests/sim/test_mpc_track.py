@@ -43,7 +43,7 @@ def test_path_would_hit_a_static_arm(load_system):
 
 
 def test_tracks_without_contact_or_limit_violation(run):
-    r, m = run
+    _, m = run
     assert m["contacts"] == {"robot_obstacle_steps": 0, "robot_robot_steps": 0, "robot_obstacle": 0, "robot_robot": 0}
     assert m["min_clearance_obstacle_m"] > 0.02  # the collision model, with the sphere where MuJoCo has it
     assert m["min_clearance_arm_arm_m"] > 0.1
