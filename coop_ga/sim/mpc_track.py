@@ -135,7 +135,7 @@ def track_scene(system: Any, start: Any, radius: float) -> Scene:
     """The robot's scene plus the sphere ``obstacle`` of ``radius`` [m] at ``start`` (3,) [m]: three slide joints
     ``obstacle_x/y/z`` with position servos ``obstacle_x/y/z_servo`` (ctrl: displacement from ``start`` [m])."""
     m = mj()
-    scene = build_scene(system, floor=0.0)
+    scene = build_scene(system, floor=0.0, visual_cell=0.02)  # coarse visual meshes: a 0.2 MB model.xml
     body = scene.spec.worldbody.add_body(name=OBSTACLE, pos=np.asarray(start, float), gravcomp=1.0)
     for k, ax in enumerate("xyz"):
         axis = np.eye(3)[k]

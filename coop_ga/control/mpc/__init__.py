@@ -14,8 +14,10 @@ Three loops, slowest first (:class:`CooperativeMPC`; the physics loop of :mod:`c
    * position, velocity and acceleration limits are **hard bounds** of the plan (the iLQR's box-DDP on the
      controls, its augmented Lagrangian on q and q̇, and its final feasibility blend: every returned plan is
      inside the limits);
-   * clearance (arm–obstacle and arm–arm, :mod:`coop_ga.collision`) enters the plan as the iLQR's clearance
-     *cost* (:class:`~coop_ga.control.avoidance.ClearanceCost`): it bends the plan away from contact early;
+   * clearance (arm–obstacle and arm–arm, :mod:`coop_ga.collision`) can enter the plan as the iLQR's clearance
+     *cost* (:class:`~coop_ga.control.avoidance.ClearanceCost`, ``clearance_weight > 0``): it bends the plan away
+     from contact early, but costs one collision-model evaluation per knot and line-search trial (~10× the
+     tick, ``benchmarks/mpc.py``), so it is off by default and the safety layer alone holds the clearance;
    * output: the acceleration command u_0, its torque by Pinocchio's RNEA (Eq 32), and the diagnostics
      (:class:`MPCTick`: tick and solve time, iterations, bound violation, clearance, ‖e‖ now and at the end).
 
