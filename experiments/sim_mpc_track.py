@@ -59,9 +59,9 @@ CLEARANCE_WEIGHT = 1e4  # 1/m², of the variant with the clearance cost in the p
 
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0)
-    exp.add("--seeds", type=int, nargs="+", default=[0, 1, 2, 3], help="sphere-path seeds (default 0 1 2 3)")
-    exp.add("--duration", type=positive_float, default=20.0, help="length of each sphere run [s] (default 20)")
-    exp.add("--push-duration", type=positive_float, default=6.0, help="length of the push run [s] (default 6)")
+    exp.add("--seeds", type=int, nargs="+", default=[0, 1, 2, 3], help="sphere-path seeds")
+    exp.add("--duration", type=positive_float, default=20.0, help="length of each sphere run [s]")
+    exp.add("--push-duration", type=positive_float, default=6.0, help="length of the push run [s]")
     exp.add("--no-render", action="store_true", help="skip the MuJoCo GIF")
     exp.add_fast("gallery length", seeds=[0, 1, 6], duration=4.0, push_duration=3.5)
     args = exp.parse(argv)

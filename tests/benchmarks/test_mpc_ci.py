@@ -46,7 +46,7 @@ def test_results_structure_and_ratios(doc: dict[str, Any]) -> None:
             t["median"] / a["task_evaluate_s"], rel=1e-4
         )  # JSON rounding
         assert x["sustained_rate_hz"] == pytest.approx(1.0 / t["median"], rel=1e-4)
-    assert r["note"].startswith("H=20:") and "Hz sustained" in r["note"]
+    assert r["note"].startswith("H=20: with the clearance cost") and "without it" in r["note"]
 
 
 def test_cli(capsys: pytest.CaptureFixture[str]) -> None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import time
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -11,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ... import validation
+from ...diagnostics import warn
 from ...errors import InfeasibleConstraintsError, RateWarning
 from ..avoidance import ClearanceCost
 from ..base import resolve_options
@@ -214,6 +214,7 @@ class CooperativeMPC:
             Q=o.Q,
             Qv=o.Qv,
             terminal=o.terminal,
+            hessian=o.hessian,
             max_iter=o.max_iter if self.plan is not None else o.first_iter,
             restart=False,
             clearance=self.clearance_cost,
@@ -226,10 +227,22 @@ class CooperativeMPC:
         self._count(wall, overrun)
         viol = max(res.joint_limit_violation, res.velocity_violation, res.acceleration_violation)
         self.plan = MPCTick(
-            t, u0, tau, t + np.asarray(res.t), np.asarray(res.trajectory), np.asarray(res.qd), np.asarray(res.u),
-            wall, float(res.solve_time_s), int(res.iterations), float(viol), float(res.min_clearance), err,
-            float(res.error), overrun,
-        )  # fmt: skip
+            time=t,
+            acceleration=u0,
+            torque=tau,
+            plan_t=t + np.asarray(res.t),
+            plan_q=np.asarray(res.trajectory),
+            plan_qd=np.asarray(res.qd),
+            plan_u=np.asarray(res.u),
+            tick_time=wall,
+            solve_time=float(res.solve_time_s),
+            iterations=int(res.iterations),
+            violation=float(viol),
+            min_clearance=float(res.min_clearance),
+            error=err,
+            terminal_error=float(res.error),
+            overrun=overrun,
+        )
         return self.plan
 
     def _count(self, wall: float, overrun: bool) -> None:
@@ -239,12 +252,11 @@ class CooperativeMPC:
         self.overruns += 1
         if not self._warned:
             self._warned = True
-            warnings.warn(
+            warn(
                 f"an MPC tick took {1e3 * wall:.1f} ms, more than its budget of {1e3 * self.o.budget:.1f} ms (period "
                 f"{1e3 * self.o.period:.1f} ms): this horizon/rate is not sustained here; every tick is still solved "
                 "(counted in .overruns) — lengthen the period, shorten the horizon or lower max_iter",
                 RateWarning,
-                stacklevel=2,
             )
 
     # ------------------------------------------------------------------ the safety layer

@@ -25,6 +25,10 @@ class MPCOptions:
             default: a moving target is not reached at rest.
         terminal: ``"soft"`` (Eq 57; default: a receding horizon needs no exact terminal equality) or
             ``"constraint"``.
+        hessian: the iLQR's terminal model (:class:`~coop_ga.control.ilqr.ILQROptions`): ``"gauss_newton"``
+            (default) or ``"newton"``.  Warm-started ticks take small steps, where the Newton model's extra
+            curvature does not pay: on the tracking loop of ``benchmarks/mpc.py`` both give the same ‖e‖ (to
+            four digits) and Gauss–Newton's tick is ~1.5–2.5× shorter (no error Hessian, no convexification).
         max_iter: compute budget per tick — iLQR iterations (≥ 1); the first tick (cold start) gets
             ``first_iter``.
         clearance_weight [1/m²], clearance_activation [m]: the clearance running cost of the plan (the
@@ -50,6 +54,7 @@ class MPCOptions:
     Q: Any = DEFAULT_Q
     Qv: Any = 1.0
     terminal: str = "soft"
+    hessian: str = "gauss_newton"
     max_iter: int = 2
     first_iter: int = 20
     clearance_weight: float = 0.0
@@ -67,6 +72,7 @@ class MPCOptions:
         validation.integer(self.horizon, "horizon", minimum=2)
         validation.positive(self.dt, "dt")
         validation.choice(self.terminal, ("soft", "constraint"), "terminal")
+        validation.choice(self.hessian, ("newton", "gauss_newton"), "hessian")
         validation.integer(self.max_iter, "max_iter", minimum=1)
         validation.integer(self.first_iter, "first_iter", minimum=1)
         validation.nonnegative(self.clearance_weight, "clearance_weight")
