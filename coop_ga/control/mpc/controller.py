@@ -26,8 +26,8 @@ from .target import TargetSchedule
 
 __all__ = ["CooperativeMPC", "FilterStep", "MPCInfeasibleError", "MPCTick"]
 
-#: a state this far outside a position or velocity limit [rad, rad/s] is infeasible
-STATE_TOL = 1e-6
+#: a state this far outside a position or velocity limit [rad, rad/s] is infeasible (the iLQR refuses a start beyond 1e-9)
+STATE_TOL = 1e-9
 
 
 @dataclass(frozen=True)
