@@ -12,7 +12,8 @@ warm-started from the shifted previous plan, 2 iterations) re-plans toward V_d(t
 velocity and acceleration limits, with the clearance cost; every 10 ms a QP with the limits and the clearance
 as hard velocity dampers (corrected for the sphere's own motion) gives the safe joint velocity; every 1 ms a
 PD + inverse-dynamics (Pinocchio RNEA) law tracks it.  A disturbance run pushes arm 0's hand with 20 N for
-0.2 s (``xfrc_applied``) while it tracks (no sphere).
+0.2 s (``xfrc_applied``) while it tracks (no sphere).  The control case runs the first path with the clearance
+rows of the safety layer off: the sphere must then hit an arm (else the path tests nothing and the run fails).
 
 Measured per run (``coop_ga.sim.mpc_track.track_metrics``): the primitive's centre and radius against the
 target's (RMS and max after 0.5 s), ‖e‖ (Eq 44), the collision model's smallest arm–obstacle and arm–arm
@@ -70,20 +71,27 @@ def main(argv: list[str] | None = None) -> int:
 
 def _cases(seeds: list[int], duration: float, push_duration: float) -> list[tuple[Any, Any]]:
     """(case, MPC options) pairs: the sphere runs (defaults: the safety QP alone keeps the clearance), the first
-    path again with the clearance cost in the plan too, and the push run."""
+    path again with the clearance cost in the plan too, the first path without any avoidance (the control
+    case), and the push run."""
     from coop_ga.control.mpc import MPCOptions
     from coop_ga.sim.mpc_track import TrackCase
 
     cases: list[tuple[Any, Any]] = [(TrackCase(f"sphere_seed{s}", seed=s, duration=duration), None) for s in seeds]
     planned = TrackCase(f"sphere_seed{seeds[0]}_clearance_cost", seed=seeds[0], duration=duration)
     cases.append((planned, MPCOptions(clearance_weight=CLEARANCE_WEIGHT)))
+    blind = TrackCase(f"sphere_seed{seeds[0]}_no_avoidance", seed=seeds[0], duration=duration)
+    cases.append((blind, MPCOptions(avoid=False)))  # the control case: contacts are expected
     cases.append((TrackCase("push_20N", duration=push_duration, obstacle=False, push=True), None))
     return cases
 
 
 def _failures(m: dict[str, Any]) -> list[str]:
-    out = []
     c = m["contacts"]
+    if not m["avoid"]:  # the control case must show what avoidance prevents
+        return (
+            [] if c["robot_obstacle"] > 0 else ["without avoidance the sphere touched nothing: the path is not a test"]
+        )
+    out = []
     if c["robot_obstacle"] or c["robot_robot"]:
         out.append(f"MuJoCo contacts robot–sphere {c['robot_obstacle']}, robot–robot {c['robot_robot']}")
     clear = min(x for x in (m["min_clearance_obstacle_m"], m["min_clearance_arm_arm_m"], np.inf) if x is not None)
@@ -113,11 +121,12 @@ def run(exp: Experiment, seeds: list[int], duration: float, push_duration: float
             r = run_track(case, options, progress=not exp.quiet)
             m = track_metrics(r, SETTLE)
             times[f"{case.name}_s"] = time.perf_counter() - t
-        m["failures"] = _failures(m)
         r.log.extra.update(m)
         if runs and not exp.fast:  # the gallery keeps one log (its size)
             r.log.save(exp.out / "runs" / case.name)
         m["clearance_weight"] = r.controller.mpc.o.clearance_weight
+        m["avoid"] = r.controller.mpc.o.avoid
+        m["failures"] = _failures(m)
         runs.append(r)
         per.append(m)
         if not exp.quiet:
@@ -139,9 +148,10 @@ def run(exp: Experiment, seeds: list[int], duration: float, push_duration: float
 
 
 def _summary(per: list[dict[str, Any]], fast: bool) -> dict[str, Any]:
-    sphere = [m for m in per if m["obstacle"]]
+    sphere = [m for m in per if m["obstacle"] and m["avoid"]]
     push = [m for m in per if "push" in m]
-    default = [m for m in per if m["clearance_weight"] == 0]  # the rate of the default controller
+    blind = [m for m in per if not m["avoid"]]
+    default = [m for m in per if m["clearance_weight"] == 0 and m["avoid"]]  # the rate of the default controller
     ticks = [m["tick_time_s"] for m in default]
     return {
         "experiment": "mpc_track",
@@ -155,9 +165,9 @@ def _summary(per: list[dict[str, Any]], fast: bool) -> dict[str, Any]:
             "centre_max_m": max(m["centre_error_m"]["max"] for m in sphere),
             "radius_max_m": max(m["radius_error_m"]["max"] for m in sphere),
             "min_clearance_obstacle_m": min(m["min_clearance_obstacle_m"] for m in sphere),
-            "min_clearance_arm_arm_m": min(m["min_clearance_arm_arm_m"] for m in per),
-            "contacts_robot_obstacle": sum(m["contacts"]["robot_obstacle"] for m in per),
-            "contacts_robot_robot": sum(m["contacts"]["robot_robot"] for m in per),
+            "min_clearance_arm_arm_m": min(m["min_clearance_arm_arm_m"] for m in per if m["avoid"]),
+            "contacts_robot_obstacle": sum(m["contacts"]["robot_obstacle"] for m in per if m["avoid"]),
+            "contacts_robot_robot": sum(m["contacts"]["robot_robot"] for m in per if m["avoid"]),
             "position_violation_rad": max(m["limits"]["position_violation_rad"] for m in sphere),
             "velocity_violation_rad_s": max(m["limits"]["velocity_violation_rad_s"] for m in sphere),
             "fallbacks": sum(m["fallbacks"] for m in sphere),
@@ -169,6 +179,13 @@ def _summary(per: list[dict[str, Any]], fast: bool) -> dict[str, Any]:
         },
         "push": push[0]["push"] if push else None,
         "clearance_cost_variant": _variant(per),
+        "no_avoidance": {
+            "contacts_robot_obstacle": blind[0]["contacts"]["robot_obstacle"],
+            "contact_steps": blind[0]["contacts"]["robot_obstacle_steps"],
+            "min_clearance_obstacle_m": blind[0]["min_clearance_obstacle_m"],
+        }
+        if blind
+        else None,
         "runs": per,
     }
 
@@ -178,7 +195,9 @@ def _variant(per: list[dict[str, Any]]) -> dict[str, Any] | None:
     cost = [m for m in per if m["clearance_weight"] > 0]
     if not cost:
         return None
-    base = next(m for m in per if m["obstacle"] and m["seed"] == cost[0]["seed"] and m["clearance_weight"] == 0)
+    base = next(
+        m for m in per if m["obstacle"] and m["avoid"] and m["seed"] == cost[0]["seed"] and m["clearance_weight"] == 0
+    )
     return {
         name: {
             "min_clearance_obstacle_m": m["min_clearance_obstacle_m"],
@@ -207,7 +226,7 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
         f"tick (wall, load {m['load_average'][0]:.1f} on 2 cores; worst run): median {1000 * w['tick_median_s']:.0f} "
         f"ms, p95 {1000 * w['tick_p95_s']:.0f} ms, max {1000 * w['tick_max_s']:.0f} ms against a 40 ms period, "
         f"{w['overruns']} of {w['ticks']} ticks over it (warned and counted; the simulation waits, no tick is "
-        f"dropped).{_variant_text(m['clearance_cost_variant'])} Failures: {fails}."
+        f"dropped).{_variant_text(m['clearance_cost_variant'])}{_blind_text(m['no_avoidance'])} Failures: {fails}."
     )
     return {
         "title": "Physics: receding-horizon control of the cooperative circle past a moving sphere, MuJoCo "
@@ -228,6 +247,16 @@ def _variant_text(v: dict[str, Any] | None) -> str:
         f" mm instead of {1000 * a['min_clearance_obstacle_m']:.0f} mm, centre RMS {1000 * b['centre_rms_m']:.1f} mm "
         f"instead of {1000 * a['centre_rms_m']:.1f} mm, for a median tick of {1000 * b['tick_median_s']:.0f} ms "
         f"instead of {1000 * a['tick_median_s']:.0f} ms ({b['overruns']} of {b['ticks']} ticks over the period)."
+    )
+
+
+def _blind_text(b: dict[str, Any] | None) -> str:
+    if b is None:
+        return ""
+    return (
+        f" The control case, the same path with the clearance rows off: {b['contacts_robot_obstacle']} MuJoCo "
+        f"robot–sphere contacts over {b['contact_steps']} physics steps, clearance down to "
+        f"{1000 * b['min_clearance_obstacle_m']:.0f} mm."
     )
 
 
@@ -260,7 +289,7 @@ def _plot(exp: Experiment, runs: list[Any]) -> str:
     a.plot(cl["t"], 1000 * cl["arm_arm"], color="0.5", ls=":", label=f"arm–arm ({nominal.case.name})")
     a.axhline(1000 * nominal.controller.mpc.o.d_safe, color="r", ls="--", lw=0.8, label="d_safe")
     a.axhline(0.0, color="k", lw=0.8)
-    a.set_ylim(-5, 300)
+    a.set_ylim(min(-5.0, 1000 * min(float(np.min(clearance_series(r)["obstacle"])) for r in runs[:-1]) - 5), 300)
     a.set_ylabel("clearance to the sphere [mm]")
     a.set_xlabel("t [s]")
     a.legend(fontsize=6)

@@ -23,8 +23,8 @@ OUT = ROOT / "paper_figures" / "ours_mpc_track"
 def test_the_mpc_run_holds_its_claims():
     m = read_metrics(OUT)
     assert m["experiment"] == "mpc_track" and m["fast"] is True and m["system"] == "three_franka"
-    assert m["runs_count"] >= 4 and m["success_count"] == m["runs_count"] and m["failures"] == {}
-    sphere = [r for r in m["runs"] if r["obstacle"]]
+    assert m["runs_count"] >= 5 and m["success_count"] == m["runs_count"] and m["failures"] == {}
+    sphere = [r for r in m["runs"] if r["obstacle"] and r["avoid"]]
     assert len({r["seed"] for r in sphere}) >= 3  # several sphere paths, not one
     for r in sphere:
         assert r["contacts"]["robot_obstacle"] == 0 and r["contacts"]["robot_robot"] == 0
@@ -34,6 +34,8 @@ def test_the_mpc_run_holds_its_claims():
         assert r["mpc_ticks"] == round(r["duration_s"] / r["period_s"])  # no tick dropped
     w = m["worst"]
     assert w["min_clearance_obstacle_m"] < 0.15  # the sphere did come close to an arm on some path
+    blind = m["no_avoidance"]  # the control case: the same path without the clearance rows hits an arm
+    assert blind["contacts_robot_obstacle"] > 0 and blind["min_clearance_obstacle_m"] < 0.005
     p = m["push"]
     assert p["force_n"] == 20.0 and p["duration_s"] == 0.2
     assert p["peak_centre_error_m"] > p["threshold_m"] and p["recovery_time_s"] is not None

@@ -128,7 +128,7 @@ class CooperativeMPC:
         clear = MovingClearanceLimit(
             self.world, o.filter_dt, d_safe=o.d_safe, d_influence=o.d_influence, damper_gain=o.damper_gain
         )
-        self.limits = [*default_limits(self.lim, o.limit_gain), clear]
+        self.limits = [*default_limits(self.lim, o.limit_gain), *([clear] if o.avoid else [])]
         self.clearance_cost = (
             ClearanceCost(self.world.model, o.clearance_weight, o.clearance_activation) if o.clearance_weight else None
         )
@@ -170,13 +170,14 @@ class CooperativeMPC:
 
     def check_state(self, q: np.ndarray, qd: np.ndarray) -> None:
         """Raise :class:`MPCInfeasibleError` (with the violated constraints) if (q, q̇) is outside a position or
-        velocity limit or a pair of the collision model penetrates (clearance < 0)."""
+        velocity limit or (with ``avoid``) a pair of the collision model penetrates (clearance < 0)."""
         lim, names = self.lim, self.lim.joint_names
         active = [f"{names[i]} (lower position limit)" for i in np.flatnonzero(q < lim.lower - STATE_TOL)]
         active += [f"{names[i]} (upper position limit)" for i in np.flatnonzero(q > lim.upper + STATE_TOL)]
         active += [f"{names[i]} (velocity limit)" for i in np.flatnonzero(np.abs(qd) > lim.velocity + STATE_TOL)]
-        d = self.world.model.distances(q)
-        active += [f"clearance of {self.world.model.labels[k]} ({d[k]:.4f} m)" for k in np.flatnonzero(d < 0.0)]
+        if self.o.avoid:
+            d = self.world.model.distances(q)
+            active += [f"clearance of {self.world.model.labels[k]} ({d[k]:.4f} m)" for k in np.flatnonzero(d < 0.0)]
         if active:
             raise self._infeasible(q, qd, "infeasible constraints at the current state", active)
 

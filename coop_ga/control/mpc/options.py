@@ -46,6 +46,8 @@ class MPCOptions:
             :class:`~coop_ga.control.limits.ClearanceLimit`.  feedback: gain [1/s] pulling the state back
             onto the plan (``q̇_des = q̇_plan + k (q_plan − q)``).
         limit_gain: γ of the position limit (:func:`~coop_ga.control.limits.default_limits`).
+        avoid: False drops the clearance rows and the clearance check of the state (the control case of an
+            experiment: the same controller blind to obstacles and to the other arms).
     """
 
     horizon: int = 10
@@ -67,6 +69,7 @@ class MPCOptions:
     damper_gain: float = 0.5
     feedback: float = 5.0
     limit_gain: float = 0.5
+    avoid: bool = True
 
     def __post_init__(self) -> None:
         validation.integer(self.horizon, "horizon", minimum=2)
@@ -83,6 +86,8 @@ class MPCOptions:
         validation.positive(self.filter_dt, "filter_dt")
         validation.nonnegative(self.feedback, "feedback")
         validation.scalar(self.limit_gain, "limit_gain", low=0.0, high=1.0, low_open=True)
+        if not isinstance(self.avoid, bool):
+            raise InvalidInputError(f"avoid must be True or False, got {self.avoid!r}")
         if not self.d_influence > self.d_safe:
             raise InvalidInputError(f"d_influence ({self.d_influence} m) must exceed d_safe ({self.d_safe} m)")
         m = self.period / self.dt
