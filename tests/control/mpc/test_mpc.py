@@ -166,3 +166,34 @@ def test_moving_obstacle_dampers_account_for_its_motion(setup):
     f = mpc.filter(0.0, q0, np.zeros(task.nq))
     _, J = mpc.world.model.distances_and_jacobian(q0)
     assert J[k] @ f.velocity + rate[k] >= -0.5 * (d[k] - mpc.o.d_safe) / mpc.o.filter_dt - 1e-6
+
+
+def _shrinking_loop(task, q0, avoid: bool):
+    """The circle's target radius shrinks from 0.49 m to 5 cm in 0.6 s: the hands would meet in the middle."""
+    from coop_ga.sim import circle_target
+
+    c0 = task.points(q0).mean(axis=0)
+    r0 = float(np.linalg.norm(task.points(q0)[0] - c0))
+    target = lambda t: circle_target(c0, r0 + (0.05 - r0) * min(t / 0.6, 1.0))  # noqa: E731
+    mpc = CooperativeMPC(task, target, OPTS, avoid=avoid, time_budget=60.0)
+    inter = mpc.world.model.inter_branch
+    q, qd, t = q0.copy(), np.zeros(task.nq), 0.0
+    arm_arm, active = [], False
+    for _ in range(20):  # 0.8 s
+        mpc.tick(t, q, qd)
+        for _ in range(4):
+            f = mpc.filter(t, q, qd)
+            active |= any(a.startswith("clearance of") for a in f.active)
+            q, qd, t = q + 0.01 * 0.5 * (qd + f.velocity), f.velocity, t + 0.01
+            arm_arm.append(float(mpc.world.model.distances(q)[inter].min()))
+    return min(arm_arm), active
+
+
+def test_arm_arm_clearance_is_a_hard_constraint(setup):
+    """Closing the circle drives the three hands together: the safety QP's self rows stop them at d_safe (to first
+    order), while the same controller without them lets the arms interpenetrate."""
+    task, q0, _ = setup
+    d_min, active = _shrinking_loop(task, q0, avoid=True)
+    assert active and d_min > 0.5 * OPTS.d_safe
+    d_blind, _ = _shrinking_loop(task, q0, avoid=False)
+    assert d_blind < 0.0
