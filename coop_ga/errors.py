@@ -28,6 +28,7 @@ __all__ = [
     "JointLimitWarning",
     "NonFiniteError",
     "PrecisionWarning",
+    "RateWarning",
     "RenderWarning",
     "RendererUnavailableError",
     "ThreadingError",
@@ -119,6 +120,10 @@ class JointLimitWarning(CoopGAWarning):
 
 class PrecisionWarning(CoopGAWarning):
     """A result lost precision (e.g. a primitive far from the origin); the message estimates the error."""
+
+
+class RateWarning(CoopGAWarning):
+    """A periodic controller's tick took longer than its period (the message gives the measured time)."""
 
 
 class CacheWarning(CoopGAWarning):
