@@ -490,23 +490,26 @@ class _Overlay:
 def _overlays(robots: list[_Robot], prims: list[_Prim], scene: Scene) -> list[_Overlay]:
     """What :func:`_compose` draws over the VTK image: point primitives' markers, the end-point markers of
     the robots not in the ``initial`` role, and every curve (module :mod:`coop_ga.viz.scene`)."""
+    # drawn in this order: end-point markers, paths, then the markers the legend names (a target point
+    # reached by a TCP stays visible over the TCP's marker)
     out = []
-    for pr in prims:
-        ms, alpha = float(pr.style.get("marker_size", 40.0)), float(pr.style.get("alpha", 1.0))
-        if "points" in pr.data and ms > 0 and alpha > 0:
-            col = pr.style.get("color", PALETTE.primitive)
-            out.append(_Overlay(pr.data["points"], col, marker="o", size=ms, alpha=alpha * _alpha(col)))
     for r in robots:
         if r.role != "initial" and len(r.skeleton.end_points):
             out.append(_Overlay(r.skeleton.end_points, PALETTE.end_point, marker="o", size=30.0))
+    marks = []
     for c in scene.curves:
         cs = curve_style(c)
         P = np.asarray(c.points, float).reshape(-1, 3)
         if c.markers:
-            out.append(_Overlay(P, cs["color"], marker=cs["marker"], size=float(cs["marker_size"])))
+            marks.append(_Overlay(P, cs["color"], marker=cs["marker"], size=float(cs["marker_size"])))
         else:
             out.append(_Overlay(P, cs["color"], lw=float(cs["lw"]), ls=cs["ls"]))
-    return out
+    for pr in prims:
+        ms, alpha = float(pr.style.get("marker_size", 40.0)), float(pr.style.get("alpha", 1.0))
+        if "points" in pr.data and ms > 0 and alpha > 0:
+            col = pr.style.get("color", PALETTE.primitive)
+            marks.append(_Overlay(pr.data["points"], col, marker="o", size=ms, alpha=alpha * _alpha(col)))
+    return out + marks
 
 
 def _draw_overlays(ax: Any, cam: Camera, overlays: list[_Overlay]) -> None:
