@@ -117,6 +117,15 @@ def _per_frame_primitives(system: Any, Q: np.ndarray, primitives: Any) -> list[A
     )
 
 
+def _one_per_row(primitives: Any, n_rows: int) -> bool:
+    """Whether ``primitives`` is a sequence with one primitive (or None) per trajectory row."""
+    from ..geometry import Primitive
+
+    if isinstance(primitives, (str, Primitive)) or not isinstance(primitives, Sequence):
+        return False
+    return len(primitives) == n_rows
+
+
 def _robot_bounds(system: Any, Q: np.ndarray) -> np.ndarray:
     """Points (N, 3) [m] that bound the robot over the rows of Q: the corners of each visual object's box
     at its pose (the skeleton without visual geometry)."""
@@ -221,6 +230,8 @@ def animate(
     fps = validation.positive(fps, "fps")
     n = round((tt[-1] - tt[0]) * fps) + 1 if frames is None else validation.integer(frames, "frames", minimum=1)
     idx = frame_indices(len(Q), n)
+    if _one_per_row(primitives, len(Q)):  # one primitive (or None) per row: those of the rendered rows
+        primitives = [primitives[k] for k in idx]
     prims = _per_frame_primitives(system, Q[idx], primitives)
     ends = np.array([system.end_points(q) for q in Q])  # (T, k, 3)
     corners = _framing(system, Q[idx], prims, target, ends if paths else ends[idx], pad)
