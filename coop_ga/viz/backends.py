@@ -5,7 +5,8 @@ backend                 draws
 ======================  =====================================================================
 ``"vtk"``               robots from their visual meshes with a depth buffer and lighting
                         (PyVista/VTK, offscreen), primitives as tubes / translucent surfaces;
-                        the image is composed into a matplotlib figure (title, legend, fonts)
+                        the image is composed into a matplotlib figure (title, legend, fonts;
+                        paths and markers projected over it, so none hides inside a mesh)
 ``"matplotlib"``        the same meshes, decimated, as one depth-sorted ``Poly3DCollection``
                         with flat shading (painter's algorithm); primitives drawn over them
 ``"skeleton"``          stick figures (joint origins, :func:`coop_ga.viz.draw_robot`)
