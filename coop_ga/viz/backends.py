@@ -475,6 +475,12 @@ def _outline_only(pr: _Prim) -> bool:
     return pr.surface and not pr.spec.flat and pr.p.role == "intermediate"
 
 
+def _overlaid(c: Any) -> bool:
+    """Whether a scene curve is drawn over the VTK image: paths (role ``trajectory``) and markers; other
+    curves (terrain, reference lines) keep their depth so the robot hides what is behind it."""
+    return bool(c.markers or c.role == "trajectory")
+
+
 @dataclass
 class _Overlay:
     """A polyline or markers drawn over the rendered image (world points, matplotlib style)."""
@@ -498,7 +504,7 @@ def _overlays(robots: list[_Robot], prims: list[_Prim], scene: Scene) -> list[_O
         if r.role != "initial" and len(r.skeleton.end_points):
             out.append(_Overlay(r.skeleton.end_points, PALETTE.end_point, marker="o", size=30.0))
     marks = []
-    for c in scene.curves:
+    for c in filter(_overlaid, scene.curves):
         cs = curve_style(c)
         P = np.asarray(c.points, float).reshape(-1, 3)
         if c.markers:
@@ -707,7 +713,7 @@ def vtk_image(
     """Render ``scene`` with VTK offscreen: the RGB image (height, width, 3) uint8 on white, and
     the :class:`Camera` it was taken with (``camera.project`` maps world points to its pixels).
 
-    ``overlay``: leave out the curves, point markers and end-point markers (the caller draws them
+    ``overlay``: leave out the paths, point markers and end-point markers (the caller draws them
     over the image, :func:`_overlays`)."""
     pv = _pyvista()
     ok, why = vtk_status()
@@ -730,7 +736,7 @@ def vtk_image(
             flat = _flat_geometry(pr, anchor, extent) if pr.spec.flat else None
             vs.primitive(pr, flat, markers=not overlay)
             translucent |= pr.surface or float(pr.style.get("alpha", 1.0)) < 1.0
-        for c in [] if overlay else scene.curves:
+        for c in [c for c in scene.curves if not (overlay and _overlaid(c))]:
             vs.curve(np.asarray(c.points, float).reshape(-1, 3), curve_style(c), c.markers)
         if translucent:
             pl.enable_depth_peeling(number_of_peels=6)

@@ -26,8 +26,8 @@ offscreen OpenGL context can be made, else ``"matplotlib"`` with one
 :class:`~coop_ga.errors.RenderWarning`.  ``$COOP_GA_RENDERER`` replaces ``"auto"``.
 A robot without visual geometry is drawn as its skeleton (with a notice).
 
-With the VTK backend, curves, point markers and the end-point markers are drawn over the rendered
-image (projected with its camera, with a white halo): a fingertip path inside a translucent sphere or
+With the VTK backend, paths (curves in the ``trajectory`` role), markers and the end-point markers
+are drawn over the rendered image (projected with its camera, with a white halo): a fingertip path inside a translucent sphere or
 behind a finger would otherwise be hidden while the legend lists it.  Spheres in the
 ``intermediate`` role are drawn as outlines only, so a stack of them does not hide the robot.
 """
