@@ -403,6 +403,7 @@ def figures(
         ax.axhline(1e3 * POSE_TOL[0], color="C3", ls="--", lw=0.8)
         ax.axhline(POSE_TOL[1], color="C0", ls=":", lw=0.8)
         ax.set_xlabel("t [s] (plan time; MuJoCo ran 0.5 s of standing before)")
+        ax.set_ylabel("error [mm | deg]")
         ax.set_title("MuJoCo: the free body against the planned posture (joint PD + static feed-forward)")
         ax.legend(fontsize=8)
         shade(ax)

@@ -34,10 +34,10 @@ Writes to ``--out``: ``metrics.json`` (per run and gain set: initial/final cost,
 largest rise above the running minimum, peak torque, saturated steps, joint-limit
 excursions; ``max_limit_violation`` [rad], the largest excursion of any simulated state
 outside the position limits, 0 = inside; the ``gallery`` block), ``errors.npz`` (t and
-the cost of every run), ``fig05_scene.png`` (the arms at the initial configurations of the
-runs, light, and at their final ones, grey; the initial circles green, the final ones
-turquoise, the target circle dashed; the flange paths red), ``fig06_cost.png`` (cost over
-time of every run, paper gains) and ``fig06_cost_stiff.png`` (the same with K = 25 I,
+the cost of every run), ``fig05_scene.png`` (run 0 alone — ten overlaid runs cannot be read — the arms at
+its initial configuration, light, and at its final one, grey; its initial circle green, its final
+one turquoise, the target circle dashed; the flange paths red), ``fig06_cost.png`` (cost over
+time of every run, paper gains, run 0 thick) and ``fig06_cost_stiff.png`` (the same with K = 25 I,
 D = 10 I, log scale); wall-clock times go to ``timing.json``.
 
 ``--fast`` (CI): at most 4 runs of at most 2 s; every file and metric key is still written.
@@ -189,36 +189,37 @@ def main(argv: list[str] | None = None) -> int:
 
     # ------------------------------------------------------------------ figures
     with exp.stage("rendering"):
+        # one run in the scene (ten overlaid robots cannot be read); all of them in Fig. 6
         scene = viz.Scene()
-        for i, (qi, r) in enumerate(zip(starts, results["paper"])):
-            first = i == 0
-            scene.robot(s, qi, "initial", label="initial configurations" if first else None)
-            scene.robot(s, r.q, "final", label=f"final configurations (t = {duration:g} s)" if first else None)
-            scene.primitive(task.primitive(qi), "initial", label="initial circles" if first else None)
-            scene.primitive(task.primitive(r.q), "final", label="final circles" if first else None)
-            P = np.array([task.points(q) for q in r.trajectory[:: max(1, len(r.t) // 200)]])
-            for j in range(3):
-                scene.curve(P[:, j], "trajectory", label="flange paths" if first and j == 0 else None)
+        q_start, r0 = starts[0], results["paper"][0]
+        scene.robot(s, q_start, "initial", label="initial configuration")
+        scene.robot(s, r0.q, "final", label=f"final configuration (t = {duration:g} s)")
+        scene.primitive(task.primitive(q_start), "initial", label="initial circle")
+        scene.primitive(task.primitive(r0.q), "final", label="final circle")
+        P = np.array([task.points(q) for q in r0.trajectory[:: max(1, len(r0.t) // 200)]])
+        for j in range(3):
+            scene.curve(P[:, j], "trajectory", label="flange paths" if j == 0 else None)
         scene.primitive(Xd, "target", label=r"target circle $V_{Sd}$")
         png5 = viz.render_scene(
             scene,
             exp.out / "fig05_scene.png",
             view=(24.0, -60.0),
             size=(7.0, 6.0),
-            title=f"three_iiwa14, {runs} random starts, impedance control (paper gains)",
+            title=f"three_iiwa14, impedance control (paper gains):\nrun 0 of {runs} random starts (all {runs} in Fig. 6)",
         )
         pngs = [png5.name]
         for name, log in (("paper", False), ("stiff", True)):
             fig, ax = plt.subplots(figsize=(6.4, 3.6))
             for i, r in enumerate(results[name]):
-                viz.plot_error(ax, r.t, r.error_norm, log=log, lw=1.2, label=f"run {i}")
+                lab, lw = ("run 0 (Fig. 5)", 2.4) if i == 0 else (f"run {i}", 1.2)
+                viz.plot_error(ax, r.t, r.error_norm, log=log, lw=lw, label=lab, zorder=3 if i == 0 else 2)
             ax.set_xlabel("t [s]")
             ax.set_ylabel(r"cost $\|\log(\tilde V_{Sc}(q_t)\, V_{Sd})\|$")
             ax.set_title(f"Impedance control response, {labels[name]}", fontsize=9)
             ax.set_xlim(0.0, duration)
             if not log:
                 ax.set_ylim(bottom=0.0)
-            ax.legend(ncol=2, fontsize=7)
+            viz.legend_outside(ax, fontsize=7)
             fname = "fig06_cost.png" if name == "paper" else "fig06_cost_stiff.png"
             exp.save(fig, fname)
             plt.close(fig)

@@ -38,7 +38,9 @@ target nor the controller's equations; both are ours (above).  Its Fig. 14a draw
 it is green (initial) / turquoise (final) like every other figure.
 
 Writes to ``--out``: ``metrics.json``, ``timing.json``, ``trajectories.npz``,
-``fig14_scene.png``, ``fig14_line_parameters.png``, ``fig15_scene.png``, ``fig15_line_parameters.png``.
+``fig14_scene.png``, ``fig14_line_parameters.png``, ``fig15_scene.png``, ``fig15_line_parameters.png``,
+``fig14_animation.gif``, ``fig15_animation.gif`` (the motion, ``--frames`` frames).  In the scenes the right-hand
+path is red, the left-hand one (or the held left hand, a square) purple, the target point an orange star.
 
     python experiments/line_constraint.py --out results/fig14_15_line_constraint
 """
@@ -51,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from coop_ga.harness import Experiment, finite_float, nonneg_float, positive_float, positive_int
+from coop_ga.harness import Experiment, finite_float, int_at_least, nonneg_float, positive_float, positive_int
 
 #: view (elevation, azimuth) [deg] and size [in] of the two scenes
 VIEW = (14.0, 28.0)
@@ -66,6 +68,90 @@ def _fd_jacobian(fun: Any, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
         e[j] = h
         cols.append((fun(q + e) - fun(q - e)) / (2 * h))
     return np.array(cols).T
+
+
+def draw_scenario(
+    exp: Any,
+    s: Any,
+    task: Any,
+    q0: np.ndarray,
+    P0: np.ndarray,
+    target: np.ndarray,
+    r: Any,
+    X: np.ndarray,
+    key: str,
+    fig_no: str,
+) -> list[Any]:
+    """``fig<NN>_scene.png``, ``fig<NN>_line_parameters.png`` and ``fig<NN>_animation.gif`` of one scenario:
+    the run ``r`` (its t (T,), trajectory (T, 17), points (T, 2, 3) [m]) and its line parameters X (T, 6)."""
+    from coop_ga import viz
+    from coop_ga.control.constrained import LINE_PARAMETER_BLADES
+
+    plt = exp.pyplot()
+    right, left = viz.PALETTE.trajectories[:2]
+    sc = viz.Scene()
+    sc.robot(s, q0, "initial", "initial configuration")
+    sc.robot(s, r.q, "final", "final configuration")
+    sc.primitive(task.primitive(q0), "initial", "initial line")
+    sc.primitive(task.primitive(r.q), "final", "final line")
+    sc.curve(r.points[:, 0], "trajectory", "right-hand path", style={"color": right})
+    if key == "scenario2":
+        sc.curve(r.points[:, 1], "trajectory", "left-hand path", style={"color": left})
+    else:
+        held = {"color": left, "marker": "s", "marker_size": 50.0}
+        sc.curve(P0[1][None], "neutral", "left hand (held)", markers=True, style=held)
+    star = {"color": viz.PALETTE.target_point, "marker": "*", "marker_size": 160.0}
+    sc.curve(target[None], "target", "target point", markers=True, style=star)
+    title = (
+        "Fig. 14: right hand reaches, left hand held, line free"
+        if key == "scenario1"
+        else "Fig. 15: right hand reaches, line kept horizontal"
+    )
+    out = [viz.render_scene(sc, exp.out / f"fig{fig_no}_scene.png", view=VIEW, size=SIZE, title=title)]
+
+    fig, axs = plt.subplots(3, 1, figsize=(7.5, 7.8), sharex=True, height_ratios=[1.0, 1.0, 0.9])
+    cols = viz.BIVECTOR_COLORS
+    for j in range(3):
+        lab = rf"$d_{'xyz'[j]}$ ({LINE_PARAMETER_BLADES[j]})"
+        if j == 2:
+            lab += " constrained" if key == "scenario2" else " free"
+        axs[0].plot(r.t, X[:, j], color=cols[j], lw=3.2 if j == 2 else 1.5, label=lab, zorder=3 if j == 2 else 2)
+    axs[0].set_ylabel("direction d [1]")
+    viz.legend_outside(axs[0])
+    axs[0].grid(True, alpha=0.3)
+    for j in range(3):
+        lab = rf"$m_{'xyz'[j]}$ ({LINE_PARAMETER_BLADES[3 + j]})"
+        axs[1].plot(r.t, X[:, 3 + j], color=cols[3 + j], lw=1.5, label=lab)
+    axs[1].set_ylabel(r"moment $m = p_r \times d$ [m]")
+    viz.legend_outside(axs[1])
+    axs[1].grid(True, alpha=0.3)
+    dz_dev = np.abs(X[:, 2] - X[0, 2])
+    left_disp = np.linalg.norm(r.points[:, 1] - P0[1], axis=1)
+    axs[2].set_ylabel("error [m], deviation [1]")
+    viz.plot_error(axs[2], r.t, r.point_error, floor=1e-16, color="0.1", label="right-hand error [m]")
+    viz.plot_error(axs[2], r.t, left_disp, floor=1e-16, color="0.45", ls="--", label="left-hand\ndisplacement [m]")
+    viz.plot_error(axs[2], r.t, dz_dev, floor=1e-16, color=cols[2], lw=2.5, label=r"$|d_z(t) - d_z(0)|$")
+    axs[2].set_xlabel("t [s]")
+    viz.legend_outside(axs[2])
+    ttl = "free line, left hand held" if key == "scenario1" else r"horizontal line ($d_z$ = const)"
+    axs[0].set_title(f"Fig. {fig_no}b: line parameters, {ttl}")
+    fig.tight_layout()
+    out.append(exp.save(fig, f"fig{fig_no}_line_parameters.png"))
+    plt.close(fig)
+    gif = viz.animate(
+        s,
+        r.trajectory,
+        task.primitive,
+        exp.out / f"fig{fig_no}_animation.gif",
+        t=r.t,
+        frames=exp.args.frames,
+        fps=exp.args.frames / max(float(r.t[-1] - r.t[0]), 1e-9),
+        view=VIEW,
+        size=(4.8, 3.6),
+        dpi=80,
+        title=f"Fig. {fig_no}: {ttl}",
+    )
+    return [*out, gif]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -84,12 +170,12 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--max-speed", type=positive_float, default=0.2, help="right-hand speed cap [m/s]")
     exp.add("--constraint-gain", type=nonneg_float, default=10.0, help="constraint feedback gain k_c [1/s]")
     exp.add("--tol", type=positive_float, default=1e-4, help="right-hand error [m] at which the target is reached")
-    exp.add_fast("CI run (every output file and metric still written)", dt=0.02, steps=150, tol=1e-3)
+    exp.add("--frames", type=int_at_least(2), default=24, help="frames of each animation GIF (--fast: 4)")
+    exp.add_fast("CI run (every output file and metric still written)", dt=0.02, steps=150, tol=1e-3, frames=4)
     args = exp.parse(argv)
-    plt = exp.pyplot()
+    exp.pyplot()  # the headless backend before anything draws
 
     import coop_ga as cg
-    from coop_ga import viz
     from coop_ga.control.constrained import (
         LINE_PARAMETER_BLADES,
         LINE_PARAMETERS,
@@ -216,7 +302,14 @@ def main(argv: list[str] | None = None) -> int:
         and m2["left_hand_displacement_m"] > 1e-2
         and max_violation == 0.0
     )
-    figures = ["fig15_line_parameters.png", "fig15_scene.png", "fig14_line_parameters.png", "fig14_scene.png"]
+    figures = [
+        "fig15_line_parameters.png",
+        "fig15_scene.png",
+        "fig15_animation.gif",
+        "fig14_line_parameters.png",
+        "fig14_scene.png",
+        "fig14_animation.gif",
+    ]
     metrics: dict[str, Any] = {
         "system": "g1_arms",
         "kind": "line",
@@ -274,63 +367,7 @@ def main(argv: list[str] | None = None) -> int:
     with exp.stage("figures") as st:
         pngs = []
         for fig_no, key in (("14", "scenario1"), ("15", "scenario2")):
-            r = runs[key]
-            sc = viz.Scene()
-            sc.robot(s, q0, "initial", "initial configuration")
-            sc.robot(s, r.q, "final", "final configuration")
-            sc.primitive(task.primitive(q0), "initial", "initial line")
-            sc.primitive(task.primitive(r.q), "final", "final line")
-            sc.curve(r.points[:, 0], "trajectory", "right-hand path")
-            if key == "scenario2":
-                sc.curve(r.points[:, 1], "trajectory", "left-hand path")
-            else:
-                sc.curve(P0[1][None], "neutral", "left hand (held)", markers=True)
-            sc.curve(target[None], "target", "target point", markers=True)
-            title = (
-                "Fig. 14: right hand reaches, left hand held, line free"
-                if key == "scenario1"
-                else "Fig. 15: right hand reaches, line kept horizontal"
-            )
-            pngs.append(viz.render_scene(sc, exp.out / f"fig{fig_no}_scene.png", view=VIEW, size=SIZE, title=title))
-
-            X = ro[key]["X"]
-            fig, axs = plt.subplots(3, 1, figsize=(7.5, 7.8), sharex=True, height_ratios=[1.0, 1.0, 0.9])
-            cols = viz.BIVECTOR_COLORS
-            for j in range(3):
-                lab = rf"$d_{'xyz'[j]}$ ({LINE_PARAMETER_BLADES[j]})"
-                if j == 2:
-                    lab += " constrained" if key == "scenario2" else " free"
-                axs[0].plot(
-                    r.t, X[:, j], color=cols[j], lw=3.2 if j == 2 else 1.5, label=lab, zorder=3 if j == 2 else 2
-                )
-            axs[0].set_ylabel("direction d [1]")
-            axs[0].legend(ncol=3, fontsize=8, loc="best")
-            axs[0].grid(True, alpha=0.3)
-            for j in range(3):
-                axs[1].plot(
-                    r.t,
-                    X[:, 3 + j],
-                    color=cols[3 + j],
-                    lw=1.5,
-                    label=rf"$m_{'xyz'[j]}$ ({LINE_PARAMETER_BLADES[3 + j]})",
-                )
-            axs[1].set_ylabel(r"moment $m = p_r \times d$ [m]")
-            axs[1].legend(ncol=3, fontsize=8, loc="best")
-            axs[1].grid(True, alpha=0.3)
-            dz_dev = np.abs(X[:, 2] - X[0, 2])
-            left_disp = np.linalg.norm(r.points[:, 1] - P0[1], axis=1)
-            viz.plot_error(axs[2], r.t, r.point_error, floor=1e-16, color="0.1", label="right-hand error [m]")
-            viz.plot_error(
-                axs[2], r.t, left_disp, floor=1e-16, color="0.45", ls="--", label="left-hand displacement [m]"
-            )
-            viz.plot_error(axs[2], r.t, dz_dev, floor=1e-16, color=cols[2], lw=2.5, label=r"$|d_z(t) - d_z(0)|$")
-            axs[2].set_xlabel("t [s]")
-            axs[2].legend(fontsize=8, loc="center right")
-            ttl = "free line, left hand held" if key == "scenario1" else r"horizontal line ($d_z$ = const)"
-            axs[0].set_title(f"Fig. {fig_no}b: line parameters, {ttl}")
-            fig.tight_layout()
-            pngs.append(exp.save(fig, f"fig{fig_no}_line_parameters.png"))
-            plt.close(fig)
+            pngs += draw_scenario(exp, s, task, q0, P0, target, runs[key], ro[key]["X"], key, fig_no)
     timing["figures_s"] = st.seconds
 
     arrays: dict[str, np.ndarray] = {"target": target}

@@ -40,6 +40,14 @@ FOUR_BAR = (2.0, 0.5, 2.0, 1.5)  # ground, crank, coupler, rocker [m]: a crank-r
 NON_GRASHOF = (1.0, 0.8, 0.5, 0.45)  # a triple rocker: the crank toggles at ±62.55°
 #: the point whose path is drawn as each linkage's "coupler curve"
 TRACED = {"four_bar": "coupler.P", "slider_crank": "slider.S", "watt_six_bar": "coupler2.E", "ten_bar": "link_FG.G"}
+#: readable names of the linkages and of their traced points (the figure's titles and legends)
+NAMES = {"four_bar": "four-bar", "slider_crank": "slider-crank", "watt_six_bar": "Watt six-bar", "ten_bar": "ten-bar"}
+TRACED_NAMES = {
+    "four_bar": "coupler point P",
+    "slider_crank": "slider point S",
+    "watt_six_bar": "point E of the second coupler",
+    "ten_bar": "point G of link FG",
+}
 GREEN, BLUE, GREY = "#2e9e44", "#1f5fbf", "#555555"
 
 
@@ -102,12 +110,43 @@ def _gif(exp: Experiment, plt: Any, name: str, lk: Linkage, motion: LinkageMotio
             ax.set_xlim(lo[0], hi[0])
             ax.set_ylim(lo[1], hi[1])
             ax.set_aspect("equal")
-            ax.set_title(f"{name}  φ = {np.rad2deg(motion.crank_angles[k]):5.1f}°", fontsize=9)
+            ax.set_title(f"{NAMES[name]}  φ = {np.rad2deg(motion.crank_angles[k]):5.1f}°", fontsize=9)
             ax.set_xticks([])
             ax.set_yticks([])
             writer.grab_frame()
     plt.close(fig)
     return path.name
+
+
+def coupler_curves(
+    exp: Experiment, plt: Any, linkages: dict[str, Linkage], motions: dict[str, LinkageMotion], results: dict[str, Any]
+) -> None:
+    """``coupler_curves.png``: each linkage at crank angle 0 with the full path of its traced point (axes in m)."""
+    from matplotlib.lines import Line2D
+
+    fig, axes = plt.subplots(1, 4, figsize=(13, 3.9))
+    for ax, (name, lk) in zip(axes, linkages.items(), strict=True):
+        m = motions[name]
+        c = m.point(TRACED[name])
+        _draw(ax, lk, m, 0, TRACED[name])
+        ax.plot(c[:, 0], c[:, 1], "-", color="#c0392b", lw=1.5)
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        r = results[name]
+        ax.set_title(
+            f"{NAMES[name]} ({r['links']} links, {r['joints']} joints)\npath of the {TRACED_NAMES[name]}", fontsize=9
+        )
+    handles = [
+        Line2D([], [], color=GREEN, lw=2.5, marker="o", ms=4, label="crank"),
+        Line2D([], [], color=BLUE, lw=3, alpha=0.6, marker="^", ms=8, label="ground (fixed pivots)"),
+        Line2D([], [], color=GREY, lw=2.5, marker="o", ms=4, label="other links"),
+        Line2D([], [], color="#c0392b", lw=1.5, label="path of the traced point over one crank turn"),
+    ]
+    fig.legend(handles=handles, loc="lower center", ncol=4, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0.0, 0.08, 1.0, 1.0))
+    exp.save(fig, "coupler_curves.png")
+    plt.close(fig)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -171,18 +210,7 @@ def main(argv: list[str] | None = None) -> int:
         "message": ng_motion.message,
     }
     gifs = [_gif(exp, plt, name, linkages[name], motions[name], frames) for name in linkages]
-    fig, axes = plt.subplots(1, 4, figsize=(13, 3.4))
-    for ax, (name, lk) in zip(axes, linkages.items(), strict=True):
-        m = motions[name]
-        c = m.point(TRACED[name])
-        _draw(ax, lk, m, 0, TRACED[name])
-        ax.plot(c[:, 0], c[:, 1], "-", color="#c0392b", lw=1.5, label=TRACED[name])
-        ax.set_aspect("equal")
-        ax.set_title(f"{name} ({results[name]['links']} links, {results[name]['joints']} joints)", fontsize=9)
-        ax.legend(fontsize=7, loc="lower left")
-    fig.tight_layout()
-    exp.save(fig, "coupler_curves.png")
-    plt.close(fig)
+    coupler_curves(exp, plt, linkages, motions, results)
     worst_res = max(results[n]["max_residual"] for n in linkages)
     worst_len = max(results[n]["max_link_length_error"] for n in linkages)
     all_complete = all(results[n]["complete"] for n in linkages)

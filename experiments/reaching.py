@@ -48,7 +48,8 @@ Writes to ``--out``: ``scene.png`` (initial robot light, final grey; initial gre
 intermediate, final turquoise and target dashed primitives; red end-point paths),
 ``bivector.png`` (the bivector command J^G(q_t) q̇_t — the body velocity of the cooperative
 primitive, Eq 30 — the error bivector log(Ṽ_Sc(q_t) V_Sd) and its norm over time),
-``metrics.json`` (top level: ``converged``, ``terminal_error``, ``iterations``,
+``animation.gif`` (the iLQR motion: the robot, its primitive turquoise, the initial one green,
+the target dashed, the end-point paths red; ``--frames`` frames), ``metrics.json`` (top level: ``converged``, ``terminal_error``, ``iterations``,
 ``max_limit_violation`` [rad], and ``gallery``), ``trajectory.npz`` and ``timing.json``
 (wall-clock times, not committed).
 
@@ -66,7 +67,7 @@ from typing import Any
 import numpy as np
 
 from coop_ga.geometry import KIND_SPECS
-from coop_ga.harness import Experiment, finite_float, nonneg_float, positive_float, positive_int
+from coop_ga.harness import Experiment, finite_float, int_at_least, nonneg_float, positive_float, positive_int
 
 #: Paper's §4.2 setting (n = 250, Δt = 0.001 s "hence 2.5 s") and ours.
 PAPER_DT = 0.001
@@ -74,7 +75,9 @@ HORIZON, DT = 250, 0.01
 #: --fast: the same 2.5 s horizon with 100 knots.
 FAST_HORIZON, FAST_DT = 100, 0.025
 #: number of intermediate primitives drawn in the scene
-N_INTERMEDIATE = {"line": 5, "circle": 5, "plane": 3, "sphere": 1}  # wireframe spheres hide each other
+N_INTERMEDIATE = {"line": 5, "circle": 5, "plane": 3, "sphere": 2}  # intermediate spheres: outlines only
+#: frames of animation.gif (--fast: FAST_FRAMES)
+FRAMES, FAST_FRAMES = 30, 4
 #: paper's "typically converges in five or less iterations" (§4.2)
 PAPER_MAX_ITERATIONS = 5
 
@@ -264,7 +267,10 @@ def add_options(exp: Experiment, figure: str | None = None) -> None:
         default=DT,
         help=f"time step [s] of iLQR (and differential IK) ({FAST_DT} with --fast)",
     )
-    exp.add_fast("the same 2.5 s horizon in fewer knots, for CI", horizon=FAST_HORIZON, dt=FAST_DT)
+    exp.add(
+        "--frames", type=int_at_least(2), default=FRAMES, help=f"frames of animation.gif ({FAST_FRAMES} with --fast)"
+    )
+    exp.add_fast("the same 2.5 s horizon in fewer knots, for CI", horizon=FAST_HORIZON, dt=FAST_DT, frames=FAST_FRAMES)
     exp.add("--max-iter", type=positive_int, default=None, help="iLQR iteration limit; default: ilqr_reach's (60)")
     exp.add(
         "--backward",
@@ -364,7 +370,7 @@ def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
     """Solve, evaluate, draw and write one reaching figure (module docstring)."""
     setup = resolve(exp, args, figure)
     p = setup.preset
-    plt = exp.pyplot()
+    exp.pyplot()  # the headless backend before anything draws
 
     import coop_ga as cg
     from coop_ga import viz
@@ -443,29 +449,23 @@ def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
             title=f"{p.title}\n(iLQR, {res.iterations} iterations, ‖e‖ = {res.error:.1e})",
         )
     with exp.stage("plotting the bivector command"):
-        fig, axs = plt.subplots(3, 1, figsize=(8.0, 8.5), sharex=True)
-        viz.plot_bivector(axs[0], res.t, Bcmd)
-        axs[0].set_title(r"bivector command $\mathcal{J}^G(q_t)\,\dot q_t$ (body velocity of the " + p.kind + ")")
-        axs[0].set_ylabel("rad/s | 1/s | body length/s", fontsize=8)
-        viz.plot_bivector(axs[1], res.t, E, legend=False)
-        axs[1].set_title(r"error bivector $\log(\tilde V_{Sc}(q_t)\, V_{Sd})$ (Eq 44)")
-        viz.plot_error(axs[2], res.t, E, label=f"iLQR (final {res.error:.1e})")
-        if dik is not None:
-            td = setup.dt * np.arange(len(dik.errors))
-            viz.plot_error(
-                axs[2],
-                td,
-                dik.errors,
-                ls="--",
-                label=f"differential IK, gain {args.diffik_gain:g}/s (final {dik.error:.1e})",
-            )
-        axs[2].set_xlabel("t [s]")
-        axs[2].set_ylabel(r"$\|e\|$")
-        axs[2].legend(fontsize=8)
-        fig.suptitle(f"{p.figure}: {p.system}, cooperative {p.kind}, {s.nq} DOF")
-        fig.tight_layout()
-        biv_png = exp.save(fig, "bivector.png")
-        plt.close(fig)
+        biv_png = plot_bivectors(exp, setup, args, s, res, dik, E, Bcmd)
+    with exp.stage(f"animating animation.gif ({args.frames} frames)"):
+        gif = viz.animate(
+            s,
+            res.trajectory,
+            task.primitive,
+            exp.out / "animation.gif",
+            t=res.t,
+            frames=args.frames,
+            fps=args.frames / float(res.t[-1] - res.t[0]),
+            target=Xd,
+            view=p.view,
+            size=(4.8, 3.6),
+            dpi=80,
+            title=f"{p.figure}: {p.system}, iLQR",
+            progress=not args.quiet,
+        )
 
     # ---- outputs
     arrays: dict[str, Any] = {
@@ -492,7 +492,7 @@ def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
         setup, args, s, task, res, ik, dik, X0, Xd, Xf, e0, E, Bcmd, max_violation, opts.tol, opts.max_iter
     )
     metrics["weights"] = {"R": DEFAULT_R, "Q": DEFAULT_Q, "Qv": DEFAULT_QV}
-    metrics["gallery"]["figures"] = [scene_png.name, biv_png.name]
+    metrics["gallery"]["figures"] = [scene_png.name, biv_png.name, gif.name]
     exp.write_json("metrics.json", metrics)
     exp.write_timing(
         {
@@ -507,6 +507,34 @@ def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
     )
     _print_summary(exp, setup, s, res, ik, dik, e0, metrics)
     return 0
+
+
+def plot_bivectors(
+    exp: Experiment, setup: Setup, args: argparse.Namespace, s: Any, res: Any, dik: Any, E: Any, Bcmd: Any
+) -> Any:
+    """``bivector.png``: the command J^G(q_t) q̇_t (T, 7), the error bivector E (T, 7) and its norm; returns the path."""
+    plt = exp.pyplot()
+
+    from coop_ga import viz
+
+    p = setup.preset
+    fig, axs = plt.subplots(3, 1, figsize=(8.0, 8.5), sharex=True)
+    viz.plot_bivector(axs[0], res.t, Bcmd, ylabel=viz.bivector_ylabel("command", rate=True))
+    axs[0].set_title(r"bivector command $\mathcal{J}^G(q_t)\,\dot q_t$ (body velocity of the " + p.kind + ")")
+    viz.plot_bivector(axs[1], res.t, E, legend=False, ylabel=viz.bivector_ylabel("error"))
+    axs[1].set_title(r"error bivector $\log(\tilde V_{Sc}(q_t)\, V_{Sd})$ (Eq 44)")
+    viz.plot_error(axs[2], res.t, E, label=f"iLQR\n(final {res.error:.1e})")
+    if dik is not None:
+        td = setup.dt * np.arange(len(dik.errors))
+        label = f"differential IK,\ngain {args.diffik_gain:g}/s\n(final {dik.error:.1e})"
+        viz.plot_error(axs[2], td, dik.errors, ls="--", label=label)
+    axs[2].set_xlabel("t [s]")
+    viz.legend_outside(axs[2])
+    fig.suptitle(f"{p.figure}: {p.system}, cooperative {p.kind}, {s.nq} DOF")
+    fig.tight_layout()
+    path = exp.save(fig, "bivector.png")
+    plt.close(fig)
+    return path
 
 
 def build_metrics(
@@ -690,7 +718,7 @@ def _print_summary(
     if dik is not None:
         print(f"  differential IK ({dik.iterations} steps): final error {dik.error:.2e}, converged = {dik.converged}")
     print(f"  gallery: agrees = {m['gallery']['agrees']}")
-    print(f"  wrote {exp.out}/{{scene.png, bivector.png, metrics.json, trajectory.npz, timing.json}}")
+    print(f"  wrote {exp.out}/{{scene.png, bivector.png, animation.gif, metrics.json, trajectory.npz, timing.json}}")
 
 
 def main(argv: list[str] | None = None) -> int:

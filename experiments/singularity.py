@@ -61,7 +61,8 @@ directions to rounding before the guard raises at 1e-6.
 
 Writes to ``--out``: ``metrics.json`` (with the ``gallery`` block), ``trajectory.npz``,
 ``fig18_scene.png``, ``fig19_circle_parameters.png``, ``fig19_bivector.png``,
-``fig19_manipulability.png``; wall-clock times in ``timing.json``.
+``fig19_manipulability.png``, ``fig18_animation.gif`` (the motion, ``--frames`` frames; the circle drawn only while
+its radius is at most DRAW_RADIUS_MAX); wall-clock times in ``timing.json``.
 
     python experiments/singularity.py --out results/fig18_19_singularity
 """
@@ -74,7 +75,7 @@ from typing import Any
 
 import numpy as np
 
-from coop_ga.harness import Experiment, finite_float, positive_float
+from coop_ga.harness import Experiment, finite_float, int_at_least, positive_float
 
 #: relative margin of the stopping rule on the raise threshold (the compiled and the numpy
 #: well-definedness agree to rounding; this keeps a borderline step from reaching the guard)
@@ -248,7 +249,8 @@ def main(argv: list[str] | None = None) -> int:
         default=0.5,
         help="target p* = P2 + f (P3 − P2) on the line (0.5: the midpoint)",
     )
-    exp.add_fast("CI run (same controller and stop rule)", dt=0.05)
+    exp.add("--frames", type=int_at_least(2), default=30, help="frames of fig18_animation.gif (--fast: 4)")
+    exp.add_fast("CI run (same controller and stop rule)", dt=0.05, frames=4)
     args = exp.parse(argv)
     dt = args.dt
     plt = exp.pyplot()
@@ -400,7 +402,8 @@ def main(argv: list[str] | None = None) -> int:
         u = (b_pt - a_pt) / np.linalg.norm(b_pt - a_pt)
         ext = 0.35 * np.linalg.norm(b_pt - a_pt)
         line = a_pt + np.linspace(-ext, np.linalg.norm(b_pt - a_pt) + ext, 14)[:, None] * u
-        scene.curve(line, "trajectory", "degenerate line through TCPs 1, 2 (dots)", markers=True)
+        dots = {"color": viz.PALETTE.trajectories[1]}
+        scene.curve(line, "trajectory", "degenerate line through TCPs 1, 2 (dots)", markers=True, style=dots)
         scene.curve(R["points"][:, 0], "trajectory", "TCP 0 path")
         png18 = viz.render_scene(
             scene,
@@ -419,6 +422,7 @@ def main(argv: list[str] | None = None) -> int:
         for j, n in enumerate(names):
             ax.plot(t, R["xc"][:, j], lw=1.4, label="$e_{" + n[1:].replace("∞", r"\infty") + "}$")
         ax.set_title(r"coefficients of $X_c = P_1\wedge P_2\wedge P_3$ (Eq 14)")
+        ax.set_ylabel("coefficient")
         ax.legend(ncol=5, fontsize=7)
         ax.grid(True, alpha=0.3)
         ax = axs[0, 1]
@@ -426,13 +430,15 @@ def main(argv: list[str] | None = None) -> int:
         ax.semilogy(t, R["distance"], color="C3", lw=1.6, label="distance of TCP 0 to the line [m]")
         ax.semilogy(t, W, color="0.3", lw=1.2, ls="--", label="well-definedness $w$")
         ax.set_title(f"radius {R['radius'][0]:.3g} → {R['radius'][-1]:.3g} m (∝ $w^{{{radius_slope:.2f}}}$)")
+        ax.set_ylabel("[m] | w [1]")
         ax.legend(fontsize=8)
         ax.grid(True, alpha=0.3, which="both")
         ax = axs[1, 0]
         for j, lab in enumerate("xyz"):
             ax.plot(t, R["center"][:, j], lw=1.6, label=f"$c_{lab}$")
         ax.set_yscale("symlog", linthresh=1.0)
-        ax.set_title("centre [m] (symlog)")
+        ax.set_title("centre (symlog)")
+        ax.set_ylabel("centre [m]")
         ax.legend(fontsize=8)
         ax.grid(True, alpha=0.3)
         ax.set_xlabel("t [s]")
@@ -440,6 +446,7 @@ def main(argv: list[str] | None = None) -> int:
         for j, lab in enumerate("xyz"):
             ax.plot(t, R["normal"][:, j], lw=1.6, label=f"$n_{lab}$")
         ax.set_title("unit normal")
+        ax.set_ylabel("normal [1]")
         ax.legend(fontsize=8)
         ax.grid(True, alpha=0.3)
         ax.set_xlabel("t [s]")
@@ -453,7 +460,7 @@ def main(argv: list[str] | None = None) -> int:
         viz.plot_bivector(ax, t, R["log"])
         ax.set_yscale("symlog", linthresh=0.1)
         ax.set_xlabel("t [s]")
-        ax.set_ylabel("rad | ln(scale) | body length (symlog)")
+        ax.set_ylabel(viz.bivector_ylabel(r"$\log V_{Sc}$") + ", symlog")
         ax.set_title(
             r"Fig. 19b: $B_{Sc} = \log V_{Sc}(q_t)$ "
             f"(translation ‖t‖ {tnorm[0]:.2f} → {tnorm[-1]:.3g}, β = ln r {B0[3]:.2f} → {Bf[3]:.2f})"
@@ -491,6 +498,23 @@ def main(argv: list[str] | None = None) -> int:
         fig.tight_layout()
         png19c = exp.save(fig, "fig19_manipulability.png")
         plt.close(fig)
+
+    with exp.stage(f"animating fig18_animation.gif ({args.frames} frames)"):
+        # the circle only while it is drawable (r ≤ DRAW_RADIUS_MAX): a huge circle would frame nothing else
+        circles = [X if r <= DRAW_RADIUS_MAX else None for X, r in zip(Xs, R["radius"])]
+        gif = viz.animate(
+            s,
+            Q,
+            circles,
+            exp.out / "fig18_animation.gif",
+            t=t,
+            frames=args.frames,
+            fps=10.0,
+            view=(34.0, -62.0),
+            size=(4.8, 3.6),
+            dpi=80,
+            title="Fig. 18: TCP 0 driven onto the line",
+        )
 
     # ---- outputs
     exp.write_npz(
@@ -536,7 +560,7 @@ def main(argv: list[str] | None = None) -> int:
             ),
             "evidence": evidence,
             "agrees": agrees,
-            "figures": [png18.name, png19c.name, png19a.name, png19b.name],
+            "figures": [png18.name, png19c.name, png19a.name, png19b.name, gif.name],
         },
         "system": "three_franka",
         "kind": "circle",

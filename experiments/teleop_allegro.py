@@ -42,7 +42,7 @@ the radii; the three panels also as ``fig21_closed.png``, ``fig21_original.png``
 ``fig21_opened.png``), ``fig20_mapping.png`` (commanded and measured bivector per input
 axis), ``fig20_session.png`` (bivector command, radius and centre over the session) and
 ``fig20_scene.png`` (the hand before and after the translations, the fingertip paths in
-red); wall-clock times go to ``timing.json``.
+red), ``fig20_animation.gif`` (the whole session, ``--frames`` frames); wall-clock times go to ``timing.json``.
 
 ``--fast`` (CI): the session segments are halved; every file and metric key is still written.
 
@@ -58,7 +58,7 @@ from typing import Any
 
 import numpy as np
 
-from coop_ga.harness import Experiment, nonneg_float, positive_float
+from coop_ga.harness import Experiment, int_at_least, nonneg_float, positive_float
 
 #: the scripted session of Fig. 20: (duration [s], (tx, ty, tz, rx, ry, rz))
 SESSION: list[tuple[float, tuple[float, ...]]] = [
@@ -228,7 +228,8 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--rotation-gain", type=nonneg_float, default=0.5, help="k_r [rad/s per unit input]")
     exp.add("--dilation-gain", type=nonneg_float, default=1.0, help="k_d [1/s per unit input]")
     exp.add("--interactive", action="store_true", help="keyboard teleoperation in a matplotlib window")
-    exp.add_fast("CI run: the session segments halved (every output still written)")
+    exp.add("--frames", type=int_at_least(2), default=40, help="frames of fig20_animation.gif (--fast: 4)")
+    exp.add_fast("CI run: the session segments halved (every output still written)", frames=4)
     args = exp.parse(argv)
     plt = exp.pyplot(interactive=args.interactive)
 
@@ -421,7 +422,7 @@ def main(argv: list[str] | None = None) -> int:
         tb = log["t"][1:]
         if len(tb):
             viz.plot_bivector(ax1, tb, log["bivectors"])
-        ax1.set_ylabel("command [1/s | rad/s | radii/s]", fontsize=8)
+        ax1.set_ylabel(viz.bivector_ylabel("command", rate=True))
         ax1.set_title(f"{mode} session: translate x, y, z; rotate x, y; close, open, close; back", fontsize=9)
         ax2.plot(log["t"], radii * 1e3, "k-", lw=2, label="radius [mm]")
         for k, col in enumerate(("tab:red", "tab:blue", "tab:purple")):
@@ -434,8 +435,9 @@ def main(argv: list[str] | None = None) -> int:
                 label=f"centre {'xyz'[k]} − start [mm]",
             )
         ax2.set_xlabel("t [s]")
+        ax2.set_ylabel("[mm]")
         ax2.grid(True, alpha=0.3)
-        ax2.legend(fontsize=7, ncol=2)
+        viz.legend_outside(ax2, fontsize=7)
         fig.tight_layout()
         exp.save(fig, "fig20_session.png")
         plt.close(fig)
@@ -457,6 +459,19 @@ def main(argv: list[str] | None = None) -> int:
             size=(5.5, 5.0),
             pad=0.005,
             title="translation commands move the sphere (cf. Fig. 20)",
+        )
+        viz.animate(
+            s,
+            log["q"],
+            task.primitive,
+            exp.out / "fig20_animation.gif",
+            t=log["t"],
+            frames=args.frames,
+            fps=args.frames / max(float(log["t"][-1] - log["t"][0]), 1e-9),
+            view=(25.0, -50.0),
+            size=(4.8, 3.6),
+            dpi=80,
+            title=f"{mode} teleoperation session",
         )
 
     f21, mp = metrics["fig21"], metrics["fig20"]["mapping"]
@@ -503,6 +518,7 @@ def main(argv: list[str] | None = None) -> int:
             "fig20_mapping.png",
             "fig20_session.png",
             "fig20_scene.png",
+            "fig20_animation.gif",
             *(p.name for p in pngs21),
         ],
     }

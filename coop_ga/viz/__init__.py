@@ -11,7 +11,8 @@ canvas directly, so they work headless whatever the backend.
 * :mod:`~coop_ga.viz.primitives` — :func:`draw_primitive`, :func:`circle_points`,
   :func:`sphere_mesh`, :func:`square_points`;
 * :mod:`~coop_ga.viz.frames` — :func:`draw_frame`;
-* :mod:`~coop_ga.viz.plots` — :func:`plot_bivector`, :func:`plot_error`;
+* :mod:`~coop_ga.viz.plots` — :func:`plot_bivector`, :func:`plot_error`,
+  :func:`bivector_ylabel`, :func:`legend_outside`;
 * :mod:`~coop_ga.viz.axes` — :func:`set_equal_3d`, :func:`label_axes_3d`;
 * :mod:`~coop_ga.viz.render` — :func:`render`, :func:`save`;
 * :mod:`~coop_ga.viz.scene` — :class:`Scene`, :func:`render_scene` (every figure's 3-D panel);
@@ -27,17 +28,30 @@ from .axes import Drawn, axes_box, label_axes_3d, set_equal_3d
 from .backends import BACKENDS, Camera, frame_camera, resolve_backend, vtk_status
 from .frames import draw_frame, frame_axes
 from .mesh import RendererUnavailableError, RenderWarning, TriMesh, decimate, object_mesh, robot_mesh
-from .plots import plot_bivector, plot_error
+from .plots import bivector_ylabel, legend_outside, plot_bivector, plot_error
 from .primitives import circle_points, clip_line, draw_primitive, plane_basis, sphere_mesh, square_points
 from .render import render, save
 from .robots import RobotDrawn, Skeleton, draw_robot, skeleton
 from .scene import ROLES, Scene, SceneCurve, ScenePrimitive, SceneRobot, render_scene
-from .style import BIVECTOR_COLORS, BIVECTOR_LABELS, DPI, LINEWIDTH, PALETTE, Palette, style, use_style
+from .style import (
+    BIVECTOR_COLORS,
+    BIVECTOR_LABELS,
+    BIVECTOR_RATE_UNITS,
+    BIVECTOR_UNITS,
+    DPI,
+    LINEWIDTH,
+    PALETTE,
+    Palette,
+    style,
+    use_style,
+)
 
 __all__ = [
     "BACKENDS",
     "BIVECTOR_COLORS",
     "BIVECTOR_LABELS",
+    "BIVECTOR_RATE_UNITS",
+    "BIVECTOR_UNITS",
     "DPI",
     "LINEWIDTH",
     "PALETTE",
@@ -56,6 +70,7 @@ __all__ = [
     "TriMesh",
     "animate",
     "axes_box",
+    "bivector_ylabel",
     "circle_points",
     "clip_line",
     "decimate",
@@ -65,6 +80,7 @@ __all__ = [
     "frame_axes",
     "frame_camera",
     "label_axes_3d",
+    "legend_outside",
     "object_mesh",
     "plane_basis",
     "plot_bivector",

@@ -118,6 +118,15 @@ def _per_frame_primitives(system: Any, Q: np.ndarray, primitives: Any) -> list[A
     )
 
 
+def _one_per_row(primitives: Any, n_rows: int) -> bool:
+    """Whether ``primitives`` is a sequence with one primitive (or None) per trajectory row."""
+    from ..geometry import Primitive
+
+    if isinstance(primitives, (str, Primitive)) or not isinstance(primitives, Sequence):
+        return False
+    return len(primitives) == n_rows
+
+
 def _robot_bounds(system: Any, Q: np.ndarray) -> np.ndarray:
     """Points (N, 3) [m] that bound the robot over the rows of Q: the corners of each visual object's box
     at its pose (the skeleton without visual geometry)."""
@@ -181,7 +190,7 @@ def animate(
     dpi: int = 100,
     backend: str = "auto",
     title: str | None = None,
-    pad: float = 0.05,
+    pad: float | None = None,
     progress: bool = False,
 ) -> Path:
     """Render ``trajectory`` of ``system`` offscreen to a GIF or MP4 (module docstring).
@@ -202,7 +211,8 @@ def animate(
         size: as :func:`~coop_ga.viz.render_scene`: the size [in] of a frame.
         dpi: as :func:`~coop_ga.viz.render_scene`: the dpi of a frame.
         backend: as :func:`~coop_ga.viz.render_scene`.
-        pad: as :func:`~coop_ga.viz.render_scene`.
+        pad: margin [m] around the box of the whole motion (default: 4 % of its largest side, so a hand
+            fills the frame as a humanoid does).
         title: a first title line (the second is ``t = … s``).
         progress: a progress bar on stderr.
 
@@ -224,10 +234,13 @@ def animate(
     fps = validation.positive(fps, "fps")
     n = round((tt[-1] - tt[0]) * fps) + 1 if frames is None else validation.integer(frames, "frames", minimum=1)
     idx = frame_indices(len(Q), n)
+    if _one_per_row(primitives, len(Q)):  # one primitive (or None) per row: those of the rendered rows
+        primitives = [primitives[k] for k in idx]
     prims = _per_frame_primitives(system, Q[idx], primitives)
     ends = np.array([system.end_points(q) for q in Q])  # (T, k, 3)
     corners = _framing(system, Q[idx], prims, target, ends if paths else ends[idx], pad)
-    render = _frame_renderer(system, view=view, size=size, dpi=dpi, backend=backend, pad=pad, title=title)
+    # the corners hold the margin already
+    render = _frame_renderer(system, view=view, size=size, dpi=dpi, backend=backend, pad=0.0, title=title)
     from tqdm.auto import tqdm
 
     images = []
@@ -255,11 +268,17 @@ def _point(c: np.ndarray) -> Any:
     return point(np.asarray(c, float))
 
 
-def _framing(system: Any, Q: np.ndarray, prims: list[Any], target: Any, ends: np.ndarray, pad: float) -> np.ndarray:
-    """The 8 corners of the box around everything the animation draws (module docstring)."""
+def _framing(
+    system: Any, Q: np.ndarray, prims: list[Any], target: Any, ends: np.ndarray, pad: float | None
+) -> np.ndarray:
+    """The 8 corners of the box around everything the animation draws, ``pad`` [m] around it (None: 4 % of
+    the box's largest side; module docstring)."""
     pts = [_robot_bounds(system, Q), np.asarray(ends, float).reshape(-1, 3)]
     pts += [_primitive_points(X) for X in [*prims, target] if X is not None]
-    return _box_corners(np.vstack([p for p in pts if len(p)]), pad)
+    P = np.vstack([p for p in pts if len(p)])
+    P = P[np.all(np.isfinite(P), axis=1)]
+    margin = 0.04 * float(np.ptp(P, axis=0).max()) if pad is None else validation.nonnegative(pad, "pad")
+    return _box_corners(P, margin)
 
 
 def _frame_renderer(system: Any, **kw: Any) -> Callable[[Scene, Path, float], np.ndarray]:

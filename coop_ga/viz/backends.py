@@ -5,7 +5,8 @@ backend                 draws
 ======================  =====================================================================
 ``"vtk"``               robots from their visual meshes with a depth buffer and lighting
                         (PyVista/VTK, offscreen), primitives as tubes / translucent surfaces;
-                        the image is composed into a matplotlib figure (title, legend, fonts)
+                        the image is composed into a matplotlib figure (title, legend, fonts;
+                        paths and markers projected over it, so none hides inside a mesh)
 ``"matplotlib"``        the same meshes, decimated, as one depth-sorted ``Poly3DCollection``
                         with flat shading (painter's algorithm); primitives drawn over them
 ``"skeleton"``          stick figures (joint origins, :func:`coop_ga.viz.draw_robot`)
@@ -47,7 +48,7 @@ from ..errors import InvalidInputError
 from ..geometry.kinds import KIND_SPECS, KindSpec
 from .mesh import RendererUnavailableError, TriMesh, _notice, object_placements, robot_mesh
 from .robots import Skeleton, skeleton
-from .scene import Scene, ScenePrimitive, _primitive_style
+from .scene import Scene, ScenePrimitive, _primitive_style, curve_style
 from .style import LINEWIDTH, PALETTE, style
 
 __all__ = [
@@ -449,7 +450,7 @@ def _legend_handles(robots: list[_Robot], prims: list[_Prim], scene: Scene) -> l
         if not pr.p.label:
             continue
         col, ls, lw = pr.style.get("color", PALETTE.primitive), pr.style.get("ls", "-"), pr.style.get("lw", 2.0)
-        if pr.surface:
+        if pr.surface and not _outline_only(pr):
             from matplotlib.colors import to_rgba
 
             hs.append(Patch(facecolor=to_rgba(col, 0.3), edgecolor=col, ls=ls, label=pr.p.label))
@@ -460,12 +461,85 @@ def _legend_handles(robots: list[_Robot], prims: list[_Prim], scene: Scene) -> l
     for c in scene.curves:
         if not c.label:
             continue
-        col = PALETTE.trajectory if c.role == "trajectory" else PALETTE.robot
+        cs = curve_style(c)
         if c.markers:
-            hs.append(Line2D([], [], color=col, marker="o", ls="none", label=c.label))
+            ms = math.sqrt(float(cs["marker_size"]))
+            hs.append(Line2D([], [], color=cs["color"], marker=cs["marker"], ms=ms, ls="none", label=c.label))
         else:
-            hs.append(Line2D([], [], color=col, lw=LINEWIDTH["trajectory"], label=c.label))
+            hs.append(Line2D([], [], color=cs["color"], lw=cs["lw"], ls=cs["ls"], label=c.label))
     return hs
+
+
+def _outline_only(pr: _Prim) -> bool:
+    """An intermediate sphere: its outline only (a stack of translucent spheres would hide the robot)."""
+    return pr.surface and not pr.spec.flat and pr.p.role == "intermediate"
+
+
+def _overlaid(c: Any) -> bool:
+    """Whether a scene curve is drawn over the VTK image: paths (role ``trajectory``) and markers; other
+    curves (terrain, reference lines) keep their depth so the robot hides what is behind it."""
+    return bool(c.markers or c.role == "trajectory")
+
+
+@dataclass
+class _Overlay:
+    """A polyline or markers drawn over the rendered image (world points, matplotlib style)."""
+
+    points: np.ndarray
+    color: Any
+    lw: float = 0.0
+    ls: str = "-"
+    marker: str | None = None
+    size: float = 0.0  # marker area [pt²]
+    alpha: float = 1.0
+
+
+def _overlays(robots: list[_Robot], prims: list[_Prim], scene: Scene) -> list[_Overlay]:
+    """What :func:`_compose` draws over the VTK image: point primitives' markers, the end-point markers of
+    the robots not in the ``initial`` role, and every curve (module :mod:`coop_ga.viz.scene`)."""
+    # drawn in this order: end-point markers, paths, then the markers the legend names (a target point
+    # reached by a TCP stays visible over the TCP's marker)
+    out = []
+    for r in robots:
+        if r.role != "initial" and len(r.skeleton.end_points):
+            out.append(_Overlay(r.skeleton.end_points, PALETTE.end_point, marker="o", size=30.0))
+    marks = []
+    for c in filter(_overlaid, scene.curves):
+        cs = curve_style(c)
+        P = np.asarray(c.points, float).reshape(-1, 3)
+        if c.markers:
+            marks.append(_Overlay(P, cs["color"], marker=cs["marker"], size=float(cs["marker_size"])))
+        else:
+            out.append(_Overlay(P, cs["color"], lw=float(cs["lw"]), ls=cs["ls"]))
+    for pr in prims:
+        ms, alpha = float(pr.style.get("marker_size", 40.0)), float(pr.style.get("alpha", 1.0))
+        if "points" in pr.data and ms > 0 and alpha > 0:
+            col = pr.style.get("color", PALETTE.primitive)
+            marks.append(_Overlay(pr.data["points"], col, marker="o", size=ms, alpha=alpha * _alpha(col)))
+    return out + marks
+
+
+def _draw_overlays(ax: Any, cam: Camera, overlays: list[_Overlay]) -> None:
+    """Project each overlay with ``cam`` and draw it on ``ax`` (image pixels), with a white halo."""
+    from matplotlib import patheffects
+
+    for o in overlays:
+        uv, z = cam.project(o.points)
+        uv = np.where((z > 0)[:, None], uv, np.nan)
+        if o.marker is not None:
+            ax.plot(
+                *uv.T,
+                ls="none",
+                marker=o.marker,
+                ms=math.sqrt(max(o.size, 0.0)),
+                color=o.color,
+                mec="white",
+                mew=0.8,
+                alpha=o.alpha,
+            )
+        elif len(uv) > 1:
+            halo = [patheffects.withStroke(linewidth=o.lw + 1.6, foreground="white")]
+            ax.plot(*uv.T, color=o.color, lw=o.lw, ls=o.ls, alpha=o.alpha, path_effects=halo, solid_capstyle="round")
 
 
 # ====================================================================== VTK
@@ -542,7 +616,7 @@ class _VTKScene:
     def marker_radius(self, size_pt2: float) -> float:
         return 0.5 * math.sqrt(max(size_pt2, 0.0)) * self.dpi / 72.0 * self.px
 
-    def robot(self, r: _Robot) -> None:
+    def robot(self, r: _Robot, ends: bool = True) -> None:
         pv = _pyvista()
 
         if r.mesh is not None:
@@ -560,10 +634,10 @@ class _VTKScene:
                 else:
                     self.tube(np.array([a, b]), PALETTE.fixed, 0.45 * LINEWIDTH["robot"])
             self.balls(sk.joints, r.color, self.radius(2.0 * LINEWIDTH["robot"]))
-        if r.role != "initial" and len(r.skeleton.end_points):
+        if ends and r.role != "initial" and len(r.skeleton.end_points):
             self.balls(r.skeleton.end_points, PALETTE.end_point, self.marker_radius(40.0))
 
-    def primitive(self, pr: _Prim, flat: np.ndarray | None) -> None:
+    def primitive(self, pr: _Prim, flat: np.ndarray | None, markers: bool = True) -> None:
         pv = _pyvista()
 
         from .primitives import circle_points
@@ -577,7 +651,7 @@ class _VTKScene:
             if len(d["points"]) > 1:
                 self.tube(d["points"], col, lw, ls, alpha)
             ms = float(st.get("marker_size", 40.0))
-            if ms > 0:
+            if ms > 0 and markers:
                 self.balls(d["points"], col, self.marker_radius(ms), alpha)
         elif pr.line_role is not None:
             if flat is not None:
@@ -598,10 +672,13 @@ class _VTKScene:
                 )
                 self.pl.add_mesh(arrow, **self.flat(col, alpha))
         else:  # a sphere
+            outline = circle_points(d["center"], d["radius"], self.w, 120)
+            if _outline_only(pr):
+                self.tube(outline, col, 0.6 * lw, ls, alpha)
+                return
             s = pv.Sphere(radius=d["radius"], center=d["center"], theta_resolution=48, phi_resolution=32)
             self.pl.add_mesh(s, color=_rgb(col), opacity=0.22 * alpha, smooth_shading=True, specular=0.2)
             # its outline seen from the camera, and its equator, as thin lines
-            outline = circle_points(d["center"], d["radius"], self.w, 120)
             self.tube(outline, col, 0.6 * lw, ls, alpha)
             self.tube(circle_points(d["center"], d["radius"], [0.0, 0.0, 1.0], 120), col, 0.35 * lw, ls, 0.6 * alpha)
 
@@ -615,11 +692,11 @@ class _VTKScene:
         self.pl.add_mesh(quad, color=_rgb(col), opacity=0.25 * alpha, lighting=False)
         self.tube(np.vstack([flat, flat[:1]]), col, 0.5 * lw, ls, alpha)
 
-    def curve(self, P: np.ndarray, color: Any, markers: bool) -> None:
+    def curve(self, P: np.ndarray, cs: dict[str, Any], markers: bool) -> None:
         if markers:
-            self.balls(P, color, self.marker_radius(25.0))
+            self.balls(P, cs["color"], self.marker_radius(float(cs["marker_size"])))
         else:
-            self.tube(P, color, LINEWIDTH["trajectory"])
+            self.tube(P, cs["color"], float(cs["lw"]), cs["ls"])
 
 
 def vtk_image(
@@ -631,9 +708,13 @@ def vtk_image(
     dpi: int,
     pad: float = 0.05,
     robots: list[_Robot] | None = None,
+    overlay: bool = False,
 ) -> tuple[np.ndarray, Camera]:
     """Render ``scene`` with VTK offscreen: the RGB image (height, width, 3) uint8 on white, and
-    the :class:`Camera` it was taken with (``camera.project`` maps world points to its pixels)."""
+    the :class:`Camera` it was taken with (``camera.project`` maps world points to its pixels).
+
+    ``overlay``: leave out the paths, point markers and end-point markers (the caller draws them
+    over the image, :func:`_overlays`)."""
     pv = _pyvista()
     ok, why = vtk_status()
     if not ok:
@@ -649,15 +730,14 @@ def vtk_image(
         pl.set_background("white")
         vs = _VTKScene(pl, cam, dpi)
         for r in robots:
-            vs.robot(r)
+            vs.robot(r, ends=not overlay)
         translucent = False
         for pr in prims:
             flat = _flat_geometry(pr, anchor, extent) if pr.spec.flat else None
-            vs.primitive(pr, flat)
+            vs.primitive(pr, flat, markers=not overlay)
             translucent |= pr.surface or float(pr.style.get("alpha", 1.0)) < 1.0
-        for c in scene.curves:
-            col = PALETTE.trajectory if c.role == "trajectory" else PALETTE.robot
-            vs.curve(np.asarray(c.points, float).reshape(-1, 3), col, c.markers)
+        for c in [c for c in scene.curves if not (overlay and _overlaid(c))]:
+            vs.curve(np.asarray(c.points, float).reshape(-1, 3), curve_style(c), c.markers)
         if translucent:
             pl.enable_depth_peeling(number_of_peels=6)
         pl.enable_anti_aliasing("ssaa")
@@ -684,9 +764,10 @@ def _compose(
     handles: list[Any],
     legend: bool,
     labels: list[tuple[np.ndarray, str]],
+    overlays: list[_Overlay] | None = None,
 ) -> Path:
     """Put the rendered image into a matplotlib figure of ``size`` [in] at ``dpi`` with the
-    paper style's title, legend and end-point labels, and save it as PNG."""
+    paper style's title, legend, ``overlays`` (:func:`_overlays`) and end-point labels, and save it as PNG."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -699,6 +780,9 @@ def _compose(
         ax.set_xlim(-0.5, img.shape[1] - 0.5)
         ax.set_ylim(img.shape[0] - 0.5, -0.5)
         ax.set_axis_off()
+        _draw_overlays(ax, cam, overlays or [])
+        ax.set_xlim(-0.5, img.shape[1] - 0.5)
+        ax.set_ylim(img.shape[0] - 0.5, -0.5)
         for p, text in labels:
             (uv,), (z,) = cam.project(p)
             if z > 0:
@@ -753,10 +837,23 @@ def _render_vtk(
     W = round(float(size[0]) * dpi)
     H = round((float(size[1]) - _title_height(title)) * dpi)
     robots = _robots(scene, VTK_MAX_FACES, vtk_normals=True)
-    img, cam = vtk_image(scene, view=view, width=W, height=H, dpi=dpi, pad=pad, robots=robots)
+    img, cam = vtk_image(scene, view=view, width=W, height=H, dpi=dpi, pad=pad, robots=robots, overlay=True)
     labels = [(p, t) for r in robots for p, t in zip(r.skeleton.end_points, r.end_labels)]
-    handles = _legend_handles(robots, _prims(scene), scene)
-    return _compose(img, cam, path, size=size, dpi=dpi, title=title, handles=handles, legend=legend, labels=labels)
+    prims = _prims(scene)
+    handles = _legend_handles(robots, prims, scene)
+    overlays = _overlays(robots, prims, scene)
+    return _compose(
+        img,
+        cam,
+        path,
+        size=size,
+        dpi=dpi,
+        title=title,
+        handles=handles,
+        legend=legend,
+        labels=labels,
+        overlays=overlays,
+    )
 
 
 # ====================================================================== matplotlib meshes
@@ -834,11 +931,11 @@ def mpl_axes(
                 ax.text(p[0], p[1], p[2], f"  {text}", fontsize=7, color=PALETTE.end_point, zorder=5)
     for cv in scene.curves:
         C = np.asarray(cv.points, dtype=float).reshape(-1, 3)
-        col = PALETTE.trajectory if cv.role == "trajectory" else PALETTE.robot
+        cs = curve_style(cv)
         if cv.markers:
-            ax.scatter(*C.T, s=25, color=col, depthshade=False, zorder=4)
+            ax.scatter(*C.T, s=cs["marker_size"], color=cs["color"], marker=cs["marker"], depthshade=False, zorder=4)
         else:
-            ax.plot(*C.T, color=col, lw=LINEWIDTH["trajectory"], zorder=4)
+            ax.plot(*C.T, color=cs["color"], lw=cs["lw"], ls=cs["ls"], zorder=4)
     ax.view_init(*view)
     ax.set_axis_off()
     _fill_axes(ax, pts)

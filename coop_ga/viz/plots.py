@@ -1,4 +1,9 @@
-"""Time plots: the 7 components of a similarity bivector, and error norms."""
+"""Time plots: the 7 components of a similarity bivector, and error norms.
+
+Both label their y axis and put their legends outside the data (:func:`legend_outside`), so a legend
+never covers a curve's peak; every figure's bivector panel carries the same unit label
+(:data:`~coop_ga.viz.style.BIVECTOR_UNITS`, :data:`~coop_ga.viz.style.BIVECTOR_RATE_UNITS`).
+"""
 
 from __future__ import annotations
 
@@ -6,20 +11,46 @@ from typing import Any
 
 import numpy as np
 
-from .style import BIVECTOR_COLORS, BIVECTOR_LABELS
+from .style import BIVECTOR_COLORS, BIVECTOR_LABELS, BIVECTOR_RATE_UNITS, BIVECTOR_UNITS
 
-__all__ = ["plot_bivector", "plot_error"]
+__all__ = ["bivector_ylabel", "legend_outside", "plot_bivector", "plot_error"]
+
+
+def bivector_ylabel(quantity: str = "bivector", *, rate: bool = False) -> str:
+    """The y label of a bivector panel: ``"<quantity> [rad | 1 | body length]"`` (``rate``: per second)."""
+    return f"{quantity} [{BIVECTOR_RATE_UNITS if rate else BIVECTOR_UNITS}]"
+
+
+def legend_outside(ax: Any, **kwargs: Any) -> Any:
+    """A legend to the right of ``ax``, outside its data area (top-aligned); keywords go to ``ax.legend``.
+
+    Saved with ``bbox_inches="tight"`` (the paper style's default) the figure grows to hold it.
+    Returns the legend.
+    """
+    kw = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "borderaxespad": 0.0, "fontsize": 8, **kwargs}
+    return ax.legend(**kw)
 
 
 def plot_bivector(
-    ax: Any, t: Any, B: Any, *, legend: bool = True, ls: str = "-", lw: float = 1.5, labels: bool = True, **kwargs: Any
+    ax: Any,
+    t: Any,
+    B: Any,
+    *,
+    legend: bool = True,
+    ls: str = "-",
+    lw: float = 1.5,
+    labels: bool = True,
+    ylabel: str | None = None,
+    **kwargs: Any,
 ) -> list[Any]:
     """Plot a bivector trajectory ``B`` (T, 7) in ``coop_ga.TANGENT_BASIS`` order
     ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]`` against time ``t`` (T,) [s], one colour per component.
 
     Units are the bivector's (rad | 1 | body length, or per second for velocities).
-    ``legend`` adds a one-row legend with the mathtext labels; ``labels=False`` leaves the
-    lines unlabelled (e.g. a second, dashed trajectory on the same axes).  Extra keyword
+    ``legend`` adds a one-column legend with the mathtext labels, to the right of the axes
+    (:func:`legend_outside`); ``labels=False`` leaves the lines unlabelled (e.g. a second,
+    dashed trajectory on the same axes).  ``ylabel``: the y label, e.g.
+    ``bivector_ylabel("command", rate=True)``; None leaves it as it is.  Extra keyword
     arguments go to every ``ax.plot``.  Returns the 7 lines.
     """
     t = np.asarray(t, dtype=float).reshape(-1)
@@ -33,20 +64,31 @@ def plot_bivector(
         for j in range(7)
     ]
     if legend and labels:
-        ax.legend(ncol=7, loc="upper right", handlelength=1.2, columnspacing=0.8)
+        legend_outside(ax, handlelength=1.2)
+    if ylabel is not None:
+        ax.set_ylabel(ylabel)
     ax.grid(True, alpha=0.3)
     return lines
 
 
 def plot_error(
-    ax: Any, t: Any, err: Any, *, log: bool = True, floor: float | None = None, label: str | None = None, **kwargs: Any
+    ax: Any,
+    t: Any,
+    err: Any,
+    *,
+    log: bool = True,
+    floor: float | None = None,
+    label: str | None = None,
+    ylabel: str | None = r"error $\|e\|$",
+    **kwargs: Any,
 ) -> Any:
     """Plot an error against time ``t`` (T,) [s]: ``err`` (T,) norms, or (T, n) vectors whose
     Euclidean norm per row is plotted.
 
     ``log`` uses a logarithmic y axis; there, values ≤ 0 would vanish, so they are raised to
-    ``floor`` (default: 1e-3 × the smallest positive value).  Extra keyword arguments (colour,
-    line style, …) go to ``ax.plot``.  Returns the line.
+    ``floor`` (default: 1e-3 × the smallest positive value).  ``ylabel`` labels the y axis when
+    it has no label yet (None: leave it).  Extra keyword arguments (colour, line style, …) go to
+    ``ax.plot``.  Returns the line.
     """
     t = np.asarray(t, dtype=float).reshape(-1)
     e = np.asarray(err, dtype=float)
@@ -60,5 +102,7 @@ def plot_error(
         e = np.maximum(e, lo)
         ax.set_yscale("log")
     (line,) = ax.plot(t, e, label=label, **kwargs)
+    if ylabel is not None and not ax.get_ylabel():
+        ax.set_ylabel(ylabel)
     ax.grid(True, alpha=0.3)
     return line

@@ -11,7 +11,8 @@ initial       robot light, primitive green
 final         robot grey, primitive turquoise
 target        primitive black, dashed
 intermediate  primitive thin, shaded green → turquoise by ``fraction`` ∈ [0, 1]
-trajectory    curve red (end-point paths)
+trajectory    curve red (end-point paths); a second, third … path in :data:`~coop_ga.viz.style.PALETTE`'s
+              ``trajectories`` colours through ``style={"color": ...}``
 neutral       robot / primitive / curve / points in the default colour
 ============  ====================================================================
 
@@ -24,6 +25,11 @@ stick figures (joint origins, Pinocchio FK); ``"auto"`` (default) is ``"vtk"`` w
 offscreen OpenGL context can be made, else ``"matplotlib"`` with one
 :class:`~coop_ga.errors.RenderWarning`.  ``$COOP_GA_RENDERER`` replaces ``"auto"``.
 A robot without visual geometry is drawn as its skeleton (with a notice).
+
+With the VTK backend, paths (curves in the ``trajectory`` role), markers and the end-point markers
+are drawn over the rendered image (projected with its camera, with a white halo): a fingertip path inside a translucent sphere or
+behind a finger would otherwise be hidden while the legend lists it.  Spheres in the
+``intermediate`` role are drawn as outlines only, so a stack of them does not hide the robot.
 """
 
 from __future__ import annotations
@@ -81,12 +87,17 @@ class ScenePrimitive:
 
 @dataclass
 class SceneCurve:
-    """A polyline (N, 3) [m], e.g. an end-point path (role ``trajectory``), or markers if ``markers``."""
+    """A polyline (N, 3) [m], e.g. an end-point path (role ``trajectory``), or markers if ``markers``.
+
+    ``style``: optional overrides of the role's look: ``color``, ``lw`` [pt], ``ls``, ``marker``
+    (a matplotlib marker for ``markers``), ``marker_size`` [pt²].
+    """
 
     points: Any
     role: str = "trajectory"
     label: str | None = None
     markers: bool = False
+    style: dict[str, Any] | None = None
 
 
 @dataclass
@@ -117,9 +128,19 @@ class Scene:
         self.primitives.append(ScenePrimitive(X, _role(role), label, float(fraction), dict(style) if style else None))
         return self
 
-    def curve(self, points: Any, role: str = "trajectory", label: str | None = None, markers: bool = False) -> Scene:
-        """Add a polyline (N, 3) [m] (or markers); returns the scene (chainable)."""
-        self.curves.append(SceneCurve(np.asarray(points, dtype=float).reshape(-1, 3), _role(role), label, markers))
+    def curve(
+        self,
+        points: Any,
+        role: str = "trajectory",
+        label: str | None = None,
+        markers: bool = False,
+        *,
+        style: dict[str, Any] | None = None,
+    ) -> Scene:
+        """Add a polyline (N, 3) [m] (or markers); ``style`` overrides the role's look (:class:`SceneCurve`);
+        returns the scene (chainable)."""
+        P = np.asarray(points, dtype=float).reshape(-1, 3)
+        self.curves.append(SceneCurve(P, _role(role), label, markers, dict(style) if style else None))
         return self
 
 
@@ -141,6 +162,18 @@ def _primitive_style(p: ScenePrimitive) -> dict[str, Any]:
     if p.role == "intermediate":
         return {"color": PALETTE.intermediate(p.fraction), "lw": LINEWIDTH["intermediate"]}
     return {"color": PALETTE.primitive}
+
+
+def curve_style(c: SceneCurve) -> dict[str, Any]:
+    """The look of a curve: ``color``, ``lw`` [pt], ``ls``, ``marker``, ``marker_size`` [pt²] (role, then overrides)."""
+    base = {
+        "color": PALETTE.trajectory if c.role == "trajectory" else PALETTE.robot,
+        "lw": LINEWIDTH["trajectory"],
+        "ls": "-",
+        "marker": "o",
+        "marker_size": 25.0,
+    }
+    return {**base, **(c.style or {})}
 
 
 def _styled(p: ScenePrimitive) -> dict[str, Any]:
@@ -231,11 +264,13 @@ def _render_matplotlib(
             pts.append(draw_primitive(ax, p.X, label=p.label, **_styled(p)).points)
         for c in scene.curves:
             P = np.asarray(c.points, dtype=float).reshape(-1, 3)
-            col = PALETTE.trajectory if c.role == "trajectory" else PALETTE.robot
+            cs = curve_style(c)
             if c.markers:
-                ax.scatter(*P.T, s=25, color=col, depthshade=False, label=c.label)
+                ax.scatter(
+                    *P.T, s=cs["marker_size"], color=cs["color"], marker=cs["marker"], depthshade=False, label=c.label
+                )
             else:
-                ax.plot(*P.T, color=col, lw=LINEWIDTH["trajectory"], label=c.label)
+                ax.plot(*P.T, color=cs["color"], lw=cs["lw"], ls=cs["ls"], label=c.label)
             pts.append(P)
         if pts:
             set_equal_3d(ax, np.vstack(pts), pad)

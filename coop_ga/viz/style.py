@@ -23,6 +23,8 @@ from cycler import cycler
 __all__ = [
     "BIVECTOR_COLORS",
     "BIVECTOR_LABELS",
+    "BIVECTOR_RATE_UNITS",
+    "BIVECTOR_UNITS",
     "DPI",
     "LINEWIDTH",
     "PALETTE",
@@ -48,6 +50,11 @@ BIVECTOR_LABELS = (
     r"$e_{3\infty}$",
 )
 
+#: Units of the 7 bivector components (rotation | dilation, ln of the scale | translation in lengths of the
+#: primitive's body frame: its radius, or 1 m for flats), and of their rates.
+BIVECTOR_UNITS = "rad | 1 | body length"
+BIVECTOR_RATE_UNITS = "rad/s | 1/s | body length/s"
+
 #: One colour per bivector component (matplotlib's tab10, first seven).
 BIVECTOR_COLORS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2")
 
@@ -66,6 +73,9 @@ class Palette:
     target_primitive: str = "black"  # dashed
     primitive: str = "#1f77b4"  # a primitive drawn on its own
     trajectory: str = "#d62728"  # red end-point paths
+    # paths that must be told apart (left / right hand, …): the first is ``trajectory``
+    trajectories: tuple[str, ...] = ("#d62728", "#9467bd", "#ff7f0e", "#8c564b")
+    target_point: str = "#ff7f0e"  # a target point (orange: apart from the black held / neutral markers)
     frame_axes: tuple[str, str, str] = ("#d62728", "#2ca02c", "#1f77b4")  # x, y, z
     # robots drawn from their meshes (lit surfaces: lighter than the skeleton lines)
     initial_mesh: str = "0.96"  # initial configuration: near-white

@@ -19,6 +19,7 @@ import pytest
 
 SCRIPT = Path(__file__).resolve().parents[2] / "experiments" / "line_constraint.py"
 FIGURES = ("fig14_scene.png", "fig14_line_parameters.png", "fig15_scene.png", "fig15_line_parameters.png")
+GIFS = ("fig14_animation.gif", "fig15_animation.gif")
 
 
 def _main():
@@ -99,13 +100,19 @@ def test_direction_z_jacobian_against_central_differences():
 def test_outputs_and_gallery(run):
     out, m = run
     g = m["gallery"]
-    assert g["agrees"] is True and set(g["figures"]) == set(FIGURES)
+    assert g["agrees"] is True and set(g["figures"]) == set(FIGURES + GIFS)
     assert "d_z" in g["evidence"] and g["title"] and g["claim"]
     import matplotlib.image as mpimg
 
     for name in FIGURES:
         img = mpimg.imread(out / name)
         assert img.shape[0] > 400 and float(np.std(img[..., :3])) > 0.05, name
+    from PIL import Image
+
+    for name in GIFS:  # --fast: 4 frames
+        with Image.open(out / name) as gif:
+            assert gif.n_frames == 4, name
+        assert (out / name).stat().st_size < 1_500_000, name
     d = np.load(out / "trajectories.npz")
     T = m["scenario2"]["steps"] + 1
     assert d["scenario2_q"].shape == (T, 17) and d["scenario2_line_parameters"].shape == (T, 6)

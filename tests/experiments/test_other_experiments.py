@@ -35,8 +35,9 @@ def _runs(tmp_path_factory, script: str) -> tuple[dict, Path, Path]:
     return m, a, b
 
 
-def _check_common(m: dict, a: Path, b: Path, pngs: set[str]) -> None:
-    """Determinism, no wall-clock times in metrics.json, timing.json written, gallery complete."""
+def _check_common(m: dict, a: Path, b: Path, pngs: set[str], gifs: frozenset[str] = frozenset()) -> None:
+    """Determinism, no wall-clock times in metrics.json, timing.json written, gallery complete (its PNGs and
+    animations, each GIF small enough for the gallery)."""
     assert (a / "metrics.json").read_bytes() == (b / "metrics.json").read_bytes()
     npz = [p.name for p in a.glob("*.npz")]
     assert npz and all((a / n).read_bytes() == (b / n).read_bytes() for n in npz)
@@ -49,10 +50,13 @@ def _check_common(m: dict, a: Path, b: Path, pngs: set[str]) -> None:
     g = m["gallery"]
     assert set(g) == GALLERY_KEYS
     assert g["agrees"] is True
-    assert set(g["figures"]) == pngs
+    assert set(g["figures"]) == pngs | gifs
     for name in g["figures"]:
         assert (a / name).stat().st_size > 10_000, name
     assert {p.name for p in a.glob("*.png")} == pngs  # every PNG written is listed
+    assert {p.name for p in a.glob("*.gif")} == gifs
+    for name in gifs:
+        assert (a / name).stat().st_size < 1_500_000, name
 
 
 # ---------------------------------------------------------------------------- Figs. 5–6
@@ -101,7 +105,7 @@ def nullspace(tmp_path_factory):
 def test_nullspace_outputs(nullspace):
     m, a, b = nullspace
     pngs = {"fig16_scene.png", "fig16_distances.png", "fig17_scene.png", "fig17_distances.png"}
-    _check_common(m, a, b, pngs)
+    _check_common(m, a, b, pngs, frozenset({"fig16_animation.gif", "fig17_animation.gif"}))
     assert m["gallery"]["figures"][0] == "fig17_distances.png"
     d = np.load(a / "trajectories.npz")
     assert d["nullspace_trajectory"].shape == (201, 21)  # 2 s at 0.01 s
@@ -155,7 +159,7 @@ def test_teleop_outputs(teleop):
         "fig20_session.png",
         "fig20_scene.png",
     }
-    _check_common(m, a, b, pngs)
+    _check_common(m, a, b, pngs, frozenset({"fig20_animation.gif"}))
     d = np.load(a / "session.npz")
     assert d["mapping_measured"].shape == (6, 7)
     assert m["fig20"]["session"]["mode"] == "scripted"

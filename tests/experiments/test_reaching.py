@@ -133,14 +133,21 @@ def test_files(run):
     fig, out, m = run
     g = m["gallery"]
     assert set(g) == {"title", "claim", "evidence", "agrees", "figures"}
-    assert g["agrees"] is True and g["figures"] == ["scene.png", "bivector.png"]
+    assert g["agrees"] is True and g["figures"] == ["scene.png", "bivector.png", "animation.gif"]
     assert f"{m['iterations']} iterations" in g["evidence"] and "0.25 s" in g["evidence"]
     if fig == "fig11":
         assert "Dilation (e0∞) of the command: max |·| = 0" in g["evidence"]
-    for name in g["figures"]:
+    for name in g["figures"][:2]:
         img = mpimg.imread(out / name)
         assert img.shape[0] > 500 and img.shape[1] > 500, name
         assert float(np.std(img[..., :3])) > 0.05, name  # not blank
+    from PIL import Image
+
+    with Image.open(out / "animation.gif") as gif:  # --fast: 4 frames, small
+        assert gif.n_frames == 4 and gif.size == (384, 288)
+        gif.seek(3)
+        assert float(np.std(np.asarray(gif.convert("RGB")))) > 5.0  # the last frame is not blank
+    assert (out / "animation.gif").stat().st_size < 1_500_000
     d = np.load(out / "trajectory.npz")
     nq = DOF[fig]
     assert d["q"].shape == (101, nq) and d["u"].shape == (100, nq) and d["command_bivector"].shape == (101, 7)

@@ -27,7 +27,13 @@ def test_files_and_gallery(run):
         assert (out / f).stat().st_size > 30_000, f
     g = m["gallery"]
     assert set(g) == {"title", "claim", "evidence", "agrees", "figures"}
-    assert g["agrees"] is True and g["figures"][0] == "fig18_scene.png" and set(g["figures"]) == set(FIGURES)
+    assert g["agrees"] is True and g["figures"][0] == "fig18_scene.png"
+    assert set(g["figures"]) == {*FIGURES, "fig18_animation.gif"}
+    from PIL import Image
+
+    with Image.open(out / "fig18_animation.gif") as gif:  # --fast: 4 frames
+        assert gif.n_frames == 4
+    assert (out / "fig18_animation.gif").stat().st_size < 1_500_000
     assert "rounding noise" in g["evidence"]  # the disagreement/caveat is stated
     # wall-clock times go to timing.json only (metrics.json is committed and must not change between runs)
     assert set(strict_json((out / "timing.json").read_text())) == {"start_preparation_s", "run_s", "total_s"}
