@@ -28,7 +28,7 @@ Where the paper is inconsistent (and what this script does):
   Δt scales by ``e^{βΔt}`` = 0.7788 / 1.284 to first order, not by d: d is the scale of B
   applied for 1 s.  One Euler step of Eq 61 measures ×0.774 / ×1.256 (25 steps of 0.01 s:
   ×0.778 / ×1.283); the hand closes and opens as shown, by less than d.
-* Eq 67 as printed has the opposite sign (README, "Seed discrepancies"); the dilator here
+* Eq 67 as printed has the opposite sign (docs/conventions.md, "Seed discrepancies we found"); the dilator here
   gives Fig. 21's reading (−e0∞ shrinks).
 * §4.5 names the Leap hand (16 joints); Figs. 20–21 use the Allegro hand
   (16 joints), which is what we ship.

@@ -175,11 +175,10 @@ def stance_indices(stance_legs: Any) -> tuple[int, ...]:
 class BodyState:
     """The floating hexapod's configuration: body pose and leg joints.
 
-    Attributes
-    ----------
-    position: (3,) body origin (``base_link``, the plane of the coxa axes) in W [m].
-    rotation: (3, 3) R_WB, world ← body (columns: the body's x forward, y left, z up in W).
-    q: (18,) leg joint angles [rad] in URDF order (lf, lm, lr, rf, rm, rr; coxa, femur, tibia).
+    Attributes:
+        position: (3,) body origin (``base_link``, the plane of the coxa axes) in W [m].
+        rotation: (3, 3) R_WB, world ← body (columns: the body's x forward, y left, z up in W).
+        q: (18,) leg joint angles [rad] in URDF order (lf, lm, lr, rf, rm, rr; coxa, femur, tibia).
 
     Validated on construction (shapes, finite values; a rotation within 1e-6 of orthonormal is
     re-orthonormalised, anything else raises :class:`~coop_ga.errors.InvalidInputError`); the

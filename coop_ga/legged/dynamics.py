@@ -476,14 +476,13 @@ def contact_rollout(
 ) -> RolloutResult:
     """Simulate a plan with rigid contacts and joint PD (module docstring) and measure the body drift.
 
-    Parameters
-    ----------
-    t: (T,) sample times [s], strictly increasing.
-    q: (T, 18) planned leg joints [rad] (URDF order).
-    body: (T, 7) planned body pose in W: position [m], quaternion (x, y, z, w).
-    stance: (T, 6) bool, leg in stance during [t_k, t_{k+1}) (order lf, lm, lr, rf, rm, rr).
-    options: :class:`RolloutOptions` (gains, step, feed-forward, saturation).
-    system: the floating system (default ``coop_ga.systems.load("hexapod_floating")``).
+    Args:
+        t: (T,) sample times [s], strictly increasing.
+        q: (T, 18) planned leg joints [rad] (URDF order).
+        body: (T, 7) planned body pose in W: position [m], quaternion (x, y, z, w).
+        stance: (T, 6) bool, leg in stance during [t_k, t_{k+1}) (order lf, lm, lr, rf, rm, rr).
+        options: :class:`RolloutOptions` (gains, step, feed-forward, saturation).
+        system: the floating system (default ``coop_ga.systems.load("hexapod_floating")``).
 
     The simulation starts at the plan's first state (configuration and finite-difference velocity,
     then the impact of the initial contacts).  Raises :class:`~coop_ga.errors.UnknownNameError` if

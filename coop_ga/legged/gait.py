@@ -95,13 +95,12 @@ class GaitTable:
     """A periodic gait (module docstring): leg i lifts off at phase ``offsets[i]``, swings for
     ``1 − duty`` of the cycle, then stands.
 
-    Attributes
-    ----------
-    gait: "tripod" | "ripple" | "wave".
-    legs: (n,) leg names in the package's leg order (:func:`leg_names`).
-    offsets: (n,) lift-off phases φ_i ∈ [0, 1) [cycles].
-    duty: the duty factor β ∈ (0, 1): the fraction of a cycle each leg is in stance.
-    period: cycle time T [s].
+    Attributes:
+        gait: "tripod" | "ripple" | "wave".
+        legs: (n,) leg names in the package's leg order (:func:`leg_names`).
+        offsets: (n,) lift-off phases φ_i ∈ [0, 1) [cycles].
+        duty: the duty factor β ∈ (0, 1): the fraction of a cycle each leg is in stance.
+        period: cycle time T [s].
     """
 
     gait: str
@@ -180,14 +179,13 @@ class GaitTable:
 def phase_table(gait: str, n_legs: int = 6, duty: float | None = None, *, period: float = 1.0) -> GaitTable:
     """The phase table of ``gait`` for ``n_legs`` legs (module docstring: φ(j, s) = frac(s Δ + j σ)).
 
-    Parameters
-    ----------
-    gait: "tripod" | "ripple" | "wave".
-    n_legs: n ≥ 4 (the tripod needs an even n).
-    duty: the duty factor β ∈ (0, 1); default the gait's own: tripod 1/2, ripple 1 − 2/n (2/3 for 6
-        legs), wave 1 − 1/n (5/6 for 6 legs).  A larger β than the default keeps more legs on the
-        ground; a smaller one lets swings overlap beyond the gait's pattern.
-    period: cycle time T [s].
+    Args:
+        gait: "tripod" | "ripple" | "wave".
+        n_legs: n ≥ 4 (the tripod needs an even n).
+        duty: the duty factor β ∈ (0, 1); default the gait's own: tripod 1/2, ripple 1 − 2/n (2/3 for 6
+            legs), wave 1 − 1/n (5/6 for 6 legs).  A larger β than the default keeps more legs on the
+            ground; a smaller one lets swings overlap beyond the gait's pattern.
+        period: cycle time T [s].
 
     Returns a :class:`GaitTable`.  Raises :class:`~coop_ga.errors.InvalidInputError` for an unknown
     gait, n < 4, an odd n for the tripod, or β outside (0, 1).
@@ -232,19 +230,17 @@ def _smoothstep(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def swing_arc(p0: object, p1: object, lift: float, s: object) -> tuple[np.ndarray, np.ndarray]:
     """A swing foot's arc from lift-off ``p0`` to touch-down ``p1`` (module docstring).
 
-    Parameters
-    ----------
-    p0, p1: (3,) lift-off and touch-down points [m], any frame with z up (the world frame W in
-        :func:`~coop_ga.legged.walk.walk`).
-    lift: clearance of the apex above the higher end point [m] ≥ 0: z_top = max(z0, z1) + lift.
-    s: swing progress ∈ [0, 1], scalar or (...,) array (0 = lift-off, 1 = touch-down).
+    Args:
+        p0: (3,) lift-off point [m], any frame with z up (the world frame W in :func:`~coop_ga.legged.walk.walk`).
+        p1: (3,) touch-down point [m], same frame.
+        lift: clearance of the apex above the higher end point [m] ≥ 0: z_top = max(z0, z1) + lift.
+        s: swing progress ∈ [0, 1], scalar or (...,) array (0 = lift-off, 1 = touch-down).
 
-    Returns
-    -------
-    p: (..., 3) position on the arc [m];  v: (..., 3) its derivative ∂p/∂s [m per unit s]
-    (divide by the swing time for a velocity in m/s).  p(0) = p0, p(1) = p1, v(0) = v(1) = 0,
-    both continuous (C¹) on [0, 1]; the horizontal part moves monotonically from p0 to p1 and the
-    height never drops below min(z0, z1) nor exceeds z_top.
+    Returns:
+        p: (..., 3) position on the arc [m];  v: (..., 3) its derivative ∂p/∂s [m per unit s]
+        (divide by the swing time for a velocity in m/s).  p(0) = p0, p(1) = p1, v(0) = v(1) = 0,
+        both continuous (C¹) on [0, 1]; the horizontal part moves monotonically from p0 to p1 and the
+        height never drops below min(z0, z1) nor exceeds z_top.
     """
     a = array(p0, "p0", shape=(3,))
     b = array(p1, "p1", shape=(3,))

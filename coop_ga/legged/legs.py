@@ -126,14 +126,13 @@ def _rot2(phi: np.ndarray, v: np.ndarray) -> np.ndarray:
 class DLSResult:
     """Result of :meth:`LegModel.dls_ik`.
 
-    Attributes
-    ----------
-    q: (..., 18) joint vector [rad] (angles wrapped to [−π, π)).
-    converged: (..., 6) bool, foot error ≤ ``tol`` for that leg.
-    error: (..., 6) final foot position error ‖x* − fk(q)‖ [m] in B.
-    iterations: (..., 6) int, damped steps taken by each leg.
-    within_limits: (..., 6) bool, the leg's joints inside the limits.
-    message: one line summary (how many legs converged, worst error).
+    Attributes:
+        q: (..., 18) joint vector [rad] (angles wrapped to [−π, π)).
+        converged: (..., 6) bool, foot error ≤ ``tol`` for that leg.
+        error: (..., 6) final foot position error ‖x* − fk(q)‖ [m] in B.
+        iterations: (..., 6) int, damped steps taken by each leg.
+        within_limits: (..., 6) bool, the leg's joints inside the limits.
+        message: one line summary (how many legs converged, worst error).
     """
 
     q: np.ndarray
@@ -244,32 +243,31 @@ class LegModel:
 
     Build it with :func:`hexapod_legs` (cached) or :meth:`from_system`.  All arrays are read-only.
 
-    Attributes
-    ----------
-    legs: leg names, :data:`LEGS`.
-    q_index: (6, 3) int, index of (coxa, femur, tibia) of each leg in the 18-vector of leg joints
-        (the leg joints in the model's q order; for the fixed-base ``hexapod`` system this *is* q).
-    q_lower, q_upper: (6, 3) position limits [rad] (from ``system.limits``).
-    effort_limit: (6, 3) servo stall torque [N·m] (URDF ``effort``; 1.5 N·m for the AX-12A).
-    velocity_limit: (6, 3) [rad/s].
-    joint_names: per leg the three joint names.
-    model_q_index: (6, 3) int, the same joints' indices in the system's full q (= ``q_index`` for the
-        fixed-base hexapod; offset by the body joints of a floating-base model).
-    end_frame_index: (6,) int, index of each leg's ``{leg}_foot`` in ``system.end_frames`` (−1 if not
-        an end frame): the system orders its feet as two tripods, this package as :data:`LEGS`.
-    mount_position: (6, 3) coxa joint origin in B [m].
-    mount_rotation: (6, 3, 3) rotation B ← coxa frame at q_coxa = 0 (yaw = mounting angle).
-    coxa_sign: (6,) ±1, the coxa axis is ``coxa_sign · z`` of the coxa frame.
-    femur_sign, tibia_sign: (6,) ±1, a positive joint angle rotates the leg's x toward its +z by
-        ``sign · q`` (the URDF axes are −y: sign +1, positive lifts the foot).
-    femur_joint: (6, 2) femur joint (x, z) in the coxa frame [m] (the coxa offset: (0.052, 0)).
-    femur_link: (6, 2) tibia joint (x, z) in the femur frame [m].
-    tibia_link: (6, 2) foot (x, z) in the tibia frame [m].
-    system: the :class:`~coop_ga.systems.System` it was read from.
-    foot_radius: [m] radius of the foot ball: the URDF's sphere (visual or collision geometry) centred on the
-        ``{leg}_foot`` frame of every leg (0.009 m for the hexapod); 0 if the model has none (a point foot).
-        The foot frame is the ball's **centre**: a foot on the ground has its centre one radius above the
-        terrain along the normal, and touches it at :meth:`contact_points` (:mod:`coop_ga.legged.contact`).
+    Attributes:
+        legs: leg names, :data:`LEGS`.
+        q_index: (6, 3) int, index of (coxa, femur, tibia) of each leg in the 18-vector of leg joints
+            (the leg joints in the model's q order; for the fixed-base ``hexapod`` system this *is* q).
+        q_lower, q_upper: (6, 3) position limits [rad] (from ``system.limits``).
+        effort_limit: (6, 3) servo stall torque [N·m] (URDF ``effort``; 1.5 N·m for the AX-12A).
+        velocity_limit: (6, 3) [rad/s].
+        joint_names: per leg the three joint names.
+        model_q_index: (6, 3) int, the same joints' indices in the system's full q (= ``q_index`` for the
+            fixed-base hexapod; offset by the body joints of a floating-base model).
+        end_frame_index: (6,) int, index of each leg's ``{leg}_foot`` in ``system.end_frames`` (−1 if not
+            an end frame): the system orders its feet as two tripods, this package as :data:`LEGS`.
+        mount_position: (6, 3) coxa joint origin in B [m].
+        mount_rotation: (6, 3, 3) rotation B ← coxa frame at q_coxa = 0 (yaw = mounting angle).
+        coxa_sign: (6,) ±1, the coxa axis is ``coxa_sign · z`` of the coxa frame.
+        femur_sign, tibia_sign: (6,) ±1, a positive joint angle rotates the leg's x toward its +z by
+            ``sign · q`` (the URDF axes are −y: sign +1, positive lifts the foot).
+        femur_joint: (6, 2) femur joint (x, z) in the coxa frame [m] (the coxa offset: (0.052, 0)).
+        femur_link: (6, 2) tibia joint (x, z) in the femur frame [m].
+        tibia_link: (6, 2) foot (x, z) in the tibia frame [m].
+        system: the :class:`~coop_ga.systems.System` it was read from.
+        foot_radius: [m] radius of the foot ball: the URDF's sphere (visual or collision geometry) centred on the
+            ``{leg}_foot`` frame of every leg (0.009 m for the hexapod); 0 if the model has none (a point foot).
+            The foot frame is the ball's **centre**: a foot on the ground has its centre one radius above the
+            terrain along the normal, and touches it at :meth:`contact_points` (:mod:`coop_ga.legged.contact`).
     """
 
     legs: tuple[str, ...]

@@ -183,23 +183,22 @@ _RAISE_BELOW = 1e-6
 class StancePrimitive:
     """The primitive of the stance feet chosen by :func:`stance_primitive`.
 
-    Attributes
-    ----------
-    kind: ``"sphere"``, ``"plane"`` or ``"circle"`` (the primitive's kind, = ``X.kind``).
-    task_kind: the task-graph kind that computes it: ``"sphere"`` (4 feet), ``"sphere_fit"`` (> 4),
-        ``"plane"`` (3), ``"plane_fit"`` (> 3), ``"circle"`` — pass it to :func:`stance_task`.
-    X: the CGA primitive (direct form), in the frame of the points.
-    well_definedness: of the chosen primitive (1 best, 0 degenerate; module docstring).
-    indices: (k,) the points used, in the order used (all of them: the fits use every foot).
-    reason: why this kind (the numbers of the decision rule).
-    center: (3,) [m] the sphere's / circle's centre, or the plane's point nearest the feet's centroid
-        (the centroid's projection).
-    radius: [m] the sphere's / circle's radius; None for a plane.
-    normal: (3,) unit normal of a plane / circle (right hand from the point order); None for a sphere.
-    sphere_well_definedness: the sphere measure of the feet (k ≥ 4; None for k = 3), also when the plane
-        was chosen.
-    sphere_radius: [m] the radius the sphere would have (None when k = 3 or the sphere was not tried
-        because w < w_min).
+    Attributes:
+        kind: ``"sphere"``, ``"plane"`` or ``"circle"`` (the primitive's kind, = ``X.kind``).
+        task_kind: the task-graph kind that computes it: ``"sphere"`` (4 feet), ``"sphere_fit"`` (> 4),
+            ``"plane"`` (3), ``"plane_fit"`` (> 3), ``"circle"`` — pass it to :func:`stance_task`.
+        X: the CGA primitive (direct form), in the frame of the points.
+        well_definedness: of the chosen primitive (1 best, 0 degenerate; module docstring).
+        indices: (k,) the points used, in the order used (all of them: the fits use every foot).
+        reason: why this kind (the numbers of the decision rule).
+        center: (3,) [m] the sphere's / circle's centre, or the plane's point nearest the feet's centroid
+            (the centroid's projection).
+        radius: [m] the sphere's / circle's radius; None for a plane.
+        normal: (3,) unit normal of a plane / circle (right hand from the point order); None for a sphere.
+        sphere_well_definedness: the sphere measure of the feet (k ≥ 4; None for k = 3), also when the plane
+            was chosen.
+        sphere_radius: [m] the radius the sphere would have (None when k = 3 or the sphere was not tried
+            because w < w_min).
     """
 
     kind: Kind

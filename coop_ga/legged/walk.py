@@ -56,8 +56,8 @@ ground must stay inside the reach, the joint limits and the URDF speed limits).
 Gait parameters (:class:`WalkOptions` defaults), chosen for the PhantomX-size robot (leg reach 0.2 m):
 ball centres 0.1 m below the body (ride height 0.109 m above the ground), footholds 0.16 m out from the coxa
 axes, stride 0.08 m, cycle times 1.6 / 2.4 / 4.0 s (tripod / ripple / wave: 0.10 / 0.05 / 0.024 m/s), lift
-0.02 m for the ball's lowest point (its centre 0.029 m).  The measured numbers of the 1 m walks are in the
-README and the ``hexapod_walk`` experiment's metrics.
+0.02 m for the ball's lowest point (its centre 0.029 m).  The measured numbers: the ``hexapod_walk`` experiment's
+metrics (1 m walks; ``--fast``, 0.3 m: the gallery's ``ours_hexapod_walk_*`` entries, paper_figures/README.md).
 
 Model assumptions, said once: the COM is the whole robot's (Pinocchio, base link included: 1.873 kg); torques
 treat the legs as massless with the full weight shared equally by the stance feet; the plan is kinematic
@@ -264,38 +264,37 @@ _MAX_EXTRA_LIFT = 0.05
 class WalkOptions:
     """Options of :func:`walk`.
 
-    Attributes
-    ----------
-    gait: "tripod" | "ripple" | "wave" (:func:`~coop_ga.legged.gait.phase_table`).
-    speed: the velocity command ``(v_x, v_y, ω_z)`` [m/s, m/s, rad/s] in the body frame (forward, left,
-        yaw rate); ``None``: straight ahead at ``stride / (β T)``, the speed at which each stance foot
-        travels ``stride`` relative to the body.
-    stride: stance stroke [m] of the default forward speed (0.08 m).
-    cycle_time: T [s]; ``None``: :data:`CYCLE_TIME` (tripod 1.6, ripple 2.4, wave 4.0 s).
-    duty: duty factor β; ``None``: the gait's (1/2, 2/3, 5/6).
-    lift_height: [m] the swing apex: the foot ball's lowest point this far above the highest terrain under
-        the swing (raised where a leg capsule needs it, ``clearance_margin``).
-    ride_height: [m] the body origin above the ground contact plane of the stance feet, along the body z
-        (0.109 m: the foot-ball centres 0.1 m below the body, the stand pose's 0.0993 m).
-    dt: requested time step [s]; rounded so that a cycle is a whole multiple of the gait's phase grid.
-    ramp_time: the command ramps in from rest over this time [s] (smoothstep); ``None``: one cycle.
-    terrain_filter: time constant [s] of the low-pass filter on the support plane of the kinematic baseline
-        (``use_posture=False``).
-    posture_gain: [1/s] gain of the stance-plane posture loop (``use_posture=True``, module docstring).
-    tilt_follow: 1 = body z along the support plane normal, 0 = stays level (world z).
-    foot_reach: horizontal distance [m] of the nominal foothold from its coxa axis, along the mounting
-        direction (0.16 m); ``None``: the stand pose's (0.174 m).
-    edge_clearance: the foot's contact point keeps at least this distance [m] from the terrain's cell edges
-        (a foot on a riser's edge has no single support plane): 16 mm = the 9 mm ball, the ≤ 5 mm it rolls in a
-        stance and 2 mm, so the ball rests on its own tread and never touches the riser of a higher neighbour.
-    clearance_margin: [m] the footholds and swing arcs keep every leg capsule this far above the terrain, as
-        predicted from the reference body path (module docstring; the walk measures the result); None: no
-        capsule check, the footholds and arcs of the foot ball alone (for comparison).
-    rolling: the stance balls roll with their tibias (their centres move by ``r Δθ × n``, no sliding; the
-        default), or their centres are held fixed (then the ball must slide by ``rolling``, the error of a
-        point-contact plan).
-    use_posture: drive body height and attitude through the stance plane (:func:`~coop_ga.legged.posture.posture_step`,
-        the default); False: the body is put at the filtered support-plane pose directly (kinematic baseline).
+    Attributes:
+        gait: "tripod" | "ripple" | "wave" (:func:`~coop_ga.legged.gait.phase_table`).
+        speed: the velocity command ``(v_x, v_y, ω_z)`` [m/s, m/s, rad/s] in the body frame (forward, left,
+            yaw rate); ``None``: straight ahead at ``stride / (β T)``, the speed at which each stance foot
+            travels ``stride`` relative to the body.
+        stride: stance stroke [m] of the default forward speed (0.08 m).
+        cycle_time: T [s]; ``None``: :data:`CYCLE_TIME` (tripod 1.6, ripple 2.4, wave 4.0 s).
+        duty: duty factor β; ``None``: the gait's (1/2, 2/3, 5/6).
+        lift_height: [m] the swing apex: the foot ball's lowest point this far above the highest terrain under
+            the swing (raised where a leg capsule needs it, ``clearance_margin``).
+        ride_height: [m] the body origin above the ground contact plane of the stance feet, along the body z
+            (0.109 m: the foot-ball centres 0.1 m below the body, the stand pose's 0.0993 m).
+        dt: requested time step [s]; rounded so that a cycle is a whole multiple of the gait's phase grid.
+        ramp_time: the command ramps in from rest over this time [s] (smoothstep); ``None``: one cycle.
+        terrain_filter: time constant [s] of the low-pass filter on the support plane of the kinematic baseline
+            (``use_posture=False``).
+        posture_gain: [1/s] gain of the stance-plane posture loop (``use_posture=True``, module docstring).
+        tilt_follow: 1 = body z along the support plane normal, 0 = stays level (world z).
+        foot_reach: horizontal distance [m] of the nominal foothold from its coxa axis, along the mounting
+            direction (0.16 m); ``None``: the stand pose's (0.174 m).
+        edge_clearance: the foot's contact point keeps at least this distance [m] from the terrain's cell edges
+            (a foot on a riser's edge has no single support plane): 16 mm = the 9 mm ball, the ≤ 5 mm it rolls in a
+            stance and 2 mm, so the ball rests on its own tread and never touches the riser of a higher neighbour.
+        clearance_margin: [m] the footholds and swing arcs keep every leg capsule this far above the terrain, as
+            predicted from the reference body path (module docstring; the walk measures the result); None: no
+            capsule check, the footholds and arcs of the foot ball alone (for comparison).
+        rolling: the stance balls roll with their tibias (their centres move by ``r Δθ × n``, no sliding; the
+            default), or their centres are held fixed (then the ball must slide by ``rolling``, the error of a
+            point-contact plan).
+        use_posture: drive body height and attitude through the stance plane (:func:`~coop_ga.legged.posture.posture_step`,
+            the default); False: the body is put at the filtered support-plane pose directly (kinematic baseline).
     """
 
     gait: str = "tripod"

@@ -56,7 +56,8 @@ class CarriedBox:
 
     Args:
         half_extents: (3,) half sizes [m] in the box frame.
-        rotation, centre: the box's world pose at the grasp (3, 3), (3,).
+        rotation: (3, 3) the box's world orientation at the grasp.
+        centre: (3,) the box's world centre at the grasp [m].
         grasp_points: (n ≥ 3, 3) the end points at the grasp [m] (world).
         obstacles: :class:`~coop_ga.collision.Sphere` / :class:`~coop_ga.collision.Plane` (or
             :func:`~coop_ga.collision.as_obstacle` inputs) the box must clear.

@@ -179,7 +179,8 @@ class Region:
 
     Args:
         task: a :class:`~coop_ga.cooperative.CooperativeTask` (any kind).
-        centre_lower, centre_upper: (3,) or scalar bounds of the centre in the region frame [m] (±inf: free).
+        centre_lower: (3,) or scalar lower bound of the centre in the region frame [m] (−inf: free).
+        centre_upper: (3,) or scalar upper bound of the centre in the region frame [m] (+inf: free).
         cone_axis: (3,) axis of the orientation cone in the region frame (kinds with an axis), or None (free).
         cone_angle: half-angle θ_max of the cone [rad], in (0, π].
         log_scale: ``(lower, upper)`` of β = log r (kinds with a radius), or None (free).

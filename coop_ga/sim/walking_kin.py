@@ -13,7 +13,7 @@ yaws of every leg, batches); this module recomputes the same numbers for one con
   ``jacobians`` and ``ik`` to 1e-12 at random configurations;
 * :func:`plane_error` — the observable rows of ``e = log(Ṽ V_ref)`` (seed 003 Eq 44) for two *plane*
   similarities given as their log coordinates: a plane's similarity is a motor ``T(t) R`` (no dilation;
-  coop_ga's ``exp`` is ``V_T V_R V_D`` with the plain translation t, README "Conventions"), so
+  coop_ga's ``exp`` is ``V_T V_R V_D`` with the plain translation t, docs/conventions.md), so
   ``Ṽ V_ref = T(Rᵀ(t_ref − t)) · RᵀR_ref`` and ``e = [rotation log of RᵀR_ref ; Rᵀ(t_ref − t)]`` exactly.
   Checked against :meth:`CooperativeTask.error` (the compiled GA computation) to 1e-12;
 * :func:`stance_map` — the linear map ``A`` from a body twist (v, ω) in B to the stance primitive's twist
@@ -146,7 +146,7 @@ class FastLegs:
 # ====================================================================== the plane's similarity
 def rotation_from_tangent(theta: np.ndarray) -> np.ndarray:
     """R (3, 3) of the rotation tangent ``[θ12, θ13, θ23]`` (θ12 about +z, θ13 = −angle about +y, θ23 about +x;
-    README "Conventions"): the rotation vector is ``(θ23, −θ13, θ12)``."""
+    docs/conventions.md): the rotation vector is ``(θ23, −θ13, θ12)``."""
     w = np.array([theta[2], -theta[1], theta[0]], dtype=float)
     a = math.sqrt(float(w @ w))
     K = _skew(w)

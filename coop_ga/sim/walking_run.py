@@ -15,7 +15,7 @@ Ground truth (recorded beside the controller, at every physics step; the control
   also sums the contact's micro-vibration back and forth) is reported too;
 * the feet (ball centres) and the touch forces at every plan, for the height over the support.
 
-Metrics (:meth:`WalkRun.metrics`; the rows of the README's table)
+Metrics (:meth:`WalkRun.metrics`; the gallery table's rows)
 ----------------------------------------------------------------
 ``walked_fraction``: the body's displacement along the commanded displacement over the commanded
 displacement (the command integrated, :meth:`VelocityCommand.path`); ``max_roll_deg`` / ``max_pitch_deg`` (world);

@@ -34,22 +34,21 @@ def check_clearance(c: Any) -> Any:
 class ReachingOCP:
     """The reaching problem of Eq 53–57 for a cooperative task (:mod:`coop_ga.control.ilqr`).
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask` (V_Sc(q), e and J_e, Eq 28, 44, 47).
-    q_init: (nq,) initial joint configuration q_0 [rad].
-    target: V_Sd, a :class:`~coop_ga.Similarity`.  It must describe a primitive of the
-        task's kind (e.g. from :func:`displaced_target`); otherwise the terminal error cannot
-        reach zero.
-    qd_init: (nq,) initial joint velocity [rad/s] (default 0).
-    horizon: number of control knots n (states x_0 … x_n).
-    dt: time step Δt [s].
-    R: control weight (scalar, (nq,) or (nq, nq); positive definite).
-    Q: precision of the terminal similarity error (scalar, (7,) or (7, 7); PSD).
-    Qv: terminal velocity weight (scalar, (nq,) or (nq, nq); PSD; 0 = paper's Eq 57 only).
-    limit_mode: ``"enforce"`` (default: the bounds of ``task.system.limits``) or ``"none"``.
-    clearance: a :class:`coop_ga.control.avoidance.ClearanceCost` (a running cost on the
-        clearances at the knots 1 … n, :mod:`coop_ga.control.ilqr`) or None (default).
+    Args:
+        task: a :class:`coop_ga.CooperativeTask` (V_Sc(q), e and J_e, Eq 28, 44, 47).
+        q_init: (nq,) initial joint configuration q_0 [rad].
+        target: V_Sd, a :class:`~coop_ga.Similarity`.  It must describe a primitive of the
+            task's kind (e.g. from :func:`displaced_target`); otherwise the terminal error cannot
+            reach zero.
+        qd_init: (nq,) initial joint velocity [rad/s] (default 0).
+        horizon: number of control knots n (states x_0 … x_n).
+        dt: time step Δt [s].
+        R: control weight (scalar, (nq,) or (nq, nq); positive definite).
+        Q: precision of the terminal similarity error (scalar, (7,) or (7, 7); PSD).
+        Qv: terminal velocity weight (scalar, (nq,) or (nq, nq); PSD; 0 = paper's Eq 57 only).
+        limit_mode: ``"enforce"`` (default: the bounds of ``task.system.limits``) or ``"none"``.
+        clearance: a :class:`coop_ga.control.avoidance.ClearanceCost` (a running cost on the
+            clearances at the knots 1 … n, :mod:`coop_ga.control.ilqr`) or None (default).
 
     The total cost is ``J(u) = Σ_k u_kᵀ R u_k + e(q_n)ᵀ Q e(q_n) + q̇_nᵀ Q_v q̇_n`` (+ ``Σ_{k≥1} c(q_k)``
     with a clearance cost).

@@ -36,27 +36,24 @@ def ilqr_reach(
 ) -> ILQRResult:
     """Reach the target similarity ``V_Sd`` within the joint limits by iLQR on Eq 53–57 (:mod:`coop_ga.control.ilqr`).
 
-    Parameters
-    ----------
-    task: a :class:`coop_ga.CooperativeTask`.
-    q_init: (nq,) initial configuration [rad]; the system starts at rest unless ``qd_init``.
-    target: V_Sd, a :class:`~coop_ga.Similarity` of the task's kind (e.g. from :func:`displaced_target`).
-    options: :class:`ILQROptions` (problem and solver settings); keyword ``overrides``
-        replace its fields (``ilqr_reach(task, q, V, max_iter=20)``).
-    qd_init: (nq,) initial joint velocity [rad/s] (default 0).
-    u_init: (n, nq) initial control guess [rad/s²] (default: rest, or braking to rest).
+    Args:
+        task: a :class:`coop_ga.CooperativeTask`.
+        q_init: (nq,) initial configuration [rad]; the system starts at rest unless ``qd_init``.
+        target: V_Sd, a :class:`~coop_ga.Similarity` of the task's kind (e.g. from :func:`displaced_target`).
+        options: :class:`ILQROptions` (problem and solver settings); keyword ``overrides``
+            replace its fields (``ilqr_reach(task, q, V, max_iter=20)``).
+        qd_init: (nq,) initial joint velocity [rad/s] (default 0).
+        u_init: (n, nq) initial control guess [rad/s²] (default: rest, or braking to rest).
 
-    Returns
-    -------
-    :class:`ILQRResult`; every returned trajectory satisfies the bounds (package docstring).  A target certified
-    unreachable (package docstring, "Fast honest failure") returns before any iteration.
+    Returns:
+        :class:`ILQRResult`; every returned trajectory satisfies the bounds (package docstring).  A target certified
+        unreachable (package docstring, "Fast honest failure") returns before any iteration.
 
-    Raises
-    ------
-    InvalidInputError: wrong shapes or values (q_init size, weights, horizon, target, …), or
-        (``limit_mode="enforce"``) a start state outside the limits.
-    NonFiniteError: NaN/inf in q_init, qd_init, u_init or an option.
-    DegeneratePrimitiveError: the primitive is degenerate at ``q_init``.
+    Raises:
+        InvalidInputError: wrong shapes or values (q_init size, weights, horizon, target, …), or
+            (``limit_mode="enforce"``) a start state outside the limits.
+        NonFiniteError: NaN/inf in q_init, qd_init, u_init or an option.
+        DegeneratePrimitiveError: the primitive is degenerate at ``q_init``.
 
     Timing: before the clock starts, the task's compiled error function is evaluated once
     at ``q_init`` (generated and compiled by gcc on the first call per task — ~1–2 s, cached
