@@ -237,10 +237,10 @@ def swing_arc(p0: object, p1: object, lift: float, s: object) -> tuple[np.ndarra
         s: swing progress ∈ [0, 1], scalar or (...,) array (0 = lift-off, 1 = touch-down).
 
     Returns:
-        p: (..., 3) position on the arc [m];  v: (..., 3) its derivative ∂p/∂s [m per unit s]
-        (divide by the swing time for a velocity in m/s).  p(0) = p0, p(1) = p1, v(0) = v(1) = 0,
-        both continuous (C¹) on [0, 1]; the horizontal part moves monotonically from p0 to p1 and the
-        height never drops below min(z0, z1) nor exceeds z_top.
+        p: (..., 3) position on the arc [m]; p(0) = p0, p(1) = p1, continuous (C¹) on [0, 1]; the horizontal
+            part moves monotonically from p0 to p1 and the height never drops below min(z0, z1) nor exceeds z_top.
+        v: (..., 3) its derivative ∂p/∂s [m per unit s] (divide by the swing time for a velocity in m/s);
+            v(0) = v(1) = 0, continuous on [0, 1].
     """
     a = array(p0, "p0", shape=(3,))
     b = array(p1, "p1", shape=(3,))

@@ -196,7 +196,7 @@ def _leg_geometry(
 
     Returns:
         mount position (3,) [m] and rotation (3, 3) (B ← coxa frame), the joint signs (3,) (coxa, femur,
-        tibia) and the in-plane offsets (3, 2) [m] (femur joint, femur link, tibia link as (x, z)).
+            tibia) and the in-plane offsets (3, 2) [m] (femur joint, femur link, tibia link as (x, z)).
 
     Raises:
         UnsupportedJointError: not a yaw + two parallel pitch joints with in-plane offsets, its coxa hanging from

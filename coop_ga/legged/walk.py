@@ -1050,7 +1050,7 @@ def check_command(options: WalkOptions | None = None, legs: LegModel | None = No
 
     Returns:
         ``{"reach_margin_m", "velocity_ratio"}``: the smallest workspace margin of a foot target [m] and the
-        largest joint speed as a fraction of its limit over that cycle.
+            largest joint speed as a fraction of its limit over that cycle.
 
     Raises:
         InvalidInputError: a foot target beyond the reach or the joint limits, or a joint faster than its

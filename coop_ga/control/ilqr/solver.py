@@ -46,8 +46,8 @@ def ilqr_reach(
         u_init: (n, nq) initial control guess [rad/s²] (default: rest, or braking to rest).
 
     Returns:
-        :class:`ILQRResult`; every returned trajectory satisfies the bounds (package docstring).  A target certified
-        unreachable (package docstring, "Fast honest failure") returns before any iteration.
+        :class:`ILQRResult`; every returned trajectory satisfies the bounds (package docstring).  A target
+            certified unreachable (package docstring, "Fast honest failure") returns before any iteration.
 
     Raises:
         InvalidInputError: wrong shapes or values (q_init size, weights, horizon, target, …), or
