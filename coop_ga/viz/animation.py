@@ -223,14 +223,7 @@ def animate(
         InvalidInputError: a trajectory of the wrong shape, times of the wrong length, bad primitives or
             path.  CoopGAError: ``.mp4`` without ffmpeg.
     """
-    Q = validation.array(trajectory, "trajectory")
-    if Q.ndim != 2 or Q.shape[1] != system.nq or len(Q) < 1:
-        raise InvalidInputError(f"trajectory must be (T, {system.nq}) for system {system.name!r}, got {Q.shape}")
-    tt = DEFAULT_DT * np.arange(len(Q)) if t is None else validation.array(t, "t")
-    if tt.shape != (len(Q),):
-        raise InvalidInputError(f"t must have one time per row ({len(Q)}), got shape {tt.shape}")
-    if Path(path).suffix.lower() not in VIDEO_SUFFIXES:
-        raise InvalidInputError(f"the animation path must end in .gif or .mp4, got {Path(path).name!r}")
+    Q, tt = _checked_motion(system, trajectory, t, path)
     fps = validation.positive(fps, "fps")
     n = round((tt[-1] - tt[0]) * fps) + 1 if frames is None else validation.integer(frames, "frames", minimum=1)
     idx = frame_indices(len(Q), n)
@@ -246,20 +239,41 @@ def animate(
     images = []
     with tempfile.TemporaryDirectory(prefix="coop_ga_animation_") as tmp:
         for j, k in enumerate(tqdm(idx, desc=f"animating {Path(path).name}", disable=not progress)):
-            sc = Scene().robot(system, Q[k])
-            if prims[0] is not None and j > 0:
-                sc.primitive(prims[0], "initial")
-            if target is not None:
-                sc.primitive(target, "target")
-            if prims[j] is not None:
-                sc.primitive(prims[j], "final")
-            if paths and k > 0:
-                for i in range(ends.shape[1]):
-                    sc.curve(ends[: k + 1, i], "trajectory")
+            initial = prims[0] if j > 0 else None
+            sc = _frame_scene(system, Q[k], initial, target, prims[j], ends[: k + 1] if paths and k > 0 else None)
             for c in corners:
                 sc.primitive(_point(c), "neutral", style=_HIDDEN)
             images.append(render(sc, Path(tmp) / f"{j:05d}.png", float(tt[k] - tt[0])))
     return write_video(path, _same_size(images), fps)
+
+
+def _checked_motion(system: Any, trajectory: Any, t: Any, path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """The (T, nq) trajectory and its (T,) times [s], checked; the file suffix checked before any rendering."""
+    Q = validation.array(trajectory, "trajectory")
+    if Q.ndim != 2 or Q.shape[1] != system.nq or len(Q) < 1:
+        raise InvalidInputError(f"trajectory must be (T, {system.nq}) for system {system.name!r}, got {Q.shape}")
+    tt = DEFAULT_DT * np.arange(len(Q)) if t is None else validation.array(t, "t")
+    if tt.shape != (len(Q),):
+        raise InvalidInputError(f"t must have one time per row ({len(Q)}), got shape {tt.shape}")
+    if Path(path).suffix.lower() not in VIDEO_SUFFIXES:
+        raise InvalidInputError(f"the animation path must end in .gif or .mp4, got {Path(path).name!r}")
+    return Q, tt
+
+
+def _frame_scene(system: Any, q: np.ndarray, initial: Any, target: Any, current: Any, ends: Any) -> Scene:
+    """One frame: the robot at ``q``, the initial (from the second frame on), target and current primitives
+    (None: not drawn), and the end-point paths ``ends`` (k+1, n, 3) up to this row (None: none)."""
+    sc = Scene().robot(system, q)
+    if initial is not None:
+        sc.primitive(initial, "initial")
+    if target is not None:
+        sc.primitive(target, "target")
+    if current is not None:
+        sc.primitive(current, "final")
+    if ends is not None:
+        for i in range(ends.shape[1]):
+            sc.curve(ends[:, i], "trajectory")
+    return sc
 
 
 def _point(c: np.ndarray) -> Any:
