@@ -20,8 +20,8 @@ the terrain), contact slip ≤ 5 mm per stance, no torque clipped at the URDF ef
 
 Writes to ``--out``: per run a folder ``<gait>_<terrain>_<map|blind>/`` with ``model.xml``, ``log.npz`` (the
 simulation's log — ``time``, ``qpos``, ``qvel``, ``ctrl`` — plus ``body_pose`` and ``stance`` per step, the
-plans as ``plan_*``, the terrain as ``terrain_*``; :func:`coop_ga.sim.replay` replays it) and ``metrics.json``
-(with ``--fast`` only for the GIF runs: the logs are MBs); ``metrics.json`` with every run's numbers and the gallery block,
+plans as ``plan_*``, the terrain as ``terrain_*``; ``ctrl`` at every physics step, the state at the plans' rate:
+:func:`coop_ga.sim.replay` replays it bit for bit) and ``metrics.json``; ``metrics.json`` with every run's numbers and the gallery block,
 ``table.md`` (the table of the runs) and MuJoCo-rendered GIFs of the ``--gifs`` runs (stance primitive drawn
 over its support polygon, the body's z axis in orange).
 
@@ -98,8 +98,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--gifs", nargs="*", default=None, help=f"runs that get a GIF (default: {' '.join(DEFAULT_GIFS)})")
     exp.add("--jobs", type=int_at_least(1), default=1, help="runs in parallel processes")
     exp.add_fast(
-        "short walks (ramped up and down over half a cycle each: 0.05–0.08 m), logs of the GIF runs only (CI, "
-        "the gallery)",
+        "short walks (ramped up and down over half a cycle each: 0.05–0.08 m) (CI, the gallery)",
         distance=0.0,
     )
     args = exp.parse(argv)
@@ -114,10 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     fast = bool(args.fast)
     kw = {"distance": float(args.distance), "fast": fast, "tour": args.command == "tour"}
     kw |= {"out": str(exp.out), "seed": seed}
-    specs = [
-        (g, t, b, {**kw, "gif": run_name(g, t, b) in gifs, "save": not args.fast or run_name(g, t, b) in gifs})
-        for g, t, b in combos
-    ]
+    specs = [(g, t, b, {**kw, "gif": run_name(g, t, b) in gifs}) for g, t, b in combos]
     with exp.stage(f"walking {len(specs)} run(s) in MuJoCo"):
         if args.jobs > 1 and len(specs) > 1:
             import multiprocessing as mp

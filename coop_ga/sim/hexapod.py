@@ -263,6 +263,7 @@ class HexapodScene:
     body_geom: int = field(init=False)
     terrain_geom_ids: np.ndarray = field(init=False)
     _kind: np.ndarray = field(init=False, repr=False)
+    _foot_leg: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         s, m = self.scene, self.scene.model
@@ -285,6 +286,8 @@ class HexapodScene:
         kind[self.foot_geoms], kind[self.tibia_geoms], kind[self.femur_geoms], kind[self.coxa_geoms] = 2, 3, 4, 4
         kind[self.body_geom] = 5
         self._kind = kind
+        self._foot_leg = np.full(m.ngeom, -1, dtype=np.int64)
+        self._foot_leg[self.foot_geoms] = np.arange(6)
 
     def __repr__(self) -> str:
         return f"HexapodScene({self.terrain!r}, region={self.region}, geoms={self.scene.model.ngeom})"
@@ -301,6 +304,31 @@ class HexapodScene:
     def touch(self, data: Any) -> np.ndarray:
         """(6,) foot contact normal forces [N] of the last physics step."""
         return np.array(data.sensordata[self.touch_adr])
+
+    def foot_normals(self, data: Any) -> np.ndarray:
+        """(6, 3) the direction of each foot ball's contact force's normal part, world frame, from the terrain into
+        the foot (the normal forces' weighted sum over the ball's contacts, normalised; zeros without contact) —
+        what a force sensor in the foot tells and a touch sensor does not: a level tread (≈ +z) from a riser's
+        face (≈ horizontal).  From ``data.contact`` and ``mujoco.mj_contactForce`` of the last physics step."""
+        out = np.zeros((6, 3))
+        n = int(data.ncon)
+        if n == 0:
+            return out
+        con = data.contact
+        legs = self._foot_leg[con.geom[:n]]  # (n, 2): the leg of a foot geom, else −1
+        f6 = np.zeros(6)
+        m = self.scene.model
+        for c in np.flatnonzero((legs >= 0).any(axis=1)).tolist():
+            mj().mj_contactForce(m, data, c, f6)
+            nrm = f6[0] * np.asarray(con.frame[c, :3])  # the frame's normal points from geom1 to geom2
+            if legs[c, 1] >= 0:
+                out[legs[c, 1]] += nrm
+            else:
+                out[legs[c, 0]] -= nrm
+        norm = np.linalg.norm(out, axis=1)
+        on = norm > 0
+        out[on] /= norm[on, None]
+        return out
 
     def imu(self, data: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(quaternion (w, x, y, z) of R_WB, gyro (3,) [rad/s] in B, accelerometer (3,) [m/s²] in B)."""

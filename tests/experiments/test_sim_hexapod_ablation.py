@@ -18,12 +18,23 @@ DISTANCE = {"step": 0.2, "slope": 0.1}
 
 
 @pytest.fixture(scope="module")
-def ablation():
+def ablation(tmp_path_factory):
     out = {}
+    folder = tmp_path_factory.mktemp("ablation")
     for disturbance in ("step", "slope"):
         for variant in ("feedback", "open_loop"):
-            out[(disturbance, variant)] = ablation_row(variant, disturbance, DISTANCE[disturbance], fast=True)[0]
+            out[(disturbance, variant)] = ablation_row(
+                variant, disturbance, DISTANCE[disturbance], fast=True, out=folder
+            )[0]
+    out["folder"] = folder
     return out
+
+
+def test_every_row_writes_a_log_that_replays_with_mujoco_alone(ablation) -> None:
+    from coop_ga.sim import replay
+
+    for name in ("feedback_step", "open_loop_slope"):
+        assert replay(ablation["folder"] / name) == 0.0, name
 
 
 @pytest.mark.parametrize("disturbance", ["step", "slope"])
