@@ -234,7 +234,9 @@ class WalkingOptions:
         steps over it — its foothold moves this far past where it touched, into the face's direction, on an arc
         ``stumble_lift`` high (at most up to ``foot_drop`` below the body) lasting ``step_over_time`` [s] — instead of touching down against it (the shin
         would then lean on the edge); search_speed [m/s], search_depth [m]:
-        how a late foot looks for the ground.  load_ramp: [s] feed-forward load ramp after touchdown / before
+        how a late foot looks for the ground — down, and forward along its swing by ``search_forward`` × the
+        depth (at most ``search_forward_max`` [m]): a foot that finds no ground where it expected it has crossed a
+        down-step's edge, and moving away from that edge keeps its shin off it.  load_ramp: [s] feed-forward load ramp after touchdown / before
         lift-off.
     """
 
@@ -267,6 +269,8 @@ class WalkingOptions:
     step_over_time: float = 0.45
     contact_hold: float = 0.05
     search_speed: float = 0.06
+    search_forward: float = 1.0
+    search_forward_max: float = 0.02
     search_depth: float = 0.05
     load_ramp: float = 0.05
 
@@ -284,6 +288,8 @@ class WalkingOptions:
             "posture_gain",
             "path_gain",
             "search_depth",
+            "search_forward",
+            "search_forward_max",
             "load_ramp",
             "touchdown_depth",
             "stumble_lift",
@@ -429,8 +435,8 @@ def stance_pose(feet: np.ndarray, stance: Sequence[int]) -> tuple[tuple[int, ...
     points up) — ``order`` gives their leg indices — and passed to the pose function of the task graph of
     :func:`coop_ga.legged.stance.stance_task` (the exact plane of 3 feet, the least-squares ``plane_fit`` of
     more): ``p (3k) → (V, B = log V, G = −2 Ṽ ∂V/∂p, …)`` (:mod:`coop_ga.cooperative.graph`).  That function
-    depends only on the number of feet, so one per k serves every stance set (built once per process, CasADi
-    VM); ``J^G = G ∂p/∂q`` is the task's Jacobian (``tests/sim/test_hexapod_walking.py`` compares both with
+    depends only on the number of feet, so one per k serves every stance set (built once per process, compiled
+    by :class:`~coop_ga.codegen.CompiledFunction`); ``J^G = G ∂p/∂q`` is the task's Jacobian (``tests/sim/test_hexapod_walking.py`` compares both with
     ``stance_task(...).evaluate``)."""
     key = tuple(stance)
     hit = _STANCE_ORDERS.get(key)
@@ -443,13 +449,15 @@ def stance_pose(feet: np.ndarray, stance: Sequence[int]) -> tuple[tuple[int, ...
     k = len(order)
     fn = _POSE_FUNCTIONS.get(k)
     if fn is None:
+        from ..codegen import CompiledFunction
         from ..legged.stance import stance_task
 
         legs = tuple(HEXAPOD_LEGS[i] for i in order)
         task = stance_task("hexapod", legs, "plane" if k == 3 else "plane_fit", codegen=False)
-        fn = _POSE_FUNCTIONS[k] = task.graph.pose_function
-    out = fn(feet[list(order)].reshape(-1))
-    return order, np.asarray(out[1], float).reshape(7), np.asarray(out[2], float)
+        # compiled C where gcc is (cached on disk), bound to numpy buffers: no CasADi DM per call
+        fn = _POSE_FUNCTIONS[k] = CompiledFunction(task.graph.pose_function, check_finite=False)
+    out = fn.call_views(feet[list(order)].reshape(-1))
+    return order, out[1].reshape(7).copy(), out[2].copy()
 
 
 def posture_legs(stance: Any) -> tuple[str, ...]:
@@ -591,6 +599,18 @@ class HexapodWalker:
     plans without three contact feet).
     """
 
+    #: the events counted in :attr:`counts`
+    EVENTS = (
+        "touchdowns",
+        "early_touchdowns",
+        "searches",
+        "lost_feet",
+        "stumbles",
+        "step_overs",
+        "held_lift_offs",
+        "unsupported_plans",
+    )
+
     def __init__(
         self,
         hs: HexapodScene,
@@ -657,16 +677,7 @@ class HexapodWalker:
                 stance_pose(self.nominal, range(k))
         self.records: list[tuple[Any, ...]] = []
         self.timing = {"plan_s": 0.0, "servo_s": 0.0, "plans": 0, "servo_calls": 0}
-        self.counts = {
-            "touchdowns": 0,
-            "early_touchdowns": 0,
-            "searches": 0,
-            "lost_feet": 0,
-            "stumbles": 0,
-            "step_overs": 0,
-            "held_lift_offs": 0,
-            "unsupported_plans": 0,
-        }
+        self.counts = dict.fromkeys(self.EVENTS, 0)
         self._calls = 0
         self._started = False
         self._faces: dict[int, np.ndarray] = {}
@@ -940,23 +951,30 @@ class HexapodWalker:
             else:
                 self._touchdown(i, t, q, early=False)
             return
-        depth = self.options.search_speed * (t - leg.search_from)
-        if depth > self.options.search_depth:
+        opt = self.options
+        depth = opt.search_speed * (t - leg.search_from)
+        if depth > opt.search_depth:
             leg.mode, leg.anchor, leg.touchdown = 0, leg.target.copy(), t  # no ground found: stand on the target
             self._roll_reference(i)
             self.counts["lost_feet"] += 1
             return
-        leg.target = leg.arc[1] - np.array([0.0, 0.0, depth])
+        p0, p1 = leg.arc[0], leg.arc[1]
+        h = (p1 - p0)[:2]
+        nh = float(np.hypot(h[0], h[1]))
+        fwd = min(opt.search_forward * depth, opt.search_forward_max) / nh if nh > 1e-9 else 0.0
+        leg.target = p1 + np.array([fwd * h[0], fwd * h[1], -depth])
 
     def _face_directions(self, data: Any, touch: np.ndarray, R_M: np.ndarray) -> dict[int, np.ndarray]:
         """{leg: unit horizontal direction (2,) into the face, in W_o} for the touching feet whose contact normal is
-        tilted more than ``face_tilt`` from vertical (the normal measured in B through the IMU, to W_o through D)."""
-        if not touch.any():
+        tilted more than ``face_tilt`` from vertical (the normal measured in B through the IMU, to W_o through D);
+        only the feet in the air (swinging, searching) are asked: a stance foot's normal decides nothing."""
+        airborne = [i for i in np.flatnonzero(touch).tolist() if self._legs[i].mode != 0]
+        if not airborne:
             return {}
         N = self.hs.foot_normals(data) @ R_M  # rows: n in B
         c = math.cos(self.options.face_tilt)
         out = {}
-        for i in np.flatnonzero(touch).tolist():
+        for i in airborne:
             n = self._RD @ N[i]
             h = -n[:2]
             if n[2] < c and float(np.hypot(*h)) > 1e-9:
