@@ -20,7 +20,8 @@ Metrics (:meth:`WalkRun.metrics`; the rows of the README's table)
 ``walked_fraction``: the body's displacement along the commanded displacement over the commanded
 displacement (the command integrated, :meth:`VelocityCommand.path`); ``max_roll_deg`` / ``max_pitch_deg`` (world);
 ``max_height_error_m``: |distance of the body origin from the least-squares plane of the touching feet's centres
-− ride_height|, over the plans with ≥ 3 touching feet after ``settle`` s; ``max_slip_m`` (sliding per stance),
+− ride_height|, over the plans with ≥ 3 touching feet after ``settle`` s (touching: within the last 10 ms,
+:meth:`WalkRun.height_errors`); ``max_slip_m`` (sliding per stance),
 ``max_foot_drift_m``; ``saturated_updates`` / ``effort_ratio`` (the simulation's torque clipping at the URDF
 effort); ``shin_contact_steps``, ``femur_contact_steps``, ``body_contact_steps``; ``fell``: |roll| or |pitch|
 > 10°, a height error > 2 cm, or the body or a femur on the terrain; ``passed``: the bar — walked ≥ 95 %,
@@ -184,13 +185,20 @@ class WalkRun:
 
     def height_errors(self) -> tuple[np.ndarray, np.ndarray]:
         """(t (P,), error (P,) [m]): the body's distance from the plane of the touching feet's centres minus
-        ride_height, at the plans with ≥ 3 touching feet (NaN otherwise)."""
+        ride_height, at the plans with ≥ 3 touching feet (NaN otherwise).  A foot counts as touching if its sensor
+        read more than the threshold at this plan or one of the two before (10 ms): a loaded foot's force dips to
+        zero for a sample when it bounces, and a plane of the other feet alone (all low, say, while the front feet
+        stand on a step) is not the support the body stands on."""
         pos, _ = self.base
         ts = np.array([p[0] for p in self.truth.plans])
         err = np.full(len(ts), np.nan)
         thr = self.truth.threshold
-        for k, (t, feet, touch) in enumerate(self.truth.plans):
-            on = touch > thr
+        touching = np.array([p[2] > thr for p in self.truth.plans]).reshape(-1, 6)
+        held = touching.copy()
+        held[1:] |= touching[:-1]
+        held[2:] |= touching[:-2]
+        for k, (t, feet, _touch) in enumerate(self.truth.plans):
+            on = held[k]
             if on.sum() >= 3:
                 n, d = _fit_plane(feet[on])
                 i = min(round(t / float(self.hs.model.opt.timestep)), len(pos) - 1)
