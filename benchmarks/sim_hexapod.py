@@ -15,8 +15,8 @@ same run:
 Printed: simulated seconds per wall second of each loop (≥ 1: real time), simulated seconds per CPU second of the
 process (``time.process_time``: what one core gives when the machine is not shared — the wall-clock numbers of a
 loaded machine are not), its ratio to the anchor, and the controller's share of a tick — the CPU time inside
-the walker's plans and servo calls over the loop's — with its cost per plan and per servo call.  The run is checked before the numbers count: the robot walked forward,
-no torque was clipped.  ``--ci``: 0.4 s simulated (the times mean nothing; the CI test reads the JSON's shape).
+the walker's plans and servo calls over the loop's — with its cost per plan and per servo call.  The run is
+checked before the numbers count: the robot walked forward, no torque was clipped.  ``--ci``: 0.4 s simulated (the times mean nothing; the CI test reads the JSON's shape).
 Results go to ``<out>/results.json``.  Times depend on the machine's load: compare ratios within one run.
 """
 

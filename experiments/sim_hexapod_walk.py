@@ -21,7 +21,8 @@ the terrain), contact slip ≤ 5 mm per stance, no torque clipped at the URDF ef
 Writes to ``--out``: per run a folder ``<gait>_<terrain>_<map|blind>/`` with ``model.xml``, ``log.npz`` (the
 simulation's log — ``time``, ``qpos``, ``qvel``, ``ctrl`` — plus ``body_pose`` and ``stance`` per step, the
 plans as ``plan_*``, the terrain as ``terrain_*``; ``ctrl`` at every physics step, the state at the plans' rate:
-:func:`coop_ga.sim.replay` replays it bit for bit) and ``metrics.json``; ``metrics.json`` with every run's numbers and the gallery block,
+:func:`coop_ga.sim.replay` replays it bit for bit) and ``metrics.json``; ``metrics.json`` with every run's numbers
+and the gallery block,
 ``table.md`` (the table of the runs) and MuJoCo-rendered GIFs of the ``--gifs`` runs (stance primitive drawn
 over its support polygon, the body's z axis in orange).
 

@@ -20,13 +20,20 @@ known initial pose) and the 18 joint targets q_D — and the stance feet's ancho
    plane of the current stance anchors extrapolated to it.  Apex: ``lift_height`` above the highest terrain
    under the swing (map) or ``blind_lift`` above the higher end (blind).
 2. **Touchdown from the touch sensors** (the stance set follows the contacts): from mid-swing on, a swing foot
-   whose touch sensor reads more than ``touch_threshold`` stops — it is in stance, its anchor is where the
-   encoders put it (``D · fk(q)``).  A foot that reaches the end of its arc without contact keeps descending at
-   ``search_speed`` (for at most ``search_depth``) while the gait clock and the reference wait for it.  The
-   stance primitive is built from the feet that are in stance *and* in contact.
+   whose touch sensor reads more than ``touch_threshold`` stops — it is in stance, its anchor is where it is
+   commanded at that instant (q_D stays continuous).  Unless the contact is a *face*: the foot's contact normal
+   (:meth:`~coop_ga.sim.hexapod.HexapodScene.foot_normals`, a foot force sensor's direction; a touch sensor
+   cannot tell a riser's vertical face from a tread) tilted more than ``face_tilt`` from vertical — touching
+   down against a riser would leave the shin capsule, 15.7 mm wider than the ball, leaning on its edge — then
+   the foot steps over it (up, over ``step_over`` past the face, down).  A foot that reaches the end of its arc
+   without contact keeps descending at ``search_speed`` (for at most ``search_depth``, moving forward along its
+   swing as it goes: away from a down-step's edge it crossed) while the gait clock and the reference wait for
+   it; the command's schedule waits too (:attr:`HexapodWalker.lag`), so that the whole commanded path is walked,
+   later.  The stance primitive is built from the feet that are in stance *and* in contact.
 3. **Body posture through the stance primitive**: the stance feet's plane seen from the body, from the joint
    encoders — the similarity V(q) of :func:`coop_ga.legged.stance.stance_task` (exact plane of 3 feet,
-   least-squares plane of more; CasADi VM) with its body-frame Jacobian J^G — is compared with its reference
+   least-squares plane of more; compiled by :class:`~coop_ga.codegen.CompiledFunction`) with its body-frame
+   Jacobian J^G — is compared with its reference
    V_ref: the same plane as seen from a body with the desired attitude (level, or ``tilt_follow`` toward the
    support; yaw kept) at ``ride_height``: with R_c = R_IMUᵀ R_des the correction rotation in B,
    ``n_ref = R_cᵀ n`` and ``t_ref = −ride_height · n_ref``.  Its error ``e = log(Ṽ V_ref)`` (seed 003 Eq 44;
@@ -229,15 +236,15 @@ class WalkingOptions:
         whose touch sensor read contact within this time [s] still carries load; stumble_lift: a swing foot that
         touches something before mid-swing goes on this far [m] above the higher of where it is and its
         foothold; face_tilt: [rad] a contact whose normal (the foot's force sensor,
-        :meth:`~coop_ga.sim.hexapod.HexapodScene.foot_normals`) is tilted more than this from vertical is a face (a
-        riser, a tile's side), not a foothold; step_over: [m] a swing foot that meets a face from mid-swing on
-        steps over it — its foothold moves this far past where it touched, into the face's direction, on an arc
-        ``stumble_lift`` high (at most up to ``foot_drop`` below the body) lasting ``step_over_time`` [s] — instead of touching down against it (the shin
-        would then lean on the edge); search_speed [m/s], search_depth [m]:
+        :meth:`~coop_ga.sim.hexapod.HexapodScene.foot_normals`) is tilted more than this from vertical is a face
+        (a riser, a tile's side), not a foothold; step_over: [m] a swing foot that meets a face from mid-swing on
+        steps over it — its foothold moves this far past where it touched, into the face's direction, on a path
+        ``stumble_lift`` high (at most up to ``foot_drop`` below the body) lasting ``step_over_time`` [s] — instead
+        of touching down against it (the shin would then lean on the edge); search_speed [m/s], search_depth [m]:
         how a late foot looks for the ground — down, and forward along its swing by ``search_forward`` × the
-        depth (at most ``search_forward_max`` [m]): a foot that finds no ground where it expected it has crossed a
-        down-step's edge, and moving away from that edge keeps its shin off it.  load_ramp: [s] feed-forward load ramp after touchdown / before
-        lift-off.
+        depth (at most ``search_forward_max`` [m]): a foot that finds no ground where it expected it has crossed
+        a down-step's edge, and moving away from that edge keeps its shin off it.  load_ramp: [s] feed-forward
+        load ramp after touchdown / before lift-off.
     """
 
     gait: str = "tripod"
@@ -594,8 +601,8 @@ class HexapodWalker:
     The command is a schedule the gait follows: while the gait waits for a late foot (a search, a step-over) the
     schedule waits too (:attr:`lag`), so that the robot walks the whole commanded path, later.
 
-    After a run, :attr:`records` holds one row per plan (:meth:`records_arrays`), :attr:`timing` the CPU seconds (``time.process_time``)
-    spent planning and in the servo loop, :attr:`counts` the events (touchdowns, searches, lost feet,
+    After a run, :attr:`records` holds one row per plan (:meth:`records_arrays`), :attr:`timing` the CPU seconds
+    (``time.process_time``) spent planning and in the servo loop, :attr:`counts` the events (touchdowns, searches, lost feet,
     plans without three contact feet).
     """
 
