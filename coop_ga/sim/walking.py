@@ -244,7 +244,9 @@ class WalkingOptions:
         how a late foot looks for the ground — down, and forward along its swing by ``search_forward`` × the
         depth (at most ``search_forward_max`` [m]): a foot that finds no ground where it expected it has crossed
         a down-step's edge, and moving away from that edge keeps its shin off it.  load_ramp: [s] feed-forward
-        load ramp after touchdown / before lift-off.
+        load ramp after touchdown / before lift-off.  joint_speed: the joint targets move at most this fraction
+        of the URDF's joint speed (the servos' no-load speed; at 0.8 its back-EMF takes 0.8 of the stall torque);
+        a faster plan is followed at that speed (counted as ``speed_limited_plans``).
     """
 
     gait: str = "tripod"
@@ -280,10 +282,19 @@ class WalkingOptions:
     search_forward_max: float = 0.02
     search_depth: float = 0.05
     load_ramp: float = 0.05
+    joint_speed: float = 0.8
 
     def __post_init__(self) -> None:
         validation.choice(self.gait, GAIT_NAMES, "gait")
-        for name in ("ride_height", "foot_reach", "control_rate", "touch_threshold", "search_speed", "step_over_time"):
+        for name in (
+            "ride_height",
+            "foot_reach",
+            "control_rate",
+            "touch_threshold",
+            "search_speed",
+            "step_over_time",
+            "joint_speed",
+        ):
             validation.positive(getattr(self, name), name)
         for name in (
             "lift_height",
@@ -616,6 +627,7 @@ class HexapodWalker:
         "step_overs",
         "held_lift_offs",
         "unsupported_plans",
+        "speed_limited_plans",
     )
 
     def __init__(
@@ -678,6 +690,8 @@ class HexapodWalker:
             self._kd[qi[:, j]] = opt.kd[j]
         # the servos' back-EMF damping (hexapod module docstring, "Servos"): τ must also supply b q̇_D
         self._b = np.asarray(hs.model.dof_damping, float)[hs.scene.qvel_index].copy()
+        self._dq_max = np.empty(18)
+        self._dq_max[self.fast.q_index] = opt.joint_speed * self.dt * np.asarray(self.legs.velocity_limit, float)
         self._tasks: dict[tuple[str, ...], Any] = {}
         if opt.feedback and opt.posture_gain > 0:  # the stance planes' pose functions, built once per process
             for k in range(3, 7):
@@ -759,6 +773,12 @@ class HexapodWalker:
         self._pD = self._pD + self._RD @ u[:3] * self.dt
         self._RD = self._RD @ _expm_so3(u[3:] * self.dt)
         q_new = self._targets()
+        # the servos' speed: a target faster than joint_speed × the URDF's no-load speed needs more torque than
+        # the back-EMF leaves (τ = τ_stall (u − q̇/ω₀)); the target follows at that speed instead (counted)
+        dq = np.clip(q_new - self._qD, -self._dq_max, self._dq_max)
+        if not np.array_equal(dq, q_new - self._qD):
+            self.counts["speed_limited_plans"] += 1
+            q_new = self._qD + dq
         self._qdD = (q_new - self._qD) / self.dt
         self._qD = q_new
         self._t_plan = t
