@@ -142,6 +142,10 @@ def test_tour_start_speed_change_turn_stop_and_replay(tmp_path) -> None:
     assert abs(m["final_yaw_deg"] - m["commanded_yaw_deg"]) < 2.0 and m["commanded_yaw_deg"] > 10.0
     speeds = np.linalg.norm(np.diff(run.base[0][-100:, :2], axis=0), axis=1) / 1e-3
     assert speeds.max() < 0.01  # at rest at the end
+    # the joint targets never outrun the servos: at most joint_speed × the URDF's no-load speed
+    qp = run.records()["q_plan"]
+    vmax = opt.joint_speed * np.asarray(run.walker.legs.system.limits.velocity, float)
+    assert np.all(np.abs(np.diff(qp, axis=0)) / run.walker.dt <= vmax + 1e-9)
     folder = run.save(tmp_path / "tour")
     assert replay(folder) == 0.0
     z = np.load(folder / "log.npz")
