@@ -60,6 +60,7 @@ TABLE_COLS = (
     ("clipped τ", "saturated_updates", "{:d}"),
     ("max τ / effort", "effort_ratio", "{:.2f}"),
     ("shin contacts", "shin_contact_steps", "{:d}"),
+    ("self contacts", "self_contact_steps", "{:d}"),
     ("passed", "passed", ""),
 )
 
@@ -151,6 +152,7 @@ def _metrics(rows: list[dict[str, Any]], args: Any, gifs: set[str]) -> dict[str,
         "slip_max_m": max(m["max_slip_m"] for m in rows),
         "saturated_updates_total": sum(m["saturated_updates"] for m in rows),
         "shin_contact_steps_total": sum(m["shin_contact_steps"] for m in rows),
+        "self_contact_steps_total": sum(m["self_contact_steps"] for m in rows),
     }
     figures = [f"walk_{m['label']}.gif" for m in rows if m["label"] in gifs]
     evidence = (
@@ -159,8 +161,9 @@ def _metrics(rows: list[dict[str, Any]], args: Any, gifs: set[str]) -> dict[str,
         + (f"; failing: {', '.join(failed)}" if failed else "")
         + f". Worst over all runs: walked {worst['walked_fraction_min']:.1%}, tilt {worst['tilt_max_deg']:.2f}°, height "
         f"error {1e3 * worst['height_error_max_m']:.1f} mm, slip {1e3 * worst['slip_max_m']:.2f} mm, "
-        f"{worst['saturated_updates_total']} clipped torque updates, {worst['shin_contact_steps_total']} shin-contact steps."
-        + (" Fast mode: walks of 0.05–0.08 m." if args.fast else "")
+        f"{worst['saturated_updates_total']} clipped torque updates, {worst['shin_contact_steps_total']} shin-contact steps, "
+        f"{worst['self_contact_steps_total']} steps with the robot touching itself (a femur on the body box; not in the "
+        "bar)." + (" Fast mode: walks of 0.05–0.08 m." if args.fast else "")
     )
     return {
         "fast": bool(args.fast),

@@ -23,9 +23,12 @@ source of both the planner's leg–terrain clearance and this scene's contacts:
 * **body**: the URDF's body box, 0.24 × 0.16 × 0.04 m (the fitted body capsule, radius 82 mm, would hang 27 mm
   above the ground at the ride height; the planner does not use it).
 
-Every robot geom touches the terrain; robot–robot contacts are off (the legs of these gaits do not meet; a
-self-collision check would cost more than the rest of a step).  Contacts between the terrain and anything
-but a foot ball are counted by :meth:`HexapodScene.terrain_contacts` (the walking metrics' "shin contacts").
+Every robot geom touches the terrain; contacts between the legs' links are off (the legs of these gaits do not
+meet; a self-collision check would cost more than the rest of a step), but the body box is not excluded from
+them: a femur lifted high with its coxa turned toward the body meets it (at coxa 0.4 rad from ~1.2 rad of femur
+lift) — as the real servo brackets would meet the body plate.  Contacts between the terrain and anything but a
+foot ball are counted by :meth:`HexapodScene.terrain_contacts` (the walking metrics' "shin contacts"), and the
+robot's contacts with itself (a femur on the body box) as ``self``.
 
 Terrain (:func:`terrain_geoms`)
 -------------------------------
@@ -338,15 +341,17 @@ class HexapodScene:
 
     def terrain_contacts(self, data: Any) -> dict[str, int]:
         """Contacts in ``data`` between the terrain and the robot, counted by robot part: ``foot``, ``shin``
-        (tibia capsules), ``femur`` (femur and coxa capsules), ``body``."""
+        (tibia capsules), ``femur`` (femur and coxa capsules), ``body``; and ``self``: the robot's contacts with
+        itself (module docstring: a femur on the body box)."""
         n = int(data.ncon)
-        out = {"foot": 0, "shin": 0, "femur": 0, "body": 0}
+        out = {"foot": 0, "shin": 0, "femur": 0, "body": 0, "self": 0}
         if n == 0:
             return out
-        k = self._kind[data.contact.geom]  # (n, 2) classes of the two geoms of every contact
+        k = self._kind[data.contact.geom[:n]]  # (n, 2) classes of the two geoms of every contact
         other = np.where(k[:, 0] == 1, k[:, 1], np.where(k[:, 1] == 1, k[:, 0], 0))
         counts = np.bincount(other, minlength=6)
         out["foot"], out["shin"], out["femur"], out["body"] = (int(counts[c]) for c in (2, 3, 4, 5))
+        out["self"] = int(np.count_nonzero((k[:, 0] >= 2) & (k[:, 1] >= 2)))
         return out
 
     def surface_height(self, xy: Any) -> np.ndarray:

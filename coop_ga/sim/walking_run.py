@@ -23,9 +23,10 @@ displacement (the command integrated, :meth:`VelocityCommand.path`); ``max_roll_
 − ride_height|, over the plans with ≥ 3 touching feet after ``settle`` s (touching: within the last 10 ms,
 :meth:`WalkRun.height_errors`); ``max_slip_m`` (sliding per stance),
 ``max_foot_drift_m``; ``saturated_updates`` / ``effort_ratio`` (the simulation's torque clipping at the URDF
-effort); ``shin_contact_steps``, ``femur_contact_steps``, ``body_contact_steps``; ``fell``: |roll| or |pitch|
-> 10°, a height error > 2 cm, or the body or a femur on the terrain; ``passed``: the bar — walked ≥ 95 %,
-not fallen, slip ≤ 5 mm per stance, no saturation, no shin contact.
+effort); ``shin_contact_steps``, ``femur_contact_steps``, ``body_contact_steps`` (on the terrain),
+``self_contact_steps`` (the robot on itself, a femur on the body box: reported, not part of the bar); ``fell``:
+|roll| or |pitch| > 10°, a height error > 2 cm, or the body or a femur on the terrain; ``passed``: the bar —
+walked ≥ 95 %, not fallen, slip ≤ 5 mm per stance, no saturation, no shin contact.
 """
 
 from __future__ import annotations
@@ -81,7 +82,7 @@ class GroundTruth:
         self.hs: HexapodScene = walker.hs
         self.threshold = float(threshold)
         self.r = self.hs.foot_radius
-        self.contacts: list[tuple[int, int, int]] = []  # per physics step: (shin, femur, body) contacts
+        self.contacts: list[tuple[int, int, int, int]] = []  # per physics step: (shin, femur, body, self) contacts
         self.plans: list[tuple[float, np.ndarray, np.ndarray]] = []  # (t, feet (6, 3), touch (6,))
         #: (leg, t0, t1, slip = |∫ v_t dt|, drift of the ball centre, sliding path ∫ |v_t| dt) per stance
         self.stances: list[tuple[int, float, float, float, float, float]] = []
@@ -95,7 +96,7 @@ class GroundTruth:
     def __call__(self, t: float, q: np.ndarray, qd: np.ndarray, sensors: Any) -> np.ndarray:
         d = sensors.data
         c = self.hs.terrain_contacts(d)
-        self.contacts.append((c["shin"], c["femur"], c["body"]))
+        self.contacts.append((c["shin"], c["femur"], c["body"], c["self"]))
         if self._steps % self.walker.every == 0:  # slip integrated and feet sampled at the plans' rate
             touch = np.asarray(d.sensordata[self.hs.touch_adr])
             self._slip(t, d, touch)
@@ -221,7 +222,7 @@ class WalkRun:
         late = t >= self.settle
         th, he = self.height_errors()
         he_late = he[(th >= self.settle) & np.isfinite(he)]
-        C = np.array(self.truth.contacts) if self.truth.contacts else np.zeros((0, 3), int)
+        C = np.array(self.truth.contacts) if self.truth.contacts else np.zeros((0, 4), int)
         S = np.array([s[3:] for s in self.truth.stances]) if self.truth.stances else np.zeros((0, 3))
         m = {
             "label": self.label,
@@ -249,6 +250,7 @@ class WalkRun:
             "shin_contact_steps": int(np.count_nonzero(C[:, 0])) if len(C) else 0,
             "femur_contact_steps": int(np.count_nonzero(C[:, 1])) if len(C) else 0,
             "body_contact_steps": int(np.count_nonzero(C[:, 2])) if len(C) else 0,
+            "self_contact_steps": int(np.count_nonzero(C[:, 3])) if len(C) else 0,
             "events": dict(self.walker.counts),
             "schedule_lag_s": float(self.walker.lag),
             "plan_s": float(self.walker.timing["plan_s"]),

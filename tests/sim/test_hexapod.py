@@ -104,7 +104,7 @@ def test_sensors_of_a_robot_standing_still() -> None:
     quat, gyro, acc = hs.imu(sim.data)
     assert np.allclose(quat, hs.scene.base_pose(sim.data)[1], atol=1e-9)
     assert np.abs(gyro).max() < 1e-3 and acc == pytest.approx([0.0, 0.0, 9.81], abs=0.02)
-    assert hs.terrain_contacts(sim.data) == {"foot": 6, "shin": 0, "femur": 0, "body": 0}
+    assert hs.terrain_contacts(sim.data) == {"foot": 6, "shin": 0, "femur": 0, "body": 0, "self": 0}
 
 
 def test_foot_normals_tell_a_tread_from_a_riser() -> None:
