@@ -20,8 +20,10 @@ the middle feet climb it after ~0.11 m); ``push`` — a 10 N lateral push on the
 feet, the largest slip per stance, whether it fell (:data:`coop_ga.sim.walking_run.BAR`: tilt > 10°, height
 error > 2 cm, body or femur on the ground), the walked fraction, clipped torques and shin contacts.
 
-Writes ``metrics.json`` (every run's numbers, the gallery block), ``table.md``, ``attitude.png`` (roll, pitch and
-height error over time, the three variants, per disturbance) and ``timing.json``.
+Writes per run a folder ``<variant>_<disturbance>/`` (``model.xml``, ``log.npz``, ``metrics.json``: replayable with
+:func:`coop_ga.sim.replay`, layout as in ``sim_hexapod_walk.py``), ``metrics.json`` (every run's numbers, the gallery
+block), ``table.md``, ``attitude.png`` (roll, pitch and height error over time, the three variants, per
+disturbance) and ``timing.json``.
 
     python experiments/sim_hexapod_ablation.py [--distance 0.5] [--fast]
 """
@@ -38,7 +40,7 @@ from coop_ga.harness import Experiment, int_at_least, positive_float
 from coop_ga.sim.walking_experiments import DISTURBANCES, VARIANTS
 
 
-def _row(spec: tuple[str, str, float, bool]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def _row(spec: tuple[str, str, float, bool, str]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     from coop_ga.sim.walking_experiments import ablation_row
 
     return ablation_row(*spec)
@@ -53,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
     t_start = time.perf_counter()
     distance = float(args.distance)
     fast = bool(args.fast)
-    specs = [(v, d, distance, fast) for d in DISTURBANCES for v in VARIANTS]
+    specs = [(v, d, distance, fast, str(exp.out)) for d in DISTURBANCES for v in VARIANTS]
     with exp.stage(f"{len(specs)} walks in MuJoCo"):
         if args.jobs > 1:
             import multiprocessing as mp

@@ -23,9 +23,12 @@ source of both the planner's leg–terrain clearance and this scene's contacts:
 * **body**: the URDF's body box, 0.24 × 0.16 × 0.04 m (the fitted body capsule, radius 82 mm, would hang 27 mm
   above the ground at the ride height; the planner does not use it).
 
-Every robot geom touches the terrain; robot–robot contacts are off (the legs of these gaits do not meet; a
-self-collision check would cost more than the rest of a step).  Contacts between the terrain and anything
-but a foot ball are counted by :meth:`HexapodScene.terrain_contacts` (the walking metrics' "shin contacts").
+Every robot geom touches the terrain; contacts between the legs' links are off (the legs of these gaits do not
+meet; a self-collision check would cost more than the rest of a step), but the body box is not excluded from
+them: a femur lifted high with its coxa turned toward the body meets it (at coxa 0.4 rad from ~1.2 rad of femur
+lift) — as the real servo brackets would meet the body plate.  Contacts between the terrain and anything but a
+foot ball are counted by :meth:`HexapodScene.terrain_contacts` (the walking metrics' "shin contacts"), and the
+robot's contacts with itself (a femur on the body box) as ``self``.
 
 Terrain (:func:`terrain_geoms`)
 -------------------------------
@@ -262,6 +265,7 @@ class HexapodScene:
     body_geom: int = field(init=False)
     terrain_geom_ids: np.ndarray = field(init=False)
     _kind: np.ndarray = field(init=False, repr=False)
+    _foot_leg: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         s, m = self.scene, self.scene.model
@@ -284,6 +288,8 @@ class HexapodScene:
         kind[self.foot_geoms], kind[self.tibia_geoms], kind[self.femur_geoms], kind[self.coxa_geoms] = 2, 3, 4, 4
         kind[self.body_geom] = 5
         self._kind = kind
+        self._foot_leg = np.full(m.ngeom, -1, dtype=np.int64)
+        self._foot_leg[self.foot_geoms] = np.arange(6)
 
     def __repr__(self) -> str:
         return f"HexapodScene({self.terrain!r}, region={self.region}, geoms={self.scene.model.ngeom})"
@@ -301,6 +307,31 @@ class HexapodScene:
         """(6,) foot contact normal forces [N] of the last physics step."""
         return np.array(data.sensordata[self.touch_adr])
 
+    def foot_normals(self, data: Any) -> np.ndarray:
+        """(6, 3) the direction of each foot ball's contact force's normal part, world frame, from the terrain into
+        the foot (the normal forces' weighted sum over the ball's contacts, normalised; zeros without contact) —
+        what a force sensor in the foot tells and a touch sensor does not: a level tread (≈ +z) from a riser's
+        face (≈ horizontal).  From ``data.contact`` and ``mujoco.mj_contactForce`` of the last physics step."""
+        out = np.zeros((6, 3))
+        n = int(data.ncon)
+        if n == 0:
+            return out
+        con = data.contact
+        legs = self._foot_leg[con.geom[:n]]  # (n, 2): the leg of a foot geom, else −1
+        f6 = np.zeros(6)
+        m = self.scene.model
+        for c in np.flatnonzero((legs >= 0).any(axis=1)).tolist():
+            mj().mj_contactForce(m, data, c, f6)
+            nrm = f6[0] * np.asarray(con.frame[c, :3])  # the frame's normal points from geom1 to geom2
+            if legs[c, 1] >= 0:
+                out[legs[c, 1]] += nrm
+            else:
+                out[legs[c, 0]] -= nrm
+        norm = np.linalg.norm(out, axis=1)
+        on = norm > 0
+        out[on] /= norm[on, None]
+        return out
+
     def imu(self, data: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(quaternion (w, x, y, z) of R_WB, gyro (3,) [rad/s] in B, accelerometer (3,) [m/s²] in B)."""
         q, g, a = self.imu_adr
@@ -309,15 +340,17 @@ class HexapodScene:
 
     def terrain_contacts(self, data: Any) -> dict[str, int]:
         """Contacts in ``data`` between the terrain and the robot, counted by robot part: ``foot``, ``shin``
-        (tibia capsules), ``femur`` (femur and coxa capsules), ``body``."""
+        (tibia capsules), ``femur`` (femur and coxa capsules), ``body``; and ``self``: the robot's contacts with
+        itself (module docstring: a femur on the body box)."""
         n = int(data.ncon)
-        out = {"foot": 0, "shin": 0, "femur": 0, "body": 0}
+        out = {"foot": 0, "shin": 0, "femur": 0, "body": 0, "self": 0}
         if n == 0:
             return out
-        k = self._kind[data.contact.geom]  # (n, 2) classes of the two geoms of every contact
+        k = self._kind[data.contact.geom[:n]]  # (n, 2) classes of the two geoms of every contact
         other = np.where(k[:, 0] == 1, k[:, 1], np.where(k[:, 1] == 1, k[:, 0], 0))
         counts = np.bincount(other, minlength=6)
         out["foot"], out["shin"], out["femur"], out["body"] = (int(counts[c]) for c in (2, 3, 4, 5))
+        out["self"] = int(np.count_nonzero((k[:, 0] >= 2) & (k[:, 1] >= 2)))
         return out
 
     def surface_height(self, xy: Any) -> np.ndarray:

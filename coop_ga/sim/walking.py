@@ -20,13 +20,20 @@ known initial pose) and the 18 joint targets q_D — and the stance feet's ancho
    plane of the current stance anchors extrapolated to it.  Apex: ``lift_height`` above the highest terrain
    under the swing (map) or ``blind_lift`` above the higher end (blind).
 2. **Touchdown from the touch sensors** (the stance set follows the contacts): from mid-swing on, a swing foot
-   whose touch sensor reads more than ``touch_threshold`` stops — it is in stance, its anchor is where the
-   encoders put it (``D · fk(q)``).  A foot that reaches the end of its arc without contact keeps descending at
-   ``search_speed`` (for at most ``search_depth``) while the gait clock and the reference wait for it.  The
-   stance primitive is built from the feet that are in stance *and* in contact.
+   whose touch sensor reads more than ``touch_threshold`` stops — it is in stance, its anchor is where it is
+   commanded at that instant (q_D stays continuous).  Unless the contact is a *face*: the foot's contact normal
+   (:meth:`~coop_ga.sim.hexapod.HexapodScene.foot_normals`, a foot force sensor's direction; a touch sensor
+   cannot tell a riser's vertical face from a tread) tilted more than ``face_tilt`` from vertical — touching
+   down against a riser would leave the shin capsule, 15.7 mm wider than the ball, leaning on its edge — then
+   the foot steps over it (up, over ``step_over`` past the face, down).  A foot that reaches the end of its arc
+   without contact keeps descending at ``search_speed`` (for at most ``search_depth``, moving forward along its
+   swing as it goes: away from a down-step's edge it crossed) while the gait clock and the reference wait for
+   it; the command's schedule waits too (:attr:`HexapodWalker.lag`), so that the whole commanded path is walked,
+   later.  The stance primitive is built from the feet that are in stance *and* in contact.
 3. **Body posture through the stance primitive**: the stance feet's plane seen from the body, from the joint
    encoders — the similarity V(q) of :func:`coop_ga.legged.stance.stance_task` (exact plane of 3 feet,
-   least-squares plane of more; CasADi VM) with its body-frame Jacobian J^G — is compared with its reference
+   least-squares plane of more; compiled by :class:`~coop_ga.codegen.CompiledFunction`) with its body-frame
+   Jacobian J^G — is compared with its reference
    V_ref: the same plane as seen from a body with the desired attitude (level, or ``tilt_follow`` toward the
    support; yaw kept) at ``ride_height``: with R_c = R_IMUᵀ R_des the correction rotation in B,
    ``n_ref = R_cᵀ n`` and ``t_ref = −ride_height · n_ref``.  Its error ``e = log(Ṽ V_ref)`` (seed 003 Eq 44;
@@ -42,7 +49,8 @@ known initial pose) and the 18 joint targets q_D — and the stance feet's ancho
 4. **Torques**: joint PD on q_D (interpolated between plans at q̇_D) + feed-forward: the legs' gravity torques
    and −Jᵀ F for vertical foot forces F that carry the robot's weight with no moment about its centre of mass
    (weighted least norm, loads ramped in after touchdown and out before lift-off), from the measured state.
-   The simulation clips at the URDF effort (1.5 N m) and counts it.
+   The command is rounded to :data:`TORQUE_QUANTUM` (a servo's duty cycle has a finite resolution; the logged
+   ``ctrl`` is then exact in float32); the simulation clips at the URDF effort (1.5 N m) and counts it.
 
 ``feedback=False`` is the ablation's **open-loop replay of the kinematic plan**: the same gait, footholds and
 swing arcs, but touchdown on schedule (no touch sensors), the stance set from the phase table, no posture
@@ -78,6 +86,7 @@ from .walking_kin import FastLegs, plane_error, plane_log, rotation_from_tangent
 
 __all__ = [
     "GAIT_NAMES",
+    "TORQUE_QUANTUM",
     "HexapodWalker",
     "VelocityCommand",
     "WalkingOptions",
@@ -94,6 +103,10 @@ G = 9.81
 _MODES = {"stance": 0, "swing": 1, "search": 2}
 #: plane rows of a similarity twist the stance plane can see (Table 1): e13, e23 (tilt), e3∞ (offset)
 _PLANE_ROWS = np.array([1, 2, 6])
+#: the servo command's resolution [N m]: 2⁻¹⁴, 24× finer than the AX-12A's 10-bit duty cycle (1.5 N m / 1023);
+#: commands are rounded to it, so that the log stores them exactly in float32
+TORQUE_QUANTUM = 2.0**-14
+_TORQUE_STEPS = 2.0**14
 #: swing progress samples of an arc (linear interpolation between them is within 1e-5 m of swing_arc)
 _ARC_S = np.linspace(0.0, 1.0, 201)
 
@@ -222,9 +235,18 @@ class WalkingOptions:
         aims this far [m] below the expected ground, so that the contact ends it; contact_hold: a stance foot
         whose touch sensor read contact within this time [s] still carries load; stumble_lift: a swing foot that
         touches something before mid-swing goes on this far [m] above the higher of where it is and its
-        foothold; search_speed [m/s], search_depth [m]:
-        how a late foot looks for the ground.  load_ramp: [s] feed-forward load ramp after touchdown / before
-        lift-off.
+        foothold; face_tilt: [rad] a contact whose normal (the foot's force sensor,
+        :meth:`~coop_ga.sim.hexapod.HexapodScene.foot_normals`) is tilted more than this from vertical is a face
+        (a riser, a tile's side), not a foothold; step_over: [m] a swing foot that meets a face from mid-swing on
+        steps over it — its foothold moves this far past where it touched, into the face's direction, on a path
+        ``stumble_lift`` high (at most up to ``foot_drop`` below the body) lasting ``step_over_time`` [s] — instead
+        of touching down against it (the shin would then lean on the edge); search_speed [m/s], search_depth [m]:
+        how a late foot looks for the ground — down, and forward along its swing by ``search_forward`` × the
+        depth (at most ``search_forward_max`` [m]): a foot that finds no ground where it expected it has crossed
+        a down-step's edge, and moving away from that edge keeps its shin off it.  load_ramp: [s] feed-forward
+        load ramp after touchdown / before lift-off.  joint_speed: the joint targets move at most this fraction
+        of the URDF's joint speed (the servos' no-load speed; at 0.8 its back-EMF takes 0.8 of the stall torque);
+        a faster plan is followed at that speed (counted as ``speed_limited_plans``).
     """
 
     gait: str = "tripod"
@@ -251,14 +273,28 @@ class WalkingOptions:
     touch_threshold: float = 0.5
     touchdown_depth: float = 0.005
     stumble_lift: float = 0.03
+    face_tilt: float = math.radians(45.0)
+    step_over: float = 0.03
+    step_over_time: float = 0.45
     contact_hold: float = 0.05
     search_speed: float = 0.06
+    search_forward: float = 1.0
+    search_forward_max: float = 0.02
     search_depth: float = 0.05
     load_ramp: float = 0.05
+    joint_speed: float = 0.8
 
     def __post_init__(self) -> None:
         validation.choice(self.gait, GAIT_NAMES, "gait")
-        for name in ("ride_height", "foot_reach", "control_rate", "touch_threshold", "search_speed"):
+        for name in (
+            "ride_height",
+            "foot_reach",
+            "control_rate",
+            "touch_threshold",
+            "search_speed",
+            "step_over_time",
+            "joint_speed",
+        ):
             validation.positive(getattr(self, name), name)
         for name in (
             "lift_height",
@@ -270,14 +306,19 @@ class WalkingOptions:
             "posture_gain",
             "path_gain",
             "search_depth",
+            "search_forward",
+            "search_forward_max",
             "load_ramp",
             "touchdown_depth",
             "stumble_lift",
+            "step_over",
             "contact_hold",
         ):
             validation.nonnegative(getattr(self, name), name)
         if self.cycle_time is not None:
             validation.positive(self.cycle_time, "cycle_time")
+        if not 0.0 < validation.scalar(self.face_tilt, "face_tilt") < math.pi / 2:
+            raise InvalidInputError(f"face_tilt must be in (0, π/2) rad, got {self.face_tilt}")
         if self.max_accel is not None:
             validation.positive(self.max_accel, "max_accel")
         tf = validation.scalar(self.tilt_follow, "tilt_follow")
@@ -412,8 +453,8 @@ def stance_pose(feet: np.ndarray, stance: Sequence[int]) -> tuple[tuple[int, ...
     points up) — ``order`` gives their leg indices — and passed to the pose function of the task graph of
     :func:`coop_ga.legged.stance.stance_task` (the exact plane of 3 feet, the least-squares ``plane_fit`` of
     more): ``p (3k) → (V, B = log V, G = −2 Ṽ ∂V/∂p, …)`` (:mod:`coop_ga.cooperative.graph`).  That function
-    depends only on the number of feet, so one per k serves every stance set (built once per process, CasADi
-    VM); ``J^G = G ∂p/∂q`` is the task's Jacobian (``tests/sim/test_hexapod_walking.py`` compares both with
+    depends only on the number of feet, so one per k serves every stance set (built once per process, compiled
+    by :class:`~coop_ga.codegen.CompiledFunction`); ``J^G = G ∂p/∂q`` is the task's Jacobian (``tests/sim/test_hexapod_walking.py`` compares both with
     ``stance_task(...).evaluate``)."""
     key = tuple(stance)
     hit = _STANCE_ORDERS.get(key)
@@ -426,13 +467,15 @@ def stance_pose(feet: np.ndarray, stance: Sequence[int]) -> tuple[tuple[int, ...
     k = len(order)
     fn = _POSE_FUNCTIONS.get(k)
     if fn is None:
+        from ..codegen import CompiledFunction
         from ..legged.stance import stance_task
 
         legs = tuple(HEXAPOD_LEGS[i] for i in order)
         task = stance_task("hexapod", legs, "plane" if k == 3 else "plane_fit", codegen=False)
-        fn = _POSE_FUNCTIONS[k] = task.graph.pose_function
-    out = fn(feet[list(order)].reshape(-1))
-    return order, np.asarray(out[1], float).reshape(7), np.asarray(out[2], float)
+        # compiled C where gcc is (cached on disk), bound to numpy buffers: no CasADi DM per call
+        fn = _POSE_FUNCTIONS[k] = CompiledFunction(task.graph.pose_function, check_finite=False)
+    out = fn.call_views(feet[list(order)].reshape(-1))
+    return order, out[1].reshape(7).copy(), out[2].copy()
 
 
 def posture_legs(stance: Any) -> tuple[str, ...]:
@@ -551,7 +594,8 @@ class _Leg:
     target: np.ndarray = field(default_factory=lambda: np.zeros(3))  # its foot target in W_o
     path: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))  # the swing arc sampled at _ARC_S
     s0: float = 0.0  # the swing progress where ``path`` starts (0, or where a stumble raised it)
-    raises: int = 0  # stumbles of the current swing
+    raises: int = 0  # stumbles and step-overs of the current swing
+    over_from: float = math.inf  # sim time a step-over began (its arc is ``path``; the search starts at its end)
 
 
 class HexapodWalker:
@@ -565,10 +609,26 @@ class HexapodWalker:
         localize: with the map, ``localize(data) → (position (3,), R_WB (3, 3))`` (default: MuJoCo's free-joint
             pose); ignored blind.
 
-    After a run, :attr:`records` holds one row per plan (:meth:`records_arrays`), :attr:`timing` the seconds
-    spent planning and in the servo loop, :attr:`counts` the events (touchdowns, searches, lost feet,
+    The command is a schedule the gait follows: while the gait waits for a late foot (a search, a step-over) the
+    schedule waits too (:attr:`lag`), so that the robot walks the whole commanded path, later.
+
+    After a run, :attr:`records` holds one row per plan (:meth:`records_arrays`), :attr:`timing` the CPU seconds
+    (``time.process_time``) spent planning and in the servo loop, :attr:`counts` the events (touchdowns, searches, lost feet,
     plans without three contact feet).
     """
+
+    #: the events counted in :attr:`counts`
+    EVENTS = (
+        "touchdowns",
+        "early_touchdowns",
+        "searches",
+        "lost_feet",
+        "stumbles",
+        "step_overs",
+        "held_lift_offs",
+        "unsupported_plans",
+        "speed_limited_plans",
+    )
 
     def __init__(
         self,
@@ -630,42 +690,40 @@ class HexapodWalker:
             self._kd[qi[:, j]] = opt.kd[j]
         # the servos' back-EMF damping (hexapod module docstring, "Servos"): τ must also supply b q̇_D
         self._b = np.asarray(hs.model.dof_damping, float)[hs.scene.qvel_index].copy()
+        self._dq_max = np.empty(18)
+        self._dq_max[self.fast.q_index] = opt.joint_speed * self.dt * np.asarray(self.legs.velocity_limit, float)
         self._tasks: dict[tuple[str, ...], Any] = {}
         if opt.feedback and opt.posture_gain > 0:  # the stance planes' pose functions, built once per process
             for k in range(3, 7):
                 stance_pose(self.nominal, range(k))
         self.records: list[tuple[Any, ...]] = []
         self.timing = {"plan_s": 0.0, "servo_s": 0.0, "plans": 0, "servo_calls": 0}
-        self.counts = {
-            "touchdowns": 0,
-            "early_touchdowns": 0,
-            "searches": 0,
-            "lost_feet": 0,
-            "stumbles": 0,
-            "held_lift_offs": 0,
-            "unsupported_plans": 0,
-        }
+        self.counts = dict.fromkeys(self.EVENTS, 0)
         self._calls = 0
         self._started = False
+        self._faces: dict[int, np.ndarray] = {}
+        #: [s] how long the gait has waited for late feet while moving: the command is followed at t − lag
+        self.lag = 0.0
 
     # ------------------------------------------------------------------ the Simulation callback
     def __call__(self, t: float, q: np.ndarray, qd: np.ndarray, sensors: Any) -> np.ndarray:
         if not self._started:
             self._start(t, q, sensors.data)
         if self._calls % self.every == 0:
-            t0 = _time.perf_counter()
+            t0 = _time.process_time()
             self._plan(t, q, qd, sensors.data)
-            self.timing["plan_s"] += _time.perf_counter() - t0
+            self.timing["plan_s"] += _time.process_time() - t0
             self.timing["plans"] += 1
         self._calls += 1
-        t0 = _time.perf_counter()
+        t0 = _time.process_time()
         h = min(t - self._t_plan, self.dt)
         tau = (
             self._tau_ff + self._kp * (self._qD + self._qdD * h - q) + (self._kd + self._b) * self._qdD - self._kd * qd
         )
-        self.timing["servo_s"] += _time.perf_counter() - t0
+        self.timing["servo_s"] += _time.process_time() - t0
         self.timing["servo_calls"] += 1
-        return tau
+        # a multiple of TORQUE_QUANTUM (the log's ctrl is then exact in float32, and compresses)
+        return (np.round(tau * _TORQUE_STEPS) / _TORQUE_STEPS).astype(np.float32)
 
     def _true_pose(self, data: Any) -> tuple[np.ndarray, np.ndarray]:
         a = self.hs.scene.base_qpos
@@ -697,8 +755,11 @@ class HexapodWalker:
         quat, _, _ = self.hs.imu(data)
         R_M = _quat_to_R(quat)
         touch = data.sensordata[self.hs.touch_adr] > opt.touch_threshold
-        cmd = self.command.at(t)
+        self._faces = self._face_directions(data, touch, R_M) if opt.feedback else {}
+        cmd = self.command.at(t - self.lag)
         waiting = self._clock(t, q, data, touch, cmd)
+        if waiting and (np.any(np.abs(cmd) > 1e-9) or np.any(np.abs(self._vel) > 1e-9)):
+            self.lag += self.dt  # the command's schedule waits with the gait
         u = self._gait_twist(self._vel if not waiting else np.zeros(3))
         err = np.zeros(3)
         stance = self._support(t, touch)
@@ -712,6 +773,12 @@ class HexapodWalker:
         self._pD = self._pD + self._RD @ u[:3] * self.dt
         self._RD = self._RD @ _expm_so3(u[3:] * self.dt)
         q_new = self._targets()
+        # the servos' speed: a target faster than joint_speed × the URDF's no-load speed needs more torque than
+        # the back-EMF leaves (τ = τ_stall (u − q̇/ω₀)); the target follows at that speed instead (counted)
+        dq = np.clip(q_new - self._qD, -self._dq_max, self._dq_max)
+        if not np.array_equal(dq, q_new - self._qD):
+            self.counts["speed_limited_plans"] += 1
+            q_new = self._qD + dq
         self._qdD = (q_new - self._qD) / self.dt
         self._qD = q_new
         self._t_plan = t
@@ -816,7 +883,7 @@ class HexapodWalker:
         n = math.ceil(horizon / h - 1e-9)
         if n <= 0:
             return x
-        ts = t + h * np.arange(1, n + 1)
+        ts = t - self.lag + h * np.arange(1, n + 1)
         C = np.column_stack([np.interp(ts, self.command.times, self.command.values[:, k]) for k in range(3)])
         for k in range(n):
             hk = min(h, horizon - k * h)
@@ -865,7 +932,10 @@ class HexapodWalker:
         s = min(max((self._tau_g - tau_lo) / T_sw, 0.0), 1.0)
         fb = self.options.feedback
         if fb and touch[i] and s >= 0.5:
-            self._touchdown(i, t, q, early=s < 1.0)
+            if i in self._faces and leg.raises < 2:
+                self._step_over(i, t, q)
+            else:
+                self._touchdown(i, t, q, early=s < 1.0)
             return
         if fb and touch[i] and leg.raises < 2 and s > 0.1:
             top = max(leg.target[2], p1[2]) + self.options.stumble_lift
@@ -885,18 +955,79 @@ class HexapodWalker:
                 self.counts["touchdowns"] += 1
 
     def _search(self, i: int, t: float, q: np.ndarray, touch: np.ndarray) -> None:
+        """A late foot descends from the end of its arc until it touches; a step-over first follows its arc
+        (:meth:`_step_over`; a contact in its first half is the face it leaves)."""
         leg = self._legs[i]
         assert leg.arc is not None
-        if touch[i]:
-            self._touchdown(i, t, q, early=False)
+        if t < leg.search_from:  # stepping over
+            s = (t - leg.over_from) / self.options.step_over_time
+            s = s * s * (3.0 - 2.0 * s)  # starts and ends at rest
+            if touch[i] and s >= 0.5:
+                if i in self._faces and leg.raises < 2:
+                    self._step_over(i, t, q)
+                else:
+                    self._touchdown(i, t, q, early=True)
+                return
+            x = s * (len(_ARC_S) - 1)
+            k = min(int(x), len(_ARC_S) - 2)
+            leg.target = leg.path[k] + (x - k) * (leg.path[k + 1] - leg.path[k])
             return
-        depth = self.options.search_speed * (t - leg.search_from)
-        if depth > self.options.search_depth:
+        if touch[i]:
+            if i in self._faces and leg.raises < 2:
+                self._step_over(i, t, q)
+            else:
+                self._touchdown(i, t, q, early=False)
+            return
+        opt = self.options
+        depth = opt.search_speed * (t - leg.search_from)
+        if depth > opt.search_depth:
             leg.mode, leg.anchor, leg.touchdown = 0, leg.target.copy(), t  # no ground found: stand on the target
             self._roll_reference(i)
             self.counts["lost_feet"] += 1
             return
-        leg.target = leg.arc[1] - np.array([0.0, 0.0, depth])
+        p0, p1 = leg.arc[0], leg.arc[1]
+        h = (p1 - p0)[:2]
+        nh = float(np.hypot(h[0], h[1]))
+        fwd = min(opt.search_forward * depth, opt.search_forward_max) / nh if nh > 1e-9 else 0.0
+        leg.target = p1 + np.array([fwd * h[0], fwd * h[1], -depth])
+
+    def _face_directions(self, data: Any, touch: np.ndarray, R_M: np.ndarray) -> dict[int, np.ndarray]:
+        """{leg: unit horizontal direction (2,) into the face, in W_o} for the touching feet whose contact normal is
+        tilted more than ``face_tilt`` from vertical (the normal measured in B through the IMU, to W_o through D);
+        only the feet in the air (swinging, searching) are asked: a stance foot's normal decides nothing."""
+        airborne = [i for i in np.flatnonzero(touch).tolist() if self._legs[i].mode != 0]
+        if not airborne:
+            return {}
+        N = self.hs.foot_normals(data) @ R_M  # rows: n in B
+        c = math.cos(self.options.face_tilt)
+        out = {}
+        for i in airborne:
+            n = self._RD @ N[i]
+            h = -n[:2]
+            if n[2] < c and float(np.hypot(*h)) > 1e-9:
+                out[i] = h / float(np.hypot(*h))
+        return out
+
+    def _step_over(self, i: int, t: float, q: np.ndarray) -> None:
+        """Leg i met a face (:class:`WalkingOptions`, ``step_over``): a new path from its target — up ``stumble_lift``
+        while backing off the face, over to ``step_over`` past the foot into the face, down — over
+        ``step_over_time`` (a smoothstep in time); then the search.  The gait waits for it (it is searching)."""
+        opt = self.options
+        leg = self._legs[i]
+        assert leg.arc is not None
+        h = np.array([*self._faces[i], 0.0])
+        p0 = self._pD + self._RD @ self.fast.fk(q)[i]  # where the encoders put it (its target is in the face)
+        p1 = p0 + opt.step_over * h
+        lift = max(min(opt.stumble_lift, self._pD[2] - opt.foot_drop - p0[2]), 0.01)  # as _lift_off's apex
+        up = np.array([0.0, 0.0, lift])
+        # up (backing off the face by the ball's radius), over, down: a box, not an arc that grazes the edge
+        W = np.array([p0, p0 - self.hs.foot_radius * h + up, p1 + up, p1])
+        L = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(W, axis=0), axis=1))]
+        leg.arc = (p0, p1, lift, leg.arc[3])
+        leg.path = np.column_stack([np.interp(_ARC_S * L[-1], L, W[:, k]) for k in range(3)])
+        leg.mode, leg.over_from, leg.search_from = 2, t, t + opt.step_over_time
+        leg.raises += 1
+        self.counts["step_overs"] += 1
 
     def _touchdown(self, i: int, t: float, q: np.ndarray, early: bool) -> None:
         """The foot stops where it is commanded now: its anchor is its current target (continuous q_D)."""

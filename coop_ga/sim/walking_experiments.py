@@ -7,7 +7,8 @@ one function per row, importable, so that the scripts can spread rows over worke
 * :func:`row_terrain` — a row's terrain (the short walks' staircase starts at :data:`FAST_STEPS_START`);
 * :func:`walk_row` — one gait × terrain × (map | blind) run: simulated, saved (``model.xml``, ``log.npz``,
   ``metrics.json``) and rendered to a GIF on request; returns its metrics;
-* :func:`ablation_row` — one (variant, disturbance) run of the ablation (:data:`VARIANTS`, :data:`DISTURBANCES`).
+* :func:`ablation_row` — one (variant, disturbance) run of the ablation (:data:`VARIANTS`, :data:`DISTURBANCES`),
+  saved the same way.
 """
 
 from __future__ import annotations
@@ -86,12 +87,11 @@ def walk_row(
     fast: bool = False,
     tour: bool = False,
     out: str | Path | None = None,
-    save: bool = True,
     gif: bool = False,
     seed: int = 0,
 ) -> dict[str, Any]:
-    """Simulate one row (module docstring) on :func:`row_terrain` into ``out``; returns its metrics (plus
-    ``wall_s``)."""
+    """Simulate one row (module docstring) on :func:`row_terrain`; with ``out``, save its replayable folder
+    ``out/<name>/`` (:meth:`~coop_ga.sim.walking_run.WalkRun.save`); returns its metrics (plus ``wall_s``)."""
     name = run_name(gait, terrain, blind)
     cmd, opt, duration = straight_command(gait, distance, fast)
     if tour:
@@ -102,7 +102,7 @@ def walk_row(
     run = simulate_walk(row_terrain(terrain, seed, fast), cmd, opt, duration=duration, label=name, visuals=gif)
     m = dict(run.metrics())
     m["wall_s"] = time.perf_counter() - t0
-    if out is not None and save:
+    if out is not None:
         run.save(Path(out) / name)
     if out is not None and gif:
         render_walk(run, Path(out) / f"walk_{name}.gif", fps=8.0 if fast else 5.0, width=360, height=270)
@@ -125,11 +125,12 @@ def disturbance_scenario(disturbance: str, t_push: float) -> tuple[Any, tuple[An
 
 
 def ablation_row(
-    variant: str, disturbance: str, distance: float, fast: bool = False
+    variant: str, disturbance: str, distance: float, fast: bool = False, out: str | Path | None = None
 ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """One blind tripod walk of ``distance`` [m] of the ablation (module docstring; ``fast``: the short ramps of
     :func:`straight_command`): its metrics and its time series (``t``, ``roll``, ``pitch`` [°] every few steps,
-    ``t_plan``, ``height_error`` [m] per plan).
+    ``t_plan``, ``height_error`` [m] per plan).  With ``out``, its replayable folder ``out/<variant>_<disturbance>/``
+    (:meth:`~coop_ga.sim.walking_run.WalkRun.save`).
 
     Raises:
         InvalidInputError: an unknown variant or disturbance.
@@ -149,6 +150,8 @@ def ablation_row(
     m = dict(run.metrics())
     m["wall_s"] = time.perf_counter() - t0
     m["variant"], m["disturbance"] = variant, disturbance
+    if out is not None:
+        run.save(Path(out) / run.label)
     rpy = np.degrees(run.rpy())
     th, he = run.height_errors()
     step = max(1, len(run.log.time) // 600)

@@ -190,9 +190,15 @@ def stance_map(G: np.ndarray, feet: np.ndarray) -> np.ndarray:
     task graph's ``G(p) = −2 Ṽ ∂V/∂p``), ``feet`` (k, 3) the points in B in the same order: a foot fixed in W
     moves in B with ``ṗ_j = −v + [p_j]× ω``, so ``A = Σ_j G_j [−I, [p_j]×]`` (= ``J^G L`` of
     :func:`coop_ga.legged.posture.posture_step`: the leg Jacobians cancel)."""
-    A = np.zeros((G.shape[0], 6))
-    for j, p in enumerate(feet):
-        Gj = G[:, 3 * j : 3 * j + 3]
-        A[:, :3] -= Gj
-        A[:, 3:] += Gj @ _skew(p)
-    return A
+    k = len(feet)
+    Gk = G.reshape(G.shape[0], k, 3)
+    x, y, z = feet[:, 0], feet[:, 1], feet[:, 2]
+    # Σ_j G_j [p_j]×, column by column: [p]× = [[0, −z, y], [z, 0, −x], [−y, x, 0]]
+    W = np.column_stack(
+        [
+            Gk[:, :, 1] @ z - Gk[:, :, 2] @ y,
+            Gk[:, :, 2] @ x - Gk[:, :, 0] @ z,
+            Gk[:, :, 0] @ y - Gk[:, :, 1] @ x,
+        ]
+    )
+    return np.hstack([-Gk.sum(axis=1), W])

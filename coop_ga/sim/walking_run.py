@@ -20,11 +20,13 @@ Metrics (:meth:`WalkRun.metrics`; the gallery table's rows)
 ``walked_fraction``: the body's displacement along the commanded displacement over the commanded
 displacement (the command integrated, :meth:`VelocityCommand.path`); ``max_roll_deg`` / ``max_pitch_deg`` (world);
 ``max_height_error_m``: |distance of the body origin from the least-squares plane of the touching feet's centres
-− ride_height|, over the plans with ≥ 3 touching feet after ``settle`` s; ``max_slip_m`` (sliding per stance),
+− ride_height|, over the plans with ≥ 3 touching feet after ``settle`` s (touching: within the last 10 ms,
+:meth:`WalkRun.height_errors`); ``max_slip_m`` (sliding per stance),
 ``max_foot_drift_m``; ``saturated_updates`` / ``effort_ratio`` (the simulation's torque clipping at the URDF
-effort); ``shin_contact_steps``, ``femur_contact_steps``, ``body_contact_steps``; ``fell``: |roll| or |pitch|
-> 10°, a height error > 2 cm, or the body or a femur on the terrain; ``passed``: the bar — walked ≥ 95 %,
-not fallen, slip ≤ 5 mm per stance, no saturation, no shin contact.
+effort); ``shin_contact_steps``, ``femur_contact_steps``, ``body_contact_steps`` (on the terrain),
+``self_contact_steps`` (the robot on itself, a femur on the body box: reported, not part of the bar); ``fell``:
+|roll| or |pitch| > 10°, a height error > 2 cm, or the body or a femur on the terrain; ``passed``: the bar —
+walked ≥ 95 %, not fallen, slip ≤ 5 mm per stance, no saturation, no shin contact.
 """
 
 from __future__ import annotations
@@ -80,7 +82,7 @@ class GroundTruth:
         self.hs: HexapodScene = walker.hs
         self.threshold = float(threshold)
         self.r = self.hs.foot_radius
-        self.contacts: list[tuple[int, int, int]] = []  # per physics step: (shin, femur, body) contacts
+        self.contacts: list[tuple[int, int, int, int]] = []  # per physics step: (shin, femur, body, self) contacts
         self.plans: list[tuple[float, np.ndarray, np.ndarray]] = []  # (t, feet (6, 3), touch (6,))
         #: (leg, t0, t1, slip = |∫ v_t dt|, drift of the ball centre, sliding path ∫ |v_t| dt) per stance
         self.stances: list[tuple[int, float, float, float, float, float]] = []
@@ -94,7 +96,7 @@ class GroundTruth:
     def __call__(self, t: float, q: np.ndarray, qd: np.ndarray, sensors: Any) -> np.ndarray:
         d = sensors.data
         c = self.hs.terrain_contacts(d)
-        self.contacts.append((c["shin"], c["femur"], c["body"]))
+        self.contacts.append((c["shin"], c["femur"], c["body"], c["self"]))
         if self._steps % self.walker.every == 0:  # slip integrated and feet sampled at the plans' rate
             touch = np.asarray(d.sensordata[self.hs.touch_adr])
             self._slip(t, d, touch)
@@ -184,13 +186,20 @@ class WalkRun:
 
     def height_errors(self) -> tuple[np.ndarray, np.ndarray]:
         """(t (P,), error (P,) [m]): the body's distance from the plane of the touching feet's centres minus
-        ride_height, at the plans with ≥ 3 touching feet (NaN otherwise)."""
+        ride_height, at the plans with ≥ 3 touching feet (NaN otherwise).  A foot counts as touching if its sensor
+        read more than the threshold at this plan or one of the two before (10 ms): a loaded foot's force dips to
+        zero for a sample when it bounces, and a plane of the other feet alone (all low, say, while the front feet
+        stand on a step) is not the support the body stands on."""
         pos, _ = self.base
         ts = np.array([p[0] for p in self.truth.plans])
         err = np.full(len(ts), np.nan)
         thr = self.truth.threshold
-        for k, (t, feet, touch) in enumerate(self.truth.plans):
-            on = touch > thr
+        touching = np.array([p[2] > thr for p in self.truth.plans]).reshape(-1, 6)
+        held = touching.copy()
+        held[1:] |= touching[:-1]
+        held[2:] |= touching[:-2]
+        for k, (t, feet, _touch) in enumerate(self.truth.plans):
+            on = held[k]
             if on.sum() >= 3:
                 n, d = _fit_plane(feet[on])
                 i = min(round(t / float(self.hs.model.opt.timestep)), len(pos) - 1)
@@ -213,7 +222,7 @@ class WalkRun:
         late = t >= self.settle
         th, he = self.height_errors()
         he_late = he[(th >= self.settle) & np.isfinite(he)]
-        C = np.array(self.truth.contacts) if self.truth.contacts else np.zeros((0, 3), int)
+        C = np.array(self.truth.contacts) if self.truth.contacts else np.zeros((0, 4), int)
         S = np.array([s[3:] for s in self.truth.stances]) if self.truth.stances else np.zeros((0, 3))
         m = {
             "label": self.label,
@@ -241,7 +250,9 @@ class WalkRun:
             "shin_contact_steps": int(np.count_nonzero(C[:, 0])) if len(C) else 0,
             "femur_contact_steps": int(np.count_nonzero(C[:, 1])) if len(C) else 0,
             "body_contact_steps": int(np.count_nonzero(C[:, 2])) if len(C) else 0,
+            "self_contact_steps": int(np.count_nonzero(C[:, 3])) if len(C) else 0,
             "events": dict(self.walker.counts),
+            "schedule_lag_s": float(self.walker.lag),
             "plan_s": float(self.walker.timing["plan_s"]),
             "servo_s": float(self.walker.timing["servo_s"]),
             "wall_s": float(self.wall_s),
@@ -263,29 +274,48 @@ class WalkRun:
         return m
 
     # ------------------------------------------------------------------ files
-    def step_arrays(self) -> dict[str, np.ndarray]:
-        """Per physics step: ``body_pose`` (T, 7) position [m] + quaternion (w, x, y, z) of the body, ``stance``
-        (T, 6) bool — the stance set of the plan in force at that step (legs in :data:`HEXAPOD_LEGS` order)."""
+    def step_arrays(self, rows: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """At the log rows ``rows`` (default: every physics step): ``body_pose`` (S, 7) position [m] + quaternion
+        (w, x, y, z) of the body (the free joint's qpos), ``stance`` (S, 6) bool — the stance set of the plan in
+        force at that step (legs in :data:`HEXAPOD_LEGS` order)."""
         pos, quat = self.base
         rec = self.records()
-        T = len(self.log.time)
-        idx = np.clip(np.searchsorted(rec["t"], self.log.time, side="right") - 1, 0, len(rec["t"]) - 1)
-        return {"body_pose": np.hstack([pos, quat]), "stance": rec["stance"][idx][:T]}
+        rows = np.arange(len(self.log.time)) if rows is None else np.asarray(rows)
+        idx = np.clip(np.searchsorted(rec["t"], self.log.time[rows], side="right") - 1, 0, len(rec["t"]) - 1)
+        return {"body_pose": np.hstack([pos[rows], quat[rows]]), "stance": rec["stance"][idx]}
 
     def save(self, folder: str | Path) -> Path:
-        """Write ``model.xml``, ``log.npz`` (the simulation's contract — ``time``, ``qpos``, ``qvel``, ``ctrl`` —
-        plus ``body_pose``, ``stance`` per step, the plans' records as ``plan_*``, the terrain as ``terrain_*``
-        and the legs' order ``legs``) and ``metrics.json`` (the log's metrics and :meth:`metrics`)."""
+        """Write the run's replayable folder: ``model.xml``; ``log.npz`` — the simulation's contract
+        (:mod:`coop_ga.sim.replay`) thinned to stay small: ``ctrl`` (and ``xfrc``) at every physics step (float32:
+        the walker's torques are float32 values, so the replay is still bit for bit), the state ``time``, ``qpos``,
+        ``qvel`` at the plans' rate (``state_rows``: their step indices, the last step included) — plus
+        ``body_pose`` and ``stance`` at those rows, the plans' records as ``plan_*`` (float32 but ``plan_t``), the
+        terrain as ``terrain_*`` and the legs' order ``legs``; ``metrics.json`` (the log's metrics and
+        :meth:`metrics` as ``walk``)."""
         out = Path(folder)
-        self.log.extra = {"walk": self.metrics()}
-        self.log.save(out)
-        with np.load(out / "log.npz") as z:
-            arrays = {k: z[k] for k in z.files}
-        arrays |= self.step_arrays()
-        arrays |= {f"plan_{k}": v for k, v in self.records().items()}
+        out.mkdir(parents=True, exist_ok=True)
+        log = self.log
+        self.hs.scene.write_model(out / "model.xml")
+        T = len(log.time)
+        rows = np.unique(np.r_[np.arange(0, T, self.walker.every), T - 1])
+        c32 = log.ctrl.astype(np.float32)
+        arrays: dict[str, Any] = {
+            "time": log.time[rows],
+            "qpos": log.qpos[rows],
+            "qvel": log.qvel[rows],
+            "ctrl": c32 if np.array_equal(c32, log.ctrl) else log.ctrl,
+            "state_rows": rows,
+        }
+        if len(log.xfrc_bodies):
+            arrays |= {"xfrc_bodies": log.xfrc_bodies, "xfrc": log.xfrc}
+        arrays |= self.step_arrays(rows)
+        for k, v in self.records().items():
+            arrays[f"plan_{k}"] = v.astype(np.float32) if k != "t" and v.dtype == np.float64 else v
         arrays |= self.hs.terrain.to_arrays()
         arrays["legs"] = np.array(HEXAPOD_LEGS)
         np.savez_compressed(out / "log.npz", **arrays)
+        meta = log.metrics() | {"walk": self.metrics(), "state_every": int(self.walker.every)}
+        (out / "metrics.json").write_text(json.dumps(meta, indent=2, allow_nan=False))
         return out
 
     def summary(self) -> str:
@@ -367,9 +397,12 @@ def simulate_walk(
     timestep: float = 1e-3,
     label: str = "",
     progress: bool = False,
+    catch_up: bool = True,
 ) -> WalkRun:
     """Stand the hexapod on ``terrain`` (:func:`~coop_ga.sim.walking.standing_start` at the origin), walk it
-    with ``command`` for ``duration`` [s] (default: to the command's last knot + one cycle) under
+    with ``command`` for ``duration`` [s] (default: to the command's last knot + one cycle; with ``catch_up``
+    then on for the time the gait waited for late feet, :attr:`~coop_ga.sim.walking.HexapodWalker.lag`, up to
+    one more cycle) under
     ``disturbances`` (e.g. ``Disturbance("base_link_free", force=(0, 10, 0), start=2, stop=2.2)``), and return
     the :class:`WalkRun`.  ``region``: the terrain's extent (default: the commanded path ± 0.6 m); ``timestep``: the
     physics step [s] (the servo loop's period; ``options.control_rate`` must divide its rate)."""
@@ -394,6 +427,8 @@ def simulate_walk(
     sim = Simulation(hs.scene, truth, q=q0, base_pose=pose, disturbances=disturbances)
     t0 = time.perf_counter()
     log = sim.run(dur, progress=progress)
+    if catch_up and walker.lag > 0:  # the schedule waited for late feet: walk it to its end
+        log = sim.run(min(walker.lag, opt.period), progress=progress)
     truth.finish()
     return WalkRun(hs, walker, log, truth, command, opt, label, tuple(disturbances), time.perf_counter() - t0)
 

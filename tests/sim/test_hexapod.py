@@ -104,7 +104,32 @@ def test_sensors_of_a_robot_standing_still() -> None:
     quat, gyro, acc = hs.imu(sim.data)
     assert np.allclose(quat, hs.scene.base_pose(sim.data)[1], atol=1e-9)
     assert np.abs(gyro).max() < 1e-3 and acc == pytest.approx([0.0, 0.0, 9.81], abs=0.02)
-    assert hs.terrain_contacts(sim.data) == {"foot": 6, "shin": 0, "femur": 0, "body": 0}
+    assert hs.terrain_contacts(sim.data) == {"foot": 6, "shin": 0, "femur": 0, "body": 0, "self": 0}
+
+
+def test_foot_normals_tell_a_tread_from_a_riser() -> None:
+    """The feet's contact normals (a foot force sensor; a touch sensor gives only the force): +z on a tread, the
+    riser's outward normal when the front balls are pressed 0.5 mm into its face with every foot 0.5 mm above the
+    floor (a 12 mm riser: a taller one meets the shin capsule, wider than the ball, first — it then carries the
+    force and the ball none)."""
+    from coop_ga.sim.walking import WalkingOptions, standing_start
+
+    hs = hexapod_scene(Terrain.steps(step_height=0.012, start_x=0.15), visuals=False)
+    q0, (pos, quat) = standing_start(scene(), WalkingOptions())  # standing on flat ground
+    r = hs.foot_radius
+    lf, rf = HEXAPOD_LEGS.index("lf"), HEXAPOD_LEGS.index("rf")
+    feet = scene().feet_world(scene().scene.make_data(q0, base_pose=(pos, quat)))
+    d = hs.scene.make_data(q0, base_pose=(pos + np.array([0.0, 0.0, -0.0005]), quat))
+    n = hs.foot_normals(d)
+    assert np.all(n[:, 2] > 0.999), n  # every ball 0.5 mm into the ground floor (x < 0.15 m)
+    shift = np.array([0.15 - r + 0.0005 - feet[lf, 0], 0.0, 0.0005])  # front balls into the riser
+    d = hs.scene.make_data(q0, base_pose=(pos + shift, quat))
+    n = hs.foot_normals(d)
+    for i in range(6):
+        if i in (lf, rf):
+            assert n[i] == pytest.approx([-1.0, 0.0, 0.0], abs=1e-6), (i, n[i])
+        else:
+            assert np.all(n[i] == 0.0), (i, n[i])
 
 
 def test_bad_input_is_refused() -> None:

@@ -142,11 +142,26 @@ def test_tour_start_speed_change_turn_stop_and_replay(tmp_path) -> None:
     assert abs(m["final_yaw_deg"] - m["commanded_yaw_deg"]) < 2.0 and m["commanded_yaw_deg"] > 10.0
     speeds = np.linalg.norm(np.diff(run.base[0][-100:, :2], axis=0), axis=1) / 1e-3
     assert speeds.max() < 0.01  # at rest at the end
+    # the joint targets never outrun the servos: at most joint_speed × the URDF's no-load speed
+    qp = run.records()["q_plan"]
+    vmax = opt.joint_speed * np.asarray(run.walker.legs.system.limits.velocity, float)
+    assert np.all(np.abs(np.diff(qp, axis=0)) / run.walker.dt <= vmax + 1e-9)
     folder = run.save(tmp_path / "tour")
     assert replay(folder) == 0.0
     z = np.load(folder / "log.npz")
     T = len(z["time"])
     assert z["body_pose"].shape == (T, 7) and z["stance"].shape == (T, 6) and z["stance"].dtype == bool
+    # thinned: ctrl (float32, exact) at every physics step, the state at the plans' rate and at the last step
+    steps = len(run.log.time)
+    assert z["ctrl"].shape == (steps, 18) and z["ctrl"].dtype == np.float32
+    assert np.array_equal(z["state_rows"], np.unique(np.r_[np.arange(0, steps, run.walker.every), steps - 1]))
+    assert np.array_equal(z["qpos"], run.log.qpos[z["state_rows"]])
+    # the replay can fail: a changed control is seen
+    z2 = dict(z)
+    z2["ctrl"] = z["ctrl"].copy()
+    z2["ctrl"][steps // 2, 0] += np.float32(1e-3)
+    np.savez(folder / "log.npz", **z2)
+    assert replay(folder) > 0.0
     assert {"qpos", "qvel", "ctrl", "plan_t", "terrain_planes"} <= set(z.files)
 
 
