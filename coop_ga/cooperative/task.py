@@ -55,7 +55,7 @@ from ..geometry.similarity import (
     unit_primitive,
 )
 from ..kinematics.chains import KinematicTree
-from .graph import CHART_WARN_ANGLE, TaskGraph, versor_expr
+from .graph import CHART_WARN_ANGLE, TaskGraph, _closest_to_origin, versor_expr
 from .guard import TaskGuard
 from .primitive import cooperative_primitive, fit_parameters, fit_primitive, fit_well_definedness
 
@@ -499,7 +499,8 @@ class CooperativeTask:
             a = np.array(bar) + np.array([float(v) for v in c])
             if o is not None:
                 o = np.array([float(v) for v in o])
-                a = float(a @ o) * o
+            if self.spec.flat:  # the flat's point closest to the world origin (as the task graph)
+                a = np.array(_closest_to_origin(self.primitive_kind, a.tolist(), o.tolist()))
             return Similarity(
                 similarity_from_parameters(self.primitive_kind, a, r, o, chart_axis=self.chart_axis), check=False
             )

@@ -17,7 +17,12 @@ plane          3       yes    3     the plane z = 0              normal +e3     
 sphere         4       no     4     the unit sphere              —               e0∞ e1∞ e2∞ e3∞ (everywhere)
 sphere_fit     ≥ 4     no     4     as sphere (it fits one)      —               as sphere
 plane_fit      ≥ 3     yes    3     as plane (it fits one)       normal +e3      as plane
+line_fit       ≥ 2     yes    4     as line (it fits one)        direction +e2   as line
+circle_fit     ≥ 3     no     6     as circle (it fits one)      normal +e3      as circle
 =============  ======  =====  ====  ===========================  ==============  ==================================
+
+A point pair has no least-squares kind: it is its two points, and more points have no best pair (their principal
+axis is ``line_fit``, :mod:`coop_ga.cooperative.primitive`).
 
 The controllable blades are the paper's Table 1 column (seed 003).  Measured
 (``experiments/table1.py``, docs/table1.md): the DOF column is right everywhere, the blade sets span
@@ -51,11 +56,11 @@ __all__ = [
 
 #: an exact primitive kind: spanned by exactly :attr:`KindSpec.n_points` points (∧ e∞ for the flats)
 Kind: TypeAlias = Literal["point", "point_pair", "line", "circle", "plane", "sphere"]
-#: a least-squares kind: the best sphere / plane through any number of points (:mod:`coop_ga.cooperative.primitive`)
-FitKind: TypeAlias = Literal["sphere_fit", "plane_fit"]
+#: a least-squares kind: the best sphere / plane / line / circle through any number of points (:mod:`coop_ga.cooperative.primitive`)
+FitKind: TypeAlias = Literal["sphere_fit", "plane_fit", "line_fit", "circle_fit"]
 #: every kind a cooperative task accepts
 CooperativeKind: TypeAlias = Literal[
-    "point", "point_pair", "line", "circle", "plane", "sphere", "sphere_fit", "plane_fit"
+    "point", "point_pair", "line", "circle", "plane", "sphere", "sphere_fit", "plane_fit", "line_fit", "circle_fit"
 ]
 #: how a kind's axis is read: the direction of a point pair / line, the normal of a circle / plane
 AxisRole: TypeAlias = Literal["direction", "normal"]
@@ -172,13 +177,14 @@ _EXACT = (
         "line", 2, True, 4, ((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)), _E2, "direction", _E3,
         ("e12", "e23", "e1∞", "e3∞"), False,
         "coincide", "the two end points coincide",
-        "a line needs two distinct points", 4, "line",
+        "a line needs two distinct points", 4, "line", fit_kind="line_fit",
     ),
     KindSpec(
         "circle", 3, False, 6, ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (-1.0, 0.0, 0.0)), _E3, "normal", (1.0, 0.0, 0.0),
         ("e13", "e23", "e0∞", "e1∞", "e2∞", "e3∞"), False,
         "are collinear", "the three end points are (nearly) collinear",
         "a circle through collinear points is a line — use line() or move a point off the line", 4, "circle",
+        fit_kind="circle_fit",
     ),
     KindSpec(
         "plane", 3, True, 3, ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)), _E3, "normal", (1.0, 0.0, 0.0),
@@ -207,6 +213,20 @@ _FITS = (
     replace(
         _FITTED["plane"],
         name="plane_fit",
+        least_squares=True,
+        fit_kind=None,
+        degeneracy="the end points are (nearly) collinear, or spread evenly in every direction (no best plane)",
+    ),
+    replace(
+        _FITTED["line"],
+        name="line_fit",
+        least_squares=True,
+        fit_kind=None,
+        degeneracy="the end points (nearly) coincide, or spread evenly across a plane (no principal axis)",
+    ),
+    replace(
+        _FITTED["circle"],
+        name="circle_fit",
         least_squares=True,
         fit_kind=None,
         degeneracy="the end points are (nearly) collinear, or spread evenly in every direction (no best plane)",

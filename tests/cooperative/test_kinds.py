@@ -235,4 +235,4 @@ def test_kind_spec_names_the_accepted_kinds() -> None:
         kind_spec("sphere_fit", least_squares=False)
     with pytest.raises(cg.InvalidInputError, match="must be a string"):
         kind_spec(3)  # type: ignore[arg-type]
-    assert COOPERATIVE_KINDS == (*KINDS, "sphere_fit", "plane_fit")
+    assert COOPERATIVE_KINDS == (*KINDS, "sphere_fit", "plane_fit", "line_fit", "circle_fit")
