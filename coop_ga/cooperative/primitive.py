@@ -42,8 +42,8 @@ matrix of the points about their centroid.
   λ₃ of the scatter matrix C, the orthogonal least-squares line (Σ squared distances to it = tr C − λ₃, minimal);
   oriented along ``Σ_i (i − (k−1)/2) p_i`` (the points' order: p₂ − p₁ for k = 2, the exact line's rule).
   Guard: the largest :func:`coop_ga.well_definedness` of any 2 points (not all coincident), capped by the
-  eigen-gap ``(λ₃ − λ₂)/(λ₃ + λ₂)``: points spread evenly across a plane (an equilateral triangle, a square)
-  have no principal axis.
+  eigen-gap ``(λ₃ − λ₁)(λ₃ − λ₂)/λ₃²`` (1 for collinear points, 0 when λ₂ = λ₃): points spread evenly across a
+  plane (an equilateral triangle, a square) have no principal axis.
 * circle: the best plane (the plane fit: normal, Newell-oriented as the exact circle's) and then the Pratt fit
   of the points' projections in that plane (the sphere fit's secular equation in two dimensions).  Why not one
   algebraic fit in CGA: a circle is a grade-3 blade (a sphere ∧ a plane, dually), so ``Σ (P_i·X)²`` over circles
@@ -254,7 +254,7 @@ def _largest_eigenvalue(c: tuple[Any, ...], iters: int) -> Any:
 
 
 def _line_at(q: list[list[Any]], lam: Any) -> tuple[list[Any], Any, Any]:
-    """(unit direction d, eigen-gap (λ₃ − λ₂)/(λ₃ + λ₂), det(C − λI)) of the centred points q at the estimate λ
+    """(unit direction d, eigen-gap (λ₃ − λ₁)(λ₃ − λ₂)/λ₃², det(C − λI)) of the centred points q at the estimate λ
     of λ₃: the principal axis, oriented along ``Σ_i (i − (k−1)/2) q_i`` (the points' order; p₂ − p₁ for k = 2)."""
     c = _scatter(q)
     c2, c1, c0 = _char_coeffs(c)
@@ -264,10 +264,12 @@ def _line_at(q: list[list[Any]], lam: Any) -> tuple[list[Any], Any, Any]:
     flip = d[0] * order[0] + d[1] * order[1] + d[2] * order[2] < 0
     d = [_where(flip, -d[j], d[j]) for j in range(3)]
     s2, pr = _other_two(c, lam)  # λ₁ + λ₂, λ₁ λ₂
-    disc = s2 * s2 / 4.0 - pr
-    lam2 = s2 / 2.0 + B.sqrt(_where(disc > 0, disc, 0.0 * disc))
+    # (λ₃ − λ₁)(λ₃ − λ₂)/λ₃², free of the square root that resolves the double root λ₁ = λ₂ (two points) to √ε only
+    f3 = lam * lam - s2 * lam + pr
+    pos = lam > 0
+    gap = _where(pos, f3 / _where(pos, lam * lam, 1.0), 0.0 * lam)
     res = c0 + lam * (-c1 + lam * (c2 - lam))
-    return d, _gap(lam2, lam), res
+    return d, gap, res
 
 
 def _sphere_moments(q: list[list[Any]]) -> tuple[tuple[Any, ...], list[Any], Any, Any]:
