@@ -97,7 +97,10 @@ class KindSpec:
         primitive_kind: the exact kind of the primitive itself (``"sphere"`` for ``"sphere_fit"``; the kind of
             V_Sc's unit primitive); the kind itself for exact kinds.
         least_squares: a least-squares kind (any number ≥ n_points of points).
-        fit_kind: for an exact kind, the least-squares kind that fits it (None if there is none).
+        fit_kind: for an exact kind, the least-squares kind that stands in for it when more points than it needs
+            are given (the sphere's and the plane's; None otherwise).  The line and the circle have least-squares
+            kinds too (``line_fit``, ``circle_fit``: :data:`FIT_KINDS`), asked for by name only: a stance circle
+            goes through exactly three feet (:mod:`coop_ga.legged` reads this field as "any number of feet").
     """
 
     name: CooperativeKind
@@ -177,14 +180,13 @@ _EXACT = (
         "line", 2, True, 4, ((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)), _E2, "direction", _E3,
         ("e12", "e23", "e1∞", "e3∞"), False,
         "coincide", "the two end points coincide",
-        "a line needs two distinct points", 4, "line", fit_kind="line_fit",
+        "a line needs two distinct points", 4, "line",
     ),
     KindSpec(
         "circle", 3, False, 6, ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (-1.0, 0.0, 0.0)), _E3, "normal", (1.0, 0.0, 0.0),
         ("e13", "e23", "e0∞", "e1∞", "e2∞", "e3∞"), False,
         "are collinear", "the three end points are (nearly) collinear",
         "a circle through collinear points is a line — use line() or move a point off the line", 4, "circle",
-        fit_kind="circle_fit",
     ),
     KindSpec(
         "plane", 3, True, 3, ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)), _E3, "normal", (1.0, 0.0, 0.0),
