@@ -132,7 +132,8 @@ class TaskGraph:
     Args:
         tree: the :class:`~coop_ga.kinematics.KinematicTree` of the task's end frames (in order).
         kind: primitive kind (``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``), or a
-            least-squares kind ``'sphere_fit'`` / ``'plane_fit'`` over all the tree's end frames
+            least-squares kind ``'sphere_fit'`` / ``'plane_fit'`` / ``'line_fit'`` / ``'circle_fit'`` over all the
+            tree's end frames
             (:mod:`coop_ga.cooperative.primitive`: the fit is part of this graph, so its V_Sc, B_Sc and J^G
             come from the same code as every other kind's).
         name: used to name the CasADi functions (and the compiled libraries).
@@ -143,7 +144,7 @@ class TaskGraph:
         #: the facts of the kind (:data:`~coop_ga.geometry.kinds.KIND_SPECS`)
         self.spec = kind_spec(kind)
         self.kind = kind
-        #: the primitive kind of V_Sc ("sphere" for "sphere_fit", "plane" for "plane_fit", else kind)
+        #: the primitive kind of V_Sc ("sphere" for "sphere_fit", "circle" for "circle_fit", …, else kind)
         self.primitive_kind = self.spec.primitive_kind
         self.name = name
         self.n_points = self.spec.points_used(len(tree.end_frames))

@@ -102,9 +102,10 @@ class CooperativeTask:
             ``name``, ``q0``).
         kind:
             ``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``, or a least-squares kind
-            ``'sphere_fit'`` (≥ 4 points) / ``'plane_fit'`` (≥ 3 points): the CGA least-squares sphere /
-            plane of any number of end points (:mod:`coop_ga.cooperative.primitive`); V_Sc is then the
-            similarity of that sphere / plane (:attr:`primitive_kind`), built in the same task graph.
+            ``'sphere_fit'`` (≥ 4 points) / ``'plane_fit'`` (≥ 3) / ``'line_fit'`` (≥ 2) / ``'circle_fit'`` (≥ 3):
+            the least-squares sphere / plane / line / circle of any number of end points
+            (:mod:`coop_ga.cooperative.primitive`); V_Sc is then the similarity of that primitive
+            (:attr:`primitive_kind`), built in the same task graph.
         points:
             Indices into ``system.end_frames`` giving the end points and their order
             (default: the first :attr:`KindSpec.n_points <coop_ga.geometry.kinds.KindSpec.n_points>`; for the least-squares kinds all end frames).  The

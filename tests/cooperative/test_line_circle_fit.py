@@ -235,3 +235,12 @@ def test_more_than_four_chains_on_robots(system, kind):
     assert np.linalg.norm(task.error(q0, target)) > 0.02
     assert np.linalg.norm(task.error(qf, target)) < 1e-6
     assert np.all(qf >= sys_.limits.lower - 1e-9) and np.all(qf <= sys_.limits.upper + 1e-9)
+
+
+def test_line_parameter_tasks_refuse_a_line_fit():
+    """The line-parameter tasks read the line through the first two end points, which is not a line_fit's line."""
+    from coop_ga.control.tasks.points import check_line_model
+
+    with pytest.raises(cg.InvalidInputError, match="line_fit"):
+        check_line_model(_task(4, "line_fit"))
+    check_line_model(_task(2, "line"))
