@@ -216,6 +216,7 @@ def _fd_jacobian(task, q, h=1e-6):
 @pytest.mark.parametrize(
     "system,kind",
     [(five_finger_hand, "sphere_fit"), (lambda: load("hexapod"), "plane_fit"), (lambda: load("hexapod"), "circle_fit")],
+    ids=["five_finger_hand-sphere_fit", "hexapod-plane_fit", "hexapod-circle_fit"],
 )
 def test_more_than_four_chains_on_robots(system, kind):
     """A five-finger hand's sphere and a six-leg plane / circle: J^G against central differences, and a target
