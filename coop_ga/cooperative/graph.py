@@ -33,13 +33,14 @@ wherever the points are, instead of wrong far from the origin.
 
 Least-squares kinds
 -------------------
-``"sphere_fit"`` / ``"plane_fit"`` (any k ≥ 4 / ≥ 3 end points) replace ``∧P(p_i)`` in step 2 by the CGA
-least-squares sphere / plane of the points (:mod:`coop_ga.cooperative.primitive`: the smallest
-non-negative eigenvalue solution of Σ (P_i·S)² with S² = 1), read out about the centroid as above.  The
-fit's scalar root (Pratt eigenvalue η, resp. the smallest eigenvalue λ₁ of the scatter matrix) comes from
-a fixed number of Newton iterations evaluated forward only; the pose function differentiates the closed
-form *at* that root and adds the root's derivative by the implicit-function theorem
-(``dη/dp = −res_p / res_η``, res the secular function / characteristic polynomial), which is exact at the
+``"sphere_fit"`` / ``"plane_fit"`` / ``"line_fit"`` / ``"circle_fit"`` (any k ≥ 4 / 3 / 2 / 3 end points)
+replace ``∧P(p_i)`` in step 2 by the least-squares primitive of the points (:mod:`coop_ga.cooperative.primitive`:
+for the sphere the smallest non-negative eigenvalue solution of Σ (P_i·S)² with S² = 1), read out about the
+centroid as above.  The fit's root (Pratt eigenvalue η, the smallest / largest eigenvalue of the scatter matrix;
+for the circle both λ₁ and its in-plane η) comes from a fixed number of Newton iterations evaluated forward
+only; the pose function differentiates the closed form *at* that root and adds the root's derivative by the
+implicit-function theorem (``dη/dp = −res_η⁻¹ res_p``, res the secular function / characteristic polynomial;
+lower triangular for the circle's two roots), which is exact at the
 root and smaller than AD through the iterations (six points, sphere_fit: 11 304 against 30 112 SX
 instructions of the pose function, 2.9 s against 19 s to build and compile on the 2-core machine).  :attr:`TaskGraph.ad_function` (reference route
 (b)) does differentiate through the iterations; the tests compare both and central differences.
@@ -71,7 +72,7 @@ from ..geometry.primitives import point as conformal_point
 from ..geometry.primitives import well_definedness
 from ..geometry.similarity import primitive_parameters, similarity_from_parameters, similarity_from_unit
 from ..kinematics.chains import KinematicTree
-from .primitive import cooperative_primitive, fit_at, fit_parameters, fit_root, fit_well_definedness
+from .primitive import FIT_ROOTS, cooperative_primitive, fit_at, fit_parameters, fit_root, fit_well_definedness
 
 __all__ = ["CHART_WARN_ANGLE", "NB", "TaskGraph", "versor_expr"]
 
@@ -109,13 +110,30 @@ def _closest_to_origin(kind: Kind, a: list[Any], o: Any) -> list[Any]:
     return [s * o[j] for j in range(3)]
 
 
+def _implicit(re: ca.SX, rp: ca.SX) -> ca.SX:
+    """``(∂res/∂e)⁻¹ ∂res/∂p``: the roots' derivative (with a minus) by the implicit-function theorem.  The
+    residuals are ordered so that ∂res/∂e is lower triangular (the circle fit: the plane's residual does not
+    depend on the in-plane root), solved by forward substitution; a zero pivot (a degenerate fit, which the
+    guard reports) is replaced by 1 so that no NaN is produced."""
+    m = int(re.shape[0])
+    rows: list[ca.SX] = []
+    for i in range(m):
+        piv = ca.if_else(ca.fabs(re[i, i]) > 0, re[i, i], 1.0)
+        acc = rp[i, :]
+        for j in range(i):
+            acc = acc - re[i, j] * rows[j]
+        rows.append(acc / piv)
+    return ca.vertcat(*rows)
+
+
 class TaskGraph:
     """Symbolic graph of the cooperative task ``kind`` on the end frames of ``tree``.
 
     Args:
         tree: the :class:`~coop_ga.kinematics.KinematicTree` of the task's end frames (in order).
         kind: primitive kind (``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``), or a
-            least-squares kind ``'sphere_fit'`` / ``'plane_fit'`` over all the tree's end frames
+            least-squares kind ``'sphere_fit'`` / ``'plane_fit'`` / ``'line_fit'`` / ``'circle_fit'`` over all the
+            tree's end frames
             (:mod:`coop_ga.cooperative.primitive`: the fit is part of this graph, so its V_Sc, B_Sc and J^G
             come from the same code as every other kind's).
         name: used to name the CasADi functions (and the compiled libraries).
@@ -126,7 +144,7 @@ class TaskGraph:
         #: the facts of the kind (:data:`~coop_ga.geometry.kinds.KIND_SPECS`)
         self.spec = kind_spec(kind)
         self.kind = kind
-        #: the primitive kind of V_Sc ("sphere" for "sphere_fit", "plane" for "plane_fit", else kind)
+        #: the primitive kind of V_Sc ("sphere" for "sphere_fit", "circle" for "circle_fit", …, else kind)
         self.primitive_kind = self.spec.primitive_kind
         self.name = name
         self.n_points = self.spec.points_used(len(tree.end_frames))
@@ -188,16 +206,16 @@ class TaskGraph:
         # least-squares kinds: the fit's root e by its iterations (values only), the fit in closed form at
         # e, and its derivative by the implicit-function theorem, res(p, e) = 0 ⇒ de/dp = −res_p / res_e
         # (exact at the root; AD through the iterations is ~3× larger — ad_function does that).
-        e = ca.SX.sym("e")
-        V, w, c2, res = self._pose(p, e)
+        m = FIT_ROOTS[fit]
+        e = ca.SX.sym("e", m)
+        V, w, c2, res = self._pose(p, e[0] if m == 1 else [e[i] for i in range(m)])
         Vv = _coeffs_expr(V)
-        re = ca.jacobian(res, e)
-        re = ca.if_else(ca.fabs(re) > 0, re, 1.0)
-        dV = ca.jacobian(Vv, p) - ca.mtimes(ca.jacobian(Vv, e), ca.jacobian(res, p) / re)
+        res = ca.vertcat(*res) if m > 1 else res
+        dV = ca.jacobian(Vv, p) - ca.mtimes(ca.jacobian(Vv, e), _implicit(ca.jacobian(res, e), ca.jacobian(res, p)))
         inner = ca.Function("pose_at_root", [p, e], [Vv, sim_log(V), _body_columns(V, dV), w, c2])
         p2 = ca.SX.sym("p", 3 * self.n_points)
         root = fit_root(fit, [tuple(p2[3 * i + j] for j in range(3)) for i in range(self.n_points)])
-        outs = list(inner(p2, root))
+        outs = list(inner(p2, ca.vertcat(*root) if m > 1 else root))
         return ca.Function(f"pose_{self.kind}", [p2], outs, ["p"], ["V", "B", "G", "w", "c2"])
 
     @cached_property
@@ -342,7 +360,7 @@ class TaskGraph:
         if (fit := self.spec.fit_name) is not None:  # the fit end to end in world coordinates, no chain rule
             bar, c_rel, r, o = fit_parameters(fit, [tuple(pt) for pt in pts])
             a = [c_rel[j] + bar[j] for j in range(3)]
-            if self.spec.flat:  # plane: the closest point to the world origin
+            if self.spec.flat:  # plane / line: the closest point to the world origin
                 a = _closest_to_origin(self.primitive_kind, a, o)
             V = similarity_from_parameters(self.primitive_kind, a, r, o, chart_axis=self.chart_axis)
         else:

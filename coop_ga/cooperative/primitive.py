@@ -36,6 +36,28 @@ the objective is the sum of squared geometric distances to first order — the P
 is the orthogonal (total) least-squares plane: normal = the smallest eigenvector of the scatter
 matrix of the points about their centroid.
 
+``"line_fit"`` (k ≥ 2) and ``"circle_fit"`` (k ≥ 3), the other flat and the other round of dimension one:
+
+* line: the principal axis of the points through their centroid — the eigenvector of the *largest* eigenvalue
+  λ₃ of the scatter matrix C, the orthogonal least-squares line (Σ squared distances to it = tr C − λ₃, minimal);
+  oriented along ``Σ_i (i − (k−1)/2) p_i`` (the points' order: p₂ − p₁ for k = 2, the exact line's rule).
+  Guard: the largest :func:`coop_ga.well_definedness` of any 2 points (not all coincident), capped by the
+  eigen-gap ``(λ₃ − λ₁)(λ₃ − λ₂)/λ₃²`` (1 for collinear points, 0 when λ₂ = λ₃): points spread evenly across a
+  plane (an equilateral triangle, a square) have no principal axis.
+* circle: the best plane (the plane fit: normal, Newell-oriented as the exact circle's) and then the Pratt fit
+  of the points' projections in that plane (the sphere fit's secular equation in two dimensions).  Why not one
+  algebraic fit in CGA: a circle is a grade-3 blade (a sphere ∧ a plane, dually), so ``Σ (P_i·X)²`` over circles
+  is a constrained problem on a 10-dimensional blade manifold with no eigenvector solution, while the two
+  stages are each the smallest-eigenvalue solution of their own linear problem; the stages are exact whenever
+  the points lie on a circle (the plane fit is then their plane, the in-plane fit their circle), and for
+  coplanar points the circle is the 2-D Pratt fit, the geometric fit to first order.  For noisy 3-D points it
+  weights out-of-plane and in-plane residuals separately (the plane first), which is not the joint geometric
+  fit; the tests measure the difference against scipy's least squares on the 3-D distance to a circle.  Two
+  roots (λ₁, η) fix it; their implicit derivative is lower triangular (the plane does not see η).  Guard: the
+  plane fit's (the largest circle measure of any 3 points — far from collinear — capped by the plane's eigen-gap).
+* point pair: no fit.  A point pair *is* its two points (a 0-sphere); more than two points have no "best two
+  points" that is a primitive of them — their principal axis is ``"line_fit"``, their centroid a point.
+
 How it is computed (the same source on floats, numpy arrays and CasADi SX, so the task graph
 differentiates it like every other kind):
 
@@ -89,11 +111,14 @@ from ..algebra.multivector import Multivector
 from ..errors import DegeneratePrimitiveError, InvalidInputError
 from ..geometry.kinds import COOPERATIVE_KINDS, FIT_KINDS, FLAT_KINDS, KIND_SPECS, FitKind, Kind, KindSpec, kind_spec
 from ..geometry.primitives import Primitive, _check_kind, well_definedness
+from ..geometry.primitives import circle as _circle_from_points
+from ..geometry.primitives import line as _line_from_points
 from ..geometry.primitives import plane as _plane_from_points
 
 __all__ = [
     "COOPERATIVE_KINDS",
     "FIT_KINDS",
+    "FIT_ROOTS",
     "FLAT_KINDS",
     "cooperative_primitive",
     "fit_at",
@@ -163,18 +188,38 @@ def _centred(pts: Sequence[Sequence[Any]]) -> tuple[list[Any], list[list[Any]]]:
     return bar, [[p[j] - bar[j] for j in range(3)] for p in pts]
 
 
-def _plane_at(q: list[list[Any]], lam: Any) -> tuple[list[Any], Any, Any]:
-    """(unit normal n, eigen-gap, det(C − λI)) of the centred points q at the eigenvalue estimate λ."""
-    c = _scatter(q)
-    c2, c1, c0 = _char_coeffs(c)
+def _eigenvector(c: tuple[Any, ...], lam: Any) -> list[Any]:
+    """Unit eigenvector of the symmetric C for its simple eigenvalue λ: the largest column of adj(C − λI)
+    (= Π_{j≠i}(λ_j − λ) v vᵀ), sign unspecified."""
     adj = _adjugate(c, lam)
     cols = ((adj[0], adj[1], adj[2]), (adj[1], adj[3], adj[4]), (adj[2], adj[4], adj[5]))
-    d0, d1, d2 = adj[0], adj[3], adj[5]
+    d0, d1, d2 = adj[0], adj[3], adj[5]  # ≥ 0: Π_{j≠i}(λ_j − λ) > 0 for the smallest and the largest λ
     pick1 = d1 >= d2
     col = [_where(d0 >= _fmax(d1, d2), cols[0][j], _where(pick1, cols[1][j], cols[2][j])) for j in range(3)]
     nn = B.sqrt(col[0] * col[0] + col[1] * col[1] + col[2] * col[2])
     pos = nn > 0
-    n = [col[j] / _where(pos, nn, 1.0) for j in range(3)]
+    return [col[j] / _where(pos, nn, 1.0) for j in range(3)]
+
+
+def _other_two(c: tuple[Any, ...], lam: Any) -> tuple[Any, Any]:
+    """(sum, product) of the two eigenvalues of C other than λ."""
+    c2, c1, _ = _char_coeffs(c)
+    s2 = c2 - lam
+    return s2, c1 - lam * s2
+
+
+def _gap(a: Any, b: Any) -> Any:
+    """(b − a)/(b + a) for 0 ≤ a ≤ b, 0 when both vanish (the scale-free eigen-gap)."""
+    gs = a + b
+    gpos = gs > 0
+    return _where(gpos, (b - a) / _where(gpos, gs, 1.0), 0.0 * gs)
+
+
+def _plane_at(q: list[list[Any]], lam: Any) -> tuple[list[Any], Any, Any]:
+    """(unit normal n, eigen-gap, det(C − λI)) of the centred points q at the eigenvalue estimate λ."""
+    c = _scatter(q)
+    c2, c1, c0 = _char_coeffs(c)
+    n = _eigenvector(c, lam)
     k = len(q)
     newell: list[Any] = [0.0, 0.0, 0.0]
     for i in range(k):
@@ -186,17 +231,45 @@ def _plane_at(q: list[list[Any]], lam: Any) -> tuple[list[Any], Any, Any]:
         ]
     flip = n[0] * newell[0] + n[1] * newell[1] + n[2] * newell[2] < 0
     n = [_where(flip, -n[j], n[j]) for j in range(3)]
-    s2 = c2 - lam  # λ₂ + λ₃
-    pr = c1 - lam * s2  # λ₂ λ₃
+    s2, pr = _other_two(c, lam)  # λ₂ + λ₃, λ₂ λ₃
     disc = s2 * s2 / 4.0 - pr
     den = s2 / 2.0 + B.sqrt(_where(disc > 0, disc, 0.0 * disc))
     dpos = den > 0
     lam2 = _where(dpos, pr / _where(dpos, den, 1.0), 0.0 * pr)
-    gs = lam2 + lam
-    gpos = gs > 0
-    gap = _where(gpos, (lam2 - lam) / _where(gpos, gs, 1.0), 0.0 * gs)
     res = c0 + lam * (-c1 + lam * (c2 - lam))
-    return n, gap, res
+    return n, _gap(lam, lam2), res
+
+
+def _largest_eigenvalue(c: tuple[Any, ...], iters: int) -> Any:
+    """λ₃ of C by Newton on det(C − λI) from λ = tr C ≥ λ₃: right of λ₃ the cubic is negative, decreasing and
+    concave, so the iterates decrease monotonically to λ₃ and never overshoot."""
+    c2, c1, c0 = _char_coeffs(c)
+    lam: Any = c2
+    for _ in range(iters):
+        p = c0 + lam * (-c1 + lam * (c2 - lam))
+        dp = -c1 + lam * (2.0 * c2 - 3.0 * lam)
+        neg = dp < 0
+        lam = lam - _where(neg, p / _where(neg, dp, -1.0), 0.0 * p)
+    return lam
+
+
+def _line_at(q: list[list[Any]], lam: Any) -> tuple[list[Any], Any, Any]:
+    """(unit direction d, eigen-gap (λ₃ − λ₁)(λ₃ − λ₂)/λ₃², det(C − λI)) of the centred points q at the estimate λ
+    of λ₃: the principal axis, oriented along ``Σ_i (i − (k−1)/2) q_i`` (the points' order; p₂ − p₁ for k = 2)."""
+    c = _scatter(q)
+    c2, c1, c0 = _char_coeffs(c)
+    d = _eigenvector(c, lam)
+    k = len(q)
+    order = [sum((i - 0.5 * (k - 1)) * q[i][j] for i in range(k)) for j in range(3)]
+    flip = d[0] * order[0] + d[1] * order[1] + d[2] * order[2] < 0
+    d = [_where(flip, -d[j], d[j]) for j in range(3)]
+    s2, pr = _other_two(c, lam)  # λ₁ + λ₂, λ₁ λ₂
+    # (λ₃ − λ₁)(λ₃ − λ₂)/λ₃², free of the square root that resolves the double root λ₁ = λ₂ (two points) to √ε only
+    f3 = lam * lam - s2 * lam + pr
+    pos = lam > 0
+    gap = _where(pos, f3 / _where(pos, lam * lam, 1.0), 0.0 * lam)
+    res = c0 + lam * (-c1 + lam * (c2 - lam))
+    return d, gap, res
 
 
 def _sphere_moments(q: list[list[Any]]) -> tuple[tuple[Any, ...], list[Any], Any, Any]:
@@ -245,6 +318,67 @@ def _sphere_at(q: list[list[Any]], eta: Any) -> tuple[list[Any], Any, Any]:
     return centre, r, s
 
 
+def _in_plane(q: list[list[Any]], n: list[Any]) -> tuple[list[tuple[Any, Any]], list[Any], list[Any]]:
+    """Coordinates of the centred points q on an orthonormal basis (u, v) of the plane ⟂ n, u × v = n.  The basis
+    switches with n (u ⟂ e1, or ⟂ e2 when n is near e1), which the circle fit does not see: the in-plane Pratt fit
+    is rotation invariant."""
+    near_e1 = B.fabs(n[0]) > 0.9
+    a = [_where(near_e1, 0.0 * n[0], 1.0 + 0.0 * n[0]), _where(near_e1, 1.0 + 0.0 * n[0], 0.0 * n[0]), 0.0 * n[0]]
+    u = [n[1] * a[2] - n[2] * a[1], n[2] * a[0] - n[0] * a[2], n[0] * a[1] - n[1] * a[0]]  # n × a
+    nu = B.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    u = [u[j] / _where(nu > 0, nu, 1.0) for j in range(3)]
+    v = [n[1] * u[2] - n[2] * u[1], n[2] * u[0] - n[0] * u[2], n[0] * u[1] - n[1] * u[0]]  # n × u
+    return [(p[0] * u[0] + p[1] * u[1] + p[2] * u[2], p[0] * v[0] + p[1] * v[1] + p[2] * v[2]) for p in q], u, v
+
+
+def _circle_secular(x: list[tuple[Any, Any]], eta: Any) -> tuple[list[Any], Any, Any, Any]:
+    """(y = (C − ηI)⁻¹ m_xz, s(η), s'(η), M_z) of centred in-plane points x (2-D: the sphere's secular equation)."""
+    k = len(x)
+    z = [p[0] * p[0] + p[1] * p[1] for p in x]
+    c00 = sum(p[0] * p[0] for p in x) - eta
+    c01 = sum(p[0] * p[1] for p in x)
+    c11 = sum(p[1] * p[1] for p in x) - eta
+    m = [sum(p[j] * zi for p, zi in zip(x, z)) for j in range(2)]
+    mz, mzz = sum(z), sum(zi * zi for zi in z)
+    det = c00 * c11 - c01 * c01
+    det = _where(B.fabs(det) > 0, det, 1.0)
+    y = [(c11 * m[0] - c01 * m[1]) / det, (c00 * m[1] - c01 * m[0]) / det]
+    s = mzz - (m[0] * y[0] + m[1] * y[1]) - (mz + 2.0 * eta) ** 2 / k
+    ds = -(y[0] * y[0] + y[1] * y[1]) - 4.0 * (mz + 2.0 * eta) / k
+    return y, s, ds, mz
+
+
+def _circle_root(x: list[tuple[Any, Any]]) -> Any:
+    """η of the in-plane Pratt fit: the sphere's safeguarded Newton (:func:`_sphere_root`) on the 2-D secular
+    equation, its pole bounded below by the smallest eigenvalue of the 2 × 2 scatter matrix (closed form)."""
+    a00 = sum(p[0] * p[0] for p in x)
+    a01 = sum(p[0] * p[1] for p in x)
+    a11 = sum(p[1] * p[1] for p in x)
+    lo = 0.5 * (a00 + a11) - B.sqrt(0.25 * (a00 - a11) * (a00 - a11) + a01 * a01)
+    eta: Any = 0.0 * lo
+    for _ in range(_PRATT_ITERS):
+        _, s, ds, _ = _circle_secular(x, eta)
+        neg = ds < 0
+        step = eta - _where(neg, s / _where(neg, ds, -1.0), 0.0 * s)
+        half = 0.5 * (eta + lo)
+        eta = _where(step < half, step, half)
+    return eta
+
+
+def _circle_at(q: list[list[Any]], lam: Any, eta: Any) -> tuple[list[Any], Any, list[Any], Any, Any]:
+    """(centre relative to the centroid, radius, unit normal, det(C − λI), s(η)) of the circle fit of the centred
+    points q at the root estimates λ (the plane's) and η (the in-plane Pratt fit's)."""
+    n, _, res_plane = _plane_at(q, lam)
+    x, u, v = _in_plane(q, n)
+    k = len(x)
+    y, s, _, mz = _circle_secular(x, eta)
+    c2 = [0.5 * y[0], 0.5 * y[1]]
+    r2 = c2[0] * c2[0] + c2[1] * c2[1] + (mz + 2.0 * eta) / k
+    r = B.sqrt(_where(r2 > 0, r2, 0.0 * r2))
+    centre = [c2[0] * u[j] + c2[1] * v[j] for j in range(3)]
+    return centre, r, n, res_plane, s
+
+
 def _fit_spec(kind: str, k: int | None, what: str = "this function") -> KindSpec:
     """The spec of a least-squares kind used with k points (None: not checked)."""
     spec = kind_spec(kind)
@@ -255,25 +389,47 @@ def _fit_spec(kind: str, k: int | None, what: str = "this function") -> KindSpec
     return spec
 
 
+#: how many scalars fix each least-squares primitive (:func:`fit_root`): the circle fit has two, the plane's λ₁
+#: and the in-plane Pratt η
+FIT_ROOTS: dict[str, int] = {"sphere_fit": 1, "plane_fit": 1, "line_fit": 1, "circle_fit": 2}
+
+
 def fit_root(kind: FitKind, pts: Sequence[Sequence[Any]]) -> Any:
-    """The scalar that fixes the least-squares primitive of ``pts`` (k 3-vectors, numeric or CasADi): the
+    """The scalar(s) that fix the least-squares primitive of ``pts`` (k 3-vectors, numeric or CasADi): the
     Pratt eigenvalue η of a ``sphere_fit``, the smallest eigenvalue λ₁ of the scatter matrix of a
-    ``plane_fit`` [m²] — by the Newton iterations of the module docstring."""
-    spec = _fit_spec(kind, len(pts))
+    ``plane_fit``, its largest λ₃ of a ``line_fit`` [m²]; for a ``circle_fit`` the list ``[λ₁, η]`` (the plane's
+    and the in-plane Pratt fit's) — by the Newton iterations of the module docstring (:data:`FIT_ROOTS` of them)."""
+    _fit_spec(kind, len(pts))
     _, q = _centred(pts)
-    return _smallest_eigenvalue(_scatter(q), _CUBIC_ITERS) if spec.flat else _sphere_root(q)
+    c = _scatter(q)
+    if kind == "plane_fit":
+        return _smallest_eigenvalue(c, _CUBIC_ITERS)
+    if kind == "line_fit":
+        return _largest_eigenvalue(c, _CUBIC_ITERS)
+    if kind == "circle_fit":
+        lam = _smallest_eigenvalue(c, _CUBIC_ITERS)
+        n, _, _ = _plane_at(q, lam)
+        return [lam, _circle_root(_in_plane(q, n)[0])]
+    return _sphere_root(q)
 
 
 def fit_at(kind: FitKind, pts: Sequence[Sequence[Any]], root: Any) -> tuple[list[Any], list[Any], Any, Any, Any]:
     """``(centroid, c, r, o, residual)`` of the least-squares primitive of ``pts`` *given* its root
-    (:func:`fit_root`) in closed form; ``residual`` (the secular function s(η), resp. det(C − λI)) vanishes
-    at the exact root, so the implicit-function theorem gives the derivative of the fit:
-    ``d/dp = ∂/∂p − ∂/∂root · (∂res/∂p) / (∂res/∂root)`` (used by the task graph)."""
-    spec = _fit_spec(kind, len(pts))
+    (:func:`fit_root`) in closed form; ``residual`` (the secular function s(η), resp. det(C − λI); for a circle
+    the pair of both) vanishes at the exact root, so the implicit-function theorem gives the derivative of the
+    fit: ``d/dp = ∂/∂p − ∂/∂root · (∂res/∂root)⁻¹ (∂res/∂p)`` (used by the task graph)."""
+    _fit_spec(kind, len(pts))
     bar, q = _centred(pts)
-    if spec.flat:  # the plane fit
+    zero = [0.0 * bar[0]] * 3
+    if kind == "plane_fit":
         n, _, res = _plane_at(q, root)
-        return bar, [0.0 * bar[0]] * 3, None, n, res
+        return bar, zero, None, n, res
+    if kind == "line_fit":
+        d, _, res = _line_at(q, root)
+        return bar, zero, None, d, res
+    if kind == "circle_fit":
+        centre, r, n, res_plane, s = _circle_at(q, root[0], root[1])
+        return bar, centre, r, n, [res_plane, s]
     centre, r, res = _sphere_at(q, root)
     return bar, centre, r, None, res
 
@@ -308,15 +464,20 @@ def fit_well_definedness(kind: FitKind, pts: Any) -> Any:
         else:
             wi = well_definedness(base, np.array([rows[i] for i in sub], dtype=float))
         w = wi if w is None else _fmax(w, wi)
-    if spec.flat:  # the plane fit: also capped by the eigen-gap
+    if kind != "sphere_fit":  # also capped by the eigen-gap that makes the normal (the direction) unique
         _, q = _centred(rows)
-        _, gap, _ = _plane_at(q, _smallest_eigenvalue(_scatter(q), _CUBIC_ITERS))
+        c = _scatter(q)
+        if kind == "line_fit":
+            _, gap, _ = _line_at(q, _largest_eigenvalue(c, _CUBIC_ITERS))
+        else:
+            _, gap, _ = _plane_at(q, _smallest_eigenvalue(c, _CUBIC_ITERS))
         w = _where(gap < w, gap, w)
     return w if symbolic else float(w)
 
 
 def fit_primitive(kind: FitKind, points: Any, *, raise_below: float = 1e-6) -> Primitive:
-    """The least-squares primitive (a ``"sphere"`` or ``"plane"`` :class:`~coop_ga.geometry.primitives.Primitive`)
+    """The least-squares primitive (a ``"sphere"``, ``"plane"``, ``"line"`` or ``"circle"``
+    :class:`~coop_ga.geometry.primitives.Primitive`)
     of numeric ``points`` (k, 3) [m]; :class:`~coop_ga.errors.DegeneratePrimitiveError` when their
     :func:`fit_well_definedness` is ≤ ``raise_below``."""
     from ..geometry.primitives import sphere as _sphere_from_points
@@ -333,12 +494,18 @@ def fit_primitive(kind: FitKind, points: Any, *, raise_below: float = 1e-6) -> P
         )
     bar, c, r, o = fit_parameters(kind, [tuple(p) for p in P.tolist()])
     cb = np.array([float(c[j]) + bar[j] for j in range(3)])
-    if spec.flat:
+    if o is not None:
         n = np.array([float(v) for v in o])
         u = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
         u /= np.linalg.norm(u)
         v = np.cross(n, u)
-        scale = float(np.max(np.abs(P - cb)))  # three points of the plane about the points' own size
+        scale = float(np.max(np.abs(P - cb)))  # points of the flat about the points' own size
+        if kind == "line_fit":
+            return Primitive.tag(_line_from_points(cb, cb + scale * n), "line")  # direction first → second = n
+        if kind == "circle_fit":  # three points of the fitted circle, counter-clockwise about n
+            rr = float(r)
+            X = _circle_from_points(cb + rr * u, cb + rr * v, cb - rr * u)
+            return Primitive.tag(X, "circle")
         X = _plane_from_points(cb, cb + scale * u, cb + scale * v)  # normal u × v = n
         return Primitive.tag(X, "plane")
     rr = float(r)

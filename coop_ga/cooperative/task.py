@@ -55,7 +55,7 @@ from ..geometry.similarity import (
     unit_primitive,
 )
 from ..kinematics.chains import KinematicTree
-from .graph import CHART_WARN_ANGLE, TaskGraph, versor_expr
+from .graph import CHART_WARN_ANGLE, TaskGraph, _closest_to_origin, versor_expr
 from .guard import TaskGuard
 from .primitive import cooperative_primitive, fit_parameters, fit_primitive, fit_well_definedness
 
@@ -102,9 +102,10 @@ class CooperativeTask:
             ``name``, ``q0``).
         kind:
             ``'point', 'point_pair', 'line', 'circle', 'plane', 'sphere'``, or a least-squares kind
-            ``'sphere_fit'`` (≥ 4 points) / ``'plane_fit'`` (≥ 3 points): the CGA least-squares sphere /
-            plane of any number of end points (:mod:`coop_ga.cooperative.primitive`); V_Sc is then the
-            similarity of that sphere / plane (:attr:`primitive_kind`), built in the same task graph.
+            ``'sphere_fit'`` (≥ 4 points) / ``'plane_fit'`` (≥ 3) / ``'line_fit'`` (≥ 2) / ``'circle_fit'`` (≥ 3):
+            the least-squares sphere / plane / line / circle of any number of end points
+            (:mod:`coop_ga.cooperative.primitive`); V_Sc is then the similarity of that primitive
+            (:attr:`primitive_kind`), built in the same task graph.
         points:
             Indices into ``system.end_frames`` giving the end points and their order
             (default: the first :attr:`KindSpec.n_points <coop_ga.geometry.kinds.KindSpec.n_points>`; for the least-squares kinds all end frames).  The
@@ -499,7 +500,8 @@ class CooperativeTask:
             a = np.array(bar) + np.array([float(v) for v in c])
             if o is not None:
                 o = np.array([float(v) for v in o])
-                a = float(a @ o) * o
+            if self.spec.flat:  # the flat's point closest to the world origin (as the task graph)
+                a = np.array(_closest_to_origin(self.primitive_kind, a.tolist(), o.tolist()))
             return Similarity(
                 similarity_from_parameters(self.primitive_kind, a, r, o, chart_axis=self.chart_axis), check=False
             )

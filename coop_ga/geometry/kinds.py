@@ -17,7 +17,12 @@ plane          3       yes    3     the plane z = 0              normal +e3     
 sphere         4       no     4     the unit sphere              —               e0∞ e1∞ e2∞ e3∞ (everywhere)
 sphere_fit     ≥ 4     no     4     as sphere (it fits one)      —               as sphere
 plane_fit      ≥ 3     yes    3     as plane (it fits one)       normal +e3      as plane
+line_fit       ≥ 2     yes    4     as line (it fits one)        direction +e2   as line
+circle_fit     ≥ 3     no     6     as circle (it fits one)      normal +e3      as circle
 =============  ======  =====  ====  ===========================  ==============  ==================================
+
+A point pair has no least-squares kind: it is its two points, and more points have no best pair (their principal
+axis is ``line_fit``, :mod:`coop_ga.cooperative.primitive`).
 
 The controllable blades are the paper's Table 1 column (seed 003).  Measured
 (``experiments/table1.py``, docs/table1.md): the DOF column is right everywhere, the blade sets span
@@ -51,11 +56,11 @@ __all__ = [
 
 #: an exact primitive kind: spanned by exactly :attr:`KindSpec.n_points` points (∧ e∞ for the flats)
 Kind: TypeAlias = Literal["point", "point_pair", "line", "circle", "plane", "sphere"]
-#: a least-squares kind: the best sphere / plane through any number of points (:mod:`coop_ga.cooperative.primitive`)
-FitKind: TypeAlias = Literal["sphere_fit", "plane_fit"]
+#: a least-squares kind: the best sphere / plane / line / circle through any number of points (:mod:`coop_ga.cooperative.primitive`)
+FitKind: TypeAlias = Literal["sphere_fit", "plane_fit", "line_fit", "circle_fit"]
 #: every kind a cooperative task accepts
 CooperativeKind: TypeAlias = Literal[
-    "point", "point_pair", "line", "circle", "plane", "sphere", "sphere_fit", "plane_fit"
+    "point", "point_pair", "line", "circle", "plane", "sphere", "sphere_fit", "plane_fit", "line_fit", "circle_fit"
 ]
 #: how a kind's axis is read: the direction of a point pair / line, the normal of a circle / plane
 AxisRole: TypeAlias = Literal["direction", "normal"]
@@ -92,7 +97,10 @@ class KindSpec:
         primitive_kind: the exact kind of the primitive itself (``"sphere"`` for ``"sphere_fit"``; the kind of
             V_Sc's unit primitive); the kind itself for exact kinds.
         least_squares: a least-squares kind (any number ≥ n_points of points).
-        fit_kind: for an exact kind, the least-squares kind that fits it (None if there is none).
+        fit_kind: for an exact kind, the least-squares kind that stands in for it when more points than it needs
+            are given (the sphere's and the plane's; None otherwise).  The line and the circle have least-squares
+            kinds too (``line_fit``, ``circle_fit``: :data:`FIT_KINDS`), asked for by name only: a stance circle
+            goes through exactly three feet (:mod:`coop_ga.legged` reads this field as "any number of feet").
     """
 
     name: CooperativeKind
@@ -207,6 +215,20 @@ _FITS = (
     replace(
         _FITTED["plane"],
         name="plane_fit",
+        least_squares=True,
+        fit_kind=None,
+        degeneracy="the end points are (nearly) collinear, or spread evenly in every direction (no best plane)",
+    ),
+    replace(
+        _FITTED["line"],
+        name="line_fit",
+        least_squares=True,
+        fit_kind=None,
+        degeneracy="the end points (nearly) coincide, or spread evenly across a plane (no principal axis)",
+    ),
+    replace(
+        _FITTED["circle"],
+        name="circle_fit",
         least_squares=True,
         fit_kind=None,
         degeneracy="the end points are (nearly) collinear, or spread evenly in every direction (no best plane)",

@@ -174,7 +174,10 @@ def test_fit_primitive_sphere_reads_back():
 
 
 # ---------------------------------------------------------------------- exact for the minimal count
-@pytest.mark.parametrize("fit,exact,k", [("sphere_fit", "sphere", 4), ("plane_fit", "plane", 3)])
+@pytest.mark.parametrize(
+    "fit,exact,k",
+    [("sphere_fit", "sphere", 4), ("plane_fit", "plane", 3), ("line_fit", "line", 2), ("circle_fit", "circle", 3)],
+)
 def test_minimal_count_equals_the_exact_kind(fit, exact, k):
     tf, te = _task(k, fit), _task(k, exact)
     for _ in range(5):
@@ -200,7 +203,18 @@ def _fd_body_jacobian(task: CooperativeTask, q: np.ndarray, h: float = 1e-6) -> 
     return np.array(cols).T
 
 
-@pytest.mark.parametrize("kind,k", [("sphere_fit", 5), ("sphere_fit", 6), ("plane_fit", 4), ("plane_fit", 6)])
+@pytest.mark.parametrize(
+    "kind,k",
+    [
+        ("sphere_fit", 5),
+        ("sphere_fit", 6),
+        ("plane_fit", 4),
+        ("plane_fit", 6),
+        ("line_fit", 4),
+        ("circle_fit", 4),
+        ("circle_fit", 6),
+    ],
+)
 def test_jacobian_vs_finite_differences_and_ad(kind, k):
     task = _task(k, kind)
     for _ in range(3):

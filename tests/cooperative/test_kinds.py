@@ -19,6 +19,7 @@ from coop_ga.cooperative import CooperativeTask
 from coop_ga.cooperative.primitive import fit_primitive
 from coop_ga.geometry import (
     COOPERATIVE_KINDS,
+    FIT_KINDS,
     KIND_SPECS,
     KINDS,
     TANGENT_BASIS,
@@ -219,7 +220,8 @@ def test_least_squares_partner_fits_its_kind(kind: str) -> None:
             assert KIND_SPECS[spec.fit_kind].primitive_kind == kind and KIND_SPECS[spec.fit_kind].least_squares
         return
     base = KIND_SPECS[spec.primitive_kind]
-    assert base.fit_kind == kind and (base.n_points, base.flat, base.dof) == (spec.n_points, spec.flat, spec.dof)
+    assert FIT_KINDS[kind] == base.name and base.fit_kind in (kind, None)  # line_fit, circle_fit: by name only
+    assert (base.n_points, base.flat, base.dof) == (spec.n_points, spec.flat, spec.dof)
     P = np.random.default_rng(11).normal(size=(spec.n_points, 3))
     F = fit_primitive(kind, P)
     X = cg.primitive_from_points(spec.primitive_kind, list(P))
@@ -235,4 +237,4 @@ def test_kind_spec_names_the_accepted_kinds() -> None:
         kind_spec("sphere_fit", least_squares=False)
     with pytest.raises(cg.InvalidInputError, match="must be a string"):
         kind_spec(3)  # type: ignore[arg-type]
-    assert COOPERATIVE_KINDS == (*KINDS, "sphere_fit", "plane_fit")
+    assert COOPERATIVE_KINDS == (*KINDS, "sphere_fit", "plane_fit", "line_fit", "circle_fit")

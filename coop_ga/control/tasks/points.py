@@ -133,9 +133,10 @@ def line_from_points(
 
 
 def check_line_model(model: Any) -> None:
-    """Line parameters need a model whose primitive has a direction (a ``'line'`` or ``'point_pair'``)."""
+    """Line parameters need a model whose primitive has a direction and is spanned by its two end points (a
+    ``'line'`` or ``'point_pair'``; not a ``'line_fit'``, whose line is not the one through its first two points)."""
     spec = KIND_SPECS.get(model.kind)
-    if spec is None or spec.axis_role != "direction":
+    if spec is None or spec.axis_role != "direction" or spec.least_squares:
         raise InvalidInputError(
             f"line parameters are defined for tasks of kind 'line' or 'point_pair', got a '{model.kind}' task "
             f"({model.name})"

@@ -11,15 +11,24 @@ Error (mink's convention, zero at the target): ``e(q) = log(Ṽ_Sd V_Sc(q)) = �
   ``FrameTask`` uses ``jlog``: a Gauss–Newton step on e far from the target.
 
 Both come from the step's one compiled evaluation (:class:`~coop_ga.control.configuration.Configuration`).
+
+Mixed primitives (§5.7): by default the task drives the configuration's own model (its cooperative task).  Given
+``model=`` — another :class:`~coop_ga.CooperativeTask` of the same system, e.g. ``cooperative_task(system,
+"circle", points=(0, 1, 2))`` over a *subset* of its end frames — it drives that primitive instead, evaluated at
+the step's q by a configuration of its own (one compiled call per step, cached like every evaluation).  Several
+such tasks stack in one :func:`~coop_ga.control.solve_step` (a circle of three end points and a line of two
+others), or go to different priority ``levels``.
 """
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 import numpy as np
 
 from ... import validation
+from ...errors import InvalidInputError
 from ...geometry.groups import Similarity, SimilarityLike
 from .base import BaseTask
 
@@ -38,6 +47,9 @@ class SimilarityTask(BaseTask):
         weight: per-row weights (7,) or a scalar.
         jacobian: ``'body'`` (J^G, Eq 48) or ``'exact'`` (−J_e, Eq 47).
         lm_damping: μ of the Levenberg–Marquardt term.
+        model: the :class:`~coop_ga.CooperativeTask` whose V_Sc this task drives (None: the configuration's model);
+            it must have the configuration's system (module docstring: mixed primitives).  The target is checked
+            against its chart (``model.check_target``).
     """
 
     labels = SIMILARITY_ROWS
@@ -50,19 +62,47 @@ class SimilarityTask(BaseTask):
         weight: Any = None,
         jacobian: str = "body",
         lm_damping: float = 0.0,
+        model: Any = None,
     ):
-        super().__init__(gain, weight, lm_damping, "similarity")
-        self.target: Similarity = validation.target(target)
+        super().__init__(gain, weight, lm_damping, "similarity" if model is None else f"similarity of {model.name}")
+        self.model = model
+        self.target: Similarity = validation.target(target) if model is None else model.check_target(target)
         self.mode = validation.choice(jacobian, ("body", "exact"), "jacobian")
+        self._own = threading.local()  # this thread's configuration of ``model``
 
     @property
-    def similarity_target(self) -> Similarity:
-        """V_Sd, which the configuration evaluates with the kinematics (one compiled call)."""
-        return self.target
+    def similarity_target(self) -> Similarity | None:
+        """V_Sd, which the configuration evaluates with the kinematics (one compiled call); None for a task with
+        its own model (whose configuration is prepared here)."""
+        return self.target if self.model is None else None
+
+    def _configuration(self, configuration: Any) -> Any:
+        """The configuration that evaluates this task's model at the step's q: the step's own, or one of
+        :attr:`model` moved to the step's q (once per step: :meth:`Configuration.cached`)."""
+        if self.model is None or self.model is configuration.model:
+            return configuration
+        return configuration.cached(("similarity model", id(self)), self._follow)
+
+    def _follow(self, configuration: Any) -> Any:
+        from ..configuration import Configuration
+
+        base = configuration.model
+        if self.model.nq != base.nq or getattr(self.model.system, "name", None) != getattr(base.system, "name", None):
+            raise InvalidInputError(
+                f"the similarity task of '{self.model.name}' (nq={self.model.nq}) cannot run in a step of "
+                f"'{base.name}' (nq={base.nq}): build both cooperative tasks on the same system"
+            )
+        own = getattr(self._own, "configuration", None)
+        if own is None:
+            own = self._own.configuration = Configuration(self.model, configuration.q, configuration.velocity)
+        else:
+            own.update(configuration.q, configuration.velocity)
+        own.prepare(self.target)
+        return own
 
     def log_error(self, configuration: Any) -> np.ndarray:
         """``log(Ṽ_Sc(q) V_Sd)`` (7,) (Eq 44: the target seen from the current pose; = −error)."""
-        return configuration.similarity_error(self.target)[0]
+        return self._configuration(configuration).similarity_error(self.target)[0]
 
     def error(self, configuration: Any) -> np.ndarray:
         """``e = −log(Ṽ_Sc(q) V_Sd)`` (7,)."""
@@ -70,10 +110,11 @@ class SimilarityTask(BaseTask):
 
     def jacobian(self, configuration: Any) -> np.ndarray:
         """J^G (``'body'``) or ``−K J^G`` (``'exact'``), (7, nq)."""
-        J = configuration.kinematics().jacobian
+        cfg = self._configuration(configuration)
+        J = cfg.kinematics().jacobian
         if self.mode == "body":
             return J
-        return -(configuration.similarity_error(self.target)[1] @ J)
+        return -(cfg.similarity_error(self.target)[1] @ J)
 
     def velocity(self, configuration: Any) -> np.ndarray:
         """``B_S = α log(Ṽ_Sc V_Sd)`` (7,), the commanded body velocity of Eq 48."""
