@@ -88,6 +88,7 @@ __all__ = [
     "Shelf",
     "execution_gains",
     "execution_metrics",
+    "execution_setup",
     "grasp",
     "lift_off",
     "lift_problem",
@@ -316,12 +317,18 @@ def _controller(setup: CarrySetup, plan_: PathCarryPlan, gains: HoldGains | None
     )
 
 
-def grasp(case: CarryCase | None = None, gains: HoldGains | None = None) -> Grasp:
-    """Build the carry scene with the shelf and simulate the grasp (approach, close, squeeze); measure it."""
+def execution_setup(case: CarryCase | None = None, gains: HoldGains | None = None) -> tuple[CarrySetup, Shelf]:
+    """The carry's setup (:func:`~coop_ga.sim.carry.carry_setup`, ``FAST_DURATIONS``) with the shelf lip added
+    to its scene as static spheres, and the :class:`Shelf`."""
     case = case or CarryCase("plan_execute", durations=FAST_DURATIONS)
-    st = carry_setup(case, gains)
+    st = carry_setup(case, gains or execution_gains())
     shelf = Shelf.over(st.box_centre, (st.box_half, st.box_half, 0.5 * BOX_HEIGHT))
-    st = replace(st, scene=with_static(st.scene, shelf.objects()))
+    return replace(st, scene=with_static(st.scene, shelf.objects())), shelf
+
+
+def grasp(case: CarryCase | None = None, gains: HoldGains | None = None) -> Grasp:
+    """Simulate the grasp (approach, close, squeeze) in :func:`execution_setup`'s scene and measure it."""
+    st, shelf = execution_setup(case, gains)
     p = PathCarryPlan.make(st.plan, None)
     sim = Simulation(st.scene, _controller(st, p, gains), q=st.q_start)
     sim.run(p.follow_start)
