@@ -15,8 +15,8 @@ median planning time, path lengths and the worst constraint violation along the 
 successful path is time-parameterised with TOPP-RA within the Franka's velocity and acceleration limits
 (:func:`coop_ga.plan.timing.time_parameterise`) and its constraint error measured along the timed trajectory
 (the spline between the waypoints leaves the manifold slightly).  The exact-vs-finite-difference comparison is
-``benchmarks/plan_box_lift.py``.  Not done here: execution in MuJoCo (the plan is kinematic; the box is not
-simulated).
+``benchmarks/plan_box_lift.py``.  The plan here is kinematic (the box is not simulated); the execution in MuJoCo
+with the box held, on the iiwa arms of the physics carry, is ``experiments/sim_plan_box_lift.py``.
 
 Writes to ``--out``: ``metrics.json`` (statistics, the timed trajectory's duration, velocity / acceleration
 excesses and constraint error, the ``gallery`` block), ``trajectory.npz`` (``waypoints`` (N, 21) the planned

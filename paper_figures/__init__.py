@@ -100,6 +100,13 @@ FIGURES: tuple[Figure, ...] = (
     Figure("linkages", "ours_linkages", "experiments/linkages.py", addition=True),
     # constrained planning over a cooperative region (OMPL): the gallery runs the script's --fast version
     Figure("planning_box_lift", "ours_planning_box_lift", "experiments/plan_box_lift.py", ("--fast",), addition=True),
+    Figure(
+        "sim_plan_box_lift",
+        "ours_planning_box_lift_execution",
+        "experiments/sim_plan_box_lift.py",
+        ("--fast",),
+        addition=True,
+    ),
     # physics in the loop (MuJoCo): the gallery runs the scripts' --fast (gallery-length) version
     Figure("sim_box_carry", "ours_sim_box_carry", "experiments/sim_box_carry.py", ("--fast",), addition=True),
     Figure(
