@@ -15,7 +15,9 @@ one-off compile is excluded).  ``ratio = t_ilqr / t_gn``.  A target that some so
 *reachable* (a plane moved within itself) and is listed but kept out of the ratio statistics; on the
 others the goal is ``ratio ≤ 5`` with ``converged=False`` and a message saying the target is not
 reachable inside the limits.  ``certified``: iLQR stopped before any iteration because the target
-misses the reach of some end point (``iterations == 0`` and that message).
+misses the reach of some end point (``iterations == 0`` and that message); ``stall``: it stopped at the
+stall test (‖e‖ no longer decreasing at a stationary point of ‖e‖ within the limits, package docstring of
+:mod:`coop_ga.control.ilqr`) with that message.
 
 Output: a table, the PASS/MISS line and ``<out>/results.json`` (config, per-target records, summary).
 ``--ci``: three cases, one target each (seconds).
@@ -97,6 +99,7 @@ def run_target(task: Any, target: Any, repeats: int) -> dict[str, Any]:
         "reachable": reachable,
         "certified": il.iterations == 0 and UNREACHABLE_PHRASE in il.message,
         "says_unreachable": SAYS_UNREACHABLE in il.message,
+        "stalled": il.message.startswith("not converged: stationary") and UNREACHABLE_PHRASE in il.message,
     }
 
 
@@ -109,6 +112,7 @@ def summarize(records: list[dict[str, Any]]) -> dict[str, Any]:
         "reachable": len(records) - len(unreach),
         "unreachable": len(unreach),
         "certified": sum(r["certified"] for r in unreach),
+        "stalled": sum(r["stalled"] for r in unreach),
         "says_unreachable": sum(r["says_unreachable"] for r in unreach),
         "ratio_median": float(np.median(ratios)) if ratios else None,
         "ratio_max": max(ratios) if ratios else None,
@@ -116,6 +120,13 @@ def summarize(records: list[dict[str, Any]]) -> dict[str, Any]:
         "outside_limits": sum(not r["ilqr"]["within_limits"] for r in records),
         "goal_met": bool(ratios) and max(ratios) <= RATIO_GOAL and all(r["says_unreachable"] for r in unreach),
     }
+
+
+def _note(r: dict[str, Any]) -> str:
+    """The table's note on one target: reachable, certified, stall (the stall test), or - (none of these)."""
+    if r["reachable"]:
+        return "reachable"
+    return "certified" if r["certified"] else ("stall" if r["stalled"] else "-")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -153,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{r['ilqr']['time_s'] * 1e3:.1f}",
             f"{r['ratio']:.2f}",
             str(r["ilqr"]["iterations"]),
-            "reachable" if r["reachable"] else ("certified" if r["certified"] else "-"),
+            _note(r),
         ]
         for r in records
     ]
@@ -166,7 +177,8 @@ def main(argv: list[str] | None = None) -> int:
         s = summary
         med, top = (f"{x:.3g}" if x is not None else "-" for x in (s["ratio_median"], s["ratio_max"]))
         print(
-            f"\n{s['unreachable']} unreachable targets ({s['certified']} certified before any iteration), "
+            f"\n{s['unreachable']} unreachable targets ({s['certified']} certified before any iteration, "
+            f"{s['stalled']} stopped at the stall test), "
             f"{s['reachable']} reachable ones left out; ratio median {med}, max {top}"
         )
         print(

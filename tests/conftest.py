@@ -7,7 +7,7 @@ import pytest
 from hypothesis import HealthCheck, settings
 
 # Hypothesis profiles.  ``default`` is the CI one (modest example counts, fixed seeds: the
-# whole suite stays fast and reproducible); ``long`` runs 10 000 examples per property, e.g.
+# whole suite stays fast and reproducible); ``long`` runs 10 000 examples per property (``long5k``: 5 000), e.g.
 # ``python -m pytest tests/fuzz --hypothesis-profile=long``.  The profile is loaded in
 # pytest_configure, after the command line is parsed, so ``--hypothesis-profile`` always wins
 # (a module-level ``load_profile("default")`` here would override it whenever this conftest
@@ -16,6 +16,14 @@ settings.register_profile("default", max_examples=60, deadline=None, derandomize
 settings.register_profile(
     "long",
     max_examples=10_000,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+# ``long5k``: the long run at half the length (5 000 examples per property), for a shared 2-core machine
+settings.register_profile(
+    "long5k",
+    max_examples=5_000,
     deadline=None,
     derandomize=True,
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],

@@ -307,12 +307,18 @@ def coulomb_potential(x: Any, centers: Any, q: Any, goal: Any) -> Any:
     return float(U[0]) if np.ndim(x) == 1 else U
 
 
+def _over_cube(v: np.ndarray, n: float) -> np.ndarray:
+    """v / n³ for a vector v of norm n [m] (the goal's pull, Eq 27); past n = 1e100, where n³ overflows (a float
+    power raises OverflowError), as (v / n) / n²."""
+    return v / n**3 if n < 1e100 else (v / n) / (n * n)
+
+
 def _field(x: np.ndarray, C: np.ndarray, Q: np.ndarray, g: np.ndarray) -> np.ndarray:
     d = x - C
     r = np.sqrt(np.einsum("ij,ij->i", d, d))
     e_obs = (Q / r**3) @ d
     dg = x - g
-    e_goal = dg / float(np.sqrt(dg @ dg)) ** 3
+    e_goal = _over_cube(dg, float(np.sqrt(dg @ dg)))
     return e_obs - e_goal
 
 
@@ -587,7 +593,7 @@ class _FieldWalk:
         """3) the unitary field step (Eq 27) at ``xe_``, through the safety guard; None (and the outcome set) at a
         field equilibrium or when the guard leaves no step."""
         C, Q, g, h = self.C, self.Q, self.g, self.h
-        E = _field(xe_, C, Q, g) if len(self.S) else -(xe_ - g) / float(np.linalg.norm(xe_ - g)) ** 3
+        E = _field(xe_, C, Q, g) if len(self.S) else -_over_cube(xe_ - g, float(np.linalg.norm(xe_ - g)))
         nE = float(np.linalg.norm(E))
         if not nE > 1e-12 / max(dist, 1e-300) ** 2:
             self.status = "local_minimum"

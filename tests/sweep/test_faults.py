@@ -160,6 +160,29 @@ def test_scheduler_retries_once_and_charges_only_the_dying_job() -> None:
     assert "1 attempts" in rec["exception"]
 
 
+class IdleDeaths(FakeSlots):
+    """Workers that die right after returning a record (between jobs, e.g. picked by the OOM killer), ``n`` times."""
+
+    def __init__(self, n: int):
+        super().__init__({})
+        self.n = n
+
+    def send(self, slot: int, item: tuple[int, dict[str, Any]]) -> None:
+        super().send(slot, item)
+        if self.n > 0:
+            self.n -= 1
+            self.events.append((slot, "died", "the worker process died (killed by SIGKILL)"))
+
+
+def test_scheduler_charges_no_job_for_a_death_between_jobs() -> None:
+    """A worker that dies while it runs no job (the case that breaks pebble's pool for every job, pool docstring)
+    costs no record: it is replaced and every job completes once."""
+    slots = IdleDeaths(3)
+    recs = list(pool.schedule(slots, _items(8), 2, pool.TimeoutPolicy.of(5.0), retries=0))
+    assert sorted(r["job"] for r in recs) == list(range(8)) and all(r == {"job": r["job"]} for r in recs)
+    assert slots.started == 2 + 3 and slots.killed == 0  # one replacement per death
+
+
 def test_scheduler_gives_up_when_workers_die_at_start_up() -> None:
     slots = FakeSlots({}, start_dies=10**6)
     with pytest.raises(sw.SweepError, match="keep dying while they start"):

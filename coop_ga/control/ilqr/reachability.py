@@ -1,5 +1,7 @@
-"""A certificate that a target is unreachable: the target primitive misses the reach of an end point (package docstring
-of :mod:`coop_ga.control.ilqr`, "Fast honest failure")."""
+"""Why a target is not reached (package docstring of :mod:`coop_ga.control.ilqr`, "Fast honest failure"): a certificate
+that the target primitive misses the reach of an end point (:func:`unreachable`, before any iteration), and the
+stationarity of ‖e‖ within the limits at the end configuration of an iterate (:func:`bounded_stationarity`, the stall
+test of the solver)."""
 
 from __future__ import annotations
 
@@ -10,7 +12,10 @@ import numpy as np
 from ...geometry.kinds import KIND_SPECS, Kind
 from .problem import ReachingOCP
 
-__all__ = ["reach_balls", "unit_distance", "unreachable"]
+__all__ = ["BOUND_ACTIVE", "bounded_stationarity", "reach_balls", "unit_distance", "unreachable"]
+
+#: [rad or m] a joint this close to a position limit counts as on it (as in the result messages)
+BOUND_ACTIVE = 1e-3
 
 
 def unit_distance(kind: Kind, y: np.ndarray) -> float:
@@ -90,3 +95,16 @@ def unreachable(ocp: ReachingOCP, tol: float) -> str | None:
                 "the target is not reachable inside the limits from this start (nor from any other)"
             )
     return None
+
+
+def bounded_stationarity(ocp: ReachingOCP, q: np.ndarray, e: np.ndarray, Je: np.ndarray) -> float:
+    """How far the configuration q (nq,) is from a stationary point of f(q) = ½‖e(q)‖² within the position limits, as
+    a fraction of the gradient's scale: ‖P ∇f‖ / (‖J_e‖₂ ‖e‖), where ∇f = J_eᵀ e (e (7,) and J_e (7, nq) at q, Eq 44
+    and 47) and P drops the components that push a joint out through a limit it is on (within
+    :data:`BOUND_ACTIVE`).  0 at a KKT point of min f over the limits (every descent direction of ‖e‖ blocked by a
+    limit, or none left); ~1 far from one.  Bounds are those of ``ocp`` (none with ``limit_mode="none"``).
+    """
+    g = Je.T @ e
+    blocked = ((q - ocp.q_lower <= BOUND_ACTIVE) & (g > 0.0)) | ((ocp.q_upper - q <= BOUND_ACTIVE) & (g < 0.0))
+    scale = float(np.linalg.norm(Je, 2)) * float(np.linalg.norm(e))
+    return float(np.linalg.norm(np.where(blocked, 0.0, g))) / max(scale, 1e-300)
