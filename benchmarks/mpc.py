@@ -112,7 +112,7 @@ def _limit_note(r: dict[str, Any], a: dict[str, float]) -> str:
         f"H={r['horizon']}: with the clearance cost {c['sustained_rate_hz']:.1f} Hz (median tick), of which the cost "
         f"takes {100 * share:.0f} % (one iteration ≈ {evals:.0f} collision evaluations: its Gauss–Newton Hessian at "
         f"every knot and the line search's exact cost); without it {p['sustained_rate_hz']:.1f} Hz, of which "
-        f"{100 * setup:.0f} % is outside the iLQR's own solve (checks, target, the certificate, the problem's set-up, "
+        f"{100 * setup:.0f} % is outside the iLQR's own solve (checks, target, the feasibility blend and the result, "
         f"RNEA, the state's clearance) and one iLQR iteration ≈ {it_evals:.0f} task evaluations"
     )
 
