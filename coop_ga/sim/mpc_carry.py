@@ -263,10 +263,11 @@ class CarryTrackRun:
 
 
 def run_carry_track(
-    case: CarryTrackCase, options: MPCOptions | None = None, *, progress: bool = False
+    case: CarryTrackCase, options: MPCOptions | None = None, *, duration: float | None = None, progress: bool = False
 ) -> CarryTrackRun:
     """Grasp, lift and track (module docstring); the MPC's options default to :class:`MPCOptions` with
-    ``avoid=False`` (no obstacle: the arm–arm clearance is measured, not enforced, module docstring)."""
+    ``avoid=False`` (no obstacle: the arm–arm clearance is measured, not enforced, module docstring).  ``duration``
+    [s]: stop early (default: the end of the tracking window)."""
     durations = (*LIFT_DURATIONS, SETTLE + case.track, 0.3, 1.2, 0.4, 0.3)
     st = carry_setup(
         CarryCase(case.name, mass=case.mass, friction=case.friction, durations=durations, shift=0.0, turn=0.0)
@@ -284,7 +285,7 @@ def run_carry_track(
     ctrl = CarryTrackController(hold, follower, st.scene)
     sim = Simulation(st.scene, ctrl, q=st.q_start)
     t0 = time.perf_counter()
-    log = sim.run(t_start + case.track, progress=progress)
+    log = sim.run(t_start + case.track if duration is None else duration, progress=progress)
     st = replace(st, plan=plan, controller=hold)
     carry = CarryRun(st, log, hold.trace())
     return CarryTrackRun(case, carry, follower, ctrl, follower.centre_at, time.perf_counter() - t0)
