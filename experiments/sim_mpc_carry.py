@@ -141,7 +141,8 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
     w, n, k = m["worst"], m["runs_count"], m["success_count"]
     fails = "; ".join(f"{name}: {', '.join(why)}" for name, why in m["failures"].items()) or "none"
     evidence = (
-        f"{k} of {n} runs pass (headings 0°, 90°, 45° with 3 kg; figure-eight ±5 cm, period 4 s). Box within "
+        f"{k} of {n} runs pass ({_describe(m['runs'])}; period 4 s, {m['runs'][0]['case']['track_s']:g} s of "
+        f"tracking after the lift). Box within "
         f"{1000 * w['box_rms_m']:.1f} mm RMS (max {1000 * w['box_max_m']:.1f} mm, vertical "
         f"{1000 * w['box_vertical_max_m']:.1f} mm) of the target carried through the grasp, turned ≤ "
         f"{w['turn_max_deg']:.1f}°; pad slip ≤ {w['slip_max_mm']:.1f} mm; {w['dropped']} drops; squeeze "
@@ -163,6 +164,14 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
     }
 
 
+def _describe(runs: list[dict[str, Any]]) -> str:
+    """The runs' paths in words: heading, amplitude and box mass of each."""
+    return ", ".join(
+        f"heading {c['heading_deg']:.0f}° ±{100 * c['amplitude_m']:g} cm with {c['mass_kg']:g} kg"
+        for c in (r["case"] for r in runs)
+    )
+
+
 def _plot(exp: Experiment, runs: list[Any]) -> str:
     plt = exp.pyplot()
     from coop_ga.sim.carry import box_state, slip_series
@@ -179,7 +188,8 @@ def _plot(exp: Experiment, runs: list[Any]) -> str:
         err = np.linalg.norm(pos[rows] - want, axis=1)
         axes[1].plot(t[rows], 1000 * err, color=f"C{i}", label=r.case.name)
         s = slip_series(r.carry, "carry")
-        axes[2].plot(r.carry.trace["time"], 1000 * np.nanmax(s, axis=1), color=f"C{i}", label=r.case.name)
+        since = ~np.isnan(s).all(axis=1)  # NaN before the lift's end
+        axes[2].plot(r.carry.trace["time"][since], 1000 * s[since].max(axis=1), color=f"C{i}", label=r.case.name)
         axes[3].plot([k.time for k in r.follower.ticks], [1000 * k.tick_time for k in r.follower.ticks], ".", ms=2,
                      color=f"C{i}", label=r.case.name)  # fmt: skip
     axes[0].set_aspect("equal")
