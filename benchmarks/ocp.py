@@ -31,6 +31,19 @@ Solvers (same problem data, same initial guess u = 0 with the system at rest at 
   building the Opti problem and creating the nlpsol (expansion, FATROP's structure
   detection) are reported separately, not in the solve time.
 
+Item ratios printed at the end of the run (``ratios`` in the JSON):
+
+* with active state bounds (``velocity``): the iLQR's time to the optimum against IPOPT's and FATROP's solve
+  time — ``iLQR (tol = 0)`` run to stationarity, and the time its iteration history first comes within 1e-6
+  (relative) of the best feasible cost of the table (``time_to_optimum_s``, the sum of its iterations' times);
+* with the clearance constraints of the obstacle scene (``--clearance``, on by default; the scene, target and
+  clearance cost of ``experiments/obstacle_circle.py``: a 4 cm sphere in arm 0's straight path, the circle carried
+  30 cm along +y, 100 knots × 0.03 s, ``ClearanceCost(weight 1e4, activation 5 cm)``): the reach's solve time with
+  the clearance cost over the same reach without it, with iterations and time per iteration;
+* crocoddyl's BoxFDDP: not run — crocoddyl cannot be installed with this project's pinocchio 4.1.0 (crocoddyl
+  3.2.1 works only with pinocchio 4.0.0; its current wheel crashes with pinocchio 4 on frame costs); the run
+  says whether a crocoddyl module is importable at all.
+
 Columns: iterations; solve time [ms] (wall) and CPU [ms]; the cost J of Eq 53 of the
 returned controls (re-integrated); ΔJ relative to the best feasible row; terminal ‖e‖;
 the largest bound violation [rad, rad/s or rad/s²] and the number of active bound entries
@@ -161,7 +174,116 @@ def run_ilqr(
         lim=lim,
         status=best.message,
         success=best.converged,
-        extra={"options": dict(call)},
+        extra={"options": dict(call), "_result": best},
+    )
+
+
+def time_to_optimum(result: Any, j_best: float, rel: float = 1e-6) -> float | None:
+    """Seconds of iterations (their ``time_s``) until the cost history first comes within ``rel`` of ``j_best``."""
+    t = 0.0
+    for it in result.stats:
+        t += it.time_s
+        if it.cost <= j_best + rel * abs(j_best) and it.violation <= FEASIBLE:
+            return t
+    return None
+
+
+def _obstacle_scene() -> Any:
+    """``experiments/obstacle_circle.py`` as a module (its scene's constants: one place)."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "experiments" / "obstacle_circle.py"
+    spec = importlib.util.spec_from_file_location("obstacle_circle", path)
+    assert spec is not None and spec.loader is not None
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def run_clearance(repeat: int) -> dict[str, Any]:
+    """The obstacle scene's reach with and without the clearance cost (module docstring): best of ``repeat`` without,
+    one solve with it."""
+    from coop_ga.collision.distance import Sphere
+    from coop_ga.collision.model import CollisionModel
+    from coop_ga.control.avoidance import ClearanceCost
+
+    sc = _obstacle_scene()
+    s = cg.systems.load("three_franka")
+    task = cg.cooperative_task(s, "circle")
+    cm = CollisionModel(s, obstacles=[Sphere(np.array(sc.OBSTACLE_CENTER), sc.OBSTACLE_RADIUS)], self_collision=True)
+    q0 = np.array(s.q0, float)
+    Vd = displaced_target(task, q0, translation=sc.TRANSLATION)
+    out: dict[str, Any] = {"horizon": sc.ILQR_HORIZON, "dt": sc.ILQR_DT}
+    for key, cost in (("plain", None), ("clearance", ClearanceCost(cm, sc.CLEARANCE_WEIGHT, sc.CLEARANCE_ACTIVATION))):
+        call = dict(horizon=sc.ILQR_HORIZON, dt=sc.ILQR_DT, clearance=cost)
+        if cost is None:
+            ilqr_reach(task, q0, Vd, **call)  # warm-up: compiles the task's functions (the collision model has none)
+        n = repeat if cost is None else 1  # the clearance reach takes seconds to minutes: once
+        best = min((ilqr_reach(task, q0, Vd, **call) for _ in range(n)), key=lambda r: r.solve_time_s)
+        out[key] = {
+            "solve_time_s": best.solve_time_s,
+            "iterations": best.iterations,
+            "per_iteration_s": best.solve_time_s / max(best.iterations, 1),
+            "converged": best.converged,
+            "error": best.error,
+            "min_clearance_knots_m": float(min(cm.min_clearance(q) for q in best.trajectory)),
+        }
+    p, c = out["plain"], out["clearance"]
+    out["time_ratio"] = c["solve_time_s"] / p["solve_time_s"]
+    out["per_iteration_ratio"] = c["per_iteration_s"] / p["per_iteration_s"]
+    return out
+
+
+def _ratios(problems: dict[str, Any], clearance: dict[str, Any] | None) -> dict[str, Any]:
+    """The ratios of the module docstring, and the lines that print them."""
+    out: dict[str, Any] = {"lines": []}
+    for name, pr in problems.items():
+        rows = {r["solver"]: r for r in pr["rows"]}
+        il, il0 = rows.get("iLQR"), rows.get("iLQR (tol = 0)")
+        for ref in ("IPOPT", "FATROP"):
+            if ref not in rows or il0 is None or il is None:
+                continue
+            t_ref = rows[ref]["solve_time_s"]
+            tto = il0.get("time_to_optimum_s")
+            d = {
+                "ilqr_tol0_over_ref": il0["solve_time_s"] / t_ref,
+                "ilqr_time_to_optimum_over_ref": None if tto is None else tto / t_ref,
+                "ilqr_tol_over_ref": il["solve_time_s"] / t_ref,
+            }
+            out[f"{name}_vs_{ref.lower()}"] = d
+            tto_s = (
+                "never within 1e-6 of the best cost" if tto is None else f"{d['ilqr_time_to_optimum_over_ref']:.3g}×"
+            )
+            out["lines"].append(
+                f"[{name}] iLQR vs {ref}: to stationarity (tol = 0) {d['ilqr_tol0_over_ref']:.3g}×, to within 1e-6 of "
+                f"the best cost {tto_s}, to its tol {d['ilqr_tol_over_ref']:.3g}× {ref}'s solve time"
+                + (" (target ≤ 1.0× with active state bounds)" if name == "velocity" else "")
+            )
+    if clearance is not None:
+        p, c = clearance["plain"], clearance["clearance"]
+        out["clearance"] = {k: clearance[k] for k in ("time_ratio", "per_iteration_ratio")}
+        out["lines"].append(
+            f"[clearance] the obstacle scene's reach with the clearance cost takes {clearance['time_ratio']:.1f}× the "
+            f"same reach without it (target ≤ 5×): {1e3 * c['solve_time_s']:.0f} ms, {c['iterations']} iterations "
+            f"(converged {c['converged']}, ‖e‖ {c['error']:.1e}, clearance at the knots "
+            f"{1e3 * c['min_clearance_knots_m']:.1f} mm) vs {1e3 * p['solve_time_s']:.0f} ms, {p['iterations']} "
+            f"iterations ({1e3 * p['min_clearance_knots_m']:.1f} mm); per iteration {clearance['per_iteration_ratio']:.1f}×"
+        )
+    out["lines"].append(crocoddyl_note())
+    return out
+
+
+def crocoddyl_note() -> str:
+    """Why crocoddyl's BoxFDDP is not in the table (module docstring)."""
+    import importlib.util
+
+    import pinocchio
+
+    found = importlib.util.find_spec("crocoddyl") is not None
+    return (
+        f"[crocoddyl] BoxFDDP not run: crocoddyl cannot be installed with this pinocchio {pinocchio.__version__} "
+        "(crocoddyl 3.2.1 works only with pinocchio 4.0.0; its current wheel crashes with pinocchio 4 on frame "
+        f"costs); crocoddyl importable here: {found}"
     )
 
 
@@ -215,6 +337,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--horizon", type=int_at_least(2), default=250, help="knots")
     exp.add("--dt", type=positive_float, default=0.01, help="time step [s]")
     exp.add("--no-ipopt", action="store_true", help="skip IPOPT")
+    exp.add("--no-clearance", action="store_true", help="skip the obstacle scene's reach with/without clearance")
     exp.add("--no-fatrop", action="store_true", help="skip FATROP")
     exp.add(
         "--json",
@@ -286,6 +409,8 @@ def main(argv: list[str] | None = None) -> int:
         ]
         jmin = min(feasible) if feasible else np.nan
         table = []
+        rows[1]["time_to_optimum_s"] = time_to_optimum(rows[1].pop("_result"), jmin) if np.isfinite(jmin) else None
+        rows[0].pop("_result")
         for r in rows:
             r["rel_cost"] = (r["cost"] - jmin) / abs(jmin) if np.isfinite(jmin) else np.nan
             r["time_ratio"] = r["solve_time_s"] / ref_t if ref_t > 0 else np.nan
@@ -324,6 +449,15 @@ def main(argv: list[str] | None = None) -> int:
         )
         out["problems"][name] = {"description": desc, "rows": rows}
 
+    clearance = None
+    if not args.no_clearance:
+        with exp.stage("[clearance] the obstacle scene's reach with and without the clearance cost"):
+            clearance = run_clearance(args.repeat)
+        out["clearance"] = clearance
+    out["ratios"] = _ratios(out["problems"], clearance)
+    print("\nRatios (wall solve times of this run, load " + f"{os.getloadavg()[0]:.1f}):")
+    for line in out["ratios"]["lines"]:
+        print("  " + line)
     path = exp.write_json("results.json", out)
     print(f"\nwrote {path}" + (f" and {write_json(args.json, out)}" if args.json else ""))
     return 0

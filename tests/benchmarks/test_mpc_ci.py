@@ -47,6 +47,9 @@ def test_results_structure_and_ratios(doc: dict[str, Any]) -> None:
         )  # JSON rounding
         assert x["sustained_rate_hz"] == pytest.approx(1.0 / t["median"], rel=1e-4)
     assert r["note"].startswith("H=20: with the clearance cost") and "without it" in r["note"]
+    o = r["setup_overhead"]  # the inner call set up once vs ilqr_reach on the same ticks (CPU)
+    assert o["receding_reach_cpu_s"] > 0 and o["ilqr_reach_cpu_s"] > 0 and o["ratio"] > 0
+    assert "RecedingReach" in r["note"]
 
 
 def test_cli(capsys: pytest.CaptureFixture[str]) -> None:

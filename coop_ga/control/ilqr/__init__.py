@@ -130,7 +130,9 @@ The package
 Riccati/box-DDP pass, roll-outs), :mod:`~.merit` (the augmented merit and its
 :class:`~.merit.Evaluation`, the terminal models), :mod:`~.feasibility` (the strictly feasible
 references and the final blend), :mod:`~.reachability` (the unreachability certificate),
-:mod:`~.solver` (:func:`ilqr_reach`, the AL and iLQR loops, the restart) and :mod:`~.results`
+:mod:`~.solver` (:func:`ilqr_reach`, the AL and iLQR loops, the restart; :class:`RecedingReach`, the same solve
+set up once and re-run from new starts and targets without the certificate — the inner solver of
+:mod:`coop_ga.control.mpc`) and :mod:`~.results`
 (:class:`ILQRResult`, :class:`ILQRIteration`, the verdict).
 """
 
@@ -138,7 +140,7 @@ from ...cooperative.targets import displaced_target
 from .options import ILQROptions
 from .problem import DEFAULT_Q, DEFAULT_QV, DEFAULT_R, ReachingOCP
 from .results import ILQRIteration, ILQRResult
-from .solver import ilqr_reach
+from .solver import RecedingReach, ilqr_reach
 
 __all__ = [
     "DEFAULT_Q",
@@ -148,6 +150,7 @@ __all__ = [
     "ILQROptions",
     "ILQRResult",
     "ReachingOCP",
+    "RecedingReach",
     "displaced_target",
     "ilqr_reach",
 ]

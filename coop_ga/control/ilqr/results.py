@@ -150,9 +150,10 @@ def finish(
     u_ref: np.ndarray,
     progress: Progress,
     warning_counts: dict[str, int],
+    describe: bool = True,
 ) -> ILQRResult:
     """The result of a solve that ended at ``u``: the feasibility blend with ``u_ref``, the re-evaluated terminal error
-    and cost, the limit checks, the verdict and its message."""
+    and cost, the limit checks, the verdict and its message (``describe=False``: without the active bounds)."""
     task = ocp.task
     solve_time = time.perf_counter() - progress.t_start
     u, beta, message = _feasible(ocp, o, u, u_ref, progress.message or "stopped")
@@ -180,7 +181,7 @@ def finish(
     feasible = o.limit_mode == "none" or (pviol <= 1e-9 and vviol <= 1e-9 and aviol <= 1e-9)
     # every iterate is the result of a step accepted on the true merit (or the initial guess)
     converged = bool(errs[-1] < o.tol and feasible)
-    active = active_constraints(ocp, q, qd, u, tol=1e-3) if o.limit_mode == "enforce" else ()
+    active = active_constraints(ocp, q, qd, u, tol=1e-3) if o.limit_mode == "enforce" and describe else ()
     return ILQRResult(
         converged=converged,
         error=errs[-1],

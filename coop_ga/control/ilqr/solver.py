@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import time
 from dataclasses import dataclass
@@ -21,7 +22,7 @@ from .problem import ReachingOCP
 from .reachability import bounded_stationarity, unreachable
 from .results import ILQRIteration, ILQRResult, Progress, finish
 
-__all__ = ["STALL_DECREASE", "STALL_FLOOR", "STALL_STATIONARITY", "STALL_WINDOW", "ilqr_reach"]
+__all__ = ["STALL_DECREASE", "STALL_FLOOR", "STALL_STATIONARITY", "STALL_WINDOW", "RecedingReach", "ilqr_reach"]
 
 # The stall test (package docstring, "Fast honest failure"): a solve stops once, over the last STALL_WINDOW iterations,
 # ‖e‖ fell by less than the fraction STALL_DECREASE, while it is above STALL_FLOOR × tol, the trajectory is inside the
@@ -151,6 +152,63 @@ def _restart(ocp: ReachingOCP, o: ILQROptions, res: ILQRResult, warning_counts: 
     )
 
 
+class RecedingReach:
+    """:func:`ilqr_reach` re-solved many times for one task and one set of options (a receding horizon,
+    :mod:`coop_ga.control.mpc`): the same solve from each new start state and target, without its per-call set-up.
+
+    The first :meth:`solve` is :func:`ilqr_reach`'s problem with all its checks (shapes, weights, horizon, the
+    target's chart, the start inside the limits) and compiles the task's functions; every later one reuses that
+    checked problem with the new start (q, q̇) and target, and the Gramian data of the condensed steps (they
+    depend only on n, Δt and R).  Left out of every solve (not only the later ones):
+
+    * the unreachability certificate — a receding horizon must move toward a target that is momentarily out of
+      reach rather than stop; the controller reports ‖e‖ of every tick instead
+      (:class:`~coop_ga.control.mpc.MPCTick`), so an unreachable target shows as a large error, never as success;
+    * the restart from the bounded Gauss–Newton IK (the caller warm-starts), and the list of active bounds in the
+      message (``active_constraints`` is empty: the bound *violations* are still measured and reported).
+
+    The iterations, the final feasibility blend (every returned plan is inside the bounds) and the result's
+    numbers are those of :func:`ilqr_reach` with ``restart=False`` on the same input (tested).
+
+    The caller checks the later inputs: ``q_init``, ``qd_init`` finite (nq,) inside the position and velocity
+    limits and ``target`` a checked :class:`~coop_ga.Similarity` of the task's kind (``task.check_target``) —
+    :class:`~coop_ga.control.mpc.CooperativeMPC` does at every tick; a wrong shape or a non-finite state still
+    raises :class:`~coop_ga.errors.InvalidInputError` / :class:`~coop_ga.errors.NonFiniteError`.
+    """
+
+    def __init__(self, task: Any, options: ILQROptions | None = None, **overrides: Any):
+        self.task = task
+        self.o = resolve_options(ILQROptions, options, overrides, "RecedingReach")
+        self._ocp: ReachingOCP | None = None
+        self._cond: Condensation | None = None
+
+    def _problem(self, q_init: Any, target: SimilarityLike, qd_init: Any) -> ReachingOCP:
+        if self._ocp is None:
+            self._ocp = _problem(self.task, q_init, target, qd_init, self.o)
+            self._cond = Condensation.of(self._ocp)
+            return self._ocp
+        ocp = copy.copy(self._ocp)  # shares the checked weights, bounds and dynamics (never modified)
+        n = ocp.nq
+        ocp.q_init = _state(q_init, n, "q_init")
+        ocp.qd_init = np.zeros(n) if qd_init is None else _state(qd_init, n, "qd_init")
+        ocp.target = target
+        return ocp
+
+    def solve(self, q_init: Any, target: SimilarityLike, *, qd_init: Any = None, u_init: Any = None) -> ILQRResult:
+        """One solve from (``q_init``, ``qd_init``) (nq,) [rad, rad/s] toward ``target``, starting from the controls
+        ``u_init`` (n, nq) [rad/s²] (default: rest, or braking to rest); see the class docstring."""
+        ocp = self._problem(q_init, target, qd_init)
+        with collect_warnings() as caught:
+            return _Solve(ocp, self.o, u_init, self._cond).run(caught.counts, describe=False)
+
+
+def _state(x: Any, n: int, what: str) -> np.ndarray:
+    """A finite (n,) float array (the cheap check of :class:`RecedingReach`'s later solves)."""
+    from ... import validation
+
+    return validation.array(x, what, shape=(n,))
+
+
 @dataclass(frozen=True)
 class _Model:
     """The LQ models of one iteration: the terminal model (gradient vx, Hessian Hf_b with the knot-n state terms), the
@@ -190,19 +248,20 @@ class _Solve:
     Levenberg–Marquardt damping) with an Armijo line search capped by the joint-travel trust region.
     """
 
-    def __init__(self, ocp: ReachingOCP, o: ILQROptions, u_init: Any):
+    def __init__(self, ocp: ReachingOCP, o: ILQROptions, u_init: Any, cond: Condensation | None = None):
         self.ocp, self.o = ocp, o
         task = ocp.task
         self.u_ref = reference_controls(ocp)
         u = self.u_ref.copy() if u_init is None else ocp.check_controls(u_init).copy()
         if u_init is not None and ocp.u_bounded:
             u = np.clip(u, -ocp.a_max, ocp.a_max)
-        task.error_and_jacobian(ocp.q_init, ocp.target)  # build/compile once, outside the timed solve
-        if o.hessian == "newton":
-            task.graph.error_hessian_function  # noqa: B018  (built once per task, outside the timed solve)
+        if cond is None:  # a first solve (a RecedingReach passes the Gramian data of its earlier ones)
+            task.error_and_jacobian(ocp.q_init, ocp.target)  # build/compile once, outside the timed solve
+            if o.hessian == "newton":
+                task.graph.error_hessian_function  # noqa: B018  (built once per task, outside the timed solve)
 
         t_start = time.perf_counter()
-        self.cond = Condensation.of(ocp)
+        self.cond = Condensation.of(ocp) if cond is None else cond
         self.eye2 = np.eye(2 * ocp.nq)
         bounded = o.limit_mode == "enforce" and bool(np.any(np.isfinite(ocp.q_lower)) or np.any(np.isfinite(ocp.v_max)))
         # AL terms from the start: zero while feasible, a penalty as soon as a bound is crossed
@@ -228,8 +287,9 @@ class _Solve:
         return float(np.linalg.norm(ev.e)) < self.o.tol and ev.violation <= self.o.al_violation
 
     # ------------------------------------------------------------------ outer loop
-    def run(self, warning_counts: dict[str, int]) -> ILQRResult:
-        """Solve, then :func:`~coop_ga.control.ilqr.results.finish` (feasibility blend, verdict)."""
+    def run(self, warning_counts: dict[str, int], describe: bool = True) -> ILQRResult:
+        """Solve, then :func:`~coop_ga.control.ilqr.results.finish` (feasibility blend, verdict; ``describe=False``:
+        without the list of active bounds)."""
         o, p = self.o, self.progress
         finished = self._done(self.ev)
         if finished:
@@ -245,7 +305,7 @@ class _Solve:
         else:
             if not finished:
                 p.message = f"max_outer ({o.max_outer}) outer iterations reached"
-        return finish(self.ocp, o, self.u, self.u_ref, p, warning_counts)
+        return finish(self.ocp, o, self.u, self.u_ref, p, warning_counts, describe=describe)
 
     def _outer_update(self, inner_stalled: bool) -> bool:
         """Multipliers, penalty and terminal shift after an inner solve; False (with the reason) if nothing changed."""

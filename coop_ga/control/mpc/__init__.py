@@ -7,6 +7,10 @@ Three loops, slowest first (:class:`CooperativeMPC`; the physics loop of :mod:`c
    time-varying target (a callable or a sampled reference, :class:`TargetSchedule`) taken one horizon ahead,
    so that the plan arrives on the moving target instead of lagging behind it.
 
+   * set up once (:class:`~coop_ga.control.ilqr.RecedingReach`): the problem's checks, the Gramian data and the
+     compiled task functions are reused; the unreachability certificate of :func:`~coop_ga.control.ilqr.ilqr_reach`
+     is not run inside a tick (a momentarily unreachable target is approached, not given up on; the tick
+     reports ‖e‖ instead);
    * warm start: the previous plan's controls shifted by ``period/Δt`` knots (last control repeated);
    * fixed budget: ``max_iter`` iLQR iterations per tick (``first_iter`` on the cold start); the wall time of
      every tick is measured, and a tick over ``time_budget`` warns once (:class:`~coop_ga.errors.RateWarning`,

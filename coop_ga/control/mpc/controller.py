@@ -15,7 +15,7 @@ from ...errors import InfeasibleConstraintsError, RateWarning
 from ..avoidance import ClearanceCost
 from ..base import resolve_options
 from ..configuration import Configuration
-from ..ilqr import ilqr_reach
+from ..ilqr import RecedingReach
 from ..limits import default_limits
 from ..limits.clearance import distances
 from ..solve import active_labels, solve_step
@@ -133,6 +133,11 @@ class CooperativeMPC:
             ClearanceCost(self.world.model, o.clearance_weight, o.clearance_activation) if o.clearance_weight else None
         )
         self.configuration = Configuration(task, task.system.q0)
+        # the inner problem, set up once: the cold (first) tick and the warm ones differ only in their budget
+        common = dict(horizon=o.horizon, dt=o.dt, R=o.R, Q=o.Q, Qv=o.Qv, terminal=o.terminal, hessian=o.hessian,
+                      restart=False, clearance=self.clearance_cost)  # fmt: skip
+        self._cold = RecedingReach(task, max_iter=o.first_iter, **common)
+        self._warm = RecedingReach(task, max_iter=o.max_iter, **common)
         self._pin_model = task.system.model
         self._pin_data = self._pin_model.createData()
         self.plan: MPCTick | None = None
@@ -203,23 +208,8 @@ class CooperativeMPC:
         self.world.at(t)
         self.check_state(qv, qdv)
         V_now, V_end = self.target(t), self.target(t + o.lookahead)
-        res = ilqr_reach(
-            self.task,
-            qv,
-            V_end,
-            qd_init=qdv,
-            u_init=self._warm_start(),
-            horizon=o.horizon,
-            dt=o.dt,
-            R=o.R,
-            Q=o.Q,
-            Qv=o.Qv,
-            terminal=o.terminal,
-            hessian=o.hessian,
-            max_iter=o.max_iter if self.plan is not None else o.first_iter,
-            restart=False,
-            clearance=self.clearance_cost,
-        )
+        solver = self._warm if self.plan is not None else self._cold
+        res = solver.solve(qv, V_end, qd_init=qdv, u_init=self._warm_start())
         u0 = np.array(res.u[0])
         tau = self.torque(qv, qdv, u0)
         err = float(np.linalg.norm(self.task.error(qv, V_now)))
