@@ -125,7 +125,7 @@ def add_closeup(
     ax.plot(*t, marker="o", ls="none", color=viz.PALETTE.initial_primitive, ms=7, label="target point")
     ax.set_xlim(*window[0])
     ax.set_ylim(*window[1])
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")  # the window is fixed (one for both figures): the box adapts
     ax.set_xlabel("in the circle's plane [cm]")
     ax.set_ylabel("[cm]")
     ax.set_title(

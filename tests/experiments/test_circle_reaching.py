@@ -73,7 +73,7 @@ def testread_metrics(run):
     assert len(hist) == m["ilqr_iterations"] + 1 and hist[-1] == pytest.approx(m["terminal_error"])
     assert np.all(np.diff(m["cost_history"]) < 0)
     g = m["gallery"]
-    assert g["agrees"] is True and g["figures"] == ["scene.png", "bivector.png"]
+    assert g["agrees"] is True and g["figures"] == ["scene.png", "bivector.png", "animation.gif"]
     assert "log(r_n/r_0)" in g["evidence"] and "Differential IK" in g["evidence"]
 
 
