@@ -296,16 +296,12 @@ class Builder:
 
 
 # ---------------------------------------------------------------------------- collision
-def collision_cases() -> list[Case]:
+def _collision_obstacles(b: Builder) -> None:
+    """Bad inputs to coop_ga.collision: obstacles."""
     from coop_ga import collision as C
-    from coop_ga.collision import potential as pot
 
-    b = Builder("collision")
-    sph = lambda fx: fx.sphere  # noqa: E731
-    pln = lambda fx: fx.plane  # noqa: E731
     z3 = [0.0, 0.0, 0.0]
     e3 = [0.0, 0.0, 1.0]
-    # obstacles
     b.vary("Sphere", "center", BAD_VEC3, C.Sphere, lambda v: ((v, 0.1), {}))
     b.vary("Sphere", "radius", {**BAD_REAL, "negative": -0.1, "zero": 0.0}, C.Sphere, lambda v: ((z3, v), {}))
     b.add("Sphere", "name", "an int", C.Sphere, z3, 0.1, name=3)
@@ -317,7 +313,16 @@ def collision_cases() -> list[Case]:
     b.add("as_obstacle", "radius", "a string in a dict", C.as_obstacle, {"center": z3, "radius": "r"})
     b.add("as_obstacle", "obstacle", "a dict without fields", C.as_obstacle, {"x": 1})
     b.add("as_obstacle", "name", "a list", C.as_obstacle, {"center": z3, "radius": 0.1}, name=[1])
-    # point measures
+
+
+def _collision_point_measures(b: Builder) -> None:
+    """Bad inputs to coop_ga.collision: point measures."""
+    from coop_ga import collision as C
+
+    sph = lambda fx: fx.sphere  # noqa: E731
+    pln = lambda fx: fx.plane  # noqa: E731
+    z3 = [0.0, 0.0, 0.0]
+    e3 = [0.0, 0.0, 1.0]
     for name, f, other in (
         ("conformal_point", C.conformal_point, ()),
         ("point_sphere_product", C.point_sphere_product, (sph,)),
@@ -330,7 +335,16 @@ def collision_cases() -> list[Case]:
     b.add("point_sphere_distance", "sphere", "a Plane", C.point_sphere_distance, z3, pln)
     b.add("point_plane_distance", "plane", "a dict", C.point_plane_distance, z3, {"normal": e3})
     b.add("point_sphere_product", "sphere", "a string", C.point_sphere_product, z3, "sphere")
-    # segments and capsules
+
+
+def _collision_segments_and_capsules(b: Builder) -> None:
+    """Bad inputs to coop_ga.collision: segments and capsules."""
+    from coop_ga import collision as C
+
+    sph = lambda fx: fx.sphere  # noqa: E731
+    pln = lambda fx: fx.plane  # noqa: E731
+    z3 = [0.0, 0.0, 0.0]
+    e3 = [0.0, 0.0, 1.0]
     b.vary("segment_point_parameter", "a", BAD_VEC3, C.segment_point_parameter, lambda v: ((v, e3, z3), {}))
     b.add("segment_point_parameter", "c", "NaN", C.segment_point_parameter, z3, e3, [0.0, NAN, 0.0])
     b.vary("capsule_sphere_distance", "b", BAD_VEC3, C.capsule_sphere_distance, lambda v: ((z3, v, 0.05, sph), {}))
@@ -370,7 +384,14 @@ def collision_cases() -> list[Case]:
     )
     b.add("seed002_link_sphere_distance", "r2", "NaN", C.seed002_link_sphere_distance, z3, e3, NAN, sph)
     b.add("seed002_link_sphere_distance", "p_j", "equal to p_i", C.seed002_link_sphere_distance, z3, z3, 0.02, sph)
-    # capsules
+
+
+def _collision_capsules(b: Builder) -> None:
+    """Bad inputs to coop_ga.collision: capsules."""
+    from coop_ga import collision as C
+
+    z3 = [0.0, 0.0, 0.0]
+    e3 = [0.0, 0.0, 1.0]
     b.vary("Capsule", "a", BAD_VEC3, C.Capsule, lambda v: (("tip0", v, e3, 0.05), {}))
     b.vary("Capsule", "radius", {**BAD_REAL, "negative": -1.0}, C.Capsule, lambda v: (("tip0", z3, e3, v), {}))
     b.add("Capsule", "chain", "a string", C.Capsule, "tip0", z3, e3, 0.05, chain="arm")
@@ -398,7 +419,14 @@ def collision_cases() -> list[Case]:
     b.add("capsule_chain", "frame", "an int", C.capsule_chain, lambda fx: fx.hexapod, 3)
     b.add("capsule_chain", "frame", "unknown", C.capsule_chain, lambda fx: fx.hexapod, "nope")
     b.add("capsule_chain", "system", "None", C.capsule_chain, None, "base_link")
-    # the model
+
+
+def _collision_model(b: Builder) -> None:
+    """Bad inputs to coop_ga.collision: the CollisionModel."""
+    from coop_ga import collision as C
+
+    z3 = [0.0, 0.0, 0.0]
+    e3 = [0.0, 0.0, 1.0]
     CM = C.CollisionModel
     b.add("CollisionModel", "system", "None", CM, None, capsules=lambda fx: fx.capsules)
     b.add("CollisionModel", "system", "a string", CM, "cartesian3", capsules=lambda fx: fx.capsules)
@@ -440,7 +468,13 @@ def collision_cases() -> list[Case]:
     b.add("CollisionModel.min_clearance", "kind", "'arm'", lazy(lambda fx: fx.cm.min_clearance), [0.0] * 9, "arm")
     b.add("CollisionModel.mask", "kind", "None", lazy(lambda fx: fx.cm.mask), None)
     b.add("CollisionModel.symbolic", "q", "a numpy array", lazy(lambda fx: fx.cm.symbolic), [0.0] * 9)
-    # potential fields
+
+
+def _collision_potential_fields(b: Builder) -> None:
+    """Bad inputs to coop_ga.collision: potential fields."""
+    from coop_ga.collision import potential as pot
+
+    z3 = [0.0, 0.0, 0.0]
     b.vary("obstacle", "radius", {**BAD_REAL, "zero": 0.0}, pot.obstacle, lambda v: (([0, 0, 0], v), {}))
     b.vary("obstacle", "center", BAD_VEC3, pot.obstacle, lambda v: ((v, 0.1), {}))
     b.add("dual_sphere", "S", "a string", pot.dual_sphere, "S")
@@ -508,17 +542,25 @@ def collision_cases() -> list[Case]:
     )
     b.add("random_scene", "n_obstacles", "negative", pot.random_scene, lambda fx: fx.np.random.default_rng(0), -1)
     b.add("random_scene", "margin", "NaN", pot.random_scene, lambda fx: fx.np.random.default_rng(0), 1, margin=NAN)
+
+
+def collision_cases() -> list[Case]:
+    b = Builder("collision")
+    _collision_obstacles(b)
+    _collision_point_measures(b)
+    _collision_segments_and_capsules(b)
+    _collision_capsules(b)
+    _collision_model(b)
+    _collision_potential_fields(b)
     return b.cases
 
 
 # ---------------------------------------------------------------------------- linkages
-def linkage_cases() -> list[Case]:
+def _linkage_four_bar(b: Builder) -> None:
+    """Bad inputs to coop_ga.linkages: four_bar and FourBar."""
     from coop_ga import linkages as L
-    from coop_ga.linkages import planar
 
-    b = Builder("linkages")
     fb = lambda name: lazy(lambda fx: getattr(fx.fourbar, name))  # noqa: E731
-    lk = lambda name: lazy(lambda fx: getattr(fx.linkage, name))  # noqa: E731
     lengths = {**BAD_REAL, "zero": 0.0, "negative": -1.0, "1e300": 1e300}
     b.vary("four_bar", "crank", lengths, L.four_bar, lambda v: ((2.0, v, 2.0, 1.5), {}))
     b.add("four_bar", "branch", "a bool", L.four_bar, 2.0, 0.5, 2.0, 1.5, branch=True)
@@ -541,7 +583,14 @@ def linkage_cases() -> list[Case]:
     b.add("FourBar.simulate", "options", "unknown keyword", fb("simulate"), [0.0, 0.5], speed=2.0)
     b.vary("FourBar.closed_form", "phi", BAD_REAL, fb("closed_form"), lambda v: ((v,), {}))
     b.vary("FourBar.assembled", "phi", {"NaN": NAN, "a string": "0"}, fb("assembled"), lambda v: ((v,), {}))
-    # the generic model
+
+
+def _linkage_generic_model(b: Builder) -> None:
+    """Bad inputs to coop_ga.linkages: the generic model (Linkage)."""
+    from coop_ga import linkages as L
+
+    lk = lambda name: lazy(lambda fx: getattr(fx.linkage, name))  # noqa: E731
+    huge = [0.0, 1e6]
     b.add("Linkage.track", "crank_angles", "[0, 1e6] rad", lk("track"), huge)
     b.add("Linkage.track", "crank_angles", "inf", lk("track"), [0.0, INF])
     b.add("Linkage.track", "motors", "NaN", lk("track"), [0.0, 0.1], [NAN] * 8)
@@ -613,7 +662,13 @@ def linkage_cases() -> list[Case]:
             L.Prismatic(("slider", "S"), ("ground", "G1", "G2")),
         ],
     )
-    # closed forms
+
+
+def _linkage_closed_forms(b: Builder) -> None:
+    """Bad inputs to coop_ga.linkages: closed forms."""
+    from coop_ga import linkages as L
+
+    lengths = {**BAD_REAL, "zero": 0.0, "negative": -1.0, "1e300": 1e300}
     b.vary("grashof", "ground", lengths, L.grashof, lambda v: ((v, 0.5, 2.0, 1.5), {}))
     b.vary("freudenstein_output", "coupler", lengths, L.freudenstein_output, lambda v: ((2.0, 0.5, v, 1.5, 0.0), {}))
     b.add("freudenstein_output", "theta2", "NaN", L.freudenstein_output, 2.0, 0.5, 2.0, 1.5, [0.0, NAN])
@@ -627,25 +682,32 @@ def linkage_cases() -> list[Case]:
     b.vary("slider_crank", "rod", {**BAD_REAL, "shorter than the crank": 0.5}, L.slider_crank, lambda v: ((1.0, v), {}))
     b.vary("watt_six_bar", "phi0", BAD_REAL, L.watt_six_bar, lambda v: ((v,), {}))
     b.vary("ten_bar", "phi0", BAD_REAL, L.ten_bar, lambda v: ((v,), {}))
-    # planar motors (numeric use)
+
+
+def _linkage_planar_motors(b: Builder) -> None:
+    """Bad inputs to coop_ga.linkages: planar motors."""
+    from coop_ga.linkages import planar
+
     b.add("motor_pose", "m", "NaN", planar.motor_pose, [NAN, 0.0, 0.0, 0.0])
     b.add("motor_pose", "m", "zero", planar.motor_pose, [0.0, 0.0, 0.0, 0.0])
     b.add("motor_pose", "m", "a string", planar.motor_pose, "abcd")
     b.add("motor_pose", "m", "(3,)", planar.motor_pose, [1.0, 0.0, 0.0])
+
+
+def linkage_cases() -> list[Case]:
+    b = Builder("linkages")
+    _linkage_four_bar(b)
+    _linkage_generic_model(b)
+    _linkage_closed_forms(b)
+    _linkage_planar_motors(b)
     return b.cases
 
 
 # ---------------------------------------------------------------------------- legged
-def legged_cases() -> list[Case]:
+def _legged_leg_model(b: Builder) -> None:
+    """Bad inputs to coop_ga.legged: LegModel and hexapod_legs."""
     from coop_ga import legged as G
-    from coop_ga.legged import body as Bd
-    from coop_ga.legged import dynamics as Dy
-    from coop_ga.legged import posture as Po
-    from coop_ga.legged import stance as St
 
-    W = importlib.import_module("coop_ga.legged.walk")  # (coop_ga.legged.walk is also the function walk)
-
-    b = Builder("legged")
     lm = lambda name: lazy(lambda fx: getattr(fx.legs, name))  # noqa: E731
     q18 = lambda fx: fx.legs.q_stand  # noqa: E731
     feet = lambda fx: fx.feet  # noqa: E731
@@ -675,7 +737,14 @@ def legged_cases() -> list[Case]:
     b.add("LegModel.from_system", "legs", "a string", G.LegModel.from_system, lambda fx: fx.hexapod, "lf")
     b.add("hexapod_legs", "system", "an int", G.hexapod_legs, 3)
     b.add("hexapod_legs", "system", "the cartesian system", G.hexapod_legs, lambda fx: fx.cart)
-    # body
+
+
+def _legged_body(b: Builder) -> None:
+    """Bad inputs to coop_ga.legged: body."""
+    from coop_ga import legged as G
+    from coop_ga.legged import body as Bd
+
+    q18 = lambda fx: fx.legs.q_stand  # noqa: E731
     b.vary("BodyState", "position", BAD_VEC3, G.BodyState, lambda v: ((v, lambda fx: fx.np.eye(3), q18), {}))
     b.add("BodyState", "rotation", "not a rotation", G.BodyState, [0, 0, 0], [[1, 0, 0], [0, 1, 0], [0, 0, 2]], q18)
     b.add("BodyState", "rotation", "NaN", G.BodyState, [0, 0, 0], [[NAN, 0, 0], [0, 1, 0], [0, 0, 1]], q18)
@@ -715,7 +784,12 @@ def legged_cases() -> list[Case]:
         Bd.stance_indices,
         lambda v: ((v,), {}),
     )
-    # gait
+
+
+def _legged_gait(b: Builder) -> None:
+    """Bad inputs to coop_ga.legged: gait."""
+    from coop_ga import legged as G
+
     b.vary(
         "phase_table", "gait", {"'gallop'": "gallop", "None": None, "an int": 3}, G.phase_table, lambda v: ((v,), {})
     )
@@ -748,7 +822,13 @@ def legged_cases() -> list[Case]:
     )
     b.add("swing_arc", "s", "1.5", G.swing_arc, [0, 0, 0], [0.1, 0, 0], 0.03, 1.5)
     b.add("swing_arc", "s", "NaN", G.swing_arc, [0, 0, 0], [0.1, 0, 0], 0.03, NAN)
-    # stance
+
+
+def _legged_stance(b: Builder) -> None:
+    """Bad inputs to coop_ga.legged: stance."""
+    from coop_ga import legged as G
+    from coop_ga.legged import stance as St
+
     b.vary(
         "stance_primitive",
         "points",
@@ -772,7 +852,12 @@ def legged_cases() -> list[Case]:
     b.add("stance_task", "kind", "'torus'", G.stance_task, "hexapod", ["lf", "lm", "lr"], "torus")
     b.add("stance_task", "codegen", "'yes'", G.stance_task, "hexapod", ["lf", "lm", "lr"], codegen="yes")
     b.add("stance_order", "stance_legs", "a dict", St.stance_order, {"lf": 1})
-    # terrain
+
+
+def _legged_terrain(b: Builder) -> None:
+    """Bad inputs to coop_ga.legged: terrain."""
+    from coop_ga import legged as G
+
     T = G.Terrain
     b.vary("Terrain.flat", "height", BAD_REAL, T.flat, lambda v: ((v,), {}))
     b.vary("Terrain.slope", "angle_rad", {**BAD_REAL, "π/2": math.pi / 2}, T.slope, lambda v: ((v,), {}))
@@ -796,7 +881,12 @@ def legged_cases() -> list[Case]:
     b.add("Terrain.from_arrays", "d", "an empty dict", T.from_arrays, {})
     b.add("Terrain", "planes", "NaN", T, "flat", [], [], [[[0.0, 0.0, 1.0, NAN]]])
     b.add("Terrain", "kind", "'lava'", T, "lava", [], [], [[[0.0, 0.0, 1.0, 0.0]]])
-    # posture
+
+
+def _legged_posture(b: Builder) -> None:
+    """Bad inputs to coop_ga.legged: posture."""
+    from coop_ga import legged as G
+
     b.vary("PostureOptions", "dt", {**BAD_REAL, "zero": 0.0}, G.PostureOptions, lambda v: ((), {"dt": v}))
     b.add("PostureOptions", "limit_gain", "2", G.PostureOptions, limit_gain=2.0)
     b.add("PostureOptions", "max_steps", "a float", G.PostureOptions, max_steps=2.5)
@@ -852,6 +942,14 @@ def legged_cases() -> list[Case]:
         lambda fx: _identity_similarity(),
         options=3,
     )
+
+
+def _legged_posture_tasks(b: Builder) -> None:
+    """Bad inputs to coop_ga.legged: posture tasks."""
+    from coop_ga.legged import posture as Po
+
+    q18 = lambda fx: fx.legs.q_stand  # noqa: E731
+    legs3 = ["lf", "lr", "rm"]
     b.add("feet_field", "points_B", "NaN", Po.feet_field, [0.0] * 7, [[NAN, 0, 0]])
     b.add("feet_field", "points_B", "a string", Po.feet_field, [0.0] * 7, "p")
     b.add("feet_field", "command_B", "inf", Po.feet_field, [INF] + [0.0] * 6, [[0, 0, 0]])
@@ -886,7 +984,16 @@ def legged_cases() -> list[Case]:
     b.add("stance_posture_task", "legs", "None", Po.stance_posture_task, None, q18, legs3)
     b.add("stance_posture_task", "q", "NaN", Po.stance_posture_task, lambda fx: fx.legs, [NAN] * 18, legs3)
     b.add("stance_posture_task", "w_min", "NaN", Po.stance_posture_task, lambda fx: fx.legs, q18, legs3, w_min=NAN)
-    # walking
+
+
+def _legged_walking(b: Builder) -> None:
+    """Bad inputs to coop_ga.legged: walking."""
+    from coop_ga import legged as G
+
+    W = importlib.import_module("coop_ga.legged.walk")  # (coop_ga.legged.walk is also the function walk)
+
+    q18 = lambda fx: fx.legs.q_stand  # noqa: E731
+    legs3 = ["lf", "lr", "rm"]
     b.vary("WalkOptions", "dt", {**BAD_REAL, "zero": 0.0, "1e-12": 1e-12}, G.WalkOptions, lambda v: ((), {"dt": v}))
     b.add("WalkOptions", "speed", "NaN", G.WalkOptions, speed=(NAN, 0, 0))
     b.add("WalkOptions", "gait", "'gallop'", G.WalkOptions, gait="gallop")
@@ -910,7 +1017,13 @@ def legged_cases() -> list[Case]:
     b.add("robot_com", "q", "NaN", W.robot_com, [NAN] * 18, lambda fx: fx.legs)
     b.add("robot_com", "legs", "None", W.robot_com, q18, None)
     b.add("robot_mass", "legs", "an int", W.robot_mass, 3)
-    # dynamics
+
+
+def _legged_dynamics(b: Builder) -> None:
+    """Bad inputs to coop_ga.legged: dynamics."""
+    from coop_ga import legged as G
+    from coop_ga.legged import dynamics as Dy
+
     b.vary("RolloutOptions", "dt", {**BAD_REAL, "zero": 0.0}, G.RolloutOptions, lambda v: ((), {"dt": v}))
     b.add("RolloutOptions", "baumgarte", "NaN", G.RolloutOptions, baumgarte=(NAN, 1.0))
     b.add("RolloutOptions", "baumgarte", "a float", G.RolloutOptions, baumgarte=1.0)
@@ -948,6 +1061,19 @@ def legged_cases() -> list[Case]:
         np_.full((2, 18), NAN),
         np_.tile([0, 0, 0, 0, 0, 0, 1.0], (2, 1)),
     )
+
+
+def legged_cases() -> list[Case]:
+    b = Builder("legged")
+    _legged_leg_model(b)
+    _legged_body(b)
+    _legged_gait(b)
+    _legged_stance(b)
+    _legged_terrain(b)
+    _legged_posture(b)
+    _legged_posture_tasks(b)
+    _legged_walking(b)
+    _legged_dynamics(b)
     return b.cases
 
 
@@ -964,16 +1090,14 @@ def _point_pair() -> Any:
 
 
 # ---------------------------------------------------------------------------- systems
-def systems_cases() -> list[Case]:
+def _systems_from_urdf(b: Builder) -> None:
+    """Bad inputs to coop_ga.systems: from_urdf and from_model."""
     import coop_ga.systems as S
-    from coop_ga.systems import meshes
 
-    b = Builder("systems")
     model = lambda fx: fx.cart.model  # noqa: E731
     tips = ["tip0", "tip1", "tip2"]
     ur = lambda fx: fx.urdf  # noqa: E731
     feet = ["lf_foot", "lm_foot", "lr_foot"]
-    # from_urdf / from_model
     b.vary(
         "from_urdf",
         "q0",
@@ -1012,7 +1136,13 @@ def systems_cases() -> list[Case]:
     b.add("from_model", "locked_joints", "an int", S.from_model, model, tips, locked_joints=3)
     b.add("from_model", "visual_model", "a string", S.from_model, model, tips, visual_model="meshes")
     b.add("from_model", "visuals", "strings", S.from_model, model, tips, visuals=["a.urdf"])
-    # append_robots / prefixed
+
+
+def _systems_append_robots(b: Builder) -> None:
+    """Bad inputs to coop_ga.systems: append_robots and prefixed."""
+    import coop_ga.systems as S
+
+    model = lambda fx: fx.cart.model  # noqa: E731
     pin = lambda fx: __import__("pinocchio")  # noqa: E731
     twice = lambda fx: [(fx.cart.model, pin(fx).SE3.Identity()), (fx.cart.model, pin(fx).SE3.Identity())]  # noqa: E731
 
@@ -1031,7 +1161,14 @@ def systems_cases() -> list[Case]:
     b.add("append_robots", "model", "a string", S.append_robots, lambda fx: [("robot", pin(fx).SE3.Identity())])
     b.add("prefixed", "prefix", "an int", S.prefixed, model, 3)
     b.add("prefixed", "model", "None", S.prefixed, None, "a_")
-    # System
+
+
+def _systems_system(b: Builder) -> None:
+    """Bad inputs to coop_ga.systems: System."""
+    import coop_ga.systems as S
+
+    model = lambda fx: fx.cart.model  # noqa: E731
+    tips = ["tip0", "tip1", "tip2"]
     Sys = S.System
     b.add("System", "model", "None", Sys, "s", None, tips, [0.0] * 9)
     b.vary(
@@ -1074,7 +1211,13 @@ def systems_cases() -> list[Case]:
     b.add("System.with_limits", "velocity", "negative", sy("with_limits"), velocity=-1.0)
     b.add("System.with_limits", "velocity", "unknown joint", sy("with_limits"), velocity={"nope": 1.0})
     b.add("System.with_limits", "name", "an int", sy("with_limits"), name=3)
-    # limits
+
+
+def _systems_limits(b: Builder) -> None:
+    """Bad inputs to coop_ga.systems: limits."""
+    import coop_ga.systems as S
+
+    model = lambda fx: fx.cart.model  # noqa: E731
     lim = lambda name: lazy(lambda fx: getattr(fx.cart.limits, name))  # noqa: E731
     for meth in ("position_violation", "velocity_violation", "acceleration_violation", "effort_violation", "clip"):
         b.add(
@@ -1126,7 +1269,13 @@ def systems_cases() -> list[Case]:
     b.add("JointLimits", "velocity", "zero", S.JointLimits, ("a",), [0.0], [1.0], [0.0], [1.0], [1.0], [False])
     b.add("JointLimits.from_model", "model", "None", S.JointLimits.from_model, None, ["a"])
     b.add("JointLimits.from_model", "joint_names", "2 names for 9 joints", S.JointLimits.from_model, model, ["a", "b"])
-    # registry and synthetic systems
+
+
+def _systems_registry_and_synthetic_systems(b: Builder) -> None:
+    """Bad inputs to coop_ga.systems: registry and synthetic systems."""
+    import coop_ga.systems as S
+    from coop_ga.systems import meshes
+
     b.add("load", "name", "unknown", S.load, "nope")
     b.add("load", "name", "None", S.load, None)
     b.add("register", "name", "an int", S.register, 3)
@@ -1179,15 +1328,22 @@ def systems_cases() -> list[Case]:
         [[NAN] * 3] * 3,
         [0, 0, 0],
     )
+
+
+def systems_cases() -> list[Case]:
+    b = Builder("systems")
+    _systems_from_urdf(b)
+    _systems_append_robots(b)
+    _systems_system(b)
+    _systems_limits(b)
+    _systems_registry_and_synthetic_systems(b)
     return b.cases
 
 
 # ---------------------------------------------------------------------------- sweep
-def sweep_cases() -> list[Case]:
+def _sweep_jobs(b: Builder, job: dict[str, Any]) -> None:
+    """Bad jobs for ``normalize_job`` (``job``: a valid one, varied one field at a time)."""
     import coop_ga.sweep as W
-
-    b = Builder("sweep")
-    job = {"system": "cartesian3", "kind": "circle", "controller": "gauss_newton"}
 
     def with_(**kw: Any) -> dict[str, Any]:
         return {**job, **kw}
@@ -1218,6 +1374,12 @@ def sweep_cases() -> list[Case]:
         ("job", "a set", with_(tags={"t": {1, 2}})),
     ):
         b.add("normalize_job", arg, bad, W.normalize_job, j)
+
+
+def _sweep_specs(b: Builder, job: dict[str, Any]) -> None:
+    """Bad sweep specifications for ``expand``."""
+    import coop_ga.sweep as W
+
     for arg, bad, spec in (
         ("spec", "an int", 5),
         ("spec", "a list", [1, 2]),
@@ -1248,6 +1410,12 @@ def sweep_cases() -> list[Case]:
         ("spec", "a missing file", "/nonexistent/spec.json"),
     ):
         b.add("expand", arg, bad, W.expand, spec)
+
+
+def _sweep_files_and_seeds(b: Builder, job: dict[str, Any]) -> None:
+    """Bad spec files, hashes, seeds and target levels."""
+    import coop_ga.sweep as W
+
     bomb = "a: &a [x, x, x, x, x, x, x, x, x]\n" + "".join(
         f"{c}: &{c} [*{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}, *{p}]\n" for p, c in zip("abcdefgh", "bcdefghi")
     )
@@ -1277,6 +1445,12 @@ def sweep_cases() -> list[Case]:
     b.add("Level", "translation_m", "NaN", W.Level, NAN, 5.0, 0.05)
     b.add("Level", "scale", "≥ 1 (a zero or negative scale)", W.Level, 0.02, 5.0, 1.5)
     b.add("Level", "angle_deg", "a string", W.Level, 0.02, "5", 0.05)
+
+
+def _sweep_runs_and_records(b: Builder, job: dict[str, Any]) -> None:
+    """Bad arguments to the run, its records, summaries and plots."""
+    import coop_ga.sweep as W
+
     b.add("summarize", "records", "an int", W.summarize, 5)
     b.add("summarize", "records", "strings", W.summarize, ["a", "b"])
     b.add(
@@ -1306,6 +1480,15 @@ def sweep_cases() -> list[Case]:
     b.add("plot", "records", "an int", W.plot, 5, lambda fx: str(fx.tmp / "p.png"))
     b.add("run_job", "job", "a string", W.run_job, 0, "job")
     b.add("run_job", "index", "a string", W.run_job, "0", job)
+
+
+def sweep_cases() -> list[Case]:
+    b = Builder("sweep")
+    job = {"system": "cartesian3", "kind": "circle", "controller": "gauss_newton"}
+    _sweep_jobs(b, job)
+    _sweep_specs(b, job)
+    _sweep_files_and_seeds(b, job)
+    _sweep_runs_and_records(b, job)
     return b.cases
 
 

@@ -52,6 +52,79 @@ def kinematics_function(system) -> ca.Function:
     return ca.Function(f"kin_{system.name}", [q], [ca.densify(M), ca.densify(J)], ["q"], ["motors", "jacobians"])
 
 
+def _check_routes(name: str, s, cf, q: np.ndarray, m, d, fids: list[int], pin) -> None:
+    """The compiled function, Pinocchio and the numpy tree give the same motors and Jacobians at ``q``."""
+    Mc, Jc = (np.array(a) for a in cf.call_views(q))
+    pin.computeJointJacobians(m, d, q)
+    pin.updateFramePlacements(m, d)
+    J_ref = np.vstack([LOCAL_TO_TANGENT @ pin.getFrameJacobian(m, d, fid, pin.LOCAL) for fid in fids])
+    assert np.abs(Jc - J_ref).max() < 1e-10, name
+    assert np.abs(np.vstack(s.tree.geometric_jacobians(q)) - Jc).max() < 1e-12, name
+    Mn = np.array([Mi.with_blades(MOTOR_BLADES).coeffs for Mi in s.tree.frame_motors(q)], float).T
+    assert np.abs(Mn - Mc).max() < 1e-12, name
+
+
+def _pinocchio_routes(m, d, q: np.ndarray, fids: list[int], pin) -> tuple[float, float]:
+    """Per-call times [µs] of Pinocchio's two routes to the end-frame Jacobians: (a) and (b) of the table."""
+
+    def pin_a() -> None:
+        pin.computeJointJacobians(m, d, q)
+        pin.updateFramePlacements(m, d)
+        for fid in fids:
+            pin.getFrameJacobian(m, d, fid, pin.LOCAL)
+
+    def pin_b() -> None:
+        pin.forwardKinematics(m, d, q)
+        pin.updateFramePlacements(m, d)
+        for fid in fids:
+            pin.computeFrameJacobian(m, d, q, fid, pin.LOCAL)
+
+    return per_call_us(pin_a), per_call_us(pin_b)
+
+
+def _bench_system(name: str, pin) -> tuple[list[str], dict]:
+    """One system's table row and JSON record: build, check every route, time them."""
+    s = cg.systems.load(name)
+    m, d = s.model, s.model.createData()
+    fids = [m.getFrameId(f) for f in s.end_frames]
+    q = s.q0.copy()
+    t0 = time.perf_counter()
+    f = kinematics_function(s)
+    cf = CompiledFunction(f, codegen=True)
+    t_build = time.perf_counter() - t0
+    _check_routes(name, s, cf, q, m, d, fids, pin)
+    t_comp = per_call_us(lambda: cf.call_views(q))
+    t_c = per_call_us(cf.eval)
+    t_np = per_call_us(lambda: (s.tree.frame_motors(q), s.tree.geometric_jacobians(q)), min_time=0.1, repeat=3)
+    t_a, t_b = _pinocchio_routes(m, d, q, fids, pin)
+    row = [
+        name,
+        str(s.nq),
+        str(len(fids)),
+        str(f.n_instructions()),
+        f"{t_comp:.2f}",
+        f"{t_c:.2f}",
+        f"{t_np:.0f}",
+        f"{t_a:.2f}",
+        f"{t_b:.2f}",
+        f"{t_comp / min(t_a, t_b):.2f}",
+    ]
+    record = {
+        "system": name,
+        "nq": s.nq,
+        "frames": len(fids),
+        "sx_instructions": f.n_instructions(),
+        "compiled_us": t_comp,
+        "c_only_us": t_c,
+        "numpy_us": t_np,
+        "pin_a_us": t_a,
+        "pin_b_us": t_b,
+        "ratio": t_comp / min(t_a, t_b),
+        "build_or_load_s": t_build,
+    }
+    return row, record
+
+
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/kinematics"))
     exp.add("--only", nargs="*", metavar="NAME", choices=cg.systems.names(), help="benchmark only these systems")
@@ -60,72 +133,9 @@ def main(argv: list[str] | None = None) -> int:
 
     rows, records = [], []
     for name in exp.progress(args.only or cg.systems.names(), "timing"):
-        s = cg.systems.load(name)
-        m, d = s.model, s.model.createData()
-        fids = [m.getFrameId(f) for f in s.end_frames]
-        q = s.q0.copy()
-        t0 = time.perf_counter()
-        f = kinematics_function(s)
-        cf = CompiledFunction(f, codegen=True)
-        t_build = time.perf_counter() - t0
-
-        # ---- same numbers by every route
-        Mc, Jc = (np.array(a) for a in cf.call_views(q))
-        pin.computeJointJacobians(m, d, q)
-        pin.updateFramePlacements(m, d)
-        J_ref = np.vstack([LOCAL_TO_TANGENT @ pin.getFrameJacobian(m, d, fid, pin.LOCAL) for fid in fids])
-        assert np.abs(Jc - J_ref).max() < 1e-10, name
-        assert np.abs(np.vstack(s.tree.geometric_jacobians(q)) - Jc).max() < 1e-12, name
-        Mn = np.array([Mi.with_blades(MOTOR_BLADES).coeffs for Mi in s.tree.frame_motors(q)], float).T
-        assert np.abs(Mn - Mc).max() < 1e-12, name
-
-        # ---- timings
-        t_comp = per_call_us(lambda: cf.call_views(q))
-        t_c = per_call_us(cf.eval)
-        t_np = per_call_us(lambda: (s.tree.frame_motors(q), s.tree.geometric_jacobians(q)), min_time=0.1, repeat=3)
-
-        def pin_a() -> None:
-            pin.computeJointJacobians(m, d, q)
-            pin.updateFramePlacements(m, d)
-            for fid in fids:
-                pin.getFrameJacobian(m, d, fid, pin.LOCAL)
-
-        def pin_b() -> None:
-            pin.forwardKinematics(m, d, q)
-            pin.updateFramePlacements(m, d)
-            for fid in fids:
-                pin.computeFrameJacobian(m, d, q, fid, pin.LOCAL)
-
-        t_a, t_b = per_call_us(pin_a), per_call_us(pin_b)
-        rows.append(
-            [
-                name,
-                str(s.nq),
-                str(len(fids)),
-                str(f.n_instructions()),
-                f"{t_comp:.2f}",
-                f"{t_c:.2f}",
-                f"{t_np:.0f}",
-                f"{t_a:.2f}",
-                f"{t_b:.2f}",
-                f"{t_comp / min(t_a, t_b):.2f}",
-            ]
-        )
-        records.append(
-            {
-                "system": name,
-                "nq": s.nq,
-                "frames": len(fids),
-                "sx_instructions": f.n_instructions(),
-                "compiled_us": t_comp,
-                "c_only_us": t_c,
-                "numpy_us": t_np,
-                "pin_a_us": t_a,
-                "pin_b_us": t_b,
-                "ratio": t_comp / min(t_a, t_b),
-                "build_or_load_s": t_build,
-            }
-        )
+        row, record = _bench_system(name, pin)
+        rows.append(row)
+        records.append(record)
     print_table(
         "motor FK + end-frame geometric Jacobians per call [µs] (q0 of each system; same run)",
         ["system", "nq", "frames", "SX instr", "compiled", "C only", "numpy", "pin (a)", "pin (b)", "compiled/pin"],

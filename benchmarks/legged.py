@@ -55,6 +55,61 @@ def _few_calls_us(fn: Any, calls: int = 3) -> float:
     return best * 1e6
 
 
+def _check_batch(legs, m, d, fids: list[int], pin, q: np.ndarray, targets: np.ndarray, check: dict) -> np.ndarray:
+    """Closed-form FK against Pinocchio, IK∘FK, DLS IK against the closed form (and the GA motor product for
+    small batches) on one batch of ``n`` configurations ``q`` (n, 18); the worst errors go into ``check``.
+    Returns the feet ``p`` (n, 6, 3) [m]."""
+    n = len(q)
+    p = legs.fk(q)
+    ref = np.zeros_like(p)
+    for k in range(n):
+        pin.forwardKinematics(m, d, q[k])
+        pin.updateFramePlacements(m, d)
+        ref[k] = [d.oMf[f].translation for f in fids]
+    err_fk = float(np.abs(p - ref).max())
+    err_ik = float(np.abs(legs.ik(p, branch=legs.branch_of(q)) - q).max())
+    res = legs.dls_ik(targets, legs.q_stand)
+    assert res.all_converged, res.message
+    err_dls = float(np.abs(res.q - legs.ik(targets)).max())
+    assert err_fk < 1e-14 and err_ik < 1e-8 and err_dls < 1e-7, (err_fk, err_ik, err_dls)
+    check["fk_vs_pinocchio_m"] = max(check["fk_vs_pinocchio_m"], err_fk)
+    check["ik_fk_rad"] = max(check["ik_fk_rad"], err_ik)
+    check["dls_vs_closed_rad"] = max(check["dls_vs_closed_rad"], err_dls)
+    check["dls_max_iterations"] = max(check["dls_max_iterations"], int(res.iterations.max()))
+    if n <= 100:
+        err_motor = float(np.abs(legs.fk_via_motors(q[0]) - p[0]).max())
+        assert err_motor < 1e-14, err_motor
+    return p
+
+
+def _time_batch(legs, m, d, pin, q: np.ndarray, targets: np.ndarray, ci: bool) -> tuple[list, dict[str, float]]:
+    """``(routes, times)``: every route of one batch and its time per batch [µs] (a few calls only with ``ci``)."""
+    n = len(q)
+
+    def pin_fk(q: np.ndarray = q) -> None:
+        for qk in q:
+            pin.forwardKinematics(m, d, qk)
+            pin.updateFramePlacements(m, d)
+
+    routes: list[tuple[str, Any]] = [
+        (ANCHOR, pin_fk),
+        ("closed-form FK", lambda q=q: legs.fk(q)),
+        ("FK + Jacobians", lambda q=q: legs.jacobians(q)),
+        ("closed-form IK", lambda t=targets: legs.ik(t)),
+        ("DLS IK", lambda t=targets: legs.dls_ik(t, legs.q_stand)),
+    ]
+    if n <= 100:
+        routes.append(("GA motor product", lambda q=q: [legs.fk_via_motors(qk) for qk in q]))
+    times = {}
+    for name, fn in routes:
+        if ci:  # a few calls only (the CI test reads the JSON, never the times)
+            times[name] = _few_calls_us(fn)
+        else:
+            slow = name == "GA motor product"
+            times[name] = per_call_us(fn, min_time=0.05 if slow else 0.2, repeat=3 if slow else 5)
+    return routes, times
+
+
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/legged"))
     exp.add("--batches", nargs="+", type=int_at_least(1), default=[1, 100, 10000], metavar="N", help="batch sizes")
@@ -78,51 +133,9 @@ def main(argv: list[str] | None = None) -> int:
     check = {"fk_vs_pinocchio_m": 0.0, "ik_fk_rad": 0.0, "dls_vs_closed_rad": 0.0, "dls_max_iterations": 0}
     for n in exp.progress(batches, "batches"):
         q = legs.from_legs(rng.uniform(legs.q_lower, legs.q_upper, (n, 6, 3)))
-        p = legs.fk(q)
         targets = legs.fk(legs.q_stand) + rng.uniform(-0.02, 0.02, (n, 6, 3))
-
-        # ---- the same numbers by every route
-        ref = np.zeros_like(p)
-        for k in range(n):
-            pin.forwardKinematics(m, d, q[k])
-            pin.updateFramePlacements(m, d)
-            ref[k] = [d.oMf[f].translation for f in fids]
-        err_fk = float(np.abs(p - ref).max())
-        err_ik = float(np.abs(legs.ik(p, branch=legs.branch_of(q)) - q).max())
-        res = legs.dls_ik(targets, legs.q_stand)
-        assert res.all_converged, res.message
-        err_dls = float(np.abs(res.q - legs.ik(targets)).max())
-        assert err_fk < 1e-14 and err_ik < 1e-8 and err_dls < 1e-7, (err_fk, err_ik, err_dls)
-        check["fk_vs_pinocchio_m"] = max(check["fk_vs_pinocchio_m"], err_fk)
-        check["ik_fk_rad"] = max(check["ik_fk_rad"], err_ik)
-        check["dls_vs_closed_rad"] = max(check["dls_vs_closed_rad"], err_dls)
-        check["dls_max_iterations"] = max(check["dls_max_iterations"], int(res.iterations.max()))
-        if n <= 100:
-            err_motor = float(np.abs(legs.fk_via_motors(q[0]) - p[0]).max())
-            assert err_motor < 1e-14, err_motor
-
-        # ---- timings
-        def pin_fk(q: np.ndarray = q) -> None:
-            for qk in q:
-                pin.forwardKinematics(m, d, qk)
-                pin.updateFramePlacements(m, d)
-
-        routes: list[tuple[str, Any]] = [
-            (ANCHOR, pin_fk),
-            ("closed-form FK", lambda q=q: legs.fk(q)),
-            ("FK + Jacobians", lambda q=q: legs.jacobians(q)),
-            ("closed-form IK", lambda t=targets: legs.ik(t)),
-            ("DLS IK", lambda t=targets: legs.dls_ik(t, legs.q_stand)),
-        ]
-        if n <= 100:
-            routes.append(("GA motor product", lambda q=q: [legs.fk_via_motors(qk) for qk in q]))
-        times = {}
-        for name, fn in routes:
-            if args.ci:  # a few calls only (the CI test reads the JSON, never the times)
-                times[name] = _few_calls_us(fn)
-            else:
-                slow = name == "GA motor product"
-                times[name] = per_call_us(fn, min_time=0.05 if slow else 0.2, repeat=3 if slow else 5)
+        _check_batch(legs, m, d, fids, pin, q, targets, check)
+        routes, times = _time_batch(legs, m, d, pin, q, targets, args.ci)
         anchor = times[ANCHOR]
         for name, _ in routes:
             t = times[name]

@@ -261,90 +261,84 @@ def drift(n: int, rng: np.random.Generator) -> dict[str, float]:
     }
 
 
-def main(argv: list[str] | None = None) -> int:
-    exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/motor_fk"))
-    exp.add("--fast", action="store_true", help="short timings and a short drift run (seconds)")
-    args = exp.parse(argv)
-    import pinocchio as pin
+def _check_arm(name: str, tree, mc, cm, cx, q: np.ndarray, ref: np.ndarray) -> None:
+    """Every route (numpy motors, numpy and SX matrices, compiled motor and matrix) gives Pinocchio's pose ``ref``."""
+    Mq = tree.frame_motors(q)[0].with_blades(MOTOR_BLADES)
+    assert np.abs(motor_to_h(Mq) - ref).max() < 1e-12, name
+    assert np.abs(mc.fk_numpy(q) - ref).max() < 1e-12, name
+    assert np.abs(np.array(mc.fk(q), dtype=float) - ref).max() < 1e-12, name
+    Mc = np.array(cm.call_views(q)[0]).ravel()
+    assert np.abs(motor_to_h(Multivector(MOTOR_BLADES, tuple(float(x) for x in Mc))) - ref).max() < 1e-12, name
+    assert np.abs(np.array(cx.call_views(q)[0]).reshape(3, 4) - ref[:3]).max() < 1e-12, name
 
-    min_time = 0.02 if args.fast else 0.2
-    repeat = 2 if args.fast else 5
-    rows, frows, records = [], [], []
-    prod_flops = count_ops(_product_function())[0]
-    apply_counts: dict[str, int] = {}
-    for name, model, frame in exp.progress(load_arms(), "timing"):
-        tree = KinematicTree(model, [frame])
-        mc = MatrixChain(model, tree)
-        mc.prepare_numpy()
-        d = model.createData()
-        fid = model.getFrameId(frame)
-        q = exp.rng.uniform(model.lowerPositionLimit, model.upperPositionLimit)
+
+def _bench_arm(name: str, model, frame: str, rng: np.random.Generator, pin, kw: dict, prod_flops: int) -> tuple:
+    """One arm: ``(flops row, time row, record, apply_counts)`` after checking every route against Pinocchio."""
+    tree = KinematicTree(model, [frame])
+    mc = MatrixChain(model, tree)
+    mc.prepare_numpy()
+    d = model.createData()
+    fid = model.getFrameId(frame)
+    q = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit)
+    pin.forwardKinematics(model, d, q)
+    pin.updateFramePlacement(model, d, fid)
+    ref = d.oMf[fid].homogeneous
+    fs = sx_functions(tree, mc)
+    cm = CompiledFunction(fs["motor"], codegen=True)
+    cx = CompiledFunction(fs["matrix"], codegen=True)
+    batch = 1000
+    bm = CompiledFunction(fs["motor"].map(batch), codegen=True)
+    bx = CompiledFunction(fs["matrix"].map(batch), codegen=True)
+    Q = rng.uniform(model.lowerPositionLimit, model.upperPositionLimit, size=(batch, tree.nq)).T.copy()
+    bm.call_views(Q)
+    bx.call_views(Q)
+    _check_arm(name, tree, mc, cm, cx, q, ref)
+    # ---- flops
+    f_m, t_m = count_ops(fs["motor"])
+    f_x, t_x = count_ops(fs["matrix"])
+    apply_counts = {"motor": count_ops(fs["apply_motor"])[0], "matrix": count_ops(fs["apply_matrix"])[0]}
+    n = len(tree.chains[0])
+
+    # ---- timings
+    def pin_fk() -> None:
         pin.forwardKinematics(model, d, q)
         pin.updateFramePlacement(model, d, fid)
-        ref = d.oMf[fid].homogeneous
-        fs = sx_functions(tree, mc)
-        cm = CompiledFunction(fs["motor"], codegen=True)
-        cx = CompiledFunction(fs["matrix"], codegen=True)
-        batch = 1000
-        bm = CompiledFunction(fs["motor"].map(batch), codegen=True)
-        bx = CompiledFunction(fs["matrix"].map(batch), codegen=True)
-        Q = exp.rng.uniform(model.lowerPositionLimit, model.upperPositionLimit, size=(batch, tree.nq)).T.copy()
-        bm.call_views(Q)
-        bx.call_views(Q)
-        # ---- same numbers by every route
-        Mq = tree.frame_motors(q)[0].with_blades(MOTOR_BLADES)
-        assert np.abs(motor_to_h(Mq) - ref).max() < 1e-12, name
-        assert np.abs(mc.fk_numpy(q) - ref).max() < 1e-12, name
-        assert np.abs(np.array(mc.fk(q), dtype=float) - ref).max() < 1e-12, name
-        Mc = np.array(cm.call_views(q)[0]).ravel()
-        assert np.abs(motor_to_h(Multivector(MOTOR_BLADES, tuple(float(x) for x in Mc))) - ref).max() < 1e-12, name
-        assert np.abs(np.array(cx.call_views(q)[0]).reshape(3, 4) - ref[:3]).max() < 1e-12, name
-        # ---- flops
-        f_m, t_m = count_ops(fs["motor"])
-        f_x, t_x = count_ops(fs["matrix"])
-        apply_counts = {"motor": count_ops(fs["apply_motor"])[0], "matrix": count_ops(fs["apply_matrix"])[0]}
-        n = len(tree.chains[0])
-        # ---- timings
-        kw = {"min_time": min_time, "repeat": repeat}
 
-        def pin_fk() -> None:
-            pin.forwardKinematics(model, d, q)
-            pin.updateFramePlacement(model, d, fid)
+    t_pin = per_call_us(pin_fk, **kw)
+    t = {
+        "motor_numpy": per_call_us(lambda: tree.frame_motors(q), **kw),
+        "matrix_numpy": per_call_us(lambda: mc.fk_numpy(q), **kw),
+        "motor_C": per_call_us(cm.eval, **kw),
+        "matrix_C": per_call_us(cx.eval, **kw),
+        "motor_C_batched": per_call_us(bm.eval, **kw) / batch,
+        "matrix_C_batched": per_call_us(bx.eval, **kw) / batch,
+    }
+    frow = [name, str(n), str(f_x), str(f_m), f"{f_m / f_x:.2f}", f"{t_x}/{t_m}", str(63 * n), str(prod_flops * n)]
+    row = (
+        [name, f"{t_pin:.2f}"]
+        + [f"{t[k]:.2f} ({t[k] / t_pin:.2f}×)" for k in ("matrix_C", "motor_C", "matrix_numpy", "motor_numpy")]
+        + [f"{1e3 * t[k]:.0f}" for k in ("matrix_C_batched", "motor_C_batched")]
+        + [f"{t['motor_C_batched'] / t['matrix_C_batched']:.2f}"]
+    )
+    record = {
+        "robot": name,
+        "joints": n,
+        "flops_matrix": f_x,
+        "flops_motor": f_m,
+        "trig_matrix": t_x,
+        "trig_motor": t_m,
+        "flops_ratio_motor_over_matrix": f_m / f_x,
+        "dense_flops_matrix_rigid_3x4": 63 * n,
+        "dense_flops_motor": prod_flops * n,
+        "pinocchio_us": t_pin,
+        **{f"{k}_us": v for k, v in t.items()},
+        **{f"{k}_over_pinocchio": v / t_pin for k, v in t.items()},
+    }
+    return frow, row, record, apply_counts
 
-        t_pin = per_call_us(pin_fk, **kw)
-        t = {
-            "motor_numpy": per_call_us(lambda: tree.frame_motors(q), **kw),
-            "matrix_numpy": per_call_us(lambda: mc.fk_numpy(q), **kw),
-            "motor_C": per_call_us(cm.eval, **kw),
-            "matrix_C": per_call_us(cx.eval, **kw),
-            "motor_C_batched": per_call_us(bm.eval, **kw) / batch,
-            "matrix_C_batched": per_call_us(bx.eval, **kw) / batch,
-        }
-        frows.append(
-            [name, str(n), str(f_x), str(f_m), f"{f_m / f_x:.2f}", f"{t_x}/{t_m}", str(63 * n), str(prod_flops * n)]
-        )
-        rows.append(
-            [name, f"{t_pin:.2f}"]
-            + [f"{t[k]:.2f} ({t[k] / t_pin:.2f}×)" for k in ("matrix_C", "motor_C", "matrix_numpy", "motor_numpy")]
-            + [f"{1e3 * t[k]:.0f}" for k in ("matrix_C_batched", "motor_C_batched")]
-            + [f"{t['motor_C_batched'] / t['matrix_C_batched']:.2f}"]
-        )
-        records.append(
-            {
-                "robot": name,
-                "joints": n,
-                "flops_matrix": f_x,
-                "flops_motor": f_m,
-                "trig_matrix": t_x,
-                "trig_motor": t_m,
-                "flops_ratio_motor_over_matrix": f_m / f_x,
-                "dense_flops_matrix_rigid_3x4": 63 * n,
-                "dense_flops_motor": prod_flops * n,
-                "pinocchio_us": t_pin,
-                **{f"{k}_us": v for k, v in t.items()},
-                **{f"{k}_over_pinocchio": v / t_pin for k, v in t.items()},
-            }
-        )
+
+def _print_tables(frows: list, rows: list, prod_flops: int, apply_counts: dict[str, int]) -> None:
+    """The flop table, the time table and the cost of applying a pose to a point."""
     print_table(
         "FK flops of the end-frame pose (traced SX graph); dense: one general product per joint, "
         f"63 (rigid 3×4 matrices) / {prod_flops} (motors)",
@@ -371,7 +365,10 @@ def main(argv: list[str] | None = None) -> int:
         f"\napply the pose to a point: matrix R x + t {apply_counts['matrix']} flops, motor sandwich M P M~ "
         f"{apply_counts['motor']} flops (seed: 12 vs ~220); dense motor product (traced) {prod_flops} flops (seed: 48)"
     )
-    dr = drift(1000 if args.fast else 10000, exp.rng)
+
+
+def _print_verdicts(records: list[dict], apply_counts: dict[str, int], dr: dict[str, float]) -> None:
+    """The drift run and the seed's claims (flops of FK, applying to a point, drift) against what was measured."""
     print(
         f"drift after {dr['n']} compositions (float64, never re-normalised): matrix |RᵀR − I| = "
         f"{dr['matrix_orthogonality']:.1e}, motor |M M~ − 1| = {dr['motor_norm_minus_1']:.1e} "
@@ -402,6 +399,26 @@ def main(argv: list[str] | None = None) -> int:
         if dr["motor_norm_minus_1"] > 0.1 * dr["matrix_orthogonality"]
         else "drift: the motor stays closer to rigid than the matrix in this run"
     )
+
+
+def main(argv: list[str] | None = None) -> int:
+    exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/motor_fk"))
+    exp.add("--fast", action="store_true", help="short timings and a short drift run (seconds)")
+    args = exp.parse(argv)
+    import pinocchio as pin
+
+    kw = {"min_time": 0.02 if args.fast else 0.2, "repeat": 2 if args.fast else 5}
+    rows, frows, records = [], [], []
+    prod_flops = count_ops(_product_function())[0]
+    apply_counts: dict[str, int] = {}
+    for name, model, frame in exp.progress(load_arms(), "timing"):
+        frow, row, record, apply_counts = _bench_arm(name, model, frame, exp.rng, pin, kw, prod_flops)
+        frows.append(frow)
+        rows.append(row)
+        records.append(record)
+    _print_tables(frows, rows, prod_flops, apply_counts)
+    dr = drift(1000 if args.fast else 10000, exp.rng)
+    _print_verdicts(records, apply_counts, dr)
     exp.write_json(
         "results.json",
         {"rows": records, "apply_point_flops": apply_counts, "motor_product_flops": prod_flops, "drift": dr},

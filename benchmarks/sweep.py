@@ -71,25 +71,8 @@ def timed(jobs: list[dict[str, Any]], executor: str, workers: int, **kw: Any) ->
     return time.perf_counter() - t0, recs
 
 
-def main(argv: list[str] | None = None) -> int:
-    exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/sweep"))
-    exp.add("--jobs", type=int_at_least(2), default=1000, help="iLQR solves per executor")
-    exp.add("--overhead-jobs", type=int_at_least(2), default=400, help="cheap jobs of the overhead measurement")
-    exp.add("--workers", type=int_at_least(1), default=2, help="workers of the parallel executors")
-    exp.add(
-        "--executors",
-        nargs="+",
-        choices=sw.EXECUTORS,
-        default=["serial", "process", "dask"],
-        help="executors to time (serial is always run: it is the reference)",
-    )
-    exp.add("--ci", action="store_true", help="small mode (24 solves, 40 overhead jobs)")
-    args = exp.parse(argv)
-    n = 24 if args.ci else args.jobs
-    n_over = 40 if args.ci else args.overhead_jobs
-    executors = ["serial"] + [e for e in args.executors if e != "serial"]
-    if args.ci:
-        executors = ["serial", "process"]  # Dask and Ray are tested in tests/sweep; their start-up is seconds
+def _available(executors: list[str]) -> list[str]:
+    """The executors whose package is installed (the others are skipped with the install line)."""
     available = []
     for e in executors:
         mod = {"dask": "distributed", "ray": "ray"}.get(e)
@@ -97,25 +80,23 @@ def main(argv: list[str] | None = None) -> int:
             available.append(e)
         else:
             print(f"skipping executor {e}: pip install 'coop_ga[{e}]'")
-    W = args.workers
-    jobs = ilqr_jobs(n, args.seed)
-    out: dict[str, Any] = {"jobs": n, "workers": W, "system": SYSTEM, "kind": KIND, "cpu_count": os.cpu_count()}
+    return available
 
-    # ---- serial reference (also builds/warms the task in this process)
+
+def _time_executors(exp: Experiment, jobs: list[dict[str, Any]], available: list[str], W: int, seed: int) -> tuple:
+    """``(rows, ref)``: the serial reference sweep, then start-up and sweep of every other executor."""
+    n = len(jobs)
     with exp.stage("warming up"):
-        sw.run(ilqr_jobs(2, args.seed + 1))
-        sw.run(gn_jobs(2, args.seed + 1))
+        sw.run(ilqr_jobs(2, seed + 1))
+        sw.run(gn_jobs(2, seed + 1))
     with exp.stage(f"{n} iLQR solves, serial"):
         wall_s, ref = timed(jobs, "serial", 1)
-    conv = sum(r["converged"] for r in ref)
-    job_s = sum(r["seconds"] for r in ref)
     rows: dict[str, dict[str, Any]] = {
         "serial": {"wall_s": wall_s, "startup_s": 0.0, "jobs_per_s": n / wall_s, "speedup": 1.0, "workers": 1}
     }
-    # ---- start-up per executor, then the sweep
     for e in available[1:]:
         with exp.stage(f"{e}: start-up"):
-            few = ilqr_jobs(W, args.seed + 2)
+            few = ilqr_jobs(W, seed + 2)
             t_few, recs_few = timed(few, e, W)
             startup = max(0.0, t_few - sum(r["seconds"] for r in recs_few))
         with exp.stage(f"{n} iLQR solves, {e} ({W} workers)"):
@@ -134,25 +115,30 @@ def main(argv: list[str] | None = None) -> int:
             "workers": W,
             "records_equal_serial": same,
         }
-    # ---- per-job overhead of the pool (one worker: no parallelism in the numbers)
-    overhead: dict[str, Any] = {}
-    if "process" in available:
-        with exp.stage(f"overhead: {n_over} Gauss–Newton jobs, serial / 1-worker pool"):
-            gj = gn_jobs(n_over, args.seed + 3)
-            t_ser, g_ref = timed(gj, "serial", 1)
-            t_one, _ = timed(gn_jobs(1, args.seed + 4), "process", 1)
-            t_c1, g1 = timed(gj, "process", 1)
-            t_cd, gd = timed(gj, "process", 1, timeout=60.0)
-        start1 = t_one - t_ser / n_over  # the one job itself costs about a serial job
-        overhead = {
-            "jobs": n_over,
-            "serial_per_job_s": t_ser / n_over,
-            "startup_1_worker_s": start1,
-            "overhead_per_job_s": (t_c1 - start1 - t_ser) / n_over,
-            "overhead_per_job_timeout_s": (t_cd - start1 - t_ser) / n_over,
-            "records_equal_serial": sw.records_equal(g_ref, g1) and sw.records_equal(g_ref, gd),
-        }
-    # ---- tables
+    return rows, ref
+
+
+def _pool_overhead(exp: Experiment, n_over: int, seed: int) -> dict[str, Any]:
+    """Per-job overhead of the process pool over serial (one worker: no parallelism in the numbers)."""
+    with exp.stage(f"overhead: {n_over} Gauss–Newton jobs, serial / 1-worker pool"):
+        gj = gn_jobs(n_over, seed + 3)
+        t_ser, g_ref = timed(gj, "serial", 1)
+        t_one, _ = timed(gn_jobs(1, seed + 4), "process", 1)
+        t_c1, g1 = timed(gj, "process", 1)
+        t_cd, gd = timed(gj, "process", 1, timeout=60.0)
+    start1 = t_one - t_ser / n_over  # the one job itself costs about a serial job
+    return {
+        "jobs": n_over,
+        "serial_per_job_s": t_ser / n_over,
+        "startup_1_worker_s": start1,
+        "overhead_per_job_s": (t_c1 - start1 - t_ser) / n_over,
+        "overhead_per_job_timeout_s": (t_cd - start1 - t_ser) / n_over,
+        "records_equal_serial": sw.records_equal(g_ref, g1) and sw.records_equal(g_ref, gd),
+    }
+
+
+def _print_executors(rows: dict[str, dict[str, Any]], n: int, conv: int, job_s: float) -> None:
+    """The table of the executors' sweeps."""
     table = []
     for e, r in rows.items():
         table.append(
@@ -189,19 +175,26 @@ def main(argv: list[str] | None = None) -> int:
         " excl. start-up = wall − start-up.\n  Ray's start-up (ray.init, 5–9 s here) varies by seconds between runs:"
         " its excl.-start-up speed-up is noisy (it can exceed the worker count)."
     )
-    if overhead:
-        print_table(
-            f"per-job overhead of the process pool over serial ({n_over} Gauss–Newton jobs, 1 worker; target < 5 ms)",
-            ["measure", "value"],
-            [
-                ["serial time per job", f"{1e3 * overhead['serial_per_job_s']:.3f} ms"],
-                ["pool start-up (1 worker)", f"{overhead['startup_1_worker_s']:.2f} s"],
-                ["overhead per job", f"{1e3 * overhead['overhead_per_job_s']:.3f} ms"],
-                ["overhead per job, timeout=60 s", f"{1e3 * overhead['overhead_per_job_timeout_s']:.3f} ms"],
-                ["records equal serial", "yes" if overhead["records_equal_serial"] else "NO"],
-            ],
-        )
-        print("  a negative overhead is below the noise of this measurement (± ~0.1 ms per job)")
+
+
+def _print_overhead(overhead: dict[str, Any], n_over: int) -> None:
+    """The table of the pool's per-job overhead."""
+    print_table(
+        f"per-job overhead of the process pool over serial ({n_over} Gauss–Newton jobs, 1 worker; target < 5 ms)",
+        ["measure", "value"],
+        [
+            ["serial time per job", f"{1e3 * overhead['serial_per_job_s']:.3f} ms"],
+            ["pool start-up (1 worker)", f"{overhead['startup_1_worker_s']:.2f} s"],
+            ["overhead per job", f"{1e3 * overhead['overhead_per_job_s']:.3f} ms"],
+            ["overhead per job, timeout=60 s", f"{1e3 * overhead['overhead_per_job_timeout_s']:.3f} ms"],
+            ["records equal serial", "yes" if overhead["records_equal_serial"] else "NO"],
+        ],
+    )
+    print("  a negative overhead is below the noise of this measurement (± ~0.1 ms per job)")
+
+
+def _extrapolate(rows: dict[str, dict[str, Any]]) -> tuple[dict[str, Any], float]:
+    """``(base row, solves/s per core)``, and the table of the linear extrapolation to bigger machines."""
     base = rows.get("process") or rows["serial"]
     per_core = base.get("jobs_per_s_steady", base["jobs_per_s"]) / base["workers"]
     eff = base.get("speedup_steady", 1.0) / base["workers"] if "process" in rows else 1.0
@@ -216,6 +209,40 @@ def main(argv: list[str] | None = None) -> int:
         ["machine", "cores", "solves/s", "1 000 solves s", "10 000 solves s", "100 000 solves s"],
         ext,
     )
+    return base, per_core
+
+
+def main(argv: list[str] | None = None) -> int:
+    exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/sweep"))
+    exp.add("--jobs", type=int_at_least(2), default=1000, help="iLQR solves per executor")
+    exp.add("--overhead-jobs", type=int_at_least(2), default=400, help="cheap jobs of the overhead measurement")
+    exp.add("--workers", type=int_at_least(1), default=2, help="workers of the parallel executors")
+    exp.add(
+        "--executors",
+        nargs="+",
+        choices=sw.EXECUTORS,
+        default=["serial", "process", "dask"],
+        help="executors to time (serial is always run: it is the reference)",
+    )
+    exp.add("--ci", action="store_true", help="small mode (24 solves, 40 overhead jobs)")
+    args = exp.parse(argv)
+    n = 24 if args.ci else args.jobs
+    n_over = 40 if args.ci else args.overhead_jobs
+    executors = ["serial"] + [e for e in args.executors if e != "serial"]
+    if args.ci:
+        executors = ["serial", "process"]  # Dask and Ray are tested in tests/sweep; their start-up is seconds
+    available = _available(executors)
+    W = args.workers
+    jobs = ilqr_jobs(n, args.seed)
+    out: dict[str, Any] = {"jobs": n, "workers": W, "system": SYSTEM, "kind": KIND, "cpu_count": os.cpu_count()}
+    rows, ref = _time_executors(exp, jobs, available, W, args.seed)
+    conv = sum(r["converged"] for r in ref)
+    job_s = sum(r["seconds"] for r in ref)
+    overhead = _pool_overhead(exp, n_over, args.seed) if "process" in available else {}
+    _print_executors(rows, n, conv, job_s)
+    if overhead:
+        _print_overhead(overhead, n_over)
+    base, per_core = _extrapolate(rows)
     out.update(
         serial_converged=conv,
         mean_solve_s=job_s / n,

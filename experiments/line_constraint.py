@@ -70,24 +70,12 @@ def _fd_jacobian(fun: Any, q: np.ndarray, h: float = 1e-6) -> np.ndarray:
     return np.array(cols).T
 
 
-def draw_scenario(
-    exp: Any,
-    s: Any,
-    task: Any,
-    q0: np.ndarray,
-    P0: np.ndarray,
-    target: np.ndarray,
-    r: Any,
-    X: np.ndarray,
-    key: str,
-    fig_no: str,
-) -> list[Any]:
-    """``fig<NN>_scene.png``, ``fig<NN>_line_parameters.png`` and ``fig<NN>_animation.gif`` of one scenario:
-    the run ``r`` (its t (T,), trajectory (T, 17), points (T, 2, 3) [m]) and its line parameters X (T, 6)."""
+def _draw_scene(
+    exp: Any, s: Any, task: Any, q0: np.ndarray, P0: np.ndarray, target: np.ndarray, r: Any, key: str, fig_no: str
+) -> Any:
+    """``fig<NN>_scene.png``: the arms and lines at the start and the end, the hands' paths and the target."""
     from coop_ga import viz
-    from coop_ga.control.constrained import LINE_PARAMETER_BLADES
 
-    plt = exp.pyplot()
     right, left = viz.PALETTE.trajectories[:2]
     sc = viz.Scene()
     sc.robot(s, q0, "initial", "initial configuration")
@@ -107,8 +95,15 @@ def draw_scenario(
         if key == "scenario1"
         else "Fig. 15: right hand reaches, line kept horizontal"
     )
-    out = [viz.render_scene(sc, exp.out / f"fig{fig_no}_scene.png", view=VIEW, size=SIZE, title=title)]
+    return viz.render_scene(sc, exp.out / f"fig{fig_no}_scene.png", view=VIEW, size=SIZE, title=title)
 
+
+def _draw_line_parameters(exp: Any, P0: np.ndarray, r: Any, X: np.ndarray, key: str, fig_no: str, ttl: str) -> Any:
+    """``fig<NN>_line_parameters.png``: direction d, moment m and the errors over time."""
+    from coop_ga import viz
+    from coop_ga.control.constrained import LINE_PARAMETER_BLADES
+
+    plt = exp.pyplot()
     fig, axs = plt.subplots(3, 1, figsize=(7.5, 7.8), sharex=True, height_ratios=[1.0, 1.0, 0.9])
     cols = viz.BIVECTOR_COLORS
     for j in range(3):
@@ -133,11 +128,33 @@ def draw_scenario(
     viz.plot_error(axs[2], r.t, dz_dev, floor=1e-16, color=cols[2], lw=2.5, label=r"$|d_z(t) - d_z(0)|$")
     axs[2].set_xlabel("t [s]")
     viz.legend_outside(axs[2])
-    ttl = "free line, left hand held" if key == "scenario1" else r"horizontal line ($d_z$ = const)"
     axs[0].set_title(f"Fig. {fig_no}b: line parameters, {ttl}")
     fig.tight_layout()
-    out.append(exp.save(fig, f"fig{fig_no}_line_parameters.png"))
+    png = exp.save(fig, f"fig{fig_no}_line_parameters.png")
     plt.close(fig)
+    return png
+
+
+def draw_scenario(
+    exp: Any,
+    s: Any,
+    task: Any,
+    q0: np.ndarray,
+    P0: np.ndarray,
+    target: np.ndarray,
+    r: Any,
+    X: np.ndarray,
+    key: str,
+    fig_no: str,
+) -> list[Any]:
+    """``fig<NN>_scene.png``, ``fig<NN>_line_parameters.png`` and ``fig<NN>_animation.gif`` of one scenario:
+    the run ``r`` (its t (T,), trajectory (T, 17), points (T, 2, 3) [m]) and its line parameters X (T, 6)."""
+    from coop_ga import viz
+
+    exp.pyplot()
+    out = [_draw_scene(exp, s, task, q0, P0, target, r, key, fig_no)]
+    ttl = "free line, left hand held" if key == "scenario1" else r"horizontal line ($d_z$ = const)"
+    out.append(_draw_line_parameters(exp, P0, r, X, key, fig_no, ttl))
     gif = viz.animate(
         s,
         r.trajectory,
@@ -154,7 +171,8 @@ def draw_scenario(
     return [*out, gif]
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parse(argv: list[str] | None) -> Experiment:
+    """The command line."""
     exp = Experiment(__file__, __doc__, seed=0)
     exp.add(
         "--offset",
@@ -172,34 +190,27 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--tol", type=positive_float, default=1e-4, help="right-hand error [m] at which the target is reached")
     exp.add("--frames", type=int_at_least(2), default=24, help="frames of each animation GIF (--fast: 4)")
     exp.add_fast("CI run (every output file and metric still written)", dt=0.02, steps=150, tol=1e-3, frames=4)
-    args = exp.parse(argv)
-    exp.pyplot()  # the headless backend before anything draws
+    exp.parse(argv)
+    return exp
 
-    import coop_ga as cg
+
+def _run_scenarios(
+    exp: Experiment, task: Any, q0: np.ndarray, P0: np.ndarray, target: np.ndarray, timing: dict
+) -> dict:
+    """The three runs: left hand held (scenario 1), line horizontal (scenario 2, projected and linearised only)."""
     from coop_ga.control.constrained import (
-        LINE_PARAMETER_BLADES,
-        LINE_PARAMETERS,
         constrained_point_reach,
         line_parameter_constraint,
         line_parameters,
         point_constraint,
     )
 
-    dt, steps, tol = args.dt, args.steps, args.tol
-    t_total = time.perf_counter()
-    timing: dict[str, float] = {}
-    with exp.stage("loading g1_arms and the line task") as st:
-        s = cg.systems.load("g1_arms")
-        task = cg.cooperative_task(s, "line")
-        q0 = np.array(s.q0, dtype=float)
-        task.evaluate(q0)
-    timing["load_s"] = st.seconds
-    P0 = task.points(q0)  # (2, 3): right hand, left hand
-    target = P0[0] + np.asarray(args.offset, float)
+    args = exp.args
     x0, _ = line_parameters(task, q0)
-    opts = dict(dt=dt, steps=steps, gain=args.gain, max_speed=args.max_speed, constraint_gain=args.constraint_gain)
-    opts["tol"] = tol
-
+    opts = dict(
+        dt=args.dt, steps=args.steps, gain=args.gain, max_speed=args.max_speed, constraint_gain=args.constraint_gain
+    )
+    opts["tol"] = args.tol
     hold = point_constraint(task, 1, P0[1], name="left hand")
     horizontal = line_parameter_constraint(task, "d_z", x0[2], name="line d_z")
     runs = {}
@@ -211,25 +222,26 @@ def main(argv: list[str] | None = None) -> int:
         with exp.stage(f"{key}: constrained differential IK") as st:
             runs[key] = constrained_point_reach(task, q0, 0, target, constraints=cons, project=project, **opts)
         timing[f"{key}_s"] = st.seconds
+    return runs
 
-    # ------------------------------------------------------------------ read-outs along the trajectories
-    names = s.joint_names
-    waist = [i for i, n in enumerate(names) if n.startswith("waist")]
-    left = [i for i, n in enumerate(names) if n.startswith("left")]
-    right = [i for i, n in enumerate(names) if n.startswith("right")]
+
+def _readouts(task: Any, res: Any) -> dict[str, Any]:
+    """Line parameters X (T, 6) along a run, and the same direction from the CGA line and from the cooperative
+    similarity (Eq 14, 28), and the chart angle [rad]."""
+    import coop_ga as cg
+    from coop_ga.control.constrained import line_parameters
+
     e2 = np.array([0.0, 1.0, 0.0])
+    X = np.array([line_parameters(task, q)[0] for q in res.trajectory])  # (T, 6)
+    d_cga = np.array([np.asarray(cg.direction(task.primitive(q)), float) for q in res.trajectory])
+    d_sim = np.array([task.similarity(q).rotation_matrix @ e2 for q in res.trajectory])
+    chart = np.array([task.chart_angle(q) for q in res.trajectory])
+    return {"X": X, "d_cga": d_cga, "d_sim": d_sim, "chart": chart}
 
-    def readouts(res: Any) -> dict[str, Any]:
-        X = np.array([line_parameters(task, q)[0] for q in res.trajectory])  # (T, 6)
-        # the same direction from the CGA line and from the cooperative similarity (Eq 14, 28)
-        d_cga = np.array([np.asarray(cg.direction(task.primitive(q)), float) for q in res.trajectory])
-        d_sim = np.array([task.similarity(q).rotation_matrix @ e2 for q in res.trajectory])
-        chart = np.array([task.chart_angle(q) for q in res.trajectory])
-        return {"X": X, "d_cga": d_cga, "d_sim": d_sim, "chart": chart}
 
-    with exp.stage("line parameters along the trajectories") as st:
-        ro = {k: readouts(r) for k, r in runs.items()}
-    timing["readouts_s"] = st.seconds
+def _jacobian_checks(task: Any, q0: np.ndarray, runs: dict) -> dict[str, float]:
+    """The d_z row of the line-parameter Jacobian against central finite differences, at q0 and both ends."""
+    from coop_ga.control.constrained import line_parameters
 
     def dz_fun(q: np.ndarray) -> np.ndarray:
         return line_parameters(task, q)[0][2:3]
@@ -238,51 +250,60 @@ def main(argv: list[str] | None = None) -> int:
     for label, q in (("q0", q0), ("scenario1_final", runs["scenario1"].q), ("scenario2_final", runs["scenario2"].q)):
         J = line_parameters(task, q)[1][2:3]
         jac_checks[label] = float(np.max(np.abs(J - _fd_jacobian(dz_fun, q))))
+    return jac_checks
 
-    def block(key: str) -> dict[str, Any]:
-        r = runs[key]
-        X = ro[key]["X"]
-        dz = X[:, 2]
-        left_disp = np.linalg.norm(r.points[:, 1] - P0[1], axis=1)
-        travel = np.abs(r.trajectory[-1] - r.trajectory[0])
-        return {
-            "converged": r.converged,
-            "steps": r.iterations,
-            "duration_s": r.iterations * dt,
-            "message": r.message,
-            "right_hand_initial_error_m": float(r.point_error[0]),
-            "right_hand_final_error_m": r.error,
-            "left_hand_displacement_m": float(left_disp[-1]),
-            "left_hand_max_displacement_m": float(left_disp.max()),
-            "direction_z_initial": float(dz[0]),
-            "direction_z_final": float(dz[-1]),
-            "direction_z_max_deviation": float(np.max(np.abs(dz - dz[0]))),
-            "direction_initial": X[0, :3],
-            "direction_final": X[-1, :3],
-            "moment_initial_m": X[0, 3:],
-            "moment_final_m": X[-1, 3:],
-            "line_tilt_final_deg": float(np.degrees(np.arcsin(np.clip(abs(dz[-1]), 0.0, 1.0)))),
-            "constraint": list(r.constraint_labels),
-            "constraint_max_deviation": float(r.constraint_deviation.max()),
-            "max_limit_violation": r.limit_violation,
-            "max_velocity_violation_rad_s": r.velocity_violation,
-            "active_limit_steps": r.active_steps,
-            "feedback_dropped_steps": r.feedback_dropped,
-            "projection_iterations_max": int(r.projection_iterations.max(initial=0)),
-            "projection_failures": r.projection_failures,
-            "joint_travel_rad": {
-                "waist": float(travel[waist].max()),
-                "left_arm": float(travel[left].max()),
-                "right_arm": float(travel[right].max()),
-            },
-            "readout_mismatch": {
-                "direction_vs_cga_line": float(np.abs(X[:, :3] - ro[key]["d_cga"]).max()),
-                "direction_vs_similarity_rotation": float(np.abs(X[:, :3] - ro[key]["d_sim"]).max()),
-            },
-            "max_chart_angle_deg": float(np.degrees(ro[key]["chart"].max())),
-        }
 
-    m1, m2, m2l = block("scenario1"), block("scenario2"), block("scenario2_linearised")
+def _block(s: Any, r: Any, ro: dict[str, Any], P0: np.ndarray, dt: float) -> dict[str, Any]:
+    """The metrics of one run ``r`` with its read-outs ``ro``."""
+    names = s.joint_names
+    waist = [i for i, n in enumerate(names) if n.startswith("waist")]
+    left = [i for i, n in enumerate(names) if n.startswith("left")]
+    right = [i for i, n in enumerate(names) if n.startswith("right")]
+    X = ro["X"]
+    dz = X[:, 2]
+    left_disp = np.linalg.norm(r.points[:, 1] - P0[1], axis=1)
+    travel = np.abs(r.trajectory[-1] - r.trajectory[0])
+    return {
+        "converged": r.converged,
+        "steps": r.iterations,
+        "duration_s": r.iterations * dt,
+        "message": r.message,
+        "right_hand_initial_error_m": float(r.point_error[0]),
+        "right_hand_final_error_m": r.error,
+        "left_hand_displacement_m": float(left_disp[-1]),
+        "left_hand_max_displacement_m": float(left_disp.max()),
+        "direction_z_initial": float(dz[0]),
+        "direction_z_final": float(dz[-1]),
+        "direction_z_max_deviation": float(np.max(np.abs(dz - dz[0]))),
+        "direction_initial": X[0, :3],
+        "direction_final": X[-1, :3],
+        "moment_initial_m": X[0, 3:],
+        "moment_final_m": X[-1, 3:],
+        "line_tilt_final_deg": float(np.degrees(np.arcsin(np.clip(abs(dz[-1]), 0.0, 1.0)))),
+        "constraint": list(r.constraint_labels),
+        "constraint_max_deviation": float(r.constraint_deviation.max()),
+        "max_limit_violation": r.limit_violation,
+        "max_velocity_violation_rad_s": r.velocity_violation,
+        "active_limit_steps": r.active_steps,
+        "feedback_dropped_steps": r.feedback_dropped,
+        "projection_iterations_max": int(r.projection_iterations.max(initial=0)),
+        "projection_failures": r.projection_failures,
+        "joint_travel_rad": {
+            "waist": float(travel[waist].max()),
+            "left_arm": float(travel[left].max()),
+            "right_arm": float(travel[right].max()),
+        },
+        "readout_mismatch": {
+            "direction_vs_cga_line": float(np.abs(X[:, :3] - ro["d_cga"]).max()),
+            "direction_vs_similarity_rotation": float(np.abs(X[:, :3] - ro["d_sim"]).max()),
+        },
+        "max_chart_angle_deg": float(np.degrees(ro["chart"].max())),
+    }
+
+
+def _scenario_metrics(s: Any, runs: dict, ro: dict, P0: np.ndarray, dt: float) -> tuple[dict, dict, dict]:
+    """``(scenario 1, scenario 2, scenario 2 linearised)`` blocks; scenario 2 carries its linearised summary."""
+    m1, m2, m2l = (_block(s, runs[k], ro[k], P0, dt) for k in ("scenario1", "scenario2", "scenario2_linearised"))
     m1["left_hand_hold_max_deviation_m"] = m1.pop("constraint_max_deviation")
     m2["max_constrained_deviation"] = m2.pop("constraint_max_deviation")
     m2["linearised_only"] = {
@@ -292,7 +313,11 @@ def main(argv: list[str] | None = None) -> int:
         "note": "the same QP without the Gauss-Newton projection: the linearised constraint drifts by O(|dq|^2) "
         "per step, held by the feedback k_c",
     }
-    max_violation = max(m1["max_limit_violation"], m2["max_limit_violation"])
+    return m1, m2, m2l
+
+
+def _gallery(args: Any, m1: dict, m2: dict, m2l: dict, max_violation: float) -> dict[str, Any]:
+    """The gallery block: the paper's claim and the numbers that back or contradict it."""
     ok = bool(
         m1["converged"]
         and m2["converged"]
@@ -310,7 +335,34 @@ def main(argv: list[str] | None = None) -> int:
         "fig14_scene.png",
         "fig14_animation.gif",
     ]
-    metrics: dict[str, Any] = {
+    return {
+        "title": "Figs. 14–15: right-hand reaching with the cooperative line of a G1's hands, free and horizontal",
+        "claim": "The cooperative line of the two wrists can constrain a single-arm task: with the left hand held "
+        "the line changes freely as the right hand reaches its target, and when the line must stay horizontal its "
+        "vertical direction component stays constant while both arms move in coordination.",
+        "evidence": (
+            f"Right hand reaches a point {np.linalg.norm(args.offset) * 100:.1f} cm away to "
+            f"{m1['right_hand_final_error_m']:.1e} m (free line, {m1['steps']} steps) and "
+            f"{m2['right_hand_final_error_m']:.1e} m (horizontal line, {m2['steps']} steps). Free: the left hand "
+            f"stays within {m1['left_hand_max_displacement_m']:.1e} m and d_z goes {m1['direction_z_initial']:.2g} "
+            f"-> {m1['direction_z_final']:.3f} (line tilted {m1['line_tilt_final_deg']:.1f} deg). Horizontal: d_z "
+            f"deviates at most {m2['max_constrained_deviation']:.1e} (linearised QP alone: "
+            f"{m2l['constraint_max_deviation']:.1e}) while the left hand moves "
+            f"{m2['left_hand_displacement_m'] * 100:.1f} cm; joint limits never exceeded (max violation "
+            f"{max_violation:g} rad)."
+        ),
+        "agrees": ok,
+        "figures": figures,
+    }
+
+
+def _metrics(args: Any, s: Any, task: Any, P0: np.ndarray, target: np.ndarray, jac_checks: dict, blocks: tuple) -> dict:
+    """metrics.json: the setup, both scenarios, the Jacobian check and the gallery block."""
+    from coop_ga.control.constrained import LINE_PARAMETER_BLADES, LINE_PARAMETERS
+
+    m1, m2, m2l = blocks
+    max_violation = max(m1["max_limit_violation"], m2["max_limit_violation"])
+    return {
         "system": "g1_arms",
         "kind": "line",
         "nq": s.nq,
@@ -318,9 +370,9 @@ def main(argv: list[str] | None = None) -> int:
         "line_orientation": "from end point 0 (right hand) to end point 1 (left hand)",
         "fast": bool(args.fast),
         "seed": args.seed,
-        "dt_s": dt,
-        "max_steps": steps,
-        "tol_m": tol,
+        "dt_s": args.dt,
+        "max_steps": args.steps,
+        "tol_m": args.tol,
         "gain_per_s": args.gain,
         "max_speed_m_s": args.max_speed,
         "constraint_gain_per_s": args.constraint_gain,
@@ -342,28 +394,49 @@ def main(argv: list[str] | None = None) -> int:
         "scenario2": m2,
         "max_constrained_deviation": m2["max_constrained_deviation"],
         "max_limit_violation": max_violation,
-        "gallery": {
-            "title": "Figs. 14–15: right-hand reaching with the cooperative line of a G1's hands, free and horizontal",
-            "claim": "The cooperative line of the two wrists can constrain a single-arm task: with the left hand held "
-            "the line changes freely as the right hand reaches its target, and when the line must stay horizontal its "
-            "vertical direction component stays constant while both arms move in coordination.",
-            "evidence": (
-                f"Right hand reaches a point {np.linalg.norm(args.offset) * 100:.1f} cm away to "
-                f"{m1['right_hand_final_error_m']:.1e} m (free line, {m1['steps']} steps) and "
-                f"{m2['right_hand_final_error_m']:.1e} m (horizontal line, {m2['steps']} steps). Free: the left hand "
-                f"stays within {m1['left_hand_max_displacement_m']:.1e} m and d_z goes {m1['direction_z_initial']:.2g} "
-                f"-> {m1['direction_z_final']:.3f} (line tilted {m1['line_tilt_final_deg']:.1f} deg). Horizontal: d_z "
-                f"deviates at most {m2['max_constrained_deviation']:.1e} (linearised QP alone: "
-                f"{m2l['constraint_max_deviation']:.1e}) while the left hand moves "
-                f"{m2['left_hand_displacement_m'] * 100:.1f} cm; joint limits never exceeded (max violation "
-                f"{max_violation:g} rad)."
-            ),
-            "agrees": ok,
-            "figures": figures,
-        },
+        "gallery": _gallery(args, m1, m2, m2l, max_violation),
     }
 
-    # ------------------------------------------------------------------ figures
+
+def _print_summary(args: Any, m1: dict, m2: dict, m2l: dict) -> None:
+    """One line per scenario on stdout."""
+    dt, tol = args.dt, args.tol
+    print(f"g1_arms line constraint ({'fast' if args.fast else 'full'}: Δt {dt:g} s, tol {tol:g} m)")
+    for key, m in (("scenario 1 (free line)", m1), ("scenario 2 (horizontal)", m2)):
+        print(
+            f"  {key}: converged {m['converged']} in {m['steps']} steps, right-hand error "
+            f"{m['right_hand_final_error_m']:.2e} m, left hand moved {m['left_hand_displacement_m']:.2e} m, "
+            f"d_z {m['direction_z_initial']:.2e} -> {m['direction_z_final']:.2e} (max dev "
+            f"{m['direction_z_max_deviation']:.2e}), limit violation {m['max_limit_violation']:g}"
+        )
+    print(f"  linearised only: max d_z deviation {m2l['constraint_max_deviation']:.2e}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    exp = _parse(argv)
+    args = exp.args
+    exp.pyplot()  # the headless backend before anything draws
+
+    import coop_ga as cg
+
+    t_total = time.perf_counter()
+    timing: dict[str, float] = {}
+    with exp.stage("loading g1_arms and the line task") as st:
+        s = cg.systems.load("g1_arms")
+        task = cg.cooperative_task(s, "line")
+        q0 = np.array(s.q0, dtype=float)
+        task.evaluate(q0)
+    timing["load_s"] = st.seconds
+    P0 = task.points(q0)  # (2, 3): right hand, left hand
+    target = P0[0] + np.asarray(args.offset, float)
+    runs = _run_scenarios(exp, task, q0, P0, target, timing)
+    with exp.stage("line parameters along the trajectories") as st:
+        ro = {k: _readouts(task, r) for k, r in runs.items()}
+    timing["readouts_s"] = st.seconds
+    jac_checks = _jacobian_checks(task, q0, runs)
+    m1, m2, m2l = _scenario_metrics(s, runs, ro, P0, args.dt)
+    metrics = _metrics(args, s, task, P0, target, jac_checks, (m1, m2, m2l))
+
     with exp.stage("figures") as st:
         pngs = []
         for fig_no, key in (("14", "scenario1"), ("15", "scenario2")):
@@ -384,16 +457,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.write_json("metrics.json", metrics)
     timing["total_s"] = time.perf_counter() - t_total
     exp.write_timing(timing)
-
-    print(f"g1_arms line constraint ({'fast' if args.fast else 'full'}: Δt {dt:g} s, tol {tol:g} m)")
-    for key, m in (("scenario 1 (free line)", m1), ("scenario 2 (horizontal)", m2)):
-        print(
-            f"  {key}: converged {m['converged']} in {m['steps']} steps, right-hand error "
-            f"{m['right_hand_final_error_m']:.2e} m, left hand moved {m['left_hand_displacement_m']:.2e} m, "
-            f"d_z {m['direction_z_initial']:.2e} -> {m['direction_z_final']:.2e} (max dev "
-            f"{m['direction_z_max_deviation']:.2e}), limit violation {m['max_limit_violation']:g}"
-        )
-    print(f"  linearised only: max d_z deviation {m2l['constraint_max_deviation']:.2e}")
+    _print_summary(args, m1, m2, m2l)
     print(f"  wrote {exp.out / 'metrics.json'}, {', '.join(p.name for p in pngs)} ({timing['total_s']:.1f} s)")
     return 0
 

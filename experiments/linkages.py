@@ -149,6 +149,93 @@ def coupler_curves(
     plt.close(fig)
 
 
+def _cycle(name: str, lk: Linkage, angles: np.ndarray, timing: dict[str, float]) -> tuple[LinkageMotion, dict]:
+    """One crank cycle of linkage ``name``: its motion and its metrics (residuals, link lengths, closed forms)."""
+    t0 = time.perf_counter()
+    motion = lk.solve(angles) if hasattr(lk, "solve") else lk.track(angles)
+    timing[f"{name}_seconds_per_step"] = (time.perf_counter() - t0) / len(angles)
+    r: dict[str, Any] = {
+        "links": len(lk.links),
+        "joints": len(lk.joints) + 1,
+        "grubler_dof": lk.grubler_dof,
+        "complete": motion.complete,
+        "steps": len(motion.crank_angles),
+        "max_residual": float(motion.residual.max()),
+        "iterations_per_step_mean": float(motion.iterations.mean()),
+        "iterations_per_step_max": int(motion.iterations.max()),
+        "substeps_max": int(motion.substeps.max()),
+        "max_link_length_error": _length_error(lk, motion),
+        "min_sigma": float(motion.sigma_min.min()),
+    }
+    if name == "four_bar":
+        r["freudenstein_error_branch_plus"] = _freudenstein_error(FOUR_BAR, motion)
+        r["freudenstein_error_branch_minus"] = _freudenstein_error(
+            FOUR_BAR, four_bar(*FOUR_BAR, branch=-1).solve(angles)
+        )
+    if name == "slider_crank":
+        S = motion.point("slider.S")
+        r["slider_x_max_abs"] = float(np.abs(S[:, 0]).max())
+        r["slider_y_range"] = [float(S[:, 1].min()), float(S[:, 1].max())]
+    return motion, r
+
+
+def _non_grashof() -> dict[str, Any]:
+    """The non-Grashof 4-bar: where the crank stops, against the closed-form toggle angle."""
+    ng = four_bar(*NON_GRASHOF)
+    ng_motion = ng.solve(np.linspace(0.0, np.pi / 2, 46))
+    (limit,) = crank_limits(*NON_GRASHOF)
+    return {
+        "lengths": list(NON_GRASHOF),
+        "grashof": ng.kind,
+        "complete": ng_motion.complete,
+        "stop_angle_deg": float(np.rad2deg(ng_motion.stop_angle or np.nan)),
+        "closed_form_toggle_deg": float(np.rad2deg(limit)),
+        "stop_angle_error_rad": float(abs((ng_motion.stop_angle or np.nan) - limit)),
+        "sigma_min_at_stop": float(ng_motion.stop_sigma_min or np.nan),
+        "message": ng_motion.message,
+    }
+
+
+def _metrics(n_angles: int, linkages: dict[str, Linkage], results: dict[str, Any], gifs: list[str]) -> dict:
+    """metrics.json: every linkage's results, the worst residuals, where we disagree with the seed, the gallery."""
+    worst_res = max(results[n]["max_residual"] for n in linkages)
+    worst_len = max(results[n]["max_link_length_error"] for n in linkages)
+    all_complete = all(results[n]["complete"] for n in linkages)
+    fb = results["four_bar"]
+    ngr = results["non_grashof_four_bar"]
+    return {
+        "steps_requested": n_angles,
+        "linkages": results,
+        "all_complete": all_complete,
+        "max_residual": worst_res,
+        "max_link_length_error": worst_len,
+        "seed_disagreements": [
+            "§3.2: x_i ∧ x_j = 0 is a coincidence of two conformal points, not a bar of length L "
+            "(that is x_i·x_j = −½L²); bar lengths are a link property here (the motor preserves them).",
+            "§3.3: the Lie-algebra basis {e12, e1∧e0, e2∧e0} generates transversions; the translations are e1∞, e2∞.",
+            "§3.4: exp(tθ e12) rotates about the origin by −2tθ, not about the crank pivot.",
+            "Fig. 1c/1d: '6 bars, 5 revolute joints' and '10 bars, 7 revolute joints' are not 1-DOF by "
+            "Grübler (7 and 13 joints are needed); we built 6 links/7 joints and 10 links/13 joints.",
+        ],
+        "gallery": {
+            "title": "Planar linkages in CGA (our addition, seed 004)",
+            "claim": "Planar closed-loop linkages can be simulated by Newton steps in the Lie algebra of CGA "
+            "motors, with the constraints as CGA residuals and the Jacobian from automatic differentiation.",
+            "evidence": (
+                f"Over one crank cycle ({n_angles} angles) of a 4-bar, the seed's slider 4-bar, a Watt 6-bar "
+                f"and a 10-bar the largest residual is {worst_res:.1e} m and link lengths hold to {worst_len:.1e} m "
+                f"({'all cycles complete' if all_complete else 'NOT all cycles complete'}); the 4-bar matches "
+                f"Freudenstein's closed form to {max(fb['freudenstein_error_branch_plus'], fb['freudenstein_error_branch_minus']):.1e} rad "
+                f"on both branches, and the non-Grashof 4-bar stops at {ngr['stop_angle_deg']:.4f}° against the "
+                f"closed-form toggle {ngr['closed_form_toggle_deg']:.4f}° (σ_min {ngr['sigma_min_at_stop']:.1e}). "
+                "We disagree with the seed's bar constraint, Lie-algebra basis and joint counts (see metrics)."
+            ),
+            "agrees": bool(all_complete and worst_res < 1e-10),
+            "figures": ["coupler_curves.png", *gifs],
+        },
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     exp = Experiment(__file__, __doc__, seed=0)
     exp.add("--steps", type=int_at_least(8), default=360, help="requested crank angles per cycle")
@@ -168,88 +255,16 @@ def main(argv: list[str] | None = None) -> int:
     timing: dict[str, float] = {}
     motions: dict[str, LinkageMotion] = {}
     for name, lk in exp.progress(list(linkages.items()), "crank cycles"):
-        t0 = time.perf_counter()
-        motion = lk.solve(angles) if hasattr(lk, "solve") else lk.track(angles)
-        timing[f"{name}_seconds_per_step"] = (time.perf_counter() - t0) / len(angles)
-        motions[name] = motion
-        r: dict[str, Any] = {
-            "links": len(lk.links),
-            "joints": len(lk.joints) + 1,
-            "grubler_dof": lk.grubler_dof,
-            "complete": motion.complete,
-            "steps": len(motion.crank_angles),
-            "max_residual": float(motion.residual.max()),
-            "iterations_per_step_mean": float(motion.iterations.mean()),
-            "iterations_per_step_max": int(motion.iterations.max()),
-            "substeps_max": int(motion.substeps.max()),
-            "max_link_length_error": _length_error(lk, motion),
-            "min_sigma": float(motion.sigma_min.min()),
-        }
-        if name == "four_bar":
-            r["freudenstein_error_branch_plus"] = _freudenstein_error(FOUR_BAR, motion)
-            r["freudenstein_error_branch_minus"] = _freudenstein_error(
-                FOUR_BAR, four_bar(*FOUR_BAR, branch=-1).solve(angles)
-            )
-        if name == "slider_crank":
-            S = motion.point("slider.S")
-            r["slider_x_max_abs"] = float(np.abs(S[:, 0]).max())
-            r["slider_y_range"] = [float(S[:, 1].min()), float(S[:, 1].max())]
-        results[name] = r
-    # the non-Grashof 4-bar: where the crank stops, against the closed-form toggle angle
-    ng = four_bar(*NON_GRASHOF)
-    ng_motion = ng.solve(np.linspace(0.0, np.pi / 2, 46))
-    (limit,) = crank_limits(*NON_GRASHOF)
-    results["non_grashof_four_bar"] = {
-        "lengths": list(NON_GRASHOF),
-        "grashof": ng.kind,
-        "complete": ng_motion.complete,
-        "stop_angle_deg": float(np.rad2deg(ng_motion.stop_angle or np.nan)),
-        "closed_form_toggle_deg": float(np.rad2deg(limit)),
-        "stop_angle_error_rad": float(abs((ng_motion.stop_angle or np.nan) - limit)),
-        "sigma_min_at_stop": float(ng_motion.stop_sigma_min or np.nan),
-        "message": ng_motion.message,
-    }
+        motions[name], results[name] = _cycle(name, lk, angles, timing)
+    results["non_grashof_four_bar"] = _non_grashof()
     gifs = [_gif(exp, plt, name, linkages[name], motions[name], frames) for name in linkages]
     coupler_curves(exp, plt, linkages, motions, results)
-    worst_res = max(results[n]["max_residual"] for n in linkages)
-    worst_len = max(results[n]["max_link_length_error"] for n in linkages)
-    all_complete = all(results[n]["complete"] for n in linkages)
-    fb = results["four_bar"]
-    ngr = results["non_grashof_four_bar"]
-    metrics = {
-        "steps_requested": len(angles),
-        "linkages": results,
-        "all_complete": all_complete,
-        "max_residual": worst_res,
-        "max_link_length_error": worst_len,
-        "seed_disagreements": [
-            "§3.2: x_i ∧ x_j = 0 is a coincidence of two conformal points, not a bar of length L "
-            "(that is x_i·x_j = −½L²); bar lengths are a link property here (the motor preserves them).",
-            "§3.3: the Lie-algebra basis {e12, e1∧e0, e2∧e0} generates transversions; the translations are e1∞, e2∞.",
-            "§3.4: exp(tθ e12) rotates about the origin by −2tθ, not about the crank pivot.",
-            "Fig. 1c/1d: '6 bars, 5 revolute joints' and '10 bars, 7 revolute joints' are not 1-DOF by "
-            "Grübler (7 and 13 joints are needed); we built 6 links/7 joints and 10 links/13 joints.",
-        ],
-        "gallery": {
-            "title": "Planar linkages in CGA (our addition, seed 004)",
-            "claim": "Planar closed-loop linkages can be simulated by Newton steps in the Lie algebra of CGA "
-            "motors, with the constraints as CGA residuals and the Jacobian from automatic differentiation.",
-            "evidence": (
-                f"Over one crank cycle ({len(angles)} angles) of a 4-bar, the seed's slider 4-bar, a Watt 6-bar "
-                f"and a 10-bar the largest residual is {worst_res:.1e} m and link lengths hold to {worst_len:.1e} m "
-                f"({'all cycles complete' if all_complete else 'NOT all cycles complete'}); the 4-bar matches "
-                f"Freudenstein's closed form to {max(fb['freudenstein_error_branch_plus'], fb['freudenstein_error_branch_minus']):.1e} rad "
-                f"on both branches, and the non-Grashof 4-bar stops at {ngr['stop_angle_deg']:.4f}° against the "
-                f"closed-form toggle {ngr['closed_form_toggle_deg']:.4f}° (σ_min {ngr['sigma_min_at_stop']:.1e}). "
-                "We disagree with the seed's bar constraint, Lie-algebra basis and joint counts (see metrics)."
-            ),
-            "agrees": bool(all_complete and worst_res < 1e-10),
-            "figures": ["coupler_curves.png", *gifs],
-        },
-    }
+    metrics = _metrics(len(angles), linkages, results, gifs)
     exp.write_json("metrics.json", metrics)
     exp.write_timing(timing)
-    print(f"max residual {worst_res:.2e} m, link lengths {worst_len:.2e} m; wrote {exp.out}")
+    print(
+        f"max residual {metrics['max_residual']:.2e} m, link lengths {metrics['max_link_length_error']:.2e} m; wrote {exp.out}"
+    )
     return 0
 
 

@@ -137,7 +137,8 @@ def add_closeup(
     plt.close(fig)
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parse(argv: list[str] | None) -> Experiment:
+    """The command line."""
     exp = Experiment(__file__, __doc__, seed=0)
     exp.add("--perturb", type=nonneg_float, default=0.0, help="uniform perturbation [rad] of q0 (0: nominal q0)")
     exp.add("--angle", type=finite_float, default=30.0, help="how far along the circle the arm moves [deg]")
@@ -148,27 +149,16 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--primary-gain", type=nonneg_float, default=10.0, help="primary (hold) feedback gain k_p [1/s]")
     exp.add("--frames", type=int_at_least(2), default=30, help="frames of each animation GIF (--fast: 4)")
     exp.add_fast("CI run (every output still written)", duration=FAST_DURATION, frames=4)
-    args = exp.parse(argv)
-    plt = exp.pyplot()
+    exp.parse(argv)
+    return exp
 
-    import coop_ga as cg
-    from coop_ga import viz
-    from coop_ga.control.nullspace import nullspace_point_reach, point_on_circle
 
-    duration = args.duration
-    timing: dict[str, float] = {}
-    t_total = time.perf_counter()
-    with exp.stage("loading three_franka and compiling the circle task") as st:
-        s = cg.systems.load("three_franka")
-        task = cg.cooperative_task(s, "circle")
-        q0 = np.clip(s.q0 + exp.rng.uniform(-args.perturb, args.perturb, s.nq), s.q_lower, s.q_upper)
-        task.evaluate(q0)
-    timing["load_and_compile_s"] = st.seconds
-    target = point_on_circle(task, q0, args.arm, np.deg2rad(args.angle))
-    X = task.primitive(q0)
-    c, r, n = np.asarray(cg.center(X), float), float(cg.radius(X)), np.asarray(cg.normal(X), float)
-    n = n / np.linalg.norm(n)
-    kw = dict(duration=duration, dt=args.dt, secondary_gain=args.secondary_gain, primary_gain=args.primary_gain)
+def _runs(exp: Experiment, task: Any, q0: np.ndarray, target: np.ndarray, timing: dict[str, float]) -> tuple:
+    """``(res, ablation)``: the direct and the nullspace runs, and Eq 60 without the primary feedback."""
+    from coop_ga.control.nullspace import nullspace_point_reach
+
+    args = exp.args
+    kw = dict(duration=args.duration, dt=args.dt, secondary_gain=args.secondary_gain, primary_gain=args.primary_gain)
     res = {}
     for name, project in (("direct", False), ("nullspace", True)):
         with exp.stage(f"{name}: arm {args.arm} to the point {args.angle:g}° along the circle") as st:
@@ -177,47 +167,38 @@ def main(argv: list[str] | None = None) -> int:
     with exp.stage("ablation: Eq 60 without the primary feedback") as st:
         ab = nullspace_point_reach(task, q0, args.arm, target, project=True, **{**kw, "primary_gain": 0.0})
     timing["ablation_s"] = st.seconds
+    return res, ab
 
-    metrics: dict = {
-        "system": "three_franka",
-        "kind": "circle",
-        "nq": s.nq,
-        "seed": args.seed,
-        "fast": bool(args.fast),
-        "perturb_rad": args.perturb,
-        "arm": args.arm,
-        "angle_deg": args.angle,
-        "duration_s": duration,
-        "dt_s": args.dt,
-        "secondary_gain_per_s": args.secondary_gain,
-        "primary_gain_per_s": args.primary_gain,
-        "target_point_m": target,
-        "circle": {"center_m": c, "radius_m": r, "normal": n},
-        "chord_length_m": float(np.linalg.norm(target - task.points(q0)[args.arm])),
+
+def _run_entry(task: Any, q0: np.ndarray, v: Any, arm: int, dcirc: np.ndarray) -> dict[str, Any]:
+    """The metrics of one run ``v`` (``dcirc`` (T,): its TCP's distance from the held circle [m])."""
+    others = [i for i in range(3) if i != arm]
+    moved = max(
+        float(np.max(np.linalg.norm(np.array([task.points(q)[i] for q in v.trajectory]) - task.points(q0)[i], axis=1)))
+        for i in others
+    )
+    return {
+        "initial_point_error_m": float(v.point_error[0]),
+        "final_point_error_m": float(v.point_error[-1]),
+        "max_similarity_distance": float(v.similarity_distance.max()),
+        "final_similarity_distance": float(v.similarity_distance[-1]),
+        "max_distance_from_circle_m": float(dcirc.max()),
+        "final_distance_from_circle_m": float(dcirc[-1]),
+        "other_tcps_max_displacement_m": moved,
+        "limit_violation_rad": v.limit_violation,
+        "velocity_violation_rad_s": v.velocity_violation,
+        "acceleration_violation_rad_s2": v.max_acceleration_violation,
+        "limit_active_steps": v.active_steps,
     }
+
+
+def _run_metrics(task: Any, q0: np.ndarray, res: dict, ab: Any, arm: int, circle: tuple, metrics: dict) -> dict:
+    """Every run's block (and the limits over all of them) into ``metrics``; returns the distances from the circle."""
+    c, n, r = circle
     dcirc = {}
-    others = [i for i in range(3) if i != args.arm]
     for k, v in {**res, "ablation": ab}.items():
         dcirc[k] = distance_from_circle(v.points, c, n, r)
-        moved = max(
-            float(
-                np.max(np.linalg.norm(np.array([task.points(q)[i] for q in v.trajectory]) - task.points(q0)[i], axis=1))
-            )
-            for i in others
-        )
-        entry = {
-            "initial_point_error_m": float(v.point_error[0]),
-            "final_point_error_m": float(v.point_error[-1]),
-            "max_similarity_distance": float(v.similarity_distance.max()),
-            "final_similarity_distance": float(v.similarity_distance[-1]),
-            "max_distance_from_circle_m": float(dcirc[k].max()),
-            "final_distance_from_circle_m": float(dcirc[k][-1]),
-            "other_tcps_max_displacement_m": moved,
-            "limit_violation_rad": v.limit_violation,
-            "velocity_violation_rad_s": v.velocity_violation,
-            "acceleration_violation_rad_s2": v.max_acceleration_violation,
-            "limit_active_steps": v.active_steps,
-        }
+        entry = _run_entry(task, q0, v, arm, dcirc[k])
         if k == "ablation":
             metrics["nullspace_without_primary_feedback"] = {
                 "what": "Eq 60 alone (primary_gain = 0), not plotted",
@@ -236,88 +217,113 @@ def main(argv: list[str] | None = None) -> int:
     metrics["similarity_distance_ratio_direct_over_nullspace"] = (
         metrics["direct"]["max_similarity_distance"] / metrics["nullspace"]["max_similarity_distance"]
     )
+    return dcirc
 
-    # ------------------------------------------------------------------ figures
-    with exp.stage("rendering"):
-        window = closeup_window([res[k].points for k in ("direct", "nullspace")], (c, n, r), target)
-        ymax = 1.05 * max(max(float(v.point_error.max()), float(v.similarity_distance.max())) for v in res.values())
-        figs: dict[str, list[str]] = {}
-        for fig_no, k, title in (
-            (16, "direct", "secondary task applied directly (Fig. 16)"),
-            (17, "nullspace", "secondary task in the nullspace, Eq 60 (Fig. 17)"),
-        ):
-            v = res[k]
-            scene = viz.Scene()
-            scene.robot(s, q0, "initial", label="start")
-            scene.robot(s, v.q, "final", label=f"end (t = {duration:g} s)")
-            scene.primitive(X, "target", label=r"held circle $V_{Sc}(q_0)$")
-            idx = np.linspace(0, len(v.t) - 1, 8).astype(int)[1:-1]
-            for j, kk in enumerate(idx):
-                scene.primitive(
-                    task.primitive(v.trajectory[kk]),
-                    "intermediate",
-                    fraction=(j + 1) / (len(idx) + 1),
-                    label="circles during the motion" if j == 0 else None,
-                )
-            scene.primitive(cg.point(target), "initial", label="target point")
-            scene.curve(v.points, "trajectory", label=f"TCP path of arm {args.arm}")
-            scene_png = viz.render_scene(
-                scene, exp.out / f"fig{fig_no}_scene.png", view=(35.0, -60.0), size=(7.0, 6.0), title=title
-            )
-            add_closeup(exp, scene_png, v.points, (c, n, r), target, dcirc[k], window)
-            fig, ax = plt.subplots(figsize=(6.4, 3.6))
-            ax.plot(v.t, v.point_error, color="tab:blue", lw=1.6, label=r"Euclidean distance $\|p - p^*\|$ [m]")
-            ax.plot(
-                v.t,
-                v.similarity_distance,
-                color=viz.PALETTE.trajectory,
-                lw=1.6,
-                label=rf"similarity distance $\|\log(\tilde V_{{Sc}}(q_0) V_{{Sc}}(q_t))\|$ (max {v.similarity_distance.max():.1e})",
-            )
-            ax.plot(
-                v.t,
-                dcirc[k],
-                color="0.4",
-                ls="--",
-                lw=1.2,
-                label=f"TCP distance from the held circle [m] (max {dcirc[k].max():.1e})",
-            )
-            ax.set_xlim(0.0, duration)
-            ax.set_ylim(0.0, ymax)
-            ax.grid(True, alpha=0.3)
-            ax.set_xlabel("t [s]")
-            ax.set_ylabel("distance [m | 1]")
-            ax.set_title(title, fontsize=9)
-            ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2))
-            dist_png = exp.save(fig, f"fig{fig_no}_distances.png")
-            plt.close(fig)
-            gif = viz.animate(
-                s,
-                v.trajectory,
-                task.primitive,
-                exp.out / f"fig{fig_no}_animation.gif",
-                t=v.t,
-                frames=args.frames,
-                fps=args.frames / duration,
-                target=X,
-                view=(35.0, -60.0),
-                size=(4.8, 3.6),
-                dpi=80,
-                title=title,
-            )
-            figs[k] = [dist_png.name, scene_png.name, gif.name]
 
-    exp.write_npz(
-        "trajectories.npz",
-        t=res["nullspace"].t,
-        target=target,
-        **{
-            f"{k}_{f}": getattr(v, f)
-            for k, v in res.items()
-            for f in ("trajectory", "points", "point_error", "similarity_distance")
-        },
-        **{f"{k}_distance_from_circle": dcirc[k] for k in res},
+def _draw_scene(
+    exp: Experiment, s: Any, task: Any, q0: np.ndarray, v: Any, X: Any, target: np.ndarray, fig_no: int, title: str
+) -> Any:
+    """``fig<NN>_scene.png``: start and end, the circles during the motion, the target and the TCP path."""
+    import coop_ga as cg
+    from coop_ga import viz
+
+    scene = viz.Scene()
+    scene.robot(s, q0, "initial", label="start")
+    scene.robot(s, v.q, "final", label=f"end (t = {exp.args.duration:g} s)")
+    scene.primitive(X, "target", label=r"held circle $V_{Sc}(q_0)$")
+    idx = np.linspace(0, len(v.t) - 1, 8).astype(int)[1:-1]
+    for j, kk in enumerate(idx):
+        scene.primitive(
+            task.primitive(v.trajectory[kk]),
+            "intermediate",
+            fraction=(j + 1) / (len(idx) + 1),
+            label="circles during the motion" if j == 0 else None,
+        )
+    scene.primitive(cg.point(target), "initial", label="target point")
+    scene.curve(v.points, "trajectory", label=f"TCP path of arm {exp.args.arm}")
+    return viz.render_scene(scene, exp.out / f"fig{fig_no}_scene.png", view=(35.0, -60.0), size=(7.0, 6.0), title=title)
+
+
+def _draw_distances(exp: Experiment, plt: Any, v: Any, dcirc: np.ndarray, ymax: float, fig_no: int, title: str) -> Any:
+    """``fig<NN>_distances.png``: point error, similarity distance and distance from the circle over time."""
+    from coop_ga import viz
+
+    fig, ax = plt.subplots(figsize=(6.4, 3.6))
+    ax.plot(v.t, v.point_error, color="tab:blue", lw=1.6, label=r"Euclidean distance $\|p - p^*\|$ [m]")
+    ax.plot(
+        v.t,
+        v.similarity_distance,
+        color=viz.PALETTE.trajectory,
+        lw=1.6,
+        label=rf"similarity distance $\|\log(\tilde V_{{Sc}}(q_0) V_{{Sc}}(q_t))\|$ (max {v.similarity_distance.max():.1e})",
     )
+    ax.plot(
+        v.t,
+        dcirc,
+        color="0.4",
+        ls="--",
+        lw=1.2,
+        label=f"TCP distance from the held circle [m] (max {dcirc.max():.1e})",
+    )
+    ax.set_xlim(0.0, exp.args.duration)
+    ax.set_ylim(0.0, ymax)
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("distance [m | 1]")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2))
+    dist_png = exp.save(fig, f"fig{fig_no}_distances.png")
+    plt.close(fig)
+    return dist_png
+
+
+def _draw(
+    exp: Experiment,
+    plt: Any,
+    s: Any,
+    task: Any,
+    q0: np.ndarray,
+    res: dict,
+    X: Any,
+    target: np.ndarray,
+    circle: tuple,
+    dcirc: dict,
+) -> dict[str, list[str]]:
+    """Figs. 16 and 17: per run its scene (with the close-up), its distances and its animation."""
+    from coop_ga import viz
+
+    args = exp.args
+    window = closeup_window([res[k].points for k in ("direct", "nullspace")], circle, target)
+    ymax = 1.05 * max(max(float(v.point_error.max()), float(v.similarity_distance.max())) for v in res.values())
+    figs: dict[str, list[str]] = {}
+    for fig_no, k, title in (
+        (16, "direct", "secondary task applied directly (Fig. 16)"),
+        (17, "nullspace", "secondary task in the nullspace, Eq 60 (Fig. 17)"),
+    ):
+        v = res[k]
+        scene_png = _draw_scene(exp, s, task, q0, v, X, target, fig_no, title)
+        add_closeup(exp, scene_png, v.points, circle, target, dcirc[k], window)
+        dist_png = _draw_distances(exp, plt, v, dcirc[k], ymax, fig_no, title)
+        gif = viz.animate(
+            s,
+            v.trajectory,
+            task.primitive,
+            exp.out / f"fig{fig_no}_animation.gif",
+            t=v.t,
+            frames=args.frames,
+            fps=args.frames / args.duration,
+            target=X,
+            view=(35.0, -60.0),
+            size=(4.8, 3.6),
+            dpi=80,
+            title=title,
+        )
+        figs[k] = [dist_png.name, scene_png.name, gif.name]
+    return figs
+
+
+def _gallery(metrics: dict, duration: float, figs: dict[str, list[str]]) -> dict[str, Any]:
+    """The gallery block: the paper's claim and the numbers that back or contradict it."""
     mn, md = metrics["nullspace"], metrics["direct"]
     agrees = (
         mn["final_point_error_m"] < 0.05 * mn["initial_point_error_m"]
@@ -328,7 +334,7 @@ def main(argv: list[str] | None = None) -> int:
         and metrics["max_limit_violation"] == 0.0
         and metrics["max_acceleration_violation"] == 0.0
     )
-    metrics["gallery"] = {
+    return {
         "title": "Figs. 16–17: a secondary task in the geometric nullspace of the circle",
         "claim": (
             "Projected by the nullspace projector of J^G (Eq 58, 60), the first arm reaches another point of the "
@@ -350,6 +356,64 @@ def main(argv: list[str] | None = None) -> int:
         "agrees": bool(agrees),
         "figures": [*figs["nullspace"], *figs["direct"]],
     }
+
+
+def main(argv: list[str] | None = None) -> int:
+    exp = _parse(argv)
+    args = exp.args
+    plt = exp.pyplot()
+
+    import coop_ga as cg
+    from coop_ga.control.nullspace import point_on_circle
+
+    duration = args.duration
+    timing: dict[str, float] = {}
+    t_total = time.perf_counter()
+    with exp.stage("loading three_franka and compiling the circle task") as st:
+        s = cg.systems.load("three_franka")
+        task = cg.cooperative_task(s, "circle")
+        q0 = np.clip(s.q0 + exp.rng.uniform(-args.perturb, args.perturb, s.nq), s.q_lower, s.q_upper)
+        task.evaluate(q0)
+    timing["load_and_compile_s"] = st.seconds
+    target = point_on_circle(task, q0, args.arm, np.deg2rad(args.angle))
+    X = task.primitive(q0)
+    c, r, n = np.asarray(cg.center(X), float), float(cg.radius(X)), np.asarray(cg.normal(X), float)
+    n = n / np.linalg.norm(n)
+    res, ab = _runs(exp, task, q0, target, timing)
+
+    metrics: dict = {
+        "system": "three_franka",
+        "kind": "circle",
+        "nq": s.nq,
+        "seed": args.seed,
+        "fast": bool(args.fast),
+        "perturb_rad": args.perturb,
+        "arm": args.arm,
+        "angle_deg": args.angle,
+        "duration_s": duration,
+        "dt_s": args.dt,
+        "secondary_gain_per_s": args.secondary_gain,
+        "primary_gain_per_s": args.primary_gain,
+        "target_point_m": target,
+        "circle": {"center_m": c, "radius_m": r, "normal": n},
+        "chord_length_m": float(np.linalg.norm(target - task.points(q0)[args.arm])),
+    }
+    dcirc = _run_metrics(task, q0, res, ab, args.arm, (c, n, r), metrics)
+    with exp.stage("rendering"):
+        figs = _draw(exp, plt, s, task, q0, res, X, target, (c, n, r), dcirc)
+
+    exp.write_npz(
+        "trajectories.npz",
+        t=res["nullspace"].t,
+        target=target,
+        **{
+            f"{k}_{f}": getattr(v, f)
+            for k, v in res.items()
+            for f in ("trajectory", "points", "point_error", "similarity_distance")
+        },
+        **{f"{k}_distance_from_circle": dcirc[k] for k in res},
+    )
+    metrics["gallery"] = _gallery(metrics, duration, figs)
     exp.write_json("metrics.json", metrics)
     timing["total_s"] = time.perf_counter() - t_total
     exp.write_timing(timing)

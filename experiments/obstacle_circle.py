@@ -118,19 +118,14 @@ def _pad(Q: np.ndarray, T: int) -> np.ndarray:
     return Q if Q.shape[0] >= T else np.vstack([Q, np.repeat(Q[-1:], T - Q.shape[0], axis=0)])
 
 
-def run(exp: Experiment, fast: bool) -> int:
-    """Solve the four modes, measure, draw and write (module docstring)."""
-    plt = exp.pyplot()
+def _setup(exp: Experiment) -> tuple:
+    """``(system, task, obstacle, collision model, q0, Vd)``: the scene and the target (the circle carried along
+    :data:`TRANSLATION`)."""
     import coop_ga as cg
-    from coop_ga import viz
     from coop_ga.collision.distance import Sphere
     from coop_ga.collision.model import CollisionModel
-    from coop_ga.control import displaced_target, ilqr_reach
-    from coop_ga.control.avoidance import AvoidanceOptions, ClearanceCost, avoidance_reach
-    from coop_ga.geometry import sphere
+    from coop_ga.control import displaced_target
 
-    t_total = time.perf_counter()
-    dt, steps = (FAST_DT, FAST_STEPS) if fast else (DT, STEPS)
     with exp.stage("loading three_franka and the collision model"):
         s = cg.systems.load("three_franka")
         task = cg.cooperative_task(s, "circle")
@@ -138,6 +133,15 @@ def run(exp: Experiment, fast: bool) -> int:
         cm = CollisionModel(s, obstacles=[obstacle], self_collision=True)
     q0 = np.array(s.q0, dtype=float)
     Vd = displaced_target(task, q0, translation=TRANSLATION)
+    return s, task, obstacle, cm, q0, Vd
+
+
+def _solve_modes(
+    exp: Experiment, task: Any, q0: np.ndarray, Vd: Any, cm: Any, dt: float, steps: int, times: dict
+) -> dict[str, Any]:
+    """Differential IK in every avoidance mode (:data:`MODES`)."""
+    from coop_ga.control.avoidance import AvoidanceOptions, avoidance_reach
+
     opts = AvoidanceOptions(
         d_safe=D_SAFE,
         d_influence=D_INFLUENCE,
@@ -149,62 +153,88 @@ def run(exp: Experiment, fast: bool) -> int:
         tol=TOL,
     )
     res: dict[str, Any] = {}
-    times: dict[str, float] = {}
     for mode in MODES:
         with exp.stage(f"differential IK, avoidance '{mode}'"):
             t0 = time.perf_counter()
             res[mode] = avoidance_reach(task, q0, Vd, opts, collision_model=cm, mode=mode)
             times[f"{mode}_s"] = time.perf_counter() - t0
-    av, na = res["both"], res["none"]
-    groups = _groups(cm)
-    horizon, idt = (FAST_ILQR_HORIZON, FAST_ILQR_DT) if fast else (ILQR_HORIZON, ILQR_DT)
+    return res
+
+
+def _solve_ilqr(
+    exp: Experiment, task: Any, q0: np.ndarray, Vd: Any, cm: Any, horizon: int, idt: float, times: dict
+) -> dict[str, Any]:
+    """iLQR without (``plain``) and with (``clearance``) the clearance cost."""
+    from coop_ga.control import ilqr_reach
+    from coop_ga.control.avoidance import ClearanceCost
+
     ilqr: dict[str, Any] = {}
     for key, cost in (("plain", None), ("clearance", ClearanceCost(cm, CLEARANCE_WEIGHT, CLEARANCE_ACTIVATION))):
         with exp.stage(f"iLQR ({'with' if cost else 'without'} the clearance cost)"):
             t0 = time.perf_counter()
             ilqr[key] = ilqr_reach(task, q0, Vd, horizon=horizon, dt=idt, clearance=cost)
             times[f"ilqr_{key}_s"] = time.perf_counter() - t0
-    ilqr_dense = {k: _dense(r, SUBSAMPLES) for k, r in ilqr.items()}
-    ilqr_clear = {k: np.array([cm.min_clearance(q) for q in Q]) for k, Q in ilqr_dense.items()}
+    return ilqr
 
-    def part(r: Any, key: str) -> float:
-        m = groups[key]
-        return float(r.clearances[:, m].min()) if m.any() else float("inf")
 
-    T = max(av.trajectory.shape[0], na.trajectory.shape[0])
-    q_av, q_na = _pad(av.trajectory, T), _pad(na.trajectory, T)
-    c_av = np.concatenate([av.clearance, np.repeat(av.clearance[-1:], T - av.clearance.shape[0])])
-    c_na = np.concatenate([na.clearance, np.repeat(na.clearance[-1:], T - na.clearance.shape[0])])
-    t = dt * np.arange(T)
-    lim = s.limits
-    max_violation = max(
-        lim.position_violation(q_av),
-        lim.position_violation(q_na),
-        *(lim.position_violation(Q) for Q in ilqr_dense.values()),
-    )
-    modes = {
-        m: {
-            "min_clearance": r.min_clearance,
-            "min_obstacle_clearance": part(r, "obstacle"),
-            "min_arm_arm_clearance": part(r, "arm_arm"),
-            "min_same_arm_clearance": part(r, "same_arm"),
-            "closest_pair": r.closest,
-            "terminal_error": r.error,
-            "converged": r.converged,
-            "steps": r.iterations,
-            "max_task_velocity_deviation": float(r.task_velocity_deviation.max(initial=0.0)),
-            "max_damper_residual": r.constraint_residual,
-            "active_steps": r.active_steps,
-            "max_limit_violation": r.limit_violation,
-            "max_velocity_violation": r.velocity_violation,
-            "max_acceleration_violation": r.max_acceleration_violation,
-            "relaxed_steps": r.relaxed_steps,
-            "fallback_steps": r.fallback_steps,
-        }
-        for m, r in res.items()
+def _part(r: Any, groups: dict[str, np.ndarray], key: str) -> float:
+    """The smallest clearance [m] of run ``r`` over the rows of group ``key`` (inf if the group is empty)."""
+    m = groups[key]
+    return float(r.clearances[:, m].min()) if m.any() else float("inf")
+
+
+def _mode_block(r: Any, groups: dict[str, np.ndarray]) -> dict[str, Any]:
+    """The metrics of one differential-IK run."""
+    return {
+        "min_clearance": r.min_clearance,
+        "min_obstacle_clearance": _part(r, groups, "obstacle"),
+        "min_arm_arm_clearance": _part(r, groups, "arm_arm"),
+        "min_same_arm_clearance": _part(r, groups, "same_arm"),
+        "closest_pair": r.closest,
+        "terminal_error": r.error,
+        "converged": r.converged,
+        "steps": r.iterations,
+        "max_task_velocity_deviation": float(r.task_velocity_deviation.max(initial=0.0)),
+        "max_damper_residual": r.constraint_residual,
+        "active_steps": r.active_steps,
+        "max_limit_violation": r.limit_violation,
+        "max_velocity_violation": r.velocity_violation,
+        "max_acceleration_violation": r.max_acceleration_violation,
+        "relaxed_steps": r.relaxed_steps,
+        "fallback_steps": r.fallback_steps,
     }
+
+
+def _ilqr_block(ilqr: dict[str, Any], ilqr_clear: dict[str, np.ndarray], horizon: int, idt: float) -> dict[str, Any]:
+    """The metrics of the two iLQR runs (clearances checked between the knots)."""
+    return {
+        "horizon": horizon,
+        "dt": idt,
+        "clearance_weight": CLEARANCE_WEIGHT,
+        "clearance_activation": CLEARANCE_ACTIVATION,
+        "subsamples_per_interval": SUBSAMPLES,
+        "min_clearance": float(ilqr_clear["clearance"].min()),
+        "min_clearance_knots": ilqr["clearance"].min_clearance,
+        "min_clearance_no_clearance_cost": float(ilqr_clear["plain"].min()),
+        "terminal_error": ilqr["clearance"].error,
+        "terminal_error_no_clearance_cost": ilqr["plain"].error,
+        "converged": ilqr["clearance"].converged,
+        "converged_no_clearance_cost": ilqr["plain"].converged,
+        "iterations": ilqr["clearance"].iterations,
+        "iterations_no_clearance_cost": ilqr["plain"].iterations,
+        "joint_limit_violation": max(r.joint_limit_violation for r in ilqr.values()),
+        "velocity_violation": max(r.velocity_violation for r in ilqr.values()),
+    }
+
+
+def _metrics(
+    s: Any, obstacle: Any, cm: Any, groups: dict, res: dict, ilqr_block: dict, dims: dict, max_violation: float
+) -> dict[str, Any]:
+    """metrics.json without its gallery block (``dims``: dt, steps and T)."""
+    av, na = res["both"], res["none"]
+    modes = {m: _mode_block(r, groups) for m, r in res.items()}
     d_start, d_goal = float(na.clearances[0].min()), float(na.clearances[-1].min())
-    metrics: dict[str, Any] = {
+    return {
         "system": s.name,
         "dof": s.nq,
         "kind": "circle",
@@ -219,17 +249,15 @@ def run(exp: Experiment, fast: bool) -> int:
         "damper_gain": DAMPER_GAIN,
         "repulsive_speed": REPULSIVE_SPEED,
         "gain_per_s": GAIN,
-        "dt": dt,
-        "steps": steps,
-        "T": T,
+        **dims,
         "tol": TOL,
         "avoidance_mode": "both",
         "min_clearance": av.min_clearance,
         "min_clearance_no_avoidance": na.min_clearance,
-        "min_obstacle_clearance": part(av, "obstacle"),
-        "min_obstacle_clearance_no_avoidance": part(na, "obstacle"),
-        "min_arm_arm_clearance": part(av, "arm_arm"),
-        "min_arm_arm_clearance_no_avoidance": part(na, "arm_arm"),
+        "min_obstacle_clearance": _part(av, groups, "obstacle"),
+        "min_obstacle_clearance_no_avoidance": _part(na, groups, "obstacle"),
+        "min_arm_arm_clearance": _part(av, groups, "arm_arm"),
+        "min_arm_arm_clearance_no_avoidance": _part(na, groups, "arm_arm"),
         "closest_pair": av.closest,
         "closest_pair_no_avoidance": na.closest,
         "clearance_start": d_start,
@@ -244,103 +272,99 @@ def run(exp: Experiment, fast: bool) -> int:
         # the Franka's acceleration limits (from rest), imposed by every differential-IK run and measured on it
         "max_acceleration_violation": max(r.max_acceleration_violation for r in res.values()),
         "modes": modes,
-        "ilqr": {
-            "horizon": horizon,
-            "dt": idt,
-            "clearance_weight": CLEARANCE_WEIGHT,
-            "clearance_activation": CLEARANCE_ACTIVATION,
-            "subsamples_per_interval": SUBSAMPLES,
-            "min_clearance": float(ilqr_clear["clearance"].min()),
-            "min_clearance_knots": ilqr["clearance"].min_clearance,
-            "min_clearance_no_clearance_cost": float(ilqr_clear["plain"].min()),
-            "terminal_error": ilqr["clearance"].error,
-            "terminal_error_no_clearance_cost": ilqr["plain"].error,
-            "converged": ilqr["clearance"].converged,
-            "converged_no_clearance_cost": ilqr["plain"].converged,
-            "iterations": ilqr["clearance"].iterations,
-            "iterations_no_clearance_cost": ilqr["plain"].iterations,
-            "joint_limit_violation": max(r.joint_limit_violation for r in ilqr.values()),
-            "velocity_violation": max(r.velocity_violation for r in ilqr.values()),
-        },
+        "ilqr": ilqr_block,
     }
 
-    # ---- figures
+
+def _draw_scenes(exp: Experiment, s: Any, task: Any, q0: np.ndarray, Vd: Any, res: dict, dt: float, fast: bool) -> dict:
+    """``scene.png`` and ``scene_no_avoidance.png``: start, closest approach, circles, obstacle and TCP paths."""
+    from coop_ga import viz
+    from coop_ga.geometry import sphere
+
+    av, na = res["both"], res["none"]
     size, dpi = ((5.0, 4.5), 80) if fast else ((7.0, 6.0), 150)
     c, r = np.array(OBSTACLE_CENTER), OBSTACLE_RADIUS
     X_obs = sphere(c + [r, 0, 0], c + [0, r, 0], c + [0, 0, r], c - [r, 0, 0])
     X0, Xd = task.primitive(q0), Vd.apply(task.unit)
     pngs = {}
     P_na = np.array([task.points(q) for q in na.trajectory])
-    with exp.stage("rendering the scenes") as st_r:
-        for name, rr, label in (("scene.png", av, "with avoidance"), ("scene_no_avoidance.png", na, "no avoidance")):
-            k = int(np.argmin(rr.clearance))
-            P = np.array([task.points(q) for q in rr.trajectory])
-            scene = viz.Scene()
-            scene.robot(s, q0, "initial", "initial configuration")
-            scene.robot(s, rr.trajectory[k], "final", f"closest approach (t = {k * dt:.2f} s)")
-            scene.primitive(X0, "initial", "initial circle")
-            scene.primitive(task.primitive(rr.trajectory[k]), "final", "circle at closest approach")
-            scene.primitive(Xd, "target", "target circle")
-            scene.primitive(X_obs, "neutral", "obstacle", style={"color": "#ff7f0e"})
-            for i in range(P.shape[1]):
-                scene.curve(P[:, i], "trajectory", "TCP paths" if i == 0 else None)
-            if rr is av:  # the straight path of the run without avoidance, for comparison
-                scene.curve(P_na[:, 0], "neutral", "TCP 0 path without avoidance")
-            pngs[name] = viz.render_scene(
-                scene,
-                exp.out / name,
-                view=VIEW,
-                size=size,
-                dpi=dpi,
-                title=f"three_franka, circle carried past a sphere: {label}\n"
-                f"min clearance {rr.min_clearance * 100:.1f} cm, final ‖e‖ = {rr.error:.1e}",
-            )
-    with exp.stage("plotting the clearances"):
-        fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7.5, 7.0), sharex=True)
-        ax.plot(
-            t,
-            c_av * 100,
-            color="C0",
-            lw=2.5,
-            label=f"with avoidance (soft + hard), min {av.min_clearance * 100:.1f} cm",
+    for name, rr, label in (("scene.png", av, "with avoidance"), ("scene_no_avoidance.png", na, "no avoidance")):
+        k = int(np.argmin(rr.clearance))
+        P = np.array([task.points(q) for q in rr.trajectory])
+        scene = viz.Scene()
+        scene.robot(s, q0, "initial", "initial configuration")
+        scene.robot(s, rr.trajectory[k], "final", f"closest approach (t = {k * dt:.2f} s)")
+        scene.primitive(X0, "initial", "initial circle")
+        scene.primitive(task.primitive(rr.trajectory[k]), "final", "circle at closest approach")
+        scene.primitive(Xd, "target", "target circle")
+        scene.primitive(X_obs, "neutral", "obstacle", style={"color": "#ff7f0e"})
+        for i in range(P.shape[1]):
+            scene.curve(P[:, i], "trajectory", "TCP paths" if i == 0 else None)
+        if rr is av:  # the straight path of the run without avoidance, for comparison
+            scene.curve(P_na[:, 0], "neutral", "TCP 0 path without avoidance")
+        pngs[name] = viz.render_scene(
+            scene,
+            exp.out / name,
+            view=VIEW,
+            size=size,
+            dpi=dpi,
+            title=f"three_franka, circle carried past a sphere: {label}\n"
+            f"min clearance {rr.min_clearance * 100:.1f} cm, final ‖e‖ = {rr.error:.1e}",
         )
-        ax.plot(t, c_na * 100, color="C3", ls="--", label=f"no avoidance, min {na.min_clearance * 100:.1f} cm")
-        for mode, col, ls in (("soft", "C2", "-."), ("hard", "C1", "-")):
-            rm = res[mode]
-            ax.plot(
-                dt * np.arange(rm.clearance.shape[0]),
-                rm.clearance * 100,
-                color=col,
-                ls=ls,
-                lw=1.0,
-                label=f"{mode} only, min {rm.min_clearance * 100:.1f} cm",
-            )
-        ax.axhline(D_SAFE * 100, color="0.4", ls=":", lw=1.0, label=f"$d_s$ = {D_SAFE * 100:g} cm")
-        ax.axhline(0.0, color="k", lw=0.8)
-        ax.set_ylabel("smallest clearance [cm]")
-        ax.set_title("differential IK: smallest signed clearance over all link–obstacle and link–link pairs")
-        ax.legend(fontsize=8)
-        for key, col, ls, lab in (("clearance", "C0", "-", "with clearance cost"), ("plain", "C3", "--", "without")):
-            td = np.arange(ilqr_clear[key].shape[0]) * (idt / SUBSAMPLES)
-            ax2.plot(
-                td, ilqr_clear[key] * 100, color=col, ls=ls, label=f"{lab}, min {ilqr_clear[key].min() * 100:.1f} cm"
-            )
-        ax2.axhline(
-            CLEARANCE_ACTIVATION * 100,
-            color="0.4",
-            ls=":",
-            lw=1.0,
-            label=f"activation $d_a$ = {CLEARANCE_ACTIVATION * 100:g} cm",
-        )
-        ax2.axhline(0.0, color="k", lw=0.8)
-        ax2.set_xlabel("t [s]")
-        ax2.set_ylabel("smallest clearance [cm]")
-        ax2.set_title(f"iLQR ({horizon} knots × {idt:g} s; clearance checked {SUBSAMPLES}× per interval)")
-        ax2.legend(fontsize=8)
-        fig.tight_layout()
-        clr_png = exp.save(fig, "clearance.png")
-        plt.close(fig)
+    return pngs
 
+
+def _plot_ik_clearances(ax: Any, t: np.ndarray, c_av: np.ndarray, c_na: np.ndarray, res: dict, dt: float) -> None:
+    """The differential-IK panel of ``clearance.png``: every mode's smallest clearance over time."""
+    av, na = res["both"], res["none"]
+    ax.plot(
+        t,
+        c_av * 100,
+        color="C0",
+        lw=2.5,
+        label=f"with avoidance (soft + hard), min {av.min_clearance * 100:.1f} cm",
+    )
+    ax.plot(t, c_na * 100, color="C3", ls="--", label=f"no avoidance, min {na.min_clearance * 100:.1f} cm")
+    for mode, col, ls in (("soft", "C2", "-."), ("hard", "C1", "-")):
+        rm = res[mode]
+        ax.plot(
+            dt * np.arange(rm.clearance.shape[0]),
+            rm.clearance * 100,
+            color=col,
+            ls=ls,
+            lw=1.0,
+            label=f"{mode} only, min {rm.min_clearance * 100:.1f} cm",
+        )
+    ax.axhline(D_SAFE * 100, color="0.4", ls=":", lw=1.0, label=f"$d_s$ = {D_SAFE * 100:g} cm")
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_ylabel("smallest clearance [cm]")
+    ax.set_title("differential IK: smallest signed clearance over all link–obstacle and link–link pairs")
+    ax.legend(fontsize=8)
+
+
+def _plot_ilqr_clearances(ax2: Any, ilqr_clear: dict[str, np.ndarray], horizon: int, idt: float) -> None:
+    """The iLQR panel of ``clearance.png``: with and without the clearance cost, between the knots too."""
+    for key, col, ls, lab in (("clearance", "C0", "-", "with clearance cost"), ("plain", "C3", "--", "without")):
+        td = np.arange(ilqr_clear[key].shape[0]) * (idt / SUBSAMPLES)
+        ax2.plot(td, ilqr_clear[key] * 100, color=col, ls=ls, label=f"{lab}, min {ilqr_clear[key].min() * 100:.1f} cm")
+    ax2.axhline(
+        CLEARANCE_ACTIVATION * 100,
+        color="0.4",
+        ls=":",
+        lw=1.0,
+        label=f"activation $d_a$ = {CLEARANCE_ACTIVATION * 100:g} cm",
+    )
+    ax2.axhline(0.0, color="k", lw=0.8)
+    ax2.set_xlabel("t [s]")
+    ax2.set_ylabel("smallest clearance [cm]")
+    ax2.set_title(f"iLQR ({horizon} knots × {idt:g} s; clearance checked {SUBSAMPLES}× per interval)")
+    ax2.legend(fontsize=8)
+
+
+def _gallery(metrics: dict, res: dict, ilqr: dict, cm: Any, pngs: dict) -> tuple[dict[str, Any], str]:
+    """``(gallery block, evidence)``: the claim and the numbers that back or contradict it."""
+    av, na = res["both"], res["none"]
+    modes, max_violation, T = metrics["modes"], metrics["max_limit_violation"], metrics["T"]
     ok = (
         av.min_clearance > 0.0
         and metrics["min_arm_arm_clearance"] > 0.0
@@ -364,13 +388,56 @@ def run(exp: Experiment, fast: bool) -> int:
         f"Joint-limit violation {max_violation:.3g} rad; acceleration-limit violation of the differential-IK runs "
         f"{metrics['max_acceleration_violation']:.3g} rad/s² (from rest)."
     )
-    metrics["gallery"] = {
+    gallery = {
         "title": "Obstacle avoidance: three Frankas carry a circle past a sphere (our addition)",
         "claim": CLAIM,
         "evidence": evidence,
         "agrees": bool(ok),
         "figures": [pngs["scene.png"].name, "clearance.png", pngs["scene_no_avoidance.png"].name],
     }
+    return gallery, evidence
+
+
+def run(exp: Experiment, fast: bool) -> int:
+    """Solve the four modes, measure, draw and write (module docstring)."""
+    plt = exp.pyplot()
+    t_total = time.perf_counter()
+    dt, steps = (FAST_DT, FAST_STEPS) if fast else (DT, STEPS)
+    s, task, obstacle, cm, q0, Vd = _setup(exp)
+    times: dict[str, float] = {}
+    res = _solve_modes(exp, task, q0, Vd, cm, dt, steps, times)
+    av, na = res["both"], res["none"]
+    groups = _groups(cm)
+    horizon, idt = (FAST_ILQR_HORIZON, FAST_ILQR_DT) if fast else (ILQR_HORIZON, ILQR_DT)
+    ilqr = _solve_ilqr(exp, task, q0, Vd, cm, horizon, idt, times)
+    ilqr_dense = {k: _dense(r, SUBSAMPLES) for k, r in ilqr.items()}
+    ilqr_clear = {k: np.array([cm.min_clearance(q) for q in Q]) for k, Q in ilqr_dense.items()}
+
+    T = max(av.trajectory.shape[0], na.trajectory.shape[0])
+    q_av, q_na = _pad(av.trajectory, T), _pad(na.trajectory, T)
+    c_av = np.concatenate([av.clearance, np.repeat(av.clearance[-1:], T - av.clearance.shape[0])])
+    c_na = np.concatenate([na.clearance, np.repeat(na.clearance[-1:], T - na.clearance.shape[0])])
+    t = dt * np.arange(T)
+    lim = s.limits
+    max_violation = max(
+        lim.position_violation(q_av),
+        lim.position_violation(q_na),
+        *(lim.position_violation(Q) for Q in ilqr_dense.values()),
+    )
+    dims = {"dt": dt, "steps": steps, "T": T}
+    metrics = _metrics(s, obstacle, cm, groups, res, _ilqr_block(ilqr, ilqr_clear, horizon, idt), dims, max_violation)
+
+    with exp.stage("rendering the scenes") as st_r:
+        pngs = _draw_scenes(exp, s, task, q0, Vd, res, dt, fast)
+    with exp.stage("plotting the clearances"):
+        fig, (ax, ax2) = plt.subplots(2, 1, figsize=(7.5, 7.0), sharex=True)
+        _plot_ik_clearances(ax, t, c_av, c_na, res, dt)
+        _plot_ilqr_clearances(ax2, ilqr_clear, horizon, idt)
+        fig.tight_layout()
+        clr_png = exp.save(fig, "clearance.png")
+        plt.close(fig)
+
+    metrics["gallery"], evidence = _gallery(metrics, res, ilqr, cm, pngs)
     exp.write_json("metrics.json", metrics)
     exp.write_npz(
         "trajectory.npz",

@@ -153,25 +153,12 @@ def _arm_follow(arm: Any, path: PotentialPath) -> tuple[np.ndarray, dict[str, An
     }
 
 
-def main(argv: list[str] | None = None) -> int:
-    exp = Experiment(__file__, __doc__, seed=0)
-    exp.add("--scenes", type=int_at_least(1), default=200, help="number of random scenes")
-    exp.add("--margin", type=nonneg_float, default=0.05, help="security margin added to each radius [m]")
-    exp.add(
-        "--step",
-        type=_step,
-        default=0.01,
-        help=f"step length ε of the path [m], also its goal tolerance: below {SCENE_DISTANCE[0]:g} m, the smallest "
-        "start-goal distance of the random scenes",
-    )
-    exp.add_fast("CI run", scenes=FAST_SCENES)
-    args = exp.parse(argv)
-    n_scenes = args.scenes
-    t0 = time.perf_counter()
-
-    # ------------------------------------------------------------------ random scenes
+def _random_scenes(exp: Experiment) -> tuple[list, dict[str, list[tuple[PotentialPath, float]]]]:
+    """``(scenes, results)``: ``--scenes`` random scenes (1–3 spheres each) and, per charge rule, every scene's
+    path with its straight start–goal distance [m]."""
+    args = exp.args
     scenes = []
-    for _ in range(n_scenes):
+    for _ in range(args.scenes):
         k = int(exp.rng.integers(1, 4))
         scenes.append(random_scene(exp.rng, k, margin=args.margin))
     results: dict[str, list[tuple[PotentialPath, float]]] = {rule: [] for rule in CHARGE_RULES}
@@ -179,36 +166,56 @@ def main(argv: list[str] | None = None) -> int:
         for rule in CHARGE_RULES:
             r = potential_path(s, g, obs, margin=args.margin, step=args.step, charge_rule=rule)
             results[rule].append((r, float(np.linalg.norm(g - s))))
-    stats = {rule: _scene_stats(results[rule]) for rule in CHARGE_RULES}
-    t_scenes = time.perf_counter() - t0
+    return scenes, results
 
-    # ------------------------------------------------------------------ constructed failure cases
+
+#: the constructed failure cases: the symmetric obstacle (centre [m], radius [m]), the overlapping pair, the wall
+SYM_CENTER, SYM_RADIUS = np.array([0.5, 0.0, 0.0]), 0.1
+
+
+def _failure_paths(step: float) -> tuple[dict[str, PotentialPath], float]:
+    """``(paths, r_star)``: the constructed failure cases' paths and the equilibrium distance [m] of the
+    symmetric one."""
     goal = np.zeros(3)
-    sym_c, sym_R = np.array([0.5, 0.0, 0.0]), 0.1
-    sym = potential_path([1.2, 0, 0], goal, [obstacle(sym_c, sym_R)], step=args.step)
-    sym_off = potential_path([1.2, 1e-3, 0], goal, [obstacle(sym_c, sym_R)], step=args.step)
-    r_star = equilibrium_distance(sym_R / (sym_R + 0.5), 0.5)
+    sym = potential_path([1.2, 0, 0], goal, [obstacle(SYM_CENTER, SYM_RADIUS)], step=step)
+    sym_off = potential_path([1.2, 1e-3, 0], goal, [obstacle(SYM_CENTER, SYM_RADIUS)], step=step)
+    r_star = equilibrium_distance(SYM_RADIUS / (SYM_RADIUS + 0.5), 0.5)
     pair = [obstacle([0.5, 0.09, 0], 0.1), obstacle([0.5, -0.09, 0], 0.1)]
-    crease = potential_path([1.2, 0.02, 0], goal, pair, step=args.step, charge_rule="equilibrium")
-    pair_seed = potential_path([1.2, 0.02, 0], goal, pair, step=args.step)
+    crease = potential_path([1.2, 0.02, 0], goal, pair, step=step, charge_rule="equilibrium")
+    pair_seed = potential_path([1.2, 0.02, 0], goal, pair, step=step)
     wall = [obstacle([0.5, y, z], 0.12) for y in (-0.2, 0, 0.2) for z in (-0.2, 0, 0.2)]
-    wall_seed = potential_path([1.2, 0.05, 0.03], goal, wall, step=args.step)
-    wall_eq = potential_path([1.2, 0.05, 0.03], goal, wall, step=args.step, charge_rule="equilibrium")
-    cases = {
+    wall_seed = potential_path([1.2, 0.05, 0.03], goal, wall, step=step)
+    wall_eq = potential_path([1.2, 0.05, 0.03], goal, wall, step=step, charge_rule="equilibrium")
+    paths = {
+        "sym": sym,
+        "sym_off": sym_off,
+        "crease": crease,
+        "pair_seed": pair_seed,
+        "wall_seed": wall_seed,
+        "wall_eq": wall_eq,
+    }
+    return paths, r_star
+
+
+def _failure_cases(fp: dict[str, PotentialPath], r_star: float) -> dict[str, Any]:
+    """The metrics of the constructed failure cases."""
+    sym = fp["sym"]
+    return {
         "symmetric_obstacle": {
             **_case(sym),
             "equilibrium_distance_m": r_star,
-            "stall_error_m": float(np.linalg.norm(sym.path[-1] - (sym_c + [r_star, 0, 0]))),
-            "off_axis_1mm_status": sym_off.status,
+            "stall_error_m": float(np.linalg.norm(sym.path[-1] - (SYM_CENTER + [r_star, 0, 0]))),
+            "off_axis_1mm_status": fp["sym_off"].status,
         },
-        "overlapping_spheres_equilibrium_rule": _case(crease),
-        "overlapping_spheres_seed_rule": _case(pair_seed),
-        "wall_seed_rule": _case(wall_seed),
-        "wall_equilibrium_rule": _case(wall_eq),
+        "overlapping_spheres_equilibrium_rule": _case(fp["crease"]),
+        "overlapping_spheres_seed_rule": _case(fp["pair_seed"]),
+        "wall_seed_rule": _case(fp["wall_seed"]),
+        "wall_equilibrium_rule": _case(fp["wall_eq"]),
     }
-    t_cases = time.perf_counter() - t0 - t_scenes
 
-    # ------------------------------------------------------------------ arm5 follows the path (§VI-B step 5)
+
+def _arm5_runs() -> tuple[Any, Any, dict, dict, dict]:
+    """arm5 follows each rule's path around its obstacle (§VI-B step 5): ``(arm, obstacle, runs, Q, paths)``."""
     import coop_ga.systems as systems
 
     arm = systems.from_urdf(systems.ROBOTS_DIR / "arm5" / "arm5.urdf", [ARM5_END_FRAME], name="arm5")
@@ -221,25 +228,23 @@ def main(argv: list[str] | None = None) -> int:
         arm_paths[rule] = pr
         arm_Q[rule], arm_runs[rule] = _arm_follow(arm, pr)
         arm_runs[rule]["status"] = pr.status
+    return arm, arm_obs, arm_runs, arm_Q, arm_paths
 
-    # ------------------------------------------------------------------ figures
+
+def _draw_random_scene(
+    exp: Experiment, scene_data: tuple, r_seed: PotentialPath, r_eq: PotentialPath, pick: int
+) -> Any:
+    """``scene.png``: one random scene with both rules' paths."""
     from coop_ga import viz
 
-    plt = exp.pyplot()
-    # 3-D scene: the first random scene with 3 obstacles where the rules' paths differ most
-    pick = max(
-        range(n_scenes),
-        key=lambda i: (len(scenes[i][2]) == 3, results["seed"][i][0].length - results["equilibrium"][i][0].length),
-    )
-    s, g, obs = scenes[pick]
-    r_seed, r_eq = results["seed"][pick][0], results["equilibrium"][pick][0]
+    s, g, obs = scene_data
     scene = viz.Scene()
     for j, S in enumerate(obs):
         scene.primitive(S, "neutral", "obstacle spheres" if j == 0 else None)
     scene.curve(r_seed.path, "trajectory", f"Eq 23 (q = R/(R+D)): {r_seed.status}, {r_seed.length:.2f} m")
     scene.curve(r_eq.path, "neutral", f"3-D rule (q = (R/(R+D))²): {r_eq.status}, {r_eq.length:.2f} m")
     scene.curve(np.array([s, g]), "neutral", "start, goal", markers=True)
-    png_scene = viz.render_scene(
+    return viz.render_scene(
         scene,
         exp.out / "scene.png",
         view=(24.0, -55.0),
@@ -247,6 +252,11 @@ def main(argv: list[str] | None = None) -> int:
         title=f"Potential-field paths around {len(obs)} spheres (random scene {pick}, straight line "
         f"{np.linalg.norm(g - s):.2f} m)",
     )
+
+
+def _draw_arm_scene(exp: Experiment, arm: Any, arm_obs: Any, arm_runs: dict, arm_Q: dict, arm_paths: dict) -> Any:
+    """``arm5_scene.png``: arm5 at the start and the goal, and both rules' paths."""
+    from coop_ga import viz
 
     arm_scene = viz.Scene()
     arm_scene.robot(arm, arm_Q["equilibrium"][0], "initial", "arm5 at the start")
@@ -260,7 +270,7 @@ def main(argv: list[str] | None = None) -> int:
             f"{'Eq 23' if rule == 'seed' else '3-D rule'}: {ar['path_length_m']:.2f} m, max joint step "
             f"{ar['max_joint_step_rad']:.2f} rad ({ar['max_joint_step_joint']})",
         )
-    png_arm = viz.render_scene(
+    return viz.render_scene(
         arm_scene,
         exp.out / "arm5_scene.png",
         view=(28.0, -35.0),
@@ -268,21 +278,27 @@ def main(argv: list[str] | None = None) -> int:
         title="arm5 (seed §V IK, gripper horizontal) follows the potential-field path",
     )
 
-    # top views of the failure cases
-    fig, axs = plt.subplots(1, 4, figsize=(16, 4.4))
-    panels = [
-        ("symmetric obstacle (Eq 23)", [sym_c], [sym_R], [(sym, "on axis", "C3"), (sym_off, "1 mm off axis", "C0")]),
+
+def _failure_panels(fp: dict[str, PotentialPath], r_seed: PotentialPath, r_eq: PotentialPath) -> list:
+    """The four top views of ``failures.png``: (title, centres, radii, [(path, label, colour)])."""
+    return [
+        (
+            "symmetric obstacle (Eq 23)",
+            [SYM_CENTER],
+            [SYM_RADIUS],
+            [(fp["sym"], "on axis", "C3"), (fp["sym_off"], "1 mm off axis", "C0")],
+        ),
         (
             "overlapping spheres",
             [np.array([0.5, 0.09, 0]), np.array([0.5, -0.09, 0])],
             [0.1, 0.1],
-            [(crease, "3-D rule", "C3"), (pair_seed, "Eq 23", "C0")],
+            [(fp["crease"], "3-D rule", "C3"), (fp["pair_seed"], "Eq 23", "C0")],
         ),
         (
             "3×3 wall (z = 0 row shown)",
             [np.array([0.5, y, 0.0]) for y in (-0.2, 0, 0.2)],
             [0.12] * 3,
-            [(wall_seed, "Eq 23", "C3"), (wall_eq, "3-D rule", "C0")],
+            [(fp["wall_seed"], "Eq 23", "C3"), (fp["wall_eq"], "3-D rule", "C0")],
         ),
         (
             "random scene (top view)",
@@ -291,6 +307,12 @@ def main(argv: list[str] | None = None) -> int:
             [(r_seed, "Eq 23", "C3"), (r_eq, "3-D rule", "C0")],
         ),
     ]
+
+
+def _draw_failures(exp: Experiment, plt: Any, panels: list, g: np.ndarray) -> Any:
+    """``failures.png``: top views of the failure cases (x where a path stopped)."""
+    goal = np.zeros(3)
+    fig, axs = plt.subplots(1, 4, figsize=(16, 4.4))
     for ax, (title, C, R, paths) in zip(axs, panels, strict=True):
         for c, rad in zip(C, R, strict=True):
             ax.add_patch(plt.Circle((c[0], c[1]), rad, color="0.6", alpha=0.5))
@@ -315,7 +337,11 @@ def main(argv: list[str] | None = None) -> int:
     fig.tight_layout()
     png_fail = exp.save(fig, "failures.png")
     plt.close(fig)
+    return png_fail
 
+
+def _draw_length_ratio(exp: Experiment, plt: Any, results: dict, stats: dict, n_scenes: int) -> Any:
+    """``length_ratio.png``: path length over the straight line, per random scene and rule."""
     fig, ax = plt.subplots(figsize=(7, 4))
     for rule, col in zip(CHARGE_RULES, ("C3", "C0"), strict=True):
         ratios = [r.length / d if _on_goal(r) else np.nan for r, d in results[rule]]
@@ -335,24 +361,14 @@ def main(argv: list[str] | None = None) -> int:
     fig.tight_layout()
     png_ratio = exp.save(fig, "length_ratio.png")
     plt.close(fig)
+    return png_ratio
 
-    exp.write_npz(
-        "paths.npz",
-        scene_seed_path=r_seed.path,
-        scene_equilibrium_path=r_eq.path,
-        symmetric=sym.path,
-        crease=crease.path,
-        wall_seed=wall_seed.path,
-        wall_equilibrium=wall_eq.path,
-        arm_q_seed=arm_Q["seed"],
-        arm_q_equilibrium=arm_Q["equilibrium"],
-    )
 
-    # ------------------------------------------------------------------ metrics
+def _evidence(stats: dict, cases: dict, arm_runs: dict, r_star: float, n_scenes: int) -> tuple[str, float, float]:
+    """``(evidence, min clearance over everything, min clearance on the random scenes)`` [m]."""
     ss, se = stats["seed"], stats["equilibrium"]
     min_clear_random = min(ss["min_clearance_m"], se["min_clearance_m"])
     min_clear = min(min_clear_random, *(c["min_clearance_m"] for c in cases.values()))
-    agrees = ss["success_rate"] == 1.0 and min_clear >= 0.0
     n_fail = n_scenes - ss["reached"]
     all_sum = all(q >= 1.0 for q in ss["failed_charge_sums"])
     labels = {
@@ -384,6 +400,16 @@ def main(argv: list[str] | None = None) -> int:
         f"{asd['max_joint_step_joint']} jumps by {asd['max_joint_step_rad']:.2f} rad (the IK solution switches "
         f"branch: the base turns by π)."
     )
+    return evidence, min_clear, min_clear_random
+
+
+def _metrics(
+    args: Any, stats: dict, cases: dict, arm_runs: dict, r_star: float, figures: list[str], pick: int
+) -> tuple[dict, str]:
+    """``(metrics.json, evidence)``."""
+    ss, se = stats["seed"], stats["equilibrium"]
+    evidence, min_clear, min_clear_random = _evidence(stats, cases, arm_runs, r_star, args.scenes)
+    agrees = ss["success_rate"] == 1.0 and min_clear >= 0.0
     metrics = {
         "gallery": {
             "title": "Seed 002 §VI: Coulomb potential-field paths around spheres (our addition)",
@@ -394,11 +420,11 @@ def main(argv: list[str] | None = None) -> int:
             ),
             "evidence": evidence,
             "agrees": bool(agrees),
-            "figures": [png_fail.name, png_scene.name, png_arm.name, png_ratio.name],
+            "figures": figures,
         },
         "seed": args.seed,
         "fast": bool(args.fast),
-        "scenes": n_scenes,
+        "scenes": args.scenes,
         "margin_m": args.margin,
         "step_m": args.step,
         "success_rate": ss["success_rate"],
@@ -420,6 +446,56 @@ def main(argv: list[str] | None = None) -> int:
         },
         "scene_figure_index": pick,
     }
+    return metrics, evidence
+
+
+def main(argv: list[str] | None = None) -> int:
+    exp = Experiment(__file__, __doc__, seed=0)
+    exp.add("--scenes", type=int_at_least(1), default=200, help="number of random scenes")
+    exp.add("--margin", type=nonneg_float, default=0.05, help="security margin added to each radius [m]")
+    exp.add(
+        "--step",
+        type=_step,
+        default=0.01,
+        help=f"step length ε of the path [m], also its goal tolerance: below {SCENE_DISTANCE[0]:g} m, the smallest "
+        "start-goal distance of the random scenes",
+    )
+    exp.add_fast("CI run", scenes=FAST_SCENES)
+    args = exp.parse(argv)
+    n_scenes = args.scenes
+    t0 = time.perf_counter()
+    scenes, results = _random_scenes(exp)
+    stats = {rule: _scene_stats(results[rule]) for rule in CHARGE_RULES}
+    t_scenes = time.perf_counter() - t0
+    fp, r_star = _failure_paths(args.step)
+    cases = _failure_cases(fp, r_star)
+    t_cases = time.perf_counter() - t0 - t_scenes
+    arm, arm_obs, arm_runs, arm_Q, arm_paths = _arm5_runs()
+
+    plt = exp.pyplot()
+    # 3-D scene: the first random scene with 3 obstacles where the rules' paths differ most
+    pick = max(
+        range(n_scenes),
+        key=lambda i: (len(scenes[i][2]) == 3, results["seed"][i][0].length - results["equilibrium"][i][0].length),
+    )
+    r_seed, r_eq = results["seed"][pick][0], results["equilibrium"][pick][0]
+    png_scene = _draw_random_scene(exp, scenes[pick], r_seed, r_eq, pick)
+    png_arm = _draw_arm_scene(exp, arm, arm_obs, arm_runs, arm_Q, arm_paths)
+    png_fail = _draw_failures(exp, plt, _failure_panels(fp, r_seed, r_eq), scenes[pick][1])
+    png_ratio = _draw_length_ratio(exp, plt, results, stats, n_scenes)
+    exp.write_npz(
+        "paths.npz",
+        scene_seed_path=r_seed.path,
+        scene_equilibrium_path=r_eq.path,
+        symmetric=fp["sym"].path,
+        crease=fp["crease"].path,
+        wall_seed=fp["wall_seed"].path,
+        wall_equilibrium=fp["wall_eq"].path,
+        arm_q_seed=arm_Q["seed"],
+        arm_q_equilibrium=arm_Q["equilibrium"],
+    )
+    figures = [png_fail.name, png_scene.name, png_arm.name, png_ratio.name]
+    metrics, evidence = _metrics(args, stats, cases, arm_runs, r_star, figures, pick)
     exp.write_json("metrics.json", metrics)
     exp.write_timing({"random_scenes_s": t_scenes, "failure_cases_s": t_cases, "total_s": time.perf_counter() - t0})
     if not exp.quiet:

@@ -366,18 +366,11 @@ def limit_violation(Q: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> floa
 
 
 # ====================================================================== the run
-def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
-    """Solve, evaluate, draw and write one reaching figure (module docstring)."""
-    setup = resolve(exp, args, figure)
-    p = setup.preset
-    exp.pyplot()  # the headless backend before anything draws
-
+def _load(exp: Experiment, args: argparse.Namespace, setup: Setup) -> dict[str, Any]:
+    """Load the system, compile its task and make the target: ``{s, task, q0, X0, Vd, Xd, e0, st_c}``."""
     import coop_ga as cg
-    from coop_ga import viz
-    from coop_ga.control import diff_ik_reach, gauss_newton_ik, ilqr_reach
-    from coop_ga.control.ilqr import DEFAULT_Q, DEFAULT_QV, DEFAULT_R, ILQROptions
 
-    t_total = time.perf_counter()
+    p = setup.preset
     with exp.stage(f"loading {p.system}"):
         s = cg.systems.load(p.system)
         task = cg.cooperative_task(s, p.kind)
@@ -394,6 +387,15 @@ def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
         e0 = task.error(q0, Vd)
     except cg.CoopGAError as err:  # a degenerate target or one across the chart: bad option values
         exp.parser.error(f"the target options give no valid target: {err}")
+    return {"s": s, "task": task, "q0": q0, "X0": X0, "Vd": Vd, "Xd": Xd, "e0": e0, "st_c": st_c}
+
+
+def _solve(
+    exp: Experiment, args: argparse.Namespace, setup: Setup, task: Any, q0: np.ndarray, Vd: Any
+) -> dict[str, Any]:
+    """Gauss–Newton IK (reachability), iLQR and, if the preset compares it, differential IK."""
+    from coop_ga.control import diff_ik_reach, gauss_newton_ik, ilqr_reach
+    from coop_ga.control.ilqr import ILQROptions
 
     opts = ILQROptions() if args.max_iter is None else ILQROptions(max_iter=args.max_iter)
     with exp.stage("reachability check (Gauss–Newton IK)"):
@@ -402,13 +404,17 @@ def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
         res = ilqr_reach(task, q0, Vd, opts, horizon=setup.horizon, dt=setup.dt, backward=args.backward)
     dik = None
     dik_time = 0.0
-    if p.compare_diffik:
+    if setup.preset.compare_diffik:
         with exp.stage("differential IK"):
             t0 = time.perf_counter()
             dik = diff_ik_reach(task, q0, Vd, gain=args.diffik_gain, dt=setup.dt, steps=setup.horizon, tol=1e-6)
             dik_time = time.perf_counter() - t0
+    return {"opts": opts, "ik": ik, "res": res, "dik": dik, "dik_time": dik_time, "st_i": st_i}
 
-    # ---- the trajectory in the task space
+
+def _task_space(exp: Experiment, task: Any, res: Any, Vd: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The iLQR trajectory in the task space: error bivector E (T, 7), command J^G q̇ (T, 7), end points P
+    (T, n, 3) [m]."""
     T = res.trajectory.shape[0]
     E = np.empty((T, 7))
     Bcmd = np.empty((T, 7))
@@ -418,56 +424,46 @@ def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
         E[k] = task.error(res.trajectory[k], Vd)
         Bcmd[k] = st.jacobian @ res.qd[k]
         P[k] = st.points
-    Xf = task.primitive(res.q)
-    max_violation = limit_violation(res.trajectory, s.q_lower, s.q_upper)
+    return E, Bcmd, P
 
-    # ---- figures
+
+def _draw_scene(exp: Experiment, setup: Setup, ld: dict[str, Any], res: Any, P: np.ndarray, Xf: Any) -> Any:
+    """``scene.png``: start and end, the primitive along the way, the target and the end-point paths."""
+    from coop_ga import viz
+
+    p, s, task = setup.preset, ld["s"], ld["task"]
+    T = res.trajectory.shape[0]
     n_int = N_INTERMEDIATE[p.kind]
     knots = np.linspace(0, T - 1, n_int + 2).round().astype(int)[1:-1]
-    with exp.stage("rendering the scene") as st_r:
-        scene = viz.Scene()
-        scene.robot(s, q0, "initial", "initial configuration")
-        scene.robot(s, res.q, "final", "final configuration")
-        scene.primitive(X0, "initial", f"initial {p.kind}")
-        for i, k in enumerate(knots):
-            scene.primitive(
-                task.primitive(res.trajectory[k]),
-                "intermediate",
-                f"intermediate {p.kind}s" if i == 0 else None,
-                fraction=(i + 1) / (n_int + 1),
-            )
-        scene.primitive(Xf, "final", f"final {p.kind}")
-        scene.primitive(Xd, "target", f"target {p.kind}")
-        for i in range(P.shape[1]):
-            scene.curve(P[:, i], "trajectory", "end-point paths (iLQR)" if i == 0 else None)
-        scene.curve(P[-1], "trajectory", markers=True)
-        scene_png = viz.render_scene(
-            scene,
-            exp.out / "scene.png",
-            view=p.view,
-            size=p.size,
-            title=f"{p.title}\n(iLQR, {res.iterations} iterations, ‖e‖ = {res.error:.1e})",
+    scene = viz.Scene()
+    scene.robot(s, ld["q0"], "initial", "initial configuration")
+    scene.robot(s, res.q, "final", "final configuration")
+    scene.primitive(ld["X0"], "initial", f"initial {p.kind}")
+    for i, k in enumerate(knots):
+        scene.primitive(
+            task.primitive(res.trajectory[k]),
+            "intermediate",
+            f"intermediate {p.kind}s" if i == 0 else None,
+            fraction=(i + 1) / (n_int + 1),
         )
-    with exp.stage("plotting the bivector command"):
-        biv_png = plot_bivectors(exp, setup, args, s, res, dik, E, Bcmd)
-    with exp.stage(f"animating animation.gif ({args.frames} frames)"):
-        gif = viz.animate(
-            s,
-            res.trajectory,
-            task.primitive,
-            exp.out / "animation.gif",
-            t=res.t,
-            frames=args.frames,
-            fps=args.frames / float(res.t[-1] - res.t[0]),
-            target=Xd,
-            view=p.view,
-            size=(4.8, 3.6),
-            dpi=80,
-            title=f"{p.figure}: {p.system}, iLQR",
-            progress=not args.quiet,
-        )
+    scene.primitive(Xf, "final", f"final {p.kind}")
+    scene.primitive(ld["Xd"], "target", f"target {p.kind}")
+    for i in range(P.shape[1]):
+        scene.curve(P[:, i], "trajectory", "end-point paths (iLQR)" if i == 0 else None)
+    scene.curve(P[-1], "trajectory", markers=True)
+    return viz.render_scene(
+        scene,
+        exp.out / "scene.png",
+        view=p.view,
+        size=p.size,
+        title=f"{p.title}\n(iLQR, {res.iterations} iterations, ‖e‖ = {res.error:.1e})",
+    )
 
-    # ---- outputs
+
+def _write_trajectory(
+    exp: Experiment, task: Any, res: Any, dik: Any, E: np.ndarray, Bcmd: np.ndarray, P: np.ndarray, Vd: Any
+) -> None:
+    """``trajectory.npz``: the iLQR run in joint and task space (and differential IK's, if it ran)."""
     arrays: dict[str, Any] = {
         "t": res.t,
         "q": res.trajectory,
@@ -488,8 +484,64 @@ def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
         )
     exp.write_npz("trajectory.npz", **arrays)
 
+
+def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
+    """Solve, evaluate, draw and write one reaching figure (module docstring)."""
+    setup = resolve(exp, args, figure)
+    p = setup.preset
+    exp.pyplot()  # the headless backend before anything draws
+
+    from coop_ga import viz
+    from coop_ga.control.ilqr import DEFAULT_Q, DEFAULT_QV, DEFAULT_R
+
+    t_total = time.perf_counter()
+    ld = _load(exp, args, setup)
+    s, task, Vd = ld["s"], ld["task"], ld["Vd"]
+    sv = _solve(exp, args, setup, task, ld["q0"], Vd)
+    res, dik = sv["res"], sv["dik"]
+    E, Bcmd, P = _task_space(exp, task, res, Vd)
+    Xf = task.primitive(res.q)
+    max_violation = limit_violation(res.trajectory, s.q_lower, s.q_upper)
+
+    with exp.stage("rendering the scene") as st_r:
+        scene_png = _draw_scene(exp, setup, ld, res, P, Xf)
+    with exp.stage("plotting the bivector command"):
+        biv_png = plot_bivectors(exp, setup, args, s, res, dik, E, Bcmd)
+    with exp.stage(f"animating animation.gif ({args.frames} frames)"):
+        gif = viz.animate(
+            s,
+            res.trajectory,
+            task.primitive,
+            exp.out / "animation.gif",
+            t=res.t,
+            frames=args.frames,
+            fps=args.frames / float(res.t[-1] - res.t[0]),
+            target=ld["Xd"],
+            view=p.view,
+            size=(4.8, 3.6),
+            dpi=80,
+            title=f"{p.figure}: {p.system}, iLQR",
+            progress=not args.quiet,
+        )
+    _write_trajectory(exp, task, res, dik, E, Bcmd, P, Vd)
+    opts = sv["opts"]
     metrics = build_metrics(
-        setup, args, s, task, res, ik, dik, X0, Xd, Xf, e0, E, Bcmd, max_violation, opts.tol, opts.max_iter
+        setup,
+        args,
+        s,
+        task,
+        res,
+        sv["ik"],
+        dik,
+        ld["X0"],
+        ld["Xd"],
+        Xf,
+        ld["e0"],
+        E,
+        Bcmd,
+        max_violation,
+        opts.tol,
+        opts.max_iter,
     )
     metrics["weights"] = {"R": DEFAULT_R, "Q": DEFAULT_Q, "Qv": DEFAULT_QV}
     metrics["gallery"]["figures"] = [scene_png.name, biv_png.name, gif.name]
@@ -497,15 +549,15 @@ def run(exp: Experiment, args: argparse.Namespace, figure: str) -> int:
     exp.write_timing(
         {
             "solve_time_s": res.solve_time_s,
-            "ilqr_wall_time_s": st_i.seconds,
+            "ilqr_wall_time_s": sv["st_i"].seconds,
             "ilqr_iteration_time_s": [x.time_s for x in res.stats],
-            "task_compile_or_load_s": st_c.seconds,
-            "diffik_time_s": dik_time if dik is not None else None,
+            "task_compile_or_load_s": ld["st_c"].seconds,
+            "diffik_time_s": sv["dik_time"] if dik is not None else None,
             "render_scene_s": st_r.seconds,
             "total_runtime_s": time.perf_counter() - t_total,
         }
     )
-    _print_summary(exp, setup, s, res, ik, dik, e0, metrics)
+    _print_summary(exp, setup, s, res, sv["ik"], dik, ld["e0"], metrics)
     return 0
 
 
@@ -537,6 +589,73 @@ def plot_bivectors(
     return path
 
 
+def _target_block(setup: Setup, kind: str, c0: dict[str, Any], cd: dict[str, Any]) -> dict[str, Any]:
+    """The target: its options, its primitive's parameters and its tilt from the initial primitive [deg]."""
+    target: dict[str, Any] = {
+        "translation_m": list(setup.translation),
+        "tilt_deg": setup.tilt_deg,
+        "tilt_axis": list(setup.tilt_axis),
+        "scale": setup.scale,
+        kind: cd,
+    }
+    a0, ad = _axis(c0), _axis(cd)
+    if a0 is not None and ad is not None:
+        target["tilt_from_initial_deg"] = _angle_deg(a0, ad)
+    return target
+
+
+def _iteration_stats(res: Any) -> list[dict[str, Any]]:
+    """Per iLQR iteration: cost, terminal error, step, model, outer loop, violation, travel, backward passes."""
+    return [
+        {
+            "cost": x.cost,
+            "terminal_error": x.error,
+            "alpha": x.alpha,
+            "model": x.model,
+            "outer": x.outer,
+            "violation": x.violation,
+            "travel": x.travel,
+            "backward_passes": x.backward_passes,
+        }
+        for x in res.stats
+    ]
+
+
+def _shape_errors(m: dict[str, Any], c0: dict, cd: dict, cf: dict, Bcmd: np.ndarray, res: Any) -> None:
+    """Into ``m``: the final primitive against the target (axis, centre, radius or point) and, for primitives with a
+    radius, the integrated dilation command against log(r_n / r_0)."""
+    af, ad = _axis(cf), _axis(cd)
+    if af is not None and ad is not None:
+        m["final_axis_error_deg"] = _angle_deg(af, ad)
+    if "center_m" in cd:
+        m["final_centre_error_m"] = float(np.linalg.norm(cf["center_m"] - cd["center_m"]))
+        m["radius_error_m"] = abs(cf["radius_m"] - cd["radius_m"])
+        # the scale is a homomorphism of the similarity group: ∫ β̇_body dt = log(r_n / r_0) exactly
+        # (trapezoid over the knots: error O(Δt²))
+        m["integrated_dilation_command"] = float(np.trapezoid(Bcmd[:, 3], res.t))
+        m["log_radius_ratio_final_initial"] = float(np.log(cf["radius_m"] / c0["radius_m"]))
+    else:
+        m["final_point_error_m"] = float(np.linalg.norm(cf["point_m"] - cd["point_m"]))
+
+
+def _diffik_block(dik: Any, gain: float, horizon: int) -> dict[str, Any]:
+    """Differential IK's numbers (the limits it imposes — position, velocity and, on the Franka systems,
+    acceleration from rest — measured on its trajectory)."""
+    return dict(
+        diffik_final_error=dik.error,
+        diffik_converged=bool(dik.converged),
+        diffik_steps=dik.iterations,
+        diffik_gain_per_s=gain,
+        diffik_error_at_horizon=float(dik.errors[min(len(dik.errors) - 1, horizon)]),
+        diffik_limits={
+            "max_limit_violation": dik.limit_violation,
+            "max_velocity_violation": dik.velocity_violation,
+            "max_acceleration_violation": dik.max_acceleration_violation,
+            "relaxed_steps": dik.relaxed_steps,
+        },
+    )
+
+
 def build_metrics(
     setup: Setup,
     args: argparse.Namespace,
@@ -559,18 +678,6 @@ def build_metrics(
     p = setup.preset
     kind = p.kind
     c0, cd, cf = (primitive_parameters(X, kind) for X in (X0, Xd, Xf))
-    target: dict[str, Any] = {
-        "translation_m": list(setup.translation),
-        "tilt_deg": setup.tilt_deg,
-        "tilt_axis": list(setup.tilt_axis),
-        "scale": setup.scale,
-        kind: cd,
-    }
-    a0, ad, af = _axis(c0), _axis(cd), _axis(cf)
-    if a0 is not None and ad is not None:
-        target["tilt_from_initial_deg"] = _angle_deg(a0, ad)
-    max_dil_cmd = float(np.max(np.abs(Bcmd[:, 3])))
-    max_dil_err = float(np.max(np.abs(E[:, 3])))
     m: dict[str, Any] = {
         "figure": p.figure,
         "system": p.system,
@@ -589,7 +696,7 @@ def build_metrics(
         "max_limit_violation": max_violation,
         # ---
         "tol": tol,
-        "target": target,
+        "target": _target_block(setup, kind, c0, cd),
         f"initial_{kind}": c0,
         f"final_{kind}": cf,
         "initial_error": float(np.linalg.norm(e0)),
@@ -604,19 +711,7 @@ def build_metrics(
         "ilqr_max_iter": max_iter,
         "cost_history": res.cost_history,
         "terminal_error_history": res.error_history,
-        "ilqr_iteration_stats": [
-            {
-                "cost": x.cost,
-                "terminal_error": x.error,
-                "alpha": x.alpha,
-                "model": x.model,
-                "outer": x.outer,
-                "violation": x.violation,
-                "travel": x.travel,
-                "backward_passes": x.backward_passes,
-            }
-            for x in res.stats
-        ],
+        "ilqr_iteration_stats": _iteration_stats(res),
         "horizon": setup.horizon,
         "dt_s": setup.dt,
         "horizon_s": setup.horizon * setup.dt,
@@ -627,37 +722,13 @@ def build_metrics(
         "acceleration_limit_violation_rad_s2": res.acceleration_violation,
         "max_joint_speed_rad_s": float(np.abs(res.qd).max()),
         "max_joint_accel_rad_s2": float(np.abs(res.u).max()),
-        "max_abs_dilation_command": max_dil_cmd,
-        "max_abs_dilation_error": max_dil_err,
+        "max_abs_dilation_command": float(np.max(np.abs(Bcmd[:, 3]))),
+        "max_abs_dilation_error": float(np.max(np.abs(E[:, 3]))),
         "max_abs_command": float(np.max(np.abs(Bcmd))),
     }
-    if af is not None and ad is not None:
-        m["final_axis_error_deg"] = _angle_deg(af, ad)
-    if "center_m" in cd:
-        m["final_centre_error_m"] = float(np.linalg.norm(cf["center_m"] - cd["center_m"]))
-        m["radius_error_m"] = abs(cf["radius_m"] - cd["radius_m"])
-        # the scale is a homomorphism of the similarity group: ∫ β̇_body dt = log(r_n / r_0) exactly
-        # (trapezoid over the knots: error O(Δt²))
-        m["integrated_dilation_command"] = float(np.trapezoid(Bcmd[:, 3], res.t))
-        m["log_radius_ratio_final_initial"] = float(np.log(cf["radius_m"] / c0["radius_m"]))
-    else:
-        m["final_point_error_m"] = float(np.linalg.norm(cf["point_m"] - cd["point_m"]))
+    _shape_errors(m, c0, cd, cf, Bcmd, res)
     if dik is not None:
-        m.update(
-            diffik_final_error=dik.error,
-            diffik_converged=bool(dik.converged),
-            diffik_steps=dik.iterations,
-            diffik_gain_per_s=args.diffik_gain,
-            diffik_error_at_horizon=float(dik.errors[min(len(dik.errors) - 1, setup.horizon)]),
-            # the limits differential IK imposes (position, velocity and, on the Franka systems, acceleration
-            # from rest), measured on its trajectory
-            diffik_limits={
-                "max_limit_violation": dik.limit_violation,
-                "max_velocity_violation": dik.velocity_violation,
-                "max_acceleration_violation": dik.max_acceleration_violation,
-                "relaxed_steps": dik.relaxed_steps,
-            },
-        )
+        m.update(_diffik_block(dik, args.diffik_gain, setup.horizon))
     m["gallery"] = gallery(setup, s, res, m)
     return m
 

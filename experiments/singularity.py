@@ -233,7 +233,8 @@ def drive(
 
 
 # ---------------------------------------------------------------------- main
-def main(argv: list[str] | None = None) -> int:
+def _parse(argv: list[str] | None) -> Experiment:
+    """The command line."""
     exp = Experiment(__file__, __doc__, seed=0)
     exp.add("--dt", type=positive_float, default=0.01, help="time step [s] of the point-reaching control (Eq 61)")
     exp.add("--gain", type=positive_float, default=2.0, help="point-reaching gain k [1/s]")
@@ -251,56 +252,35 @@ def main(argv: list[str] | None = None) -> int:
     )
     exp.add("--frames", type=int_at_least(2), default=30, help="frames of fig18_animation.gif (--fast: 4)")
     exp.add_fast("CI run (same controller and stop rule)", dt=0.05, frames=4)
-    args = exp.parse(argv)
-    dt = args.dt
-    plt = exp.pyplot()
+    exp.parse(argv)
+    return exp
 
+
+#: what :func:`_recorder` records at every step
+RECORDED = (
+    "q",
+    "points",
+    "w",
+    "center",
+    "radius",
+    "normal",
+    "xc",
+    "circumcenter",
+    "circumradius",
+    "log",
+    "eig",
+    "eig_cf",
+    "distance",
+)
+
+
+def _recorder(task: Any, closed_form: bool) -> tuple[dict[str, list[Any]], Any]:
+    """``(rec, record)``: ``record(q)`` appends the circle, its read-outs, its bivector and the manipulability
+    eigenvalues (compiled and, for the canonical chart, closed-form) at ``q`` to the lists of ``rec``."""
     import coop_ga as cg
-    from coop_ga import viz
-    from coop_ga.algebra import blade_name
     from coop_ga.cooperative import cooperative_primitive
-    from coop_ga.diagnostics import collect_warnings
 
-    t_start = time.perf_counter()
-    with exp.stage("loading three_franka and its cooperative circle"):
-        s = cg.systems.load("three_franka")
-        task = cg.cooperative_task(s, "circle")
-        task.evaluate(s.q0)
-    lim = task.system.limits  # position [rad] and velocity [rad/s] limits, (nq,) each
-    lower, upper, vel = lim.lower, lim.upper, lim.velocity
-    cols = {i: arm_columns(s, f) for i, f in enumerate(task.end_frames)}
-    closed_form = task.chart_axis is None  # the closed forms of Appendix B are for the canonical chart
-
-    # ---- start: arms 1 and 2 place their TCPs on the line, arm 0 at q0
-    fixed = {
-        1: np.array([args.half_width, args.line_y, args.line_z]),
-        2: np.array([-args.half_width, args.line_y, args.line_z]),
-    }
-    with exp.stage("start configuration (arms 1, 2 place their TCPs)") as st_prep:
-        q_s, prep_steps = prepare_start(task, np.array(s.q0, dtype=float), fixed, cols)
-    P_s = task.tree.end_points_array(q_s)
-    a_pt, b_pt = P_s[1], P_s[2]
-    target = a_pt + args.target_fraction * (b_pt - a_pt)
-
-    # ---- the run
-    rec: dict[str, list[Any]] = {
-        k: []
-        for k in (
-            "q",
-            "points",
-            "w",
-            "center",
-            "radius",
-            "normal",
-            "xc",
-            "circumcenter",
-            "circumradius",
-            "log",
-            "eig",
-            "eig_cf",
-            "distance",
-        )
-    }
+    rec: dict[str, list[Any]] = {k: [] for k in RECORDED}
 
     def record(q: np.ndarray) -> None:
         st = task.evaluate(q)  # guarded: warns below 1e-2, raises at 1e-6
@@ -326,25 +306,36 @@ def main(argv: list[str] | None = None) -> int:
         for k, v in row.items():
             rec[k].append(v)
 
-    with exp.stage("driving TCP 0 onto the line (circle tracked)") as st_run, collect_warnings(emit=False) as cw:
-        stopped_reason, w_next, qp_steps = drive(task, q_s, target, cols[0], args, record, rec)
-    warning_counts = dict(cw.counts)
+    return rec, record
 
-    R = {k: np.asarray(v) for k, v in rec.items()}
-    T = len(R["w"])
-    t = dt * np.arange(T)
-    Q, W, E, Ecf = R["q"], R["w"], R["eig"], R["eig_cf"]
 
-    # ---- analysis
-    # (1) which eigenvalues are resolved: the compiled and the closed-form routes agree (non-structural ones)
+def _resolved(E: np.ndarray, Ecf: np.ndarray, closed_form: bool) -> tuple[np.ndarray, int]:
+    """``(rel, k_res)``: which eigenvalues are resolved — the compiled and the closed-form routes agree on the
+    non-structural ones up to step ``k_res``; ``rel`` (T,) their largest relative difference."""
+    T = len(E)
     if closed_form:
         rel = np.max(np.abs(E[:, 1:] - Ecf[:, 1:]) / np.maximum(np.abs(Ecf[:, 1:]), 1e-300), axis=1)
         bad = np.flatnonzero(rel > RESOLVED_RTOL)
         k_res = int(bad[0] - 1) if bad.size else T - 1
     else:
         rel, k_res = np.full(T, np.nan), T - 1
-    k_res = max(k_res, 0)
-    # (2) power laws in the resolved asymptotic range w ≤ warn_below: log λ_i, log r, log |t| vs log w
+    return rel, max(k_res, 0)
+
+
+def _analyse(
+    task: Any, R: dict[str, np.ndarray], closed_form: bool, dt: float, cols: dict, q_s: np.ndarray, P_s: np.ndarray
+) -> dict[str, Any]:
+    """Everything measured on the recorded run ``R``: power laws vs w, eigenvalue changes, limits, read-outs."""
+    import coop_ga as cg
+    from coop_ga.algebra import blade_name
+    from coop_ga.cooperative import cooperative_primitive
+
+    lim = task.system.limits  # position [rad] and velocity [rad/s] limits, (nq,) each
+    T = len(R["w"])
+    t = dt * np.arange(T)
+    Q, W, E, Ecf = R["q"], R["w"], R["eig"], R["eig_cf"]
+    rel, k_res = _resolved(E, Ecf, closed_form)
+    # power laws in the resolved asymptotic range w ≤ warn_below: log λ_i, log r, log |t| vs log w
     fit = np.arange(T)[(W <= task.warn_below) & (np.arange(T) <= k_res)]
 
     def slope(y: np.ndarray) -> float:
@@ -352,267 +343,271 @@ def main(argv: list[str] | None = None) -> int:
             return float("nan")
         return float(np.polyfit(np.log(W[fit]), np.log(y[fit]), 1)[0])
 
-    eig_slopes = [slope(E[:, i]) for i in range(1, 7)]
-    radius_slope = slope(R["radius"])
     tnorm = np.linalg.norm(R["log"][:, 4:], axis=1)
-    translation_slope = slope(tnorm)
-    # (3) eigenvalue changes
     e0, ef, er = E[0], E[-1], E[k_res]
-    fallen = int(np.sum(ef[1:] < e0[1:] / 10.0))
-    grown = int(np.sum(ef[1:] > e0[1:] * 10.0))
-    fallen_res = int(np.sum(er[1:] < e0[1:] / 10.0))
-    # (4) limits
-    limit_violation = float(max(0.0, np.max(lower - Q), np.max(Q - upper)))
-    vel_excess = float(max(0.0, np.max(np.abs(np.diff(Q, axis=0)) / dt - vel))) if T > 1 else 0.0
-    others_moved = float(np.max(np.abs(Q[:, np.r_[cols[1], cols[2]]] - q_s[np.r_[cols[1], cols[2]]])))
-    # (5) read-outs against the closed-form circumcircle
-    r_rel = np.abs(R["radius"] - R["circumradius"]) / R["circumradius"]
-    c_rel = np.linalg.norm(R["center"] - R["circumcenter"], axis=1) / R["circumradius"]
-    # (6) circle coefficients: which fall by > 100x (relative to the largest coefficient at the start)
     names = [blade_name(b) for b in cooperative_primitive("circle", [cg.point(p) for p in P_s]).blades]
     xc0, xcf = R["xc"][0], R["xc"][-1]
+    # circle coefficients: which fall by > 100x (relative to the largest coefficient at the start)
     big0 = np.abs(xc0) > 1e-6 * np.max(np.abs(xc0))
-    xc_fallen = [n for n, a, b, m in zip(names, xc0, xcf, big0) if m and abs(b) < abs(a) / 100.0]
-    B0, Bf = R["log"][0], R["log"][-1]
     below_warn = int(np.sum(W < task.warn_below))
-    t_warn = float(t[np.argmax(W < task.warn_below)]) if below_warn else float("nan")
-    n_circles_drawn = int(np.sum(R["radius"] <= DRAW_RADIUS_MAX))
+    fixed_cols = np.r_[cols[1], cols[2]]
+    return {
+        "T": T,
+        "t": t,
+        "rel": rel,
+        "k_res": k_res,
+        "fit": fit,
+        "eig_slopes": [slope(E[:, i]) for i in range(1, 7)],
+        "radius_slope": slope(R["radius"]),
+        "tnorm": tnorm,
+        "translation_slope": slope(tnorm),
+        "e0": e0,
+        "ef": ef,
+        "er": er,
+        "fallen": int(np.sum(ef[1:] < e0[1:] / 10.0)),
+        "grown": int(np.sum(ef[1:] > e0[1:] * 10.0)),
+        "fallen_res": int(np.sum(er[1:] < e0[1:] / 10.0)),
+        "limit_violation": float(max(0.0, np.max(lim.lower - Q), np.max(Q - lim.upper))),
+        "vel_excess": float(max(0.0, np.max(np.abs(np.diff(Q, axis=0)) / dt - lim.velocity))) if T > 1 else 0.0,
+        "others_moved": float(np.max(np.abs(Q[:, fixed_cols] - q_s[fixed_cols]))),
+        # read-outs against the closed-form circumcircle
+        "r_rel": np.abs(R["radius"] - R["circumradius"]) / R["circumradius"],
+        "c_rel": np.linalg.norm(R["center"] - R["circumcenter"], axis=1) / R["circumradius"],
+        "names": names,
+        "xc0": xc0,
+        "xcf": xcf,
+        "xc_fallen": [n for n, a, b, m in zip(names, xc0, xcf, big0) if m and abs(b) < abs(a) / 100.0],
+        "B0": R["log"][0],
+        "Bf": R["log"][-1],
+        "below_warn": below_warn,
+        "t_warn": float(t[np.argmax(W < task.warn_below)]) if below_warn else float("nan"),
+        "n_circles_drawn": int(np.sum(R["radius"] <= DRAW_RADIUS_MAX)),
+    }
 
-    # ---- figures
-    with exp.stage("plotting"):
-        # Fig. 18: the scene
-        drawable = np.flatnonzero(R["radius"] <= DRAW_RADIUS_MAX)
-        k_last = int(drawable[-1]) if drawable.size else 0
-        scene = viz.Scene()
-        scene.robot(s, q_s, "initial", "initial configuration")
-        scene.robot(s, Q[-1], "final", f"final configuration (t = {t[-1]:.2f} s)")
-        Xs = [cooperative_primitive("circle", [cg.point(p) for p in R["points"][k]]) for k in range(T)]
-        scene.primitive(Xs[0], "initial", f"initial circle (r = {R['radius'][0]:.2f} m)")
-        r_log = np.geomspace(R["radius"][0], R["radius"][k_last], 6)[1:-1]
-        inter = sorted({int(np.argmin(np.abs(np.log(R["radius"][: k_last + 1] / r)))) for r in r_log} - {0, k_last})
-        for j, k in enumerate(inter):
-            scene.primitive(
-                Xs[k], "intermediate", "intermediate circles" if j == 0 else None, fraction=(j + 1) / (len(inter) + 1)
-            )
+
+def _draw_scene(
+    exp: Experiment, s: Any, task: Any, q_s: np.ndarray, R: dict, A: dict, Xs: list, line_ends: tuple
+) -> Any:
+    """Fig. 18: start and end, the circles as they grow (up to :data:`DRAW_RADIUS_MAX`), the line, TCP 0's path."""
+    from coop_ga import viz
+
+    t, W, a_pt, b_pt = A["t"], R["w"], *line_ends
+    drawable = np.flatnonzero(R["radius"] <= DRAW_RADIUS_MAX)
+    k_last = int(drawable[-1]) if drawable.size else 0
+    scene = viz.Scene()
+    scene.robot(s, q_s, "initial", "initial configuration")
+    scene.robot(s, R["q"][-1], "final", f"final configuration (t = {t[-1]:.2f} s)")
+    scene.primitive(Xs[0], "initial", f"initial circle (r = {R['radius'][0]:.2f} m)")
+    r_log = np.geomspace(R["radius"][0], R["radius"][k_last], 6)[1:-1]
+    inter = sorted({int(np.argmin(np.abs(np.log(R["radius"][: k_last + 1] / r)))) for r in r_log} - {0, k_last})
+    for j, k in enumerate(inter):
         scene.primitive(
-            Xs[k_last],
-            "final",
-            f"last circle with r ≤ {DRAW_RADIUS_MAX:g} m (t = {t[k_last]:.2f} s, w = {W[k_last]:.2g})",
+            Xs[k], "intermediate", "intermediate circles" if j == 0 else None, fraction=(j + 1) / (len(inter) + 1)
         )
-        u = (b_pt - a_pt) / np.linalg.norm(b_pt - a_pt)
-        ext = 0.35 * np.linalg.norm(b_pt - a_pt)
-        line = a_pt + np.linspace(-ext, np.linalg.norm(b_pt - a_pt) + ext, 14)[:, None] * u
-        dots = {"color": viz.PALETTE.trajectories[1]}
-        scene.curve(line, "trajectory", "degenerate line through TCPs 1, 2 (dots)", markers=True, style=dots)
-        scene.curve(R["points"][:, 0], "trajectory", "TCP 0 path")
-        png18 = viz.render_scene(
-            scene,
-            exp.out / "fig18_scene.png",
-            view=(34.0, -62.0),
-            size=(7.5, 6.5),
-            title=(
-                f"Fig. 18: TCP 0 driven onto the line through TCPs 1, 2\n"
-                f"stopped at w = {W[-1]:.3g} (raise at {task.raise_below:g}), r = {R['radius'][-1]:.3g} m"
-            ),
-        )
-
-        # Fig. 19a: circle parameters
-        fig, axs = plt.subplots(2, 2, figsize=(12, 7.5), sharex=True)
-        ax = axs[0, 0]
-        for j, n in enumerate(names):
-            ax.plot(t, R["xc"][:, j], lw=1.4, label="$e_{" + n[1:].replace("∞", r"\infty") + "}$")
-        ax.set_title(r"coefficients of $X_c = P_1\wedge P_2\wedge P_3$ (Eq 14)")
-        ax.set_ylabel("coefficient")
-        ax.legend(ncol=5, fontsize=7)
-        ax.grid(True, alpha=0.3)
-        ax = axs[0, 1]
-        ax.semilogy(t, R["radius"], color="C0", lw=1.6, label="radius $r$ [m]")
-        ax.semilogy(t, R["distance"], color="C3", lw=1.6, label="distance of TCP 0 to the line [m]")
-        ax.semilogy(t, W, color="0.3", lw=1.2, ls="--", label="well-definedness $w$")
-        ax.set_title(f"radius {R['radius'][0]:.3g} → {R['radius'][-1]:.3g} m (∝ $w^{{{radius_slope:.2f}}}$)")
-        ax.set_ylabel("[m] | w [1]")
-        ax.legend(fontsize=8)
-        ax.grid(True, alpha=0.3, which="both")
-        ax = axs[1, 0]
-        for j, lab in enumerate("xyz"):
-            ax.plot(t, R["center"][:, j], lw=1.6, label=f"$c_{lab}$")
-        ax.set_yscale("symlog", linthresh=1.0)
-        ax.set_title("centre (symlog)")
-        ax.set_ylabel("centre [m]")
-        ax.legend(fontsize=8)
-        ax.grid(True, alpha=0.3)
-        ax.set_xlabel("t [s]")
-        ax = axs[1, 1]
-        for j, lab in enumerate("xyz"):
-            ax.plot(t, R["normal"][:, j], lw=1.6, label=f"$n_{lab}$")
-        ax.set_title("unit normal")
-        ax.set_ylabel("normal [1]")
-        ax.legend(fontsize=8)
-        ax.grid(True, alpha=0.3)
-        ax.set_xlabel("t [s]")
-        fig.suptitle("Fig. 19a: the cooperative circle while TCP 0 reaches the line (circle tracked, not controlled)")
-        fig.tight_layout()
-        png19a = exp.save(fig, "fig19_circle_parameters.png")
-        plt.close(fig)
-
-        # Fig. 19b: bivector
-        fig, ax = plt.subplots(figsize=(10, 4.5))
-        viz.plot_bivector(ax, t, R["log"])
-        ax.set_yscale("symlog", linthresh=0.1)
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel(viz.bivector_ylabel(r"$\log V_{Sc}$") + ", symlog")
-        ax.set_title(
-            r"Fig. 19b: $B_{Sc} = \log V_{Sc}(q_t)$ "
-            f"(translation ‖t‖ {tnorm[0]:.2f} → {tnorm[-1]:.3g}, β = ln r {B0[3]:.2f} → {Bf[3]:.2f})"
-        )
-        fig.tight_layout()
-        png19b = exp.save(fig, "fig19_bivector.png")
-        plt.close(fig)
-
-        # Fig. 19c: manipulability eigenvalues and well-definedness
-        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7.5), sharex=True, gridspec_kw={"height_ratios": [2, 1]})
-        for i in range(7):
-            lab = rf"$\lambda_1$ ≡ 0 (structural: rank 6; drawn at {EIG_FLOOR:g})" if i == 0 else rf"$\lambda_{i + 1}$"
-            if i > 0 and np.isfinite(eig_slopes[i - 1]):
-                lab += rf" ($\propto w^{{{eig_slopes[i - 1]:.2f}}}$)"
-            ax1.semilogy(t, np.maximum(E[:, i], EIG_FLOOR), lw=1.5 if i else 1.0, ls="-" if i else ":", label=lab)
-        if k_res < T - 1:
-            ax1.axvspan(
-                t[k_res], t[-1], color="0.85", zorder=0, label="small eigenvalues not resolved (routes disagree)"
-            )
-        ax1.set_ylabel(r"eigenvalues of $\mathcal{J}^G \mathcal{J}^{G\top}$")
-        ax1.set_title(
-            r"Fig. 19c: task-space manipulability $M_S = \mathcal{J}^G\mathcal{J}^{G\top}$ (Eq 59), 21 joints"
-        )
-        ax1.legend(fontsize=7, ncol=2, loc="lower left", bbox_to_anchor=(0.0, 0.06))
-        ax1.grid(True, alpha=0.3, which="both")
-        ax2.semilogy(t, W, color="k", lw=1.6, label="well-definedness $w$")
-        ax2.axhline(task.warn_below, color="orange", ls="--", label=f"warn_below = {task.warn_below:g}")
-        ax2.axhline(task.raise_below, color="red", ls="--", label=f"raise_below = {task.raise_below:g} (stop)")
-        for a in (ax1, ax2):
-            a.axvline(t[-1], color="red", lw=0.8, ls=":")
-        ax2.set_ylabel("w")
-        ax2.set_xlabel("t [s]")
-        ax2.legend(fontsize=8)
-        ax2.grid(True, alpha=0.3, which="both")
-        fig.tight_layout()
-        png19c = exp.save(fig, "fig19_manipulability.png")
-        plt.close(fig)
-
-    with exp.stage(f"animating fig18_animation.gif ({args.frames} frames)"):
-        # the circle only while it is drawable (r ≤ DRAW_RADIUS_MAX): a huge circle would frame nothing else
-        circles = [X if r <= DRAW_RADIUS_MAX else None for X, r in zip(Xs, R["radius"])]
-        gif = viz.animate(
-            s,
-            Q,
-            circles,
-            exp.out / "fig18_animation.gif",
-            t=t,
-            frames=args.frames,
-            fps=10.0,
-            view=(34.0, -62.0),
-            size=(4.8, 3.6),
-            dpi=80,
-            title="Fig. 18: TCP 0 driven onto the line",
-        )
-
-    # ---- outputs
-    exp.write_npz(
-        "trajectory.npz",
-        t=t,
-        q=Q,
-        end_points=R["points"],
-        well_definedness=W,
-        center=R["center"],
-        radius=R["radius"],
-        normal=R["normal"],
-        circle_coefficients=R["xc"],
-        bivector=R["log"],
-        eigenvalues=E,
-        eigenvalues_closed_form=Ecf,
-        distance_to_line=R["distance"],
+    scene.primitive(
+        Xs[k_last],
+        "final",
+        f"last circle with r ≤ {DRAW_RADIUS_MAX:g} m (t = {t[k_last]:.2f} s, w = {W[k_last]:.2g})",
     )
-    ratio = float(ef[1] / e0[1])
+    u = (b_pt - a_pt) / np.linalg.norm(b_pt - a_pt)
+    ext = 0.35 * np.linalg.norm(b_pt - a_pt)
+    line = a_pt + np.linspace(-ext, np.linalg.norm(b_pt - a_pt) + ext, 14)[:, None] * u
+    dots = {"color": viz.PALETTE.trajectories[1]}
+    scene.curve(line, "trajectory", "degenerate line through TCPs 1, 2 (dots)", markers=True, style=dots)
+    scene.curve(R["points"][:, 0], "trajectory", "TCP 0 path")
+    return viz.render_scene(
+        scene,
+        exp.out / "fig18_scene.png",
+        view=(34.0, -62.0),
+        size=(7.5, 6.5),
+        title=(
+            f"Fig. 18: TCP 0 driven onto the line through TCPs 1, 2\n"
+            f"stopped at w = {W[-1]:.3g} (raise at {task.raise_below:g}), r = {R['radius'][-1]:.3g} m"
+        ),
+    )
+
+
+def _draw_circle_parameters(exp: Experiment, plt: Any, R: dict, A: dict) -> Any:
+    """Fig. 19a: the circle's coefficients, radius, centre and normal over time."""
+    t, W = A["t"], R["w"]
+    fig, axs = plt.subplots(2, 2, figsize=(12, 7.5), sharex=True)
+    ax = axs[0, 0]
+    for j, n in enumerate(A["names"]):
+        ax.plot(t, R["xc"][:, j], lw=1.4, label="$e_{" + n[1:].replace("∞", r"\infty") + "}$")
+    ax.set_title(r"coefficients of $X_c = P_1\wedge P_2\wedge P_3$ (Eq 14)")
+    ax.set_ylabel("coefficient")
+    ax.legend(ncol=5, fontsize=7)
+    ax.grid(True, alpha=0.3)
+    ax = axs[0, 1]
+    ax.semilogy(t, R["radius"], color="C0", lw=1.6, label="radius $r$ [m]")
+    ax.semilogy(t, R["distance"], color="C3", lw=1.6, label="distance of TCP 0 to the line [m]")
+    ax.semilogy(t, W, color="0.3", lw=1.2, ls="--", label="well-definedness $w$")
+    ax.set_title(f"radius {R['radius'][0]:.3g} → {R['radius'][-1]:.3g} m (∝ $w^{{{A['radius_slope']:.2f}}}$)")
+    ax.set_ylabel("[m] | w [1]")
+    ax.legend(fontsize=8)
+    ax.grid(True, alpha=0.3, which="both")
+    ax = axs[1, 0]
+    for j, lab in enumerate("xyz"):
+        ax.plot(t, R["center"][:, j], lw=1.6, label=f"$c_{lab}$")
+    ax.set_yscale("symlog", linthresh=1.0)
+    ax.set_title("centre (symlog)")
+    ax.set_ylabel("centre [m]")
+    ax.legend(fontsize=8)
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel("t [s]")
+    ax = axs[1, 1]
+    for j, lab in enumerate("xyz"):
+        ax.plot(t, R["normal"][:, j], lw=1.6, label=f"$n_{lab}$")
+    ax.set_title("unit normal")
+    ax.set_ylabel("normal [1]")
+    ax.legend(fontsize=8)
+    ax.grid(True, alpha=0.3)
+    ax.set_xlabel("t [s]")
+    fig.suptitle("Fig. 19a: the cooperative circle while TCP 0 reaches the line (circle tracked, not controlled)")
+    fig.tight_layout()
+    png19a = exp.save(fig, "fig19_circle_parameters.png")
+    plt.close(fig)
+    return png19a
+
+
+def _draw_bivector(exp: Experiment, plt: Any, R: dict, A: dict) -> Any:
+    """Fig. 19b: the bivector ``log V_Sc`` over time."""
+    from coop_ga import viz
+
+    tnorm, B0, Bf = A["tnorm"], A["B0"], A["Bf"]
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    viz.plot_bivector(ax, A["t"], R["log"])
+    ax.set_yscale("symlog", linthresh=0.1)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(viz.bivector_ylabel(r"$\log V_{Sc}$") + ", symlog")
+    ax.set_title(
+        r"Fig. 19b: $B_{Sc} = \log V_{Sc}(q_t)$ "
+        f"(translation ‖t‖ {tnorm[0]:.2f} → {tnorm[-1]:.3g}, β = ln r {B0[3]:.2f} → {Bf[3]:.2f})"
+    )
+    fig.tight_layout()
+    png19b = exp.save(fig, "fig19_bivector.png")
+    plt.close(fig)
+    return png19b
+
+
+def _draw_manipulability(exp: Experiment, plt: Any, task: Any, R: dict, A: dict) -> Any:
+    """Fig. 19c: the manipulability eigenvalues and the well-definedness over time."""
+    t, W, E, T, k_res, eig_slopes = A["t"], R["w"], R["eig"], A["T"], A["k_res"], A["eig_slopes"]
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(10, 7.5), sharex=True, gridspec_kw={"height_ratios": [2, 1]})
+    for i in range(7):
+        lab = rf"$\lambda_1$ ≡ 0 (structural: rank 6; drawn at {EIG_FLOOR:g})" if i == 0 else rf"$\lambda_{i + 1}$"
+        if i > 0 and np.isfinite(eig_slopes[i - 1]):
+            lab += rf" ($\propto w^{{{eig_slopes[i - 1]:.2f}}}$)"
+        ax1.semilogy(t, np.maximum(E[:, i], EIG_FLOOR), lw=1.5 if i else 1.0, ls="-" if i else ":", label=lab)
+    if k_res < T - 1:
+        ax1.axvspan(t[k_res], t[-1], color="0.85", zorder=0, label="small eigenvalues not resolved (routes disagree)")
+    ax1.set_ylabel(r"eigenvalues of $\mathcal{J}^G \mathcal{J}^{G\top}$")
+    ax1.set_title(r"Fig. 19c: task-space manipulability $M_S = \mathcal{J}^G\mathcal{J}^{G\top}$ (Eq 59), 21 joints")
+    ax1.legend(fontsize=7, ncol=2, loc="lower left", bbox_to_anchor=(0.0, 0.06))
+    ax1.grid(True, alpha=0.3, which="both")
+    ax2.semilogy(t, W, color="k", lw=1.6, label="well-definedness $w$")
+    ax2.axhline(task.warn_below, color="orange", ls="--", label=f"warn_below = {task.warn_below:g}")
+    ax2.axhline(task.raise_below, color="red", ls="--", label=f"raise_below = {task.raise_below:g} (stop)")
+    for a in (ax1, ax2):
+        a.axvline(t[-1], color="red", lw=0.8, ls=":")
+    ax2.set_ylabel("w")
+    ax2.set_xlabel("t [s]")
+    ax2.legend(fontsize=8)
+    ax2.grid(True, alpha=0.3, which="both")
+    fig.tight_layout()
+    png19c = exp.save(fig, "fig19_manipulability.png")
+    plt.close(fig)
+    return png19c
+
+
+def _evidence(task: Any, R: dict, A: dict) -> tuple[str, bool]:
+    """``(evidence, agrees)``: the numbers that back or contradict the paper's claim."""
+    W, tnorm, e0, ef, er, k_res = R["w"], A["tnorm"], A["e0"], A["ef"], A["er"], A["k_res"]
+    fallen, grown, eig_slopes = A["fallen"], A["grown"], A["eig_slopes"]
     agrees = bool(
         R["radius"][-1] > 100 * R["radius"][0]
         and fallen >= 2
         and tnorm[-1] > 100 * tnorm[0]
-        and len(xc_fallen) >= 2
-        and limit_violation == 0.0
+        and len(A["xc_fallen"]) >= 2
+        and A["limit_violation"] == 0.0
     )
     evidence = (
         f"TCP 0 reached {R['distance'][-1]:.2g} m from the line; w fell {W[0]:.3g} → {W[-1]:.3g} and the run stopped "
         f"one step before the guard's raise threshold {task.raise_below:g}. Agrees: the radius grew "
-        f"{R['radius'][0]:.3g} → {R['radius'][-1]:.3g} m (∝ w^{radius_slope:.2f}, toward infinity), the coefficients "
-        f"{', '.join(xc_fallen)} of X_c fell > 100× toward 0, the bivector's translation diverged "
+        f"{R['radius'][0]:.3g} → {R['radius'][-1]:.3g} m (∝ w^{A['radius_slope']:.2f}, toward infinity), the "
+        f"coefficients {', '.join(A['xc_fallen'])} of X_c fell > 100× toward 0, the bivector's translation diverged "
         f"(‖t‖ {tnorm[0]:.2f} → {tnorm[-1]:.3g}) and {fallen} of the 6 non-structural manipulability eigenvalues fell "
         f"> 10× (λ₂ {e0[1]:.3g} → {er[1]:.3g} at w = {W[k_res]:.2g}, ∝ w^{eig_slopes[0]:.2f}; below that w the small "
         f"eigenvalues are rounding noise, {ef[1]:.2g} at the stop, as the two Jacobian routes disagree). Beyond the "
         f"paper: {grown} eigenvalues grew > 10× (to {ef[-1]:.3g}, ∝ w^{eig_slopes[-1]:.2f}) and {6 - fallen - grown} changed < 10×."
     )
-    metrics = {
-        "gallery": {
-            "title": "Figs. 18–19: geometric singularity of the cooperative circle (three_franka)",
-            "claim": (
-                "As the three end points of the cooperative circle approach collinearity, the circle degenerates "
-                "(radius → ∞), several bivector components diverge and several task-space manipulability "
-                "eigenvalues drop to zero."
-            ),
-            "evidence": evidence,
-            "agrees": agrees,
-            "figures": [png18.name, png19c.name, png19a.name, png19b.name, gif.name],
-        },
+    return evidence, agrees
+
+
+def _metrics_setup(args: Any, s: Any, task: Any, run: dict, R: dict, A: dict) -> dict[str, Any]:
+    """The first half of metrics.json: the setup, the stop, the warnings and the circle's read-outs."""
+    W = R["w"]
+    stopped_reason = run["stopped_reason"]
+    return {
         "system": "three_franka",
         "kind": "circle",
         "nq": s.nq,
         "seed": args.seed,
         "fast": bool(args.fast),
-        "dt_s": dt,
+        "dt_s": args.dt,
         "gain_per_s": args.gain,
         "max_speed_m_s": args.max_speed,
         "damping": args.damping,
         "duration_limit_s": args.duration,
         "driven_end_point": 0,
-        "fixed_end_points_m": [a_pt, b_pt],
-        "target_point_m": target,
+        "fixed_end_points_m": [run["a_pt"], run["b_pt"]],
+        "target_point_m": run["target"],
         "target_fraction": args.target_fraction,
-        "start_preparation_steps": prep_steps,
+        "start_preparation_steps": run["prep_steps"],
         "warn_below": task.warn_below,
         "raise_below": task.raise_below,
-        "steps": T - 1,
-        "duration_s": float(t[-1]),
+        "steps": A["T"] - 1,
+        "duration_s": float(A["t"][-1]),
         "stopped_reason": stopped_reason,
         "stopped_at_threshold": stopped_reason.startswith("raise threshold"),
         "well_definedness_initial": W[0],
         "well_definedness_final": W[-1],
-        "well_definedness_next_refused": w_next,
-        "steps_below_warn": below_warn,
-        "time_first_below_warn_s": t_warn,
-        "warnings": warning_counts,
+        "well_definedness_next_refused": run["w_next"],
+        "steps_below_warn": A["below_warn"],
+        "time_first_below_warn_s": A["t_warn"],
+        "warnings": run["warnings"],
         "warnings_note": "counts of guarded calls (task.evaluate and task.jacobian_closed_form: 2 per step)",
         "distance_to_line_initial_m": R["distance"][0],
         "distance_to_line_final_m": R["distance"][-1],
         "radius_initial": R["radius"][0],
         "radius_final": R["radius"][-1],
         "radius_growth": R["radius"][-1] / R["radius"][0],
-        "radius_slope_vs_w": radius_slope,
+        "radius_slope_vs_w": A["radius_slope"],
         "center_initial_m": R["center"][0],
         "center_final_m": R["center"][-1],
         "normal_initial": R["normal"][0],
         "normal_final": R["normal"][-1],
-        "readout_radius_max_rel_error": float(np.max(r_rel)),
-        "readout_center_max_error_per_radius": float(np.max(c_rel)),
-        "circle_coefficient_blades": names,
-        "circle_coefficients_initial": xc0,
-        "circle_coefficients_final": xcf,
-        "circle_coefficients_fallen_100x": xc_fallen,
+        "readout_radius_max_rel_error": float(np.max(A["r_rel"])),
+        "readout_center_max_error_per_radius": float(np.max(A["c_rel"])),
+        "circle_coefficient_blades": A["names"],
+        "circle_coefficients_initial": A["xc0"],
+        "circle_coefficients_final": A["xcf"],
+        "circle_coefficients_fallen_100x": A["xc_fallen"],
+    }
+
+
+def _metrics_results(R: dict, A: dict, qp_steps: int) -> dict[str, Any]:
+    """The second half of metrics.json: the bivector, the eigenvalues, their resolution and the limits."""
+    W, E, Ecf, fit, k_res = R["w"], R["eig"], R["eig_cf"], A["fit"], A["k_res"]
+    e0, ef, er, B0, Bf, tnorm = A["e0"], A["ef"], A["er"], A["B0"], A["Bf"], A["tnorm"]
+    return {
         "bivector_basis": ["e12", "e13", "e23", "e0inf", "e1inf", "e2inf", "e3inf"],
         "bivector_initial": B0,
         "bivector_final": Bf,
         "bivector_max_abs": np.max(np.abs(R["log"]), axis=0),
         "translation_norm_initial": tnorm[0],
         "translation_norm_final": tnorm[-1],
-        "translation_slope_vs_w": translation_slope,
+        "translation_slope_vs_w": A["translation_slope"],
         "dilation_initial": B0[3],
         "dilation_final": Bf[3],
         "eigenvalues_initial": e0,
@@ -621,11 +616,11 @@ def main(argv: list[str] | None = None) -> int:
         "structural_zero_eigenvalue_max_relative": float(np.max(E[:, 0] / E[:, -1])),
         "min_eigenvalue_initial": e0[1],
         "min_eigenvalue_final": ef[1],
-        "min_eigenvalue_ratio": ratio,
+        "min_eigenvalue_ratio": float(ef[1] / e0[1]),
         "min_eigenvalue_note": "λ₂, the smallest of the 6 eigenvalues that are not structurally zero (rank J^G = 6)",
-        "eigenvalues_fallen_10x": fallen,
-        "eigenvalues_grown_10x": grown,
-        "eigenvalue_slopes_vs_w": eig_slopes,
+        "eigenvalues_fallen_10x": A["fallen"],
+        "eigenvalues_grown_10x": A["grown"],
+        "eigenvalue_slopes_vs_w": A["eig_slopes"],
         "eigenvalue_fit_range_w": [float(W[fit].min()), float(W[fit].max())] if fit.size else None,
         "condition_number_initial": e0[-1] / e0[1],
         "condition_number_final": ef[-1] / ef[1],
@@ -635,14 +630,149 @@ def main(argv: list[str] | None = None) -> int:
         "eigenvalues_last_resolved": er,
         "min_eigenvalue_last_resolved": er[1],
         "min_eigenvalue_ratio_last_resolved": float(er[1] / e0[1]),
-        "eigenvalues_fallen_10x_last_resolved": fallen_res,
-        "routes_max_rel_difference_final": float(rel[-1]),
-        "max_limit_violation": limit_violation,
-        "max_velocity_excess_rad_s": vel_excess,
-        "fixed_arms_max_joint_motion_rad": others_moved,
+        "eigenvalues_fallen_10x_last_resolved": A["fallen_res"],
+        "routes_max_rel_difference_final": float(A["rel"][-1]),
+        "max_limit_violation": A["limit_violation"],
+        "max_velocity_excess_rad_s": A["vel_excess"],
+        "fixed_arms_max_joint_motion_rad": A["others_moved"],
         "qp_active_steps": qp_steps,
         "circles_drawn_radius_max_m": DRAW_RADIUS_MAX,
-        "circles_below_draw_radius": n_circles_drawn,
+        "circles_below_draw_radius": A["n_circles_drawn"],
+    }
+
+
+def _run(exp: Experiment, s: Any, task: Any, cols: dict, closed_form: bool) -> tuple[dict[str, Any], dict, Any, Any]:
+    """Place TCPs 1, 2 on the line, then drive TCP 0 onto it: ``(run, rec, prep stage, run stage)``."""
+    from coop_ga.diagnostics import collect_warnings
+
+    args = exp.args
+    fixed = {
+        1: np.array([args.half_width, args.line_y, args.line_z]),
+        2: np.array([-args.half_width, args.line_y, args.line_z]),
+    }
+    with exp.stage("start configuration (arms 1, 2 place their TCPs)") as st_prep:
+        q_s, prep_steps = prepare_start(task, np.array(s.q0, dtype=float), fixed, cols)
+    P_s = task.tree.end_points_array(q_s)
+    a_pt, b_pt = P_s[1], P_s[2]
+    target = a_pt + args.target_fraction * (b_pt - a_pt)
+    rec, record = _recorder(task, closed_form)
+    with exp.stage("driving TCP 0 onto the line (circle tracked)") as st_run, collect_warnings(emit=False) as cw:
+        stopped_reason, w_next, qp_steps = drive(task, q_s, target, cols[0], args, record, rec)
+    run = {
+        "q_s": q_s,
+        "prep_steps": prep_steps,
+        "P_s": P_s,
+        "a_pt": a_pt,
+        "b_pt": b_pt,
+        "target": target,
+        "stopped_reason": stopped_reason,
+        "w_next": w_next,
+        "qp_steps": qp_steps,
+        "warnings": dict(cw.counts),
+    }
+    return run, rec, st_prep, st_run
+
+
+def _print_summary(exp: Experiment, run: dict, R: dict, A: dict, pngs: list[Any]) -> None:
+    """A few lines on stdout."""
+    args = exp.args
+    dt, W, tnorm, e0, ef = args.dt, R["w"], A["tnorm"], A["e0"], A["ef"]
+    print(f"three_franka circle singularity ({'fast, ' if args.fast else ''}Δt = {dt:g} s, {A['T'] - 1} steps)")
+    print(f"  stopped: {run['stopped_reason']}")
+    print(f"  w {W[0]:.3g} → {W[-1]:.3g}, distance to line {R['distance'][0]:.3g} → {R['distance'][-1]:.3g} m")
+    print(f"  radius {R['radius'][0]:.3g} → {R['radius'][-1]:.3g} m, ‖t‖ {tnorm[0]:.3g} → {tnorm[-1]:.3g}")
+    print(f"  eigenvalues initial {np.array2string(e0, precision=3)}")
+    print(f"  eigenvalues final   {np.array2string(ef, precision=3)}")
+    print(f"  resolved down to w = {W[A['k_res']]:.3g}; slopes vs w {np.round(A['eig_slopes'], 2).tolist()}")
+    print(f"  warnings {run['warnings']}; joint-limit violation {A['limit_violation']:g}")
+    print(f"  wrote {exp.out}/metrics.json, trajectory.npz, {', '.join(p.name for p in pngs)}")
+
+
+def _write_trajectory(exp: Experiment, R: dict, A: dict) -> None:
+    """``trajectory.npz``: the run and everything recorded along it."""
+    exp.write_npz(
+        "trajectory.npz",
+        t=A["t"],
+        q=R["q"],
+        end_points=R["points"],
+        well_definedness=R["w"],
+        center=R["center"],
+        radius=R["radius"],
+        normal=R["normal"],
+        circle_coefficients=R["xc"],
+        bivector=R["log"],
+        eigenvalues=R["eig"],
+        eigenvalues_closed_form=R["eig_cf"],
+        distance_to_line=R["distance"],
+    )
+
+
+def _gallery(task: Any, R: dict, A: dict, figures: list[str]) -> dict[str, Any]:
+    """The gallery block: the paper's claim and the numbers that back or contradict it."""
+    evidence, agrees = _evidence(task, R, A)
+    return {
+        "title": "Figs. 18–19: geometric singularity of the cooperative circle (three_franka)",
+        "claim": (
+            "As the three end points of the cooperative circle approach collinearity, the circle degenerates "
+            "(radius → ∞), several bivector components diverge and several task-space manipulability "
+            "eigenvalues drop to zero."
+        ),
+        "evidence": evidence,
+        "agrees": agrees,
+        "figures": figures,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    exp = _parse(argv)
+    args = exp.args
+    plt = exp.pyplot()
+
+    import coop_ga as cg
+    from coop_ga import viz
+    from coop_ga.cooperative import cooperative_primitive
+
+    t_start = time.perf_counter()
+    with exp.stage("loading three_franka and its cooperative circle"):
+        s = cg.systems.load("three_franka")
+        task = cg.cooperative_task(s, "circle")
+        task.evaluate(s.q0)
+    cols = {i: arm_columns(s, f) for i, f in enumerate(task.end_frames)}
+    closed_form = task.chart_axis is None  # the closed forms of Appendix B are for the canonical chart
+    run, rec, st_prep, st_run = _run(exp, s, task, cols, closed_form)
+    R = {k: np.asarray(v) for k, v in rec.items()}
+    A = _analyse(task, R, closed_form, args.dt, cols, run["q_s"], run["P_s"])
+
+    with exp.stage("plotting"):
+        Xs = [cooperative_primitive("circle", [cg.point(p) for p in R["points"][k]]) for k in range(A["T"])]
+        png18 = _draw_scene(exp, s, task, run["q_s"], R, A, Xs, (run["a_pt"], run["b_pt"]))
+        png19a = _draw_circle_parameters(exp, plt, R, A)
+        png19b = _draw_bivector(exp, plt, R, A)
+        png19c = _draw_manipulability(exp, plt, task, R, A)
+
+    with exp.stage(f"animating fig18_animation.gif ({args.frames} frames)"):
+        # the circle only while it is drawable (r ≤ DRAW_RADIUS_MAX): a huge circle would frame nothing else
+        circles = [X if r <= DRAW_RADIUS_MAX else None for X, r in zip(Xs, R["radius"])]
+        gif = viz.animate(
+            s,
+            R["q"],
+            circles,
+            exp.out / "fig18_animation.gif",
+            t=A["t"],
+            frames=args.frames,
+            fps=10.0,
+            view=(34.0, -62.0),
+            size=(4.8, 3.6),
+            dpi=80,
+            title="Fig. 18: TCP 0 driven onto the line",
+        )
+
+    _write_trajectory(exp, R, A)
+    pngs = [png18, png19c, png19a, png19b]
+    metrics = {
+        "gallery": _gallery(task, R, A, [p.name for p in pngs] + [gif.name]),
+        **_metrics_setup(args, s, task, run, R, A),
+        **_metrics_results(R, A, run["qp_steps"]),
     }
     exp.write_json("metrics.json", metrics)
     exp.write_timing(
@@ -652,16 +782,7 @@ def main(argv: list[str] | None = None) -> int:
             "total_s": time.perf_counter() - t_start,
         }
     )
-
-    print(f"three_franka circle singularity ({'fast, ' if args.fast else ''}Δt = {dt:g} s, {T - 1} steps)")
-    print(f"  stopped: {stopped_reason}")
-    print(f"  w {W[0]:.3g} → {W[-1]:.3g}, distance to line {R['distance'][0]:.3g} → {R['distance'][-1]:.3g} m")
-    print(f"  radius {R['radius'][0]:.3g} → {R['radius'][-1]:.3g} m, ‖t‖ {tnorm[0]:.3g} → {tnorm[-1]:.3g}")
-    print(f"  eigenvalues initial {np.array2string(e0, precision=3)}")
-    print(f"  eigenvalues final   {np.array2string(ef, precision=3)}")
-    print(f"  resolved down to w = {W[k_res]:.3g}; slopes vs w {np.round(eig_slopes, 2).tolist()}")
-    print(f"  warnings {warning_counts}; joint-limit violation {limit_violation:g}")
-    print(f"  wrote {exp.out}/metrics.json, trajectory.npz, {png18.name}, {png19a.name}, {png19b.name}, {png19c.name}")
+    _print_summary(exp, run, R, A, [png18, png19a, png19b, png19c])
     return 0
 
 

@@ -215,7 +215,8 @@ def probe_mapping(task: Any, q0: np.ndarray, gains: dict[str, Any], geom: Any) -
     return G, T_probe, measured, centre_rate, radius_rate, rank, rows, expected, scale, runs
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parse(argv: list[str] | None) -> Experiment:
+    """The command line."""
     import coop_ga as cg
 
     exp = Experiment(__file__, __doc__, seed=0)
@@ -230,26 +231,14 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--interactive", action="store_true", help="keyboard teleoperation in a matplotlib window")
     exp.add("--frames", type=int_at_least(2), default=40, help="frames of fig20_animation.gif (--fast: 4)")
     exp.add_fast("CI run: the session segments halved (every output still written)", frames=4)
-    args = exp.parse(argv)
-    plt = exp.pyplot(interactive=args.interactive)
+    exp.parse(argv)
+    return exp
 
-    from coop_ga import viz
-    from coop_ga.control.teleop import ScriptedInput, Teleoperator, run_interactive
 
-    timing: dict[str, float] = {}
-    t_total = time.perf_counter()
-    with exp.stage(f"loading {args.system} and compiling the {args.kind} task") as st:
-        s = cg.systems.load(args.system)
-        task = cg.cooperative_task(s, args.kind)
-        q0 = np.clip(s.q0 + exp.rng.uniform(-args.perturb, args.perturb, s.nq), s.q_lower, s.q_upper)
-        task.evaluate(q0)
-    timing["load_and_compile_s"] = st.seconds
-    gains = dict(
-        translation_gain=args.translation_gain, rotation_gain=args.rotation_gain, dilation_gain=args.dilation_gain
-    )
-    lim = s.limits
-    # every run (configurations (T, nq), Δt [s]), for max_limit_violation and the velocity ratio
-    visited: list[tuple[np.ndarray, float]] = []
+def _geometry(task: Any, s: Any) -> tuple[Any, Any]:
+    """``(geom, at_limit)``: ``geom(q)`` the primitive's centre (3,) [m] and radius [m]; ``at_limit(Q)`` (nq,) which
+    joints touch a position limit anywhere in Q (T, nq)."""
+    import coop_ga as cg
 
     def geom(q: np.ndarray) -> tuple[np.ndarray, float]:
         X = task.primitive(q)
@@ -259,39 +248,33 @@ def main(argv: list[str] | None = None) -> int:
         Q = np.atleast_2d(Q)
         return np.any((Q <= s.q_lower + 1e-9) | (Q >= s.q_upper - 1e-9), axis=0)
 
-    c0, r0 = geom(q0)
-    metrics: dict = {
-        "system": args.system,
-        "kind": args.kind,
-        "nq": s.nq,
-        "seed": args.seed,
-        "fast": bool(args.fast),
-        "perturb_rad": args.perturb,
-        "gains": gains,
-        "initial_radius_m": r0,
-        "initial_center_m": c0,
-        "fig21": {},
-    }
-    configs: dict[str, np.ndarray] = {"original": q0}
+    return geom, at_limit
+
+
+def _simulate(
+    exp: Experiment, task: Any, q0: np.ndarray, gains: dict, fns: tuple, metrics: dict, configs: dict, timing: dict
+) -> dict[str, Any]:
+    """Fig. 21's dilation steps (into ``metrics`` and ``configs``), Fig. 20's mapping probes and its session,
+    with the degeneracy warnings counted: ``{visited, mapping, tel, mode, script, n_degen}``."""
+    import coop_ga as cg
+    from coop_ga.control.teleop import ScriptedInput, Teleoperator, run_interactive
+
+    args = exp.args
+    geom, at_limit = fns
+    # every run (configurations (T, nq), Δt [s]), for max_limit_violation and the velocity ratio
+    visited: list[tuple[np.ndarray, float]] = []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", cg.DegeneracyWarning)
         warnings.simplefilter("ignore", cg.JointLimitWarning)
-        # ------------------------------------------------------------------ Fig. 21
         with exp.stage("Fig. 21: one dilation step each way") as st:
             for beta, name in [(-1.0, "closed"), (1.0, "opened")]:
                 metrics["fig21"][name], configs[name], runs = fig21_step(task, q0, beta, args, gains, geom, at_limit)
                 visited += runs
         timing["fig21_s"] = st.seconds
-
-        # ------------------------------------------------------------------ Fig. 20: the mapping
         with exp.stage("Fig. 20: one probe per input axis") as st:
-            G, T_probe, measured, centre_rate, radius_rate, rank, rows, expected, scale, runs = probe_mapping(
-                task, q0, gains, geom
-            )
-            visited += runs
+            mapping = probe_mapping(task, q0, gains, geom)
+            visited += mapping[-1]
         timing["mapping_s"] = st.seconds
-
-        # ------------------------------------------------------------------ Fig. 20: the session
         factor = 0.5 if args.fast else 1.0
         script = [(round(factor * d, 6), c) for d, c in SESSION]
         with exp.stage("Fig. 20: teleoperation session") as st:
@@ -303,178 +286,177 @@ def main(argv: list[str] | None = None) -> int:
                 mode = "scripted"
         timing["session_s"] = st.seconds
     n_degen = count_degeneracy_warnings(caught)
-    log = tel.log.arrays()
-    visited.append((log["q"], args.dt))
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", cg.DegeneracyWarning)
-        geo = [geom(q) for q in log["q"]]
-        wd = np.array([task.well_definedness(q) for q in log["q"]])
-    centers = np.array([g[0] for g in geo])
-    radii = np.array([g[1] for g in geo])
-    segments = session_segments(script, centers, radii, args) if mode == "scripted" else []
-    Q_all = np.vstack([Q for Q, _ in visited])
-    session_at_limit = at_limit(log["q"])
-    metrics["fig20"] = {
-        "mapping": {
-            "axes": AXES,
-            "probe_duration_s": T_probe,
-            "commanded_bivector": G,
-            "measured_bivector_rate": measured,
-            "controllable_rows": [int(j) for j in np.flatnonzero(rows)],
-            "jacobian_rank": rank,
-            "max_error_controllable": float(np.abs(measured - expected)[:, rows].max() / scale),
-            "max_response_uncontrollable": float(np.abs(measured[:, ~rows]).max()) if np.any(~rows) else 0.0,
-            "max_response_to_rotation_axes": float(np.abs(measured[3:5]).max()),
-            "center_velocity_radii_per_s": centre_rate,
-            "log_radius_rate_per_s": radius_rate,
-        },
-        "session": {
-            "mode": mode,
-            "dt_s": args.dt,
-            "script": [[d, list(c)] for d, c in script] if mode == "scripted" else None,
-            "segments": segments,
-            "duration_s": float(log["t"][-1]) if len(log["t"]) else 0.0,
-            "radius_min_m": float(radii.min()),
-            "radius_max_m": float(radii.max()),
-            "final_radius_m": float(radii[-1]),
-            "min_well_definedness": float(wd.min()),
-            "degeneracy_warnings": n_degen,
-            "joints_at_limit_during_session": [int(j) for j in np.flatnonzero(session_at_limit)],
-        },
+    return {"visited": visited, "mapping": mapping, "tel": tel, "mode": mode, "script": script, "n_degen": n_degen}
+
+
+def _mapping_block(mapping: tuple) -> dict[str, Any]:
+    """Fig. 20's mapping: commanded against measured bivector per input axis."""
+    G, T_probe, measured, centre_rate, radius_rate, rank, rows, expected, scale, _ = mapping
+    return {
+        "axes": AXES,
+        "probe_duration_s": T_probe,
+        "commanded_bivector": G,
+        "measured_bivector_rate": measured,
+        "controllable_rows": [int(j) for j in np.flatnonzero(rows)],
+        "jacobian_rank": rank,
+        "max_error_controllable": float(np.abs(measured - expected)[:, rows].max() / scale),
+        "max_response_uncontrollable": float(np.abs(measured[:, ~rows]).max()) if np.any(~rows) else 0.0,
+        "max_response_to_rotation_axes": float(np.abs(measured[3:5]).max()),
+        "center_velocity_radii_per_s": centre_rate,
+        "log_radius_rate_per_s": radius_rate,
     }
-    ss = metrics["fig20"]["session"]
-    ss.update(segment_summary(segments, r0))
-    metrics["max_limit_violation"] = lim.position_violation(Q_all)
-    metrics["max_velocity_ratio"] = max(
-        float(np.max(np.abs(np.diff(Q, axis=0)) / dt / lim.velocity)) for Q, dt in visited if len(Q) > 1
-    )
 
-    exp.write_npz(
-        "session.npz",
-        t=log["t"],
-        q=log["q"],
-        commands=log["commands"],
-        bivectors=log["bivectors"],
-        centers=centers,
-        radii=radii,
-        q_closed=configs["closed"],
-        q_opened=configs["opened"],
-        q0=q0,
-        mapping_commanded=G,
-        mapping_measured=measured,
-    )
 
-    # ------------------------------------------------------------------ figures
-    with exp.stage("rendering"):
-        pngs21 = []
-        for name, role, title in (
-            ("closed", "final", rf"$B = -e_{{0\infty}}$, $\Delta t$ = {args.fig21_dt:g} s: closed"),
-            ("original", "initial", "original"),
-            ("opened", "final", rf"$B = +e_{{0\infty}}$, $\Delta t$ = {args.fig21_dt:g} s: opened"),
-        ):
-            q = configs[name]
-            sc = viz.Scene().robot(s, q, role).primitive(task.primitive(q), role)
-            p = viz.render_scene(
-                sc,
-                exp.out / f"fig21_{name}.png",
-                view=(25.0, -50.0),
-                size=(4.2, 4.2),
-                pad=0.005,
-                title=f"{title}\nradius {geom(q)[1] * 1e3:.1f} mm",
-                legend=False,
-            )
-            pngs21.append(p)
-        fig, axs = plt.subplots(1, 3, figsize=(12.6, 4.4))
-        for ax, p in zip(axs, pngs21):
-            ax.imshow(plt.imread(p))
-            ax.axis("off")
-        fig.suptitle(f"Pure dilation commands on the {args.system} cooperative {args.kind} (cf. Fig. 21)")
-        fig.tight_layout()
-        exp.save(fig, "fig21_scene.png")
-        plt.close(fig)
+def _session_block(
+    sim: dict, log: dict, session: dict, segments: list, session_at_limit: np.ndarray, dt: float
+) -> dict[str, Any]:
+    """Fig. 20's session: its script, segments and extremes (``session``: radii, well-definedness)."""
+    mode, script, radii, wd = sim["mode"], sim["script"], session["radii"], session["wd"]
+    return {
+        "mode": mode,
+        "dt_s": dt,
+        "script": [[d, list(c)] for d, c in script] if mode == "scripted" else None,
+        "segments": segments,
+        "duration_s": float(log["t"][-1]) if len(log["t"]) else 0.0,
+        "radius_min_m": float(radii.min()),
+        "radius_max_m": float(radii.max()),
+        "final_radius_m": float(radii[-1]),
+        "min_well_definedness": float(wd.min()),
+        "degeneracy_warnings": sim["n_degen"],
+        "joints_at_limit_during_session": [int(j) for j in np.flatnonzero(session_at_limit)],
+    }
 
-        fig, axs = plt.subplots(1, 2, figsize=(11.0, 3.6), sharey=True)
-        vmax = float(np.abs(G).max()) or 1.0
-        for ax, M, title in (
-            (axs[0], G, "commanded bivector per unit input"),
-            (axs[1], measured, r"measured $\log(\tilde V_{Sc}(q_0) V_{Sc}(q_T))/T$"),
-        ):
-            ax.imshow(M, cmap="RdBu_r", vmin=-vmax, vmax=vmax, aspect="auto")
-            for i in range(6):
-                for j in range(7):
-                    if abs(M[i, j]) > 1e-3 * vmax:
-                        dark = abs(M[i, j]) > 0.6 * vmax
-                        ax.text(
-                            j, i, f"{M[i, j]:.3g}", ha="center", va="center", fontsize=7, color="w" if dark else "k"
-                        )
-            ax.set_xticks(range(7), viz.BIVECTOR_LABELS)
-            ax.set_yticks(range(6), AXES)
-            ax.set_title(title, fontsize=9)
-        axs[0].set_ylabel("input axis")
-        fig.suptitle(
-            f"6-axis input → similarity bivector ({args.system} {args.kind}, {T_probe:g} s per axis; cf. Fig. 20)"
-        )
-        fig.tight_layout()
-        exp.save(fig, "fig20_mapping.png")
-        plt.close(fig)
 
-        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.0, 5.2), sharex=True)
-        tb = log["t"][1:]
-        if len(tb):
-            viz.plot_bivector(ax1, tb, log["bivectors"])
-        ax1.set_ylabel(viz.bivector_ylabel("command", rate=True))
-        ax1.set_title(f"{mode} session: translate x, y, z; rotate x, y; close, open, close; back", fontsize=9)
-        ax2.plot(log["t"], radii * 1e3, "k-", lw=2, label="radius [mm]")
-        for k, col in enumerate(("tab:red", "tab:blue", "tab:purple")):
-            ax2.plot(
-                log["t"],
-                (centers[:, k] - centers[0, k]) * 1e3,
-                color=col,
-                lw=1.2,
-                ls="--",
-                label=f"centre {'xyz'[k]} − start [mm]",
-            )
-        ax2.set_xlabel("t [s]")
-        ax2.set_ylabel("[mm]")
-        ax2.grid(True, alpha=0.3)
-        viz.legend_outside(ax2, fontsize=7)
-        fig.tight_layout()
-        exp.save(fig, "fig20_session.png")
-        plt.close(fig)
+def _draw_fig21(exp: Experiment, plt: Any, s: Any, task: Any, configs: dict, geom: Any) -> list[Any]:
+    """Fig. 21: the hand closed, original and opened, one PNG each and the three side by side."""
+    from coop_ga import viz
 
-        n_trans = sum(round(d / args.dt) for d, _ in script[:TRANSLATION_SEGMENTS]) if mode == "scripted" else 0
-        q_t = log["q"][min(n_trans, len(log["q"]) - 1)]
-        sc = viz.Scene()
-        sc.robot(s, q0, "initial", label="start").primitive(task.primitive(q0), "initial", label="start sphere")
-        sc.robot(s, q_t, "final", label="after +x, +y, +z").primitive(
-            task.primitive(q_t), "final", label="moved sphere"
-        )
-        P = np.array([task.points(q) for q in log["q"][: n_trans + 1]])
-        for j in range(P.shape[1]):
-            sc.curve(P[:, j], "trajectory", label="fingertip paths" if j == 0 else None)
-        viz.render_scene(
+    args = exp.args
+    pngs21 = []
+    for name, role, title in (
+        ("closed", "final", rf"$B = -e_{{0\infty}}$, $\Delta t$ = {args.fig21_dt:g} s: closed"),
+        ("original", "initial", "original"),
+        ("opened", "final", rf"$B = +e_{{0\infty}}$, $\Delta t$ = {args.fig21_dt:g} s: opened"),
+    ):
+        q = configs[name]
+        sc = viz.Scene().robot(s, q, role).primitive(task.primitive(q), role)
+        p = viz.render_scene(
             sc,
-            exp.out / "fig20_scene.png",
+            exp.out / f"fig21_{name}.png",
             view=(25.0, -50.0),
-            size=(5.5, 5.0),
+            size=(4.2, 4.2),
             pad=0.005,
-            title="translation commands move the sphere (cf. Fig. 20)",
+            title=f"{title}\nradius {geom(q)[1] * 1e3:.1f} mm",
+            legend=False,
         )
-        viz.animate(
-            s,
-            log["q"],
-            task.primitive,
-            exp.out / "fig20_animation.gif",
-            t=log["t"],
-            frames=args.frames,
-            fps=args.frames / max(float(log["t"][-1] - log["t"][0]), 1e-9),
-            view=(25.0, -50.0),
-            size=(4.8, 3.6),
-            dpi=80,
-            title=f"{mode} teleoperation session",
-        )
+        pngs21.append(p)
+    fig, axs = plt.subplots(1, 3, figsize=(12.6, 4.4))
+    for ax, p in zip(axs, pngs21):
+        ax.imshow(plt.imread(p))
+        ax.axis("off")
+    fig.suptitle(f"Pure dilation commands on the {args.system} cooperative {args.kind} (cf. Fig. 21)")
+    fig.tight_layout()
+    exp.save(fig, "fig21_scene.png")
+    plt.close(fig)
+    return pngs21
 
-    f21, mp = metrics["fig21"], metrics["fig20"]["mapping"]
+
+def _draw_mapping(exp: Experiment, plt: Any, G: np.ndarray, measured: np.ndarray, T_probe: float) -> None:
+    """``fig20_mapping.png``: commanded and measured bivector per input axis."""
+    from coop_ga import viz
+
+    args = exp.args
+    fig, axs = plt.subplots(1, 2, figsize=(11.0, 3.6), sharey=True)
+    vmax = float(np.abs(G).max()) or 1.0
+    for ax, M, title in (
+        (axs[0], G, "commanded bivector per unit input"),
+        (axs[1], measured, r"measured $\log(\tilde V_{Sc}(q_0) V_{Sc}(q_T))/T$"),
+    ):
+        ax.imshow(M, cmap="RdBu_r", vmin=-vmax, vmax=vmax, aspect="auto")
+        for i in range(6):
+            for j in range(7):
+                if abs(M[i, j]) > 1e-3 * vmax:
+                    dark = abs(M[i, j]) > 0.6 * vmax
+                    ax.text(j, i, f"{M[i, j]:.3g}", ha="center", va="center", fontsize=7, color="w" if dark else "k")
+        ax.set_xticks(range(7), viz.BIVECTOR_LABELS)
+        ax.set_yticks(range(6), AXES)
+        ax.set_title(title, fontsize=9)
+    axs[0].set_ylabel("input axis")
+    fig.suptitle(f"6-axis input → similarity bivector ({args.system} {args.kind}, {T_probe:g} s per axis; cf. Fig. 20)")
+    fig.tight_layout()
+    exp.save(fig, "fig20_mapping.png")
+    plt.close(fig)
+
+
+def _draw_session(exp: Experiment, plt: Any, log: dict, session: dict, mode: str) -> None:
+    """``fig20_session.png``: the commanded bivector, the radius and the centre over the session."""
+    from coop_ga import viz
+
+    radii, centers = session["radii"], session["centers"]
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.0, 5.2), sharex=True)
+    tb = log["t"][1:]
+    if len(tb):
+        viz.plot_bivector(ax1, tb, log["bivectors"])
+    ax1.set_ylabel(viz.bivector_ylabel("command", rate=True))
+    ax1.set_title(f"{mode} session: translate x, y, z; rotate x, y; close, open, close; back", fontsize=9)
+    ax2.plot(log["t"], radii * 1e3, "k-", lw=2, label="radius [mm]")
+    for k, col in enumerate(("tab:red", "tab:blue", "tab:purple")):
+        ax2.plot(
+            log["t"],
+            (centers[:, k] - centers[0, k]) * 1e3,
+            color=col,
+            lw=1.2,
+            ls="--",
+            label=f"centre {'xyz'[k]} − start [mm]",
+        )
+    ax2.set_xlabel("t [s]")
+    ax2.set_ylabel("[mm]")
+    ax2.grid(True, alpha=0.3)
+    viz.legend_outside(ax2, fontsize=7)
+    fig.tight_layout()
+    exp.save(fig, "fig20_session.png")
+    plt.close(fig)
+
+
+def _draw_translation(exp: Experiment, s: Any, task: Any, q0: np.ndarray, log: dict, sim: dict) -> None:
+    """``fig20_scene.png`` (the hand before and after the translation segments) and ``fig20_animation.gif``."""
+    from coop_ga import viz
+
+    args, mode, script = exp.args, sim["mode"], sim["script"]
+    n_trans = sum(round(d / args.dt) for d, _ in script[:TRANSLATION_SEGMENTS]) if mode == "scripted" else 0
+    q_t = log["q"][min(n_trans, len(log["q"]) - 1)]
+    sc = viz.Scene()
+    sc.robot(s, q0, "initial", label="start").primitive(task.primitive(q0), "initial", label="start sphere")
+    sc.robot(s, q_t, "final", label="after +x, +y, +z").primitive(task.primitive(q_t), "final", label="moved sphere")
+    P = np.array([task.points(q) for q in log["q"][: n_trans + 1]])
+    for j in range(P.shape[1]):
+        sc.curve(P[:, j], "trajectory", label="fingertip paths" if j == 0 else None)
+    viz.render_scene(
+        sc,
+        exp.out / "fig20_scene.png",
+        view=(25.0, -50.0),
+        size=(5.5, 5.0),
+        pad=0.005,
+        title="translation commands move the sphere (cf. Fig. 20)",
+    )
+    viz.animate(
+        s,
+        log["q"],
+        task.primitive,
+        exp.out / "fig20_animation.gif",
+        t=log["t"],
+        frames=args.frames,
+        fps=args.frames / max(float(log["t"][-1] - log["t"][0]), 1e-9),
+        view=(25.0, -50.0),
+        size=(4.8, 3.6),
+        dpi=80,
+        title=f"{mode} teleoperation session",
+    )
+
+
+def _gallery(args: Any, metrics: dict, r0: float, mode: str, pngs21: list[Any]) -> dict[str, Any]:
+    """The gallery block: the paper's claim and the numbers that back or contradict it."""
+    f21, mp, ss = metrics["fig21"], metrics["fig20"]["mapping"], metrics["fig20"]["session"]
     cl, op = f21["closed"], f21["opened"]
     agrees = (
         cl["ratio"] < 1.0 < op["ratio"]
@@ -483,7 +465,7 @@ def main(argv: list[str] | None = None) -> int:
         and mp["max_error_controllable"] < 0.05
         and metrics["max_limit_violation"] == 0.0
     )
-    metrics["gallery"] = {
+    return {
         "title": "Figs. 20–21: teleoperating the Allegro hand through its cooperative sphere",
         "claim": (
             "The 6-axis input maps to the similarity bivector (translations → e1∞, e2∞, e3∞; rotation about z → "
@@ -522,13 +504,15 @@ def main(argv: list[str] | None = None) -> int:
             *(p.name for p in pngs21),
         ],
     }
-    exp.write_json("metrics.json", metrics)
-    timing["total_s"] = time.perf_counter() - t_total
-    exp.write_timing(timing)
+
+
+def _print_summary(exp: Experiment, metrics: dict, r0: float, mode: str) -> None:
+    """A few lines on stdout."""
+    f21, mp = metrics["fig21"], metrics["fig20"]["mapping"]
     for name in ("closed", "opened"):
         m = f21[name]
         print(
-            f"{name:6s} ({m['command']}, Δt={args.fig21_dt:g}): radius {r0 * 1e3:.1f} → {m['radius_after_m'] * 1e3:.1f} mm "
+            f"{name:6s} ({m['command']}, Δt={exp.args.fig21_dt:g}): radius {r0 * 1e3:.1f} → {m['radius_after_m'] * 1e3:.1f} mm "
             f"(×{m['ratio']:.4f}; e^(βΔt) = {m['ratio_first_order_expected']:.4f}; "
             f"{m['fine_integration']['steps']} fine steps: ×{m['fine_integration']['ratio']:.4f})"
         )
@@ -536,6 +520,86 @@ def main(argv: list[str] | None = None) -> int:
         f"mapping error {mp['max_error_controllable']:.2g} (controllable rows), session {mode}, "
         f"max joint-limit excursion {metrics['max_limit_violation']:.2g} rad; wrote {exp.out}/"
     )
+
+
+def main(argv: list[str] | None = None) -> int:
+    import coop_ga as cg
+
+    exp = _parse(argv)
+    args = exp.args
+    plt = exp.pyplot(interactive=args.interactive)
+    timing: dict[str, float] = {}
+    t_total = time.perf_counter()
+    with exp.stage(f"loading {args.system} and compiling the {args.kind} task") as st:
+        s = cg.systems.load(args.system)
+        task = cg.cooperative_task(s, args.kind)
+        q0 = np.clip(s.q0 + exp.rng.uniform(-args.perturb, args.perturb, s.nq), s.q_lower, s.q_upper)
+        task.evaluate(q0)
+    timing["load_and_compile_s"] = st.seconds
+    gains = dict(
+        translation_gain=args.translation_gain, rotation_gain=args.rotation_gain, dilation_gain=args.dilation_gain
+    )
+    lim = s.limits
+    geom, at_limit = _geometry(task, s)
+    c0, r0 = geom(q0)
+    metrics: dict = {
+        "system": args.system,
+        "kind": args.kind,
+        "nq": s.nq,
+        "seed": args.seed,
+        "fast": bool(args.fast),
+        "perturb_rad": args.perturb,
+        "gains": gains,
+        "initial_radius_m": r0,
+        "initial_center_m": c0,
+        "fig21": {},
+    }
+    configs: dict[str, np.ndarray] = {"original": q0}
+    sim = _simulate(exp, task, q0, gains, (geom, at_limit), metrics, configs, timing)
+    visited, mode, mapping = sim["visited"], sim["mode"], sim["mapping"]
+    log = sim["tel"].log.arrays()
+    visited.append((log["q"], args.dt))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", cg.DegeneracyWarning)
+        geo = [geom(q) for q in log["q"]]
+        wd = np.array([task.well_definedness(q) for q in log["q"]])
+    session = {"centers": np.array([g[0] for g in geo]), "radii": np.array([g[1] for g in geo]), "wd": wd}
+    segments = session_segments(sim["script"], session["centers"], session["radii"], args) if mode == "scripted" else []
+    Q_all = np.vstack([Q for Q, _ in visited])
+    metrics["fig20"] = {
+        "mapping": _mapping_block(mapping),
+        "session": _session_block(sim, log, session, segments, at_limit(log["q"]), args.dt),
+    }
+    metrics["fig20"]["session"].update(segment_summary(segments, r0))
+    metrics["max_limit_violation"] = lim.position_violation(Q_all)
+    metrics["max_velocity_ratio"] = max(
+        float(np.max(np.abs(np.diff(Q, axis=0)) / dt / lim.velocity)) for Q, dt in visited if len(Q) > 1
+    )
+    G, T_probe, measured = mapping[0], mapping[1], mapping[2]
+    exp.write_npz(
+        "session.npz",
+        t=log["t"],
+        q=log["q"],
+        commands=log["commands"],
+        bivectors=log["bivectors"],
+        centers=session["centers"],
+        radii=session["radii"],
+        q_closed=configs["closed"],
+        q_opened=configs["opened"],
+        q0=q0,
+        mapping_commanded=G,
+        mapping_measured=measured,
+    )
+    with exp.stage("rendering"):
+        pngs21 = _draw_fig21(exp, plt, s, task, configs, geom)
+        _draw_mapping(exp, plt, G, measured, T_probe)
+        _draw_session(exp, plt, log, session, mode)
+        _draw_translation(exp, s, task, q0, log, sim)
+    metrics["gallery"] = _gallery(args, metrics, r0, mode, pngs21)
+    exp.write_json("metrics.json", metrics)
+    timing["total_s"] = time.perf_counter() - t_total
+    exp.write_timing(timing)
+    _print_summary(exp, metrics, r0, mode)
     return 0
 
 

@@ -269,7 +269,8 @@ def write_gallery(out: Path, fast: bool, failures: dict[str, list[str]]) -> Path
     return path
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parser() -> Any:
+    """The command line (module docstring)."""
     p = experiment_parser(
         "paper_figures", __doc__, seed=None, out=ROOT / "paper_figures", prog="python -m paper_figures"
     )
@@ -283,27 +284,19 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--verbose", action="store_true", help="show each script's own output (only with --jobs 1)")
     p.add_argument("--list", action="store_true", help="list the figures and their scripts, then exit")
-    args = p.parse_args(argv)
-    if args.jobs is None:
-        args.jobs = 1 if args.verbose else min(os.cpu_count() or 1, 4)
-    if args.list:
-        kw = max(len(g.key) for g in FIGURES)
-        fw = max(len(g.folder) for g in FIGURES)
-        for f in FIGURES:
-            print(f"{f.key:{kw}s}  {_numbers(f):14s} {f.folder:{fw}s}  {' '.join([f.script, *f.args])}")
-        return 0
-    try:
-        figs = select(args.only)
-    except ValueError as e:
-        p.error(str(e))
-    out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
-    extra = (
-        ["--quiet"] + (["--fast"] if args.fast else []) + (["--seed", str(args.seed)] if args.seed is not None else [])
-    )
-    say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
-    say(f"paper_figures: {len(figs)} figure(s) into {out}" + (" (fast mode)" if args.fast else ""))
-    t_all = time.perf_counter()
+    return p
+
+
+def _list_figures() -> None:
+    """``--list``: every figure's key, numbers, folder and command line."""
+    kw = max(len(g.key) for g in FIGURES)
+    fw = max(len(g.folder) for g in FIGURES)
+    for f in FIGURES:
+        print(f"{f.key:{kw}s}  {_numbers(f):14s} {f.folder:{fw}s}  {' '.join([f.script, *f.args])}")
+
+
+def _run_figures(figs: list[Figure], out: Path, extra: list[str], args: Any, say: Any) -> dict[str, dict[str, Any]]:
+    """Run ``figs`` in this process (``--jobs 1``) or in a pool of spawned processes; reports each as it ends."""
     results: dict[str, dict[str, Any]] = {}
 
     def report(i: int, r: dict[str, Any]) -> None:
@@ -334,6 +327,30 @@ def main(argv: list[str] | None = None) -> int:
                 r = fut.result()
                 results[r["key"]] = r
                 report(i, r)
+    return results
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = _parser()
+    args = p.parse_args(argv)
+    if args.jobs is None:
+        args.jobs = 1 if args.verbose else min(os.cpu_count() or 1, 4)
+    if args.list:
+        _list_figures()
+        return 0
+    try:
+        figs = select(args.only)
+    except ValueError as e:
+        p.error(str(e))
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    extra = (
+        ["--quiet"] + (["--fast"] if args.fast else []) + (["--seed", str(args.seed)] if args.seed is not None else [])
+    )
+    say = (lambda *a: None) if args.quiet else (lambda *a: print(*a, flush=True))
+    say(f"paper_figures: {len(figs)} figure(s) into {out}" + (" (fast mode)" if args.fast else ""))
+    t_all = time.perf_counter()
+    results = _run_figures(figs, out, extra, args, say)
     failures = {k: r["problems"] for k, r in results.items() if not r["ok"]}
     gallery = write_gallery(out, args.fast, failures)
     total = time.perf_counter() - t_all
