@@ -3,8 +3,8 @@
 :class:`SimilarityResidual` is a ``crocoddyl.ResidualModelAbstract`` whose residual is coop_ga's cooperative
 similarity error ``r(x) = e(q) = log(Ṽ_Sc(q) V_Sd)`` (Eq 44; 7-vector on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]``) with
 its exact Jacobian ``∂e/∂q`` (Eq 47), both from the task's compiled error function in one call.  The residual
-depends on q only: ``Rx = [∂e/∂q, 0]`` (7 × 2nv) and ``Ru = 0``.  Any crocoddyl cost (``CostModelResidual`` with an
-activation) or constraint (``ConstraintModelResidual``) can be put on it.
+depends on q only: ``Rx = [∂e/∂q, 0]`` (7 × 2nv) and ``Ru = 0``.  A crocoddyl cost is put on it with
+``CostModelResidual`` (and any activation).
 
 :func:`reach_problem` builds the reach of coop_ga's iLQR (:func:`coop_ga.control.ilqr_reach`) as a crocoddyl
 ``ShootingProblem`` on the robot's rigid-body dynamics (``DifferentialActionModelFreeFwdDynamics``, gravity on,
