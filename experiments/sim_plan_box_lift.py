@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--no-render", action="store_true", help="skip the MuJoCo GIF")
     exp.add_fast(f"{FAST_PLANS} plans, small renders (the gallery)", plans=FAST_PLANS)
     args = exp.parse(argv)
-    return run(exp, int(args.plans), int(args.seed), bool(args.fast), not args.no_render)
+    return run(exp, int(args.plans), int(args.seed), exp.fast, not args.no_render)
 
 
 def _one(exp: Experiment, g: Any, lift: Any, seed: int) -> dict[str, Any]:
