@@ -24,8 +24,8 @@ def test_readme_quickstart_is_what_ci_runs():
     quickstart = re.search(r"```bash\n(.*?)```", TEXT, flags=re.S)
     assert quickstart is not None
     commands = quickstart.group(1)
-    assert 'pip install -e ".[test,viz,sim]" && python -m paper_figures' in commands
-    assert 'pip install -e ".[test,viz,sweep,sim,viewer]" && python -m pytest -q' in commands
+    assert 'pip install -e ".[test,viz,sim,plan]" && python -m paper_figures' in commands
+    assert 'pip install -e ".[test,viz,sweep,sim,viewer,plan,adapters]" && python -m pytest -q' in commands
     assert "python -m pytest -q" in (ROOT / ".ci" / "run").read_text()
 
 
