@@ -132,7 +132,7 @@ class PlannerOptions:
     goal_samples: int = 2
     goal_attempts: int = 30
     simplify: bool = True
-    simplify_time: float = 0.5
+    simplify_time: float = 2.0
     range: float = 0.0
     window: float = math.inf
     seed: int = 0
@@ -356,6 +356,25 @@ def plan(problem: PlanningProblem, options: PlannerOptions | None = None, **over
     return res
 
 
+#: checks of the simplifier's termination condition before it stops (OMPL's simplifier asks once per shortcut round):
+#: a count, not a time, so that a path does not depend on the machine's load
+SIMPLIFY_CHECKS = 200
+
+
+def _simplify_condition(seconds: float) -> Any:
+    """Stop OMPL's simplifier after :data:`SIMPLIFY_CHECKS` checks of its termination condition, or after
+    ``seconds`` as a safety net (only this last case depends on the machine)."""
+    ob, _, _ = _ompl()
+    count = [0]
+    deadline = time.perf_counter() + seconds
+
+    def stop() -> bool:
+        count[0] += 1
+        return count[0] > SIMPLIFY_CHECKS or time.perf_counter() > deadline
+
+    return ob.PlannerTerminationCondition(stop)
+
+
 def _finish(ss: Any, status: Any, problem: PlanningProblem, o: PlannerOptions, valid: Validity, nq: int,
             goal_time: float, plan_time: float, t0: float) -> PlanResult:  # fmt: skip
     """Simplify, interpolate at delta and re-check the solution path."""
@@ -365,7 +384,7 @@ def _finish(ss: Any, status: Any, problem: PlanningProblem, o: PlannerOptions, v
                           time=time.perf_counter() - t0, goal_time=goal_time, plan_time=plan_time)  # fmt: skip
     t1 = time.perf_counter()
     if o.simplify and o.simplify_time > 0:
-        ss.simplifySolution(o.simplify_time)
+        ss.simplifySolution(_simplify_condition(o.simplify_time))
     simplify_time = time.perf_counter() - t1
     path = ss.getSolutionPath()
     waypoints = np.array([_state_array(path.getState(i), nq) for i in range(path.getStateCount())])
