@@ -298,9 +298,16 @@ def _sphere_secular(q: list[list[Any]], eta: Any) -> tuple[list[Any], Any, Any, 
 def _sphere_root(q: list[list[Any]]) -> Any:
     """η of the Pratt fit: safeguarded Newton on the secular equation from the Kåsa fit η = 0."""
     lo = _smallest_eigenvalue(_scatter(q), _BOUND_ITERS)  # a lower bound of the secular equation's pole
+    return _pratt_newton(lambda eta: _sphere_secular(q, eta), lo)
+
+
+def _pratt_newton(secular: Any, lo: Any) -> Any:
+    """The root η of a Pratt secular equation s(η) = 0 (``secular(η)`` returns ``(y, s, s', M_z)``) below its pole,
+    bounded below by ``lo``: :data:`_PRATT_ITERS` Newton steps from the Kåsa fit η = 0, each kept above the midpoint
+    of η and ``lo`` (branch-free, so that the graph differentiates through it)."""
     eta: Any = 0.0 * lo
     for _ in range(_PRATT_ITERS):
-        _, s, ds, _ = _sphere_secular(q, eta)
+        _, s, ds, _ = secular(eta)
         neg = ds < 0
         step = eta - _where(neg, s / _where(neg, ds, -1.0), 0.0 * s)
         half = 0.5 * (eta + lo)
@@ -355,14 +362,7 @@ def _circle_root(x: list[tuple[Any, Any]]) -> Any:
     a01 = sum(p[0] * p[1] for p in x)
     a11 = sum(p[1] * p[1] for p in x)
     lo = 0.5 * (a00 + a11) - B.sqrt(0.25 * (a00 - a11) * (a00 - a11) + a01 * a01)
-    eta: Any = 0.0 * lo
-    for _ in range(_PRATT_ITERS):
-        _, s, ds, _ = _circle_secular(x, eta)
-        neg = ds < 0
-        step = eta - _where(neg, s / _where(neg, ds, -1.0), 0.0 * s)
-        half = 0.5 * (eta + lo)
-        eta = _where(step < half, step, half)
-    return eta
+    return _pratt_newton(lambda eta: _circle_secular(x, eta), lo)
 
 
 def _circle_at(q: list[list[Any]], lam: Any, eta: Any) -> tuple[list[Any], Any, list[Any], Any, Any]:
