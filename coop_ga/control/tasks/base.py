@@ -58,6 +58,25 @@ def check_weight(weight: Any, what: str = "weight") -> np.ndarray | float:
     return w
 
 
+def row_indices(items: Any, names: tuple[str, ...], noun: str, given: Any) -> tuple[int, ...]:
+    """Distinct indices into ``names`` of ``items`` (a sequence of names or indices 0..len(names)−1); ``noun`` names
+    one row in the errors (``"line parameter"``, ``"row"``), ``given`` is what the user passed (for the message)."""
+    out: list[int] = []
+    for c in items:
+        if isinstance(c, str):
+            if c not in names:
+                raise InvalidInputError(f"unknown {noun} {c!r}; the names are {', '.join(names)}")
+            out.append(names.index(c))
+        else:
+            k = validation.integer(c, "component")
+            if not 0 <= k < len(names):
+                raise InvalidInputError(f"a {noun} index must be in 0..{len(names) - 1} ({', '.join(names)}), got {k}")
+            out.append(k)
+    if len(set(out)) != len(out):
+        raise InvalidInputError(f"components must be distinct, got {list(given)}")
+    return tuple(out)
+
+
 class BaseTask:
     """Shared fields and the default QP rows of the tasks of :mod:`coop_ga.control.tasks`.
 

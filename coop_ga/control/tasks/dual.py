@@ -54,7 +54,7 @@ from ...geometry.groups import (
     log,
 )
 from ...kinematics.chains import KinematicTree, motor_from_se3
-from .base import BaseTask
+from .base import BaseTask, row_indices
 
 __all__ = ["DUAL_COMPONENTS", "DUAL_ROWS", "DualState", "DualTask", "DualTaskSpace"]
 
@@ -262,20 +262,7 @@ def _components(components: Any) -> tuple[int, ...]:
             f"components must be one of {sorted(DUAL_COMPONENTS)} or a non-empty sequence of {DUAL_ROWS} names "
             f"or indices 0..5, got {components!r}"
         )
-    out: list[int] = []
-    for c in items:
-        if isinstance(c, str):
-            if c not in DUAL_ROWS:
-                raise InvalidInputError(f"unknown row {c!r}; the rows are {', '.join(DUAL_ROWS)}")
-            out.append(DUAL_ROWS.index(c))
-        else:
-            k = validation.integer(c, "component")
-            if not 0 <= k < 6:
-                raise InvalidInputError(f"a row index must be in 0..5 ({', '.join(DUAL_ROWS)}), got {k}")
-            out.append(k)
-    if len(set(out)) != len(out):
-        raise InvalidInputError(f"components must be distinct, got {list(items)}")
-    return tuple(out)
+    return row_indices(items, DUAL_ROWS, "row", items)
 
 
 class DualTask(BaseTask):

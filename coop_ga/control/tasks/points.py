@@ -24,7 +24,7 @@ from ... import validation
 from ...cooperative.manipulability import damped_pinv
 from ...errors import DegeneratePrimitiveError, InvalidInputError
 from ...geometry.kinds import KIND_SPECS
-from .base import BaseTask
+from .base import BaseTask, row_indices
 
 __all__ = ["LINE_PARAMETERS", "LineParameterTask", "PositionTask", "line_from_points"]
 
@@ -149,22 +149,7 @@ def line_components(components: Any) -> tuple[int, ...]:
         components = (components,)
     if not isinstance(components, Sequence) or not components:
         raise InvalidInputError(f"components must be a non-empty sequence of {LINE_PARAMETERS} names or indices")
-    out: list[int] = []
-    for c in components:
-        if isinstance(c, str):
-            if c not in LINE_PARAMETERS:
-                raise InvalidInputError(f"unknown line parameter {c!r}; the names are {', '.join(LINE_PARAMETERS)}")
-            out.append(LINE_PARAMETERS.index(c))
-        else:
-            k = validation.integer(c, "component")
-            if not 0 <= k < 6:
-                raise InvalidInputError(
-                    f"a line parameter index must be in 0..5 ({', '.join(LINE_PARAMETERS)}), got {k}"
-                )
-            out.append(k)
-    if len(set(out)) != len(out):
-        raise InvalidInputError(f"components must be distinct, got {list(components)}")
-    return tuple(out)
+    return row_indices(components, LINE_PARAMETERS, "line parameter", components)
 
 
 class LineParameterTask(BaseTask):
