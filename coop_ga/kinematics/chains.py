@@ -1,7 +1,7 @@
 """Motor forward kinematics of Pinocchio models (paper §2.2, Eq 7–8, 16–17; seed 001).
 
-A :class:`KinematicTree` turns a ``pinocchio.Model`` (revolute and prismatic joints
-only) and a list of end frames into motors:
+A :class:`KinematicTree` turns a ``pinocchio.Model`` (revolute and prismatic joints, and
+free flyers) and a list of end frames into motors:
 
 * every joint ``j`` contributes its fixed placement (a constant motor ``P_j``, from
   ``model.jointPlacements``) and its motion ``exp(q_j B_j)``: a rotor about the joint
@@ -9,6 +9,14 @@ only) and a list of end frames into motors:
 * the world motor of joint ``j`` is ``C_j = C_parent(j) P_j exp(q_j B_j)``; an end frame
   adds its constant frame placement.  Chains that share joints (a humanoid's waist)
   share the products, and q holds every joint once, in Pinocchio's order.
+
+A **free flyer** (``JointModelFreeFlyer``, a floating base) has 7 coordinates ``[p; x y z w]``
+(position [m], unit quaternion) and 6 velocities, Pinocchio's LOCAL ``[v; ω]``: its motion is
+``T(p) R(quaternion)`` (:func:`free_flyer_motor`) and it contributes six Jacobian columns, the
+translations and rotations along/about its local axes.  A model with one has nq ≠ nv: q has nq
+entries, every Jacobian has nv columns (velocities, in Pinocchio's order ``model.idx_vs``), and a
+velocity moves q through ``pinocchio.integrate`` (:meth:`coop_ga.systems.System.integrate`).
+For models without one, nq = nv and column j is joint j's coordinate.
 
 Every function takes ``q`` as a numpy vector or a CasADi SX column and runs the same
 sparse multivector code on both, so later layers differentiate it exactly.
@@ -33,6 +41,7 @@ Frames and conventions
 from __future__ import annotations
 
 from collections.abc import Sequence
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -53,8 +62,10 @@ from ..geometry.groups import (
 
 __all__ = [
     "LOCAL_TO_TANGENT",
+    "QUATERNION_TOLERANCE",
     "Joint",
     "KinematicTree",
+    "free_flyer_motor",
     "motor_from_se3",
 ]
 
@@ -99,18 +110,56 @@ def motor_from_se3(M: Any) -> Multivector:
     return _constant_motor(R, np.asarray(t, dtype=float))
 
 
+#: a free flyer's six velocity columns, Pinocchio's LOCAL order [v; ω]: (kind, axis in the joint frame)
+_FREE_COLUMNS = (
+    ("prismatic", (1.0, 0.0, 0.0)),
+    ("prismatic", (0.0, 1.0, 0.0)),
+    ("prismatic", (0.0, 0.0, 1.0)),
+    ("revolute", (1.0, 0.0, 0.0)),
+    ("revolute", (0.0, 1.0, 0.0)),
+    ("revolute", (0.0, 0.0, 1.0)),
+)
+
+#: a numeric free-flyer quaternion whose norm differs from 1 by more than this is refused (not normalised)
+QUATERNION_TOLERANCE = 1e-6
+
+
+def free_flyer_motor(qf: Any, name: str = "free flyer") -> Multivector:
+    """Motor ``T(p) R`` of a free flyer's 7 coordinates ``[p_x, p_y, p_z, x, y, z, w]`` (p [m], the unit
+    quaternion in Pinocchio's x y z w order), numpy or CasADi.
+
+    The quaternion is divided by its norm, so rounding drift never leaves the motor group; a numeric one whose
+    norm is off by more than :data:`QUATERNION_TOLERANCE` (or not finite) raises :class:`InvalidInputError`
+    (normalise it, e.g. with ``pinocchio.normalize``).  A symbolic one is normalised (its norm must not be 0).
+    """
+    px, py, pz, x, y, z, w = (qf[i] for i in range(7))
+    n = Bk.sqrt(x * x + y * y + z * z + w * w)
+    if not Bk.is_symbolic(n):
+        if not (abs(float(n) - 1.0) <= QUATERNION_TOLERANCE):
+            raise InvalidInputError(
+                f"joint '{name}': the free flyer's quaternion (x y z w) = {[float(c) for c in (x, y, z, w)]} has norm "
+                f"{float(n):.9g}, not 1 (±{QUATERNION_TOLERANCE:g}); normalise it (pinocchio.normalize(model, q))"
+            )
+    # a rotation by θ about the unit axis a: quaternion (sin(θ/2) a, cos(θ/2)), rotor cos(θ/2) − sin(θ/2) a*
+    R = Multivector((0, _E12, _E13, _E23), (w / n, -z / n, y / n, -x / n))
+    T = Multivector((0, _E1I, _E2I, _E3I), (1.0, -0.5 * px, -0.5 * py, -0.5 * pz))
+    return (T * R).project(MOTOR_BLADES)
+
+
 @dataclass(frozen=True)
 class Joint:
-    """One 1-DOF joint of the tree.
+    """One joint of the tree: a 1-DOF revolute/prismatic joint, or a free flyer.
 
     Attributes:
         name: Pinocchio joint name.
         index: Pinocchio joint id.
-        q_index: position of its coordinate in q (``model.idx_qs``).
+        q_index: position of its (first) coordinate in q (``model.idx_qs``).
         parent: Pinocchio id of the parent joint (0 = world).
-        kind: ``"revolute"`` or ``"prismatic"``.
-        axis: unit axis in the joint frame.
+        kind: ``"revolute"``, ``"prismatic"`` or ``"free"`` (q = [p; quaternion x y z w], 7 coordinates,
+            6 velocities [v; ω] in the joint's LOCAL frame, Pinocchio's ``JointModelFreeFlyer``).
+        axis: unit axis in the joint frame ((0, 0, 0) for a free flyer).
         placement: constant motor of ``model.jointPlacements[index]`` (parent joint frame).
+        v_index: position of its (first) velocity in q̇ (``model.idx_vs``; −1: the same as ``q_index``).
     """
 
     name: str
@@ -120,6 +169,21 @@ class Joint:
     kind: str
     axis: tuple[float, float, float]
     placement: Multivector
+    v_index: int = -1
+
+    @property
+    def v(self) -> int:
+        """The Jacobian column of this (1-DOF) joint or the first of a free flyer's six."""
+        return self.q_index if self.v_index < 0 else self.v_index
+
+    def columns(self) -> tuple[Joint, ...]:
+        """One 1-DOF joint per velocity: this joint itself, or a free flyer's six (``v_index`` v … v+5):
+        prismatic along the local x, y, z then revolute about them (Pinocchio's LOCAL ``[v; ω]``)."""
+        if self.kind != "free":
+            return (self,)
+        return tuple(
+            dataclasses.replace(self, kind=k, axis=a, v_index=self.v + i) for i, (k, a) in enumerate(_FREE_COLUMNS)
+        )
 
     def bivector(self) -> Multivector:
         """B_j with ``exp(q B_j)`` written as ``1 − ½ q B_j + …`` : the joint's local screw."""
@@ -132,7 +196,10 @@ class Joint:
         return Multivector.from_dict({k: v for k, v in d.items() if v != 0.0})
 
     def motion(self, qj: Any) -> Multivector:
-        """``exp(q_j B_j)``: the joint's motor at coordinate ``q_j`` (rad or m)."""
+        """``exp(q_j B_j)``: the joint's motor at coordinate ``q_j`` (rad or m); for a free flyer, its
+        7 coordinates [p; x y z w] give ``T(p) R(quaternion)`` (:func:`free_flyer_motor`)."""
+        if self.kind == "free":
+            return free_flyer_motor(qj, self.name)
         ax, ay, az = self.axis
         if self.kind == "revolute":
             c, s = Bk.cos(0.5 * qj), Bk.sin(0.5 * qj)
@@ -152,6 +219,7 @@ _SUPPORTED = {
     "JointModelPZ": ("prismatic", (0.0, 0.0, 1.0)),
     "JointModelRevoluteUnaligned": ("revolute", None),
     "JointModelPrismaticUnaligned": ("prismatic", None),
+    "JointModelFreeFlyer": ("free", (0.0, 0.0, 0.0)),
 }
 
 
@@ -186,8 +254,9 @@ class KinematicTree:
 
     Args:
         model:
-            ``pinocchio.Model`` with revolute/prismatic joints only (lock others with
-            ``pinocchio.buildReducedModel`` first); ``nq == nv``.
+            ``pinocchio.Model`` with revolute/prismatic joints and free flyers only (lock others
+            with ``pinocchio.buildReducedModel`` first).  A free flyer has 7 coordinates in q and
+            6 velocities: the Jacobians have ``nv`` columns (module docstring).
         end_frames:
             Names of the frames whose motors/points are the chain ends, in the order
             the cooperative layer will use them.
@@ -195,12 +264,6 @@ class KinematicTree:
 
     def __init__(self, model: Any, end_frames: Sequence[str]):
         self.model = model
-        if model.nq != model.nv:
-            raise UnsupportedJointError(
-                f"model has nq={model.nq} != nv={model.nv}: it contains a floating base, spherical or "
-                "continuous (unbounded) joint. Lock it with pinocchio.buildReducedModel, or give continuous "
-                "joints limits (type 'revolute') in the URDF."
-            )
         names = [f.name for f in model.frames]
         self.end_frames = tuple(end_frames)
         if not self.end_frames:
@@ -224,7 +287,9 @@ class KinematicTree:
                 self._add_joint(j)
                 j = int(model.parents[j])
             self.chains.append(tuple(reversed(chain)))
-        self.nq = model.nq
+        self.nq = int(model.nq)
+        #: number of velocities (Jacobian columns): nq, or nq − 1 per free flyer
+        self.nv = int(model.nv)
         # evaluation order: parents before children
         self._order = sorted(self.joints)
 
@@ -237,8 +302,8 @@ class KinematicTree:
         if short not in _SUPPORTED:
             raise UnsupportedJointError(
                 f"joint '{m.names[jid]}' has type {short}; coop_ga supports revolute and prismatic joints "
-                "(RX/RY/RZ, PX/PY/PZ, unaligned). Lock it with pinocchio.buildReducedModel (or "
-                "coop_ga.systems.from_urdf(..., locked_joints=[...]))."
+                "(RX/RY/RZ, PX/PY/PZ, unaligned) and free flyers (JointModelFreeFlyer). Lock it with "
+                "pinocchio.buildReducedModel (or coop_ga.systems.from_urdf(..., locked_joints=[...]))."
             )
         kind, axis = _SUPPORTED[short]
         if axis is None:
@@ -251,13 +316,19 @@ class KinematicTree:
             kind=kind,
             axis=axis,
             placement=motor_from_se3(m.jointPlacements[jid]),
+            v_index=int(m.idx_vs[jid]),
         )
 
     # ------------------------------------------------------------------ joints
+    def _chain_v(self, chain: tuple[int, ...]) -> list[int]:
+        """The Jacobian columns (indices in q̇) of a chain's joints, root to tip."""
+        return [c.v for j in chain for c in self.joints[j].columns()]
+
     @property
     def joint_columns(self) -> list[tuple[int, ...]]:
-        """For each chain, the q indices of its joints (root to tip)."""
-        return [tuple(self.joints[j].q_index for j in ch) for ch in self.chains]
+        """For each chain, the Jacobian columns (indices in q̇) of its joints, root to tip: a joint's q index
+        when nq = nv, a free flyer's six velocities."""
+        return [tuple(c.v for j in ch for c in self.joints[j].columns()) for ch in self.chains]
 
     def joint_motors(self, q: Any) -> dict[int, Multivector]:
         """World motors ``C_j`` (after the joint's motion) of every joint on a chain."""
@@ -265,7 +336,7 @@ class KinematicTree:
         C: dict[int, Multivector] = {}
         for jid in self._order:
             J = self.joints[jid]
-            local = J.placement * J.motion(q[J.q_index])
+            local = J.placement * J.motion(q[J.q_index : J.q_index + 7] if J.kind == "free" else q[J.q_index])
             C[jid] = (C[J.parent] * local if J.parent in C else local).project(MOTOR_BLADES)
         return C
 
@@ -299,16 +370,20 @@ class KinematicTree:
 
     # ------------------------------------------------------------------ Jacobians
     def joint_lines(self, q: Any, C: dict[int, Multivector] | None = None) -> dict[int, Multivector]:
-        """World axis ``L_j = C_j B_j C̃_j`` of every joint (a line, or a direction for prismatic joints)."""
+        """World axis ``L_j = C_j B_j C̃_j`` of every Jacobian column (a line, or a direction for prismatic
+        joints), keyed by its index in q̇ (a free flyer has six: its local x, y, z translations and rotations)."""
         if C is None:
             C = self.joint_motors(q)
-        return {j: (C[j] * self.joints[j].bivector() * C[j].reverse()).grade(2) for j in self._order}
+        return {
+            c.v: (C[j] * c.bivector() * C[j].reverse()).grade(2) for j in self._order for c in self.joints[j].columns()
+        }
 
     def geometric_jacobians(self, q: Any) -> list[Any]:
-        """Body-frame geometric Jacobian of each end frame, 7×nq (Eq 8), numpy or CasADi.
+        """Body-frame geometric Jacobian of each end frame, 7×nv (Eq 8), numpy or CasADi.
 
         Column j is ``−2 M̃ ∂M/∂q_j = M̃ L_j M`` as a 7-vector; columns of joints
-        not on the chain are zero.
+        not on the chain are zero.  With a free flyer, columns are velocities (Pinocchio's ``v``, the
+        flyer's LOCAL [v; ω]), so there are nv of them.
         """
         qv = _as_q(q, self.nq)
         C = self.joint_motors(qv)
@@ -319,10 +394,10 @@ class KinematicTree:
         for M, chain in zip(Ms, self.chains):
             cols = {}
             Mr = M.reverse()
-            for j in chain:
-                Bb = (Mr * L[j] * M).grade(2)
-                cols[self.joints[j].q_index] = bivector_to_tangent(Bb)
-            out.append(_assemble(cols, 7, self.nq, sym))
+            for v in self._chain_v(chain):
+                Bb = (Mr * L[v] * M).grade(2)
+                cols[v] = bivector_to_tangent(Bb)
+            out.append(_assemble(cols, 7, self.nv, sym))
         return out
 
     def analytic_jacobians(self, q: Any) -> list[list[Multivector | None]]:
@@ -336,9 +411,9 @@ class KinematicTree:
         L = self.joint_lines(qv, C)
         out = []
         for M, chain in zip(Ms, self.chains):
-            cols: list[Multivector | None] = [None] * self.nq
-            for j in chain:
-                cols[self.joints[j].q_index] = (L[j] * M).project(MOTOR_BLADES).scale(-0.5)
+            cols: list[Multivector | None] = [None] * self.nv
+            for v in self._chain_v(chain):
+                cols[v] = (L[v] * M).project(MOTOR_BLADES).scale(-0.5)
             out.append(cols)
         return out
 
@@ -360,14 +435,14 @@ class KinematicTree:
             )
         cols = []
         for Pi, chain in zip(P, self.chains):
-            c: list[Multivector | None] = [None] * self.nq
-            for j in chain:
-                c[self.joints[j].q_index] = Pi.lc(L[j]).grade(1)
+            c: list[Multivector | None] = [None] * self.nv
+            for v in self._chain_v(chain):
+                c[v] = Pi.lc(L[v]).grade(1)
             cols.append(c)
         return P, cols
 
     def euclidean_point_jacobians(self, q: Any) -> list[Any]:
-        """3×nq world-frame Jacobians of the end points (the e1, e2, e3 part of Eq 17).
+        """3×nv world-frame Jacobians of the end points (the e1, e2, e3 part of Eq 17).
 
         Evaluated in the cheap vector form ``ω_j × (p − o_j)`` (revolute) / ``a_j``
         (prismatic), with the world axis ``ω_j = R_j a_j`` and origin ``o_j`` read off the
@@ -378,29 +453,30 @@ class KinematicTree:
         C = self.joint_motors(qv)
         Ms = self.frame_motors(qv, C)
         sym = Bk.is_symbolic(qv)
-        frames: dict[int, tuple[Any, Any]] = {}
+        frames: dict[int, tuple[Any, Any, str]] = {}
         for j in {j for ch in self.chains for j in ch}:
             R, o = motor_rotor_translation(C[j])
             Rm = rotor_matrix(R)
-            a = self.joints[j].axis
-            w = tuple(sum(Rm[r][k] * a[k] for k in range(3) if a[k] != 0.0) for r in range(3))
-            frames[j] = (w, o)
+            for c in self.joints[j].columns():
+                a = c.axis
+                w = tuple(sum(Rm[r][k] * a[k] for k in range(3) if a[k] != 0.0) for r in range(3))
+                frames[c.v] = (w, o, c.kind)
         out = []
         for M, chain in zip(Ms, self.chains):
             p = motor_rotor_translation(M)[1]
             cols = {}
-            for j in chain:
-                w, o = frames[j]
-                if self.joints[j].kind == "revolute":
+            for v in self._chain_v(chain):
+                w, o, kind = frames[v]
+                if kind == "revolute":
                     d = (p[0] - o[0], p[1] - o[1], p[2] - o[2])
-                    cols[self.joints[j].q_index] = (
+                    cols[v] = (
                         w[1] * d[2] - w[2] * d[1],
                         w[2] * d[0] - w[0] * d[2],
                         w[0] * d[1] - w[1] * d[0],
                     )
                 else:
-                    cols[self.joints[j].q_index] = w
-            out.append(_assemble(cols, 3, self.nq, sym))
+                    cols[v] = w
+            out.append(_assemble(cols, 3, self.nv, sym))
         return out
 
 
