@@ -147,7 +147,7 @@ def test_non_unit_quaternion_is_refused_and_drift_normalised() -> None:
     tree = KinematicTree(model, ["FL_FOOT"])
     q = np.array(pin.neutral(model))
     q[3:7] = [0.0, 0.0, 0.0, 2.0]
-    with pytest.raises(InvalidInputError, match="quaternion.*norm 2.*normalise"):
+    with pytest.raises(InvalidInputError, match=r"quaternion.*norm 2.*normalise"):
         tree.frame_motors(q)
     q[3:7] = [0.0, 0.0, 0.0, 0.0]
     with pytest.raises(InvalidInputError, match="norm 0"):
