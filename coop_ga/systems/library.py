@@ -40,7 +40,7 @@ from .points import EndPoint, add_end_points
 from .registry import register
 from .system import ROBOTS_DIR, System, VisualSource, append_robots, prefixed
 
-__all__: list[str] = ["G1_PELVIS_HEIGHT", "IIWA_Q0", "g1_model"]
+__all__: list[str] = ["G1_PELVIS_HEIGHT", "IIWA_Q0", "g1_floating", "g1_model"]
 
 #: The paper's nominal iiwa configuration (§4.1) [rad].
 IIWA_Q0 = np.array([0.0, -0.7854, 0.0, 1.3962, 0.0, 0.6109, 0.0])
@@ -248,6 +248,38 @@ def _g1_arms() -> System:
             "primitive (left → right would be its antipode, where the minimal rotation jumps by a half-turn).  Both wrist chains contain the 3 waist joints.  q0: arms forward, "
             "hands 0.30 m in front of the pelvis and 0.36 m apart"
         ),
+        labels=("right hand", "left hand"),
+        visuals=(_erd_visual("G1Loader"),),
+    )
+
+
+def g1_floating() -> System:
+    """Unitree G1 with a floating pelvis (a free flyer) + waist + arms, legs locked straight: nq = 24, nv = 23.
+
+    The free-flyer version of ``load("g1_arms")``: the same URDF loaded with a ``JointModelFreeFlyer`` root
+    (``root_joint``, the pelvis pose: q[0:3] position [m], q[3:7] quaternion x y z w; q̇[0:6] its LOCAL
+    [v; ω]), the 12 leg joints (and any hand joints) locked at 0, then the 17 joints of ``g1_arms`` in the same
+    order.  q0: the pelvis at the origin, unrotated, and ``g1_arms``' q0, so the hands start where they do
+    there.  End frames: right and left hand, as in ``g1_arms``.  Not registered (the registered systems are
+    fixed-base); build it with this function.
+    """
+    import os
+
+    import example_robot_data as erd
+    import pinocchio as pin
+
+    L = erd.robots_loader.G1Loader
+    rel = os.path.join(L.path, L.urdf_subpath, L.urdf_filename)
+    full = pin.buildModelFromUrdf(os.path.join(erd.getModelPath(rel), rel), pin.JointModelFreeFlyer())
+    locked = [j for j in range(2, full.njoints) if not any(k in full.names[j] for k in _G1_KEEP)]
+    m = pin.buildReducedModel(full, locked, pin.neutral(full))
+    assert (m.nq, m.nv) == (24, 23), (m.nq, m.nv)
+    return System(
+        name="g1_floating",
+        model=m,
+        end_frames=("right_rubber_hand", "left_rubber_hand"),
+        q0=np.concatenate([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0], _g1_q0()]),
+        description="Unitree G1 with a free-flyer pelvis (floating base), waist + 2 × 7 arm joints, legs locked",
         labels=("right hand", "left hand"),
         visuals=(_erd_visual("G1Loader"),),
     )

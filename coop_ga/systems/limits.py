@@ -30,7 +30,7 @@ import numpy as np
 from .. import validation
 from ..errors import InvalidInputError, UnknownNameError
 
-__all__ = ["DEFAULT_VELOCITY_LIMIT", "JointLimits"]
+__all__ = ["DEFAULT_VELOCITY_LIMIT", "JointLimits", "position_limits"]
 
 #: Velocity limit [rad/s or m/s] used where the model gives none (module docstring).
 DEFAULT_VELOCITY_LIMIT = 2.0
@@ -42,12 +42,35 @@ def _frozen(a: np.ndarray) -> np.ndarray:
     return a
 
 
+def position_limits(model: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``(lower, upper)`` position limits of a ``pinocchio.Model``, one per velocity (nv,), in q̇ order.
+
+    When nq = nv they are the model's ``lowerPositionLimit``/``upperPositionLimit`` as they are.  Otherwise each
+    1-DOF joint's bounds sit at its velocity index and a free flyer's six entries are unbounded (±inf): its
+    position is free and its quaternion has no bound to violate (Pinocchio stores ±1 there).
+    """
+    if model.nq == model.nv:
+        return np.array(model.lowerPositionLimit, dtype=float), np.array(model.upperPositionLimit, dtype=float)
+    lo, hi = np.full(model.nv, -np.inf), np.full(model.nv, np.inf)
+    for j in range(1, model.njoints):
+        if model.nqs[j] == 1 and model.nvs[j] == 1:
+            lo[model.idx_vs[j]] = model.lowerPositionLimit[model.idx_qs[j]]
+            hi[model.idx_vs[j]] = model.upperPositionLimit[model.idx_qs[j]]
+    return lo, hi
+
+
 @dataclass(frozen=True, eq=False)
 class JointLimits:
     """Per-joint bounds, all (nq,) arrays in q order (read-only).
 
+    For a system with nq ≠ nv (a free flyer) every array has one entry per *velocity* (nv,), in q̇ order:
+    a 1-DOF joint's position bounds apply to its coordinate, a free flyer's six entries have no position bound
+    (:func:`position_limits`); positions are then compared through
+    :meth:`coop_ga.systems.System.limit_coordinates` (q's bounded coordinates in q̇ order).
+
     Attributes:
-        joint_names: names in q order.
+        joint_names: names in q order (in q̇ order when nq ≠ nv: a free flyer ``root`` gives
+            ``root:vx`` … ``root:wz``).
         lower, upper: position limits [rad or m] (±inf: unbounded).
         velocity: |q̇| ≤ velocity [rad/s or m/s] (> 0).
         acceleration: |q̈| ≤ acceleration [rad/s² or m/s²] (> 0, inf = unbounded).
@@ -86,12 +109,12 @@ class JointLimits:
 
         if not isinstance(model, pin.Model):
             raise InvalidInputError(f"model must be a pinocchio.Model, got {type(model).__name__}")
-        if isinstance(joint_names, str) or not isinstance(joint_names, Sequence) or len(joint_names) != model.nq:
+        if isinstance(joint_names, str) or not isinstance(joint_names, Sequence) or len(joint_names) != model.nv:
             raise InvalidInputError(
-                f"joint_names must be {model.nq} names (one per coordinate of q), got {joint_names!r}"
+                f"joint_names must be {model.nv} names (one per velocity of q̇, i.e. per coordinate of q when "
+                f"nq = nv), got {joint_names!r}"
             )
-        lo = np.array(model.lowerPositionLimit, dtype=float)
-        hi = np.array(model.upperPositionLimit, dtype=float)
+        lo, hi = position_limits(model)
         big = 1e300  # Pinocchio's "no limit" is ±max double
         lo[lo < -big] = -np.inf
         hi[hi > big] = np.inf

@@ -2,9 +2,9 @@
 
 A :class:`System` bundles
 
-* ``model`` — a fixed-base ``pinocchio.Model`` with revolute/prismatic joints only
-  (robots combined with ``pinocchio.appendModel``, locked joints removed with
-  ``pinocchio.buildReducedModel``);
+* ``model`` — a ``pinocchio.Model`` with revolute/prismatic joints (robots combined with
+  ``pinocchio.appendModel``, locked joints removed with ``pinocchio.buildReducedModel``), fixed-base
+  or with a free-flyer root (a floating base: ``from_urdf(..., free_flyer=True)``);
 * ``end_frames`` — frame names, one per chain, in the order the cooperative layer uses;
 * ``q0``, ``q_lower``, ``q_upper``, ``joint_names`` — a nominal configuration and limits;
 * ``tree`` — the :class:`~coop_ga.kinematics.chains.KinematicTree` (motor FK, Jacobians);
@@ -15,6 +15,15 @@ A :class:`System` bundles
 
 Systems are registered by name in :mod:`coop_ga.systems.registry`; ``load(name)`` builds
 (and caches) one.  Any URDF that Pinocchio loads becomes a system with :func:`from_urdf`.
+
+Free flyers (nq ≠ nv)
+---------------------
+A free-flyer root has 7 coordinates in q (position [m], unit quaternion x y z w) and 6 velocities
+(Pinocchio's LOCAL ``[v; ω]``), so ``nq = nv + 1``.  Everything that moves q does it through
+:meth:`System.integrate` (``pinocchio.integrate``; ``q + v`` when nq = nv) and compares two
+configurations through :meth:`System.difference`; velocities, Jacobian columns and the arrays of
+:attr:`System.limits` have nv entries, in q̇ order.  The free flyer has no position limits; the
+bounded coordinates of q, in q̇ order, are :meth:`System.limit_coordinates`.
 """
 
 from __future__ import annotations
@@ -121,15 +130,20 @@ def _pin_model(x: Any, what: str = "model") -> Any:
     return x
 
 
-def read_urdf(path: Any, what: str = "urdf_path") -> Any:
-    """``pinocchio.buildModelFromUrdf(path)`` (fixed base), with a :class:`InvalidInputError` naming ``what`` for a
-    missing file, a folder, or a file Pinocchio cannot parse as URDF."""
+def read_urdf(path: Any, what: str = "urdf_path", *, free_flyer: bool = False) -> Any:
+    """``pinocchio.buildModelFromUrdf(path)`` (fixed base; with ``free_flyer``, a ``JointModelFreeFlyer`` root),
+    with a :class:`InvalidInputError` naming ``what`` for a missing file, a folder, or a file Pinocchio cannot
+    parse as URDF."""
     import pinocchio as pin
 
     p = _path(path, what)
+    if not isinstance(free_flyer, (bool, np.bool_)):
+        raise InvalidInputError(f"free_flyer must be True or False, got {free_flyer!r}")
     if not p.is_file():
         raise InvalidInputError(f"{what}: URDF file not found: {p}" + (" (a folder)" if p.is_dir() else ""))
     try:
+        if free_flyer:
+            return pin.buildModelFromUrdf(str(p), pin.JointModelFreeFlyer())
         return pin.buildModelFromUrdf(str(p))
     except (ValueError, RuntimeError) as e:
         raise InvalidInputError(f"{what}: {p} is not a URDF Pinocchio can read ({e})") from None
@@ -235,7 +249,8 @@ class System:
         self.q0 = validation.configuration(
             self.q0, self.model.nq, "q0", owner=f"system '{self.name}'", joint_names=self.joint_names
         )
-        outside = self.limits.describe(self.q0, tol=0.0)
+        self._check_quaternions(self.q0, "q0")
+        outside = self.limits.describe(self.limit_coordinates(self.q0), tol=0.0)
         if outside:
             raise InvalidInputError(
                 f"q0 of system '{self.name}' is outside the joint limits: {outside}; pass a q0 inside them "
@@ -271,15 +286,91 @@ class System:
         return int(self.model.nq)
 
     @property
+    def nv(self) -> int:
+        """Number of velocities (= DOF): nq, or nq − 1 with a free flyer (module docstring)."""
+        return int(self.model.nv)
+
+    def integrate(self, q: Any, v: Any) -> np.ndarray:
+        """The configuration reached from q (nq,) by the velocity v (nv,) applied for 1 s: ``q + v`` when
+        nq = nv, else ``pinocchio.integrate`` (a free flyer's v is its LOCAL [v; ω]; the quaternion stays unit)."""
+        if self.model.nq == self.model.nv:
+            return np.asarray(q, dtype=float) + v
+        import pinocchio as pin
+
+        return np.asarray(pin.integrate(self.model, np.asarray(q, dtype=float), np.asarray(v, dtype=float)))
+
+    def difference(self, q0: Any, q1: Any) -> np.ndarray:
+        """The velocity (nv,) that moves q0 to q1 in 1 s (:meth:`integrate`'s inverse): ``q1 − q0`` when
+        nq = nv, else ``pinocchio.difference``."""
+        if self.model.nq == self.model.nv:
+            return np.asarray(q1, dtype=float) - np.asarray(q0, dtype=float)
+        import pinocchio as pin
+
+        return np.asarray(pin.difference(self.model, np.asarray(q0, dtype=float), np.asarray(q1, dtype=float)))
+
+    def neutral(self) -> np.ndarray:
+        """Pinocchio's neutral configuration (nq,): joints at 0, a free flyer at the origin, unrotated."""
+        import pinocchio as pin
+
+        return np.array(pin.neutral(self.model), dtype=float)
+
+    def limit_coordinates(self, q: Any) -> np.ndarray:
+        """The coordinates of q (nq,) or (T, nq) that :attr:`limits` bound, in q̇ order: (nv,) or (T, nv).
+
+        q itself when nq = nv; otherwise each 1-DOF joint's coordinate at its velocity index and 0 for a
+        free flyer's six entries (they have no position bound)."""
+        a = np.asarray(q, dtype=float)
+        if self.model.nq == self.model.nv:
+            return a
+        idx = self._limit_index
+        out = np.zeros(a.shape[:-1] + (self.nv,))
+        out[..., idx >= 0] = a[..., idx[idx >= 0]]
+        return out
+
+    @property
+    def _limit_index(self) -> np.ndarray:
+        """For each velocity, the q index of its 1-DOF joint's coordinate, or −1 (a free flyer's)."""
+        m = self.model
+        idx = np.full(m.nv, -1)
+        for j in range(1, m.njoints):
+            if m.nqs[j] == 1 and m.nvs[j] == 1:
+                idx[m.idx_vs[j]] = m.idx_qs[j]
+        return idx
+
+    def _check_quaternions(self, q: np.ndarray, what: str) -> None:
+        """Raise if a free flyer's quaternion in q is not unit (within QUATERNION_TOLERANCE)."""
+        from ..kinematics.chains import QUATERNION_TOLERANCE
+
+        m = self.model
+        for j in range(1, m.njoints):
+            if m.joints[j].shortname() == "JointModelFreeFlyer":
+                n = float(np.linalg.norm(q[m.idx_qs[j] + 3 : m.idx_qs[j] + 7]))
+                if not abs(n - 1.0) <= QUATERNION_TOLERANCE:
+                    raise InvalidInputError(
+                        f"{what} of system '{self.name}': the quaternion (x y z w) of free flyer '{m.names[j]}' "
+                        f"(q[{m.idx_qs[j] + 3}:{m.idx_qs[j] + 7}]) has norm {n:.9g}, not 1; normalise it "
+                        "(pinocchio.normalize(model, q)) or move q with System.integrate"
+                    )
+
+    @property
     def n_chains(self) -> int:
         return len(self.end_frames)
 
     @property
     def joint_names(self) -> list[str]:
-        """Joint names in q order (Pinocchio's order)."""
+        """Joint names in q order (Pinocchio's order); when nq ≠ nv one name per velocity, in q̇ order, a free
+        flyer ``root`` giving ``root:vx``, ``root:vy``, ``root:vz``, ``root:wx``, ``root:wy``, ``root:wz``."""
         m = self.model
         order = sorted(range(1, m.njoints), key=lambda j: m.idx_qs[j])
-        return [m.names[j] for j in order if m.nqs[j] > 0]
+        if m.nq == m.nv:
+            return [m.names[j] for j in order if m.nqs[j] > 0]
+        out: list[str] = []
+        for j in order:
+            if m.nvs[j] == 1:
+                out.append(m.names[j])
+            elif m.nvs[j] > 1:
+                out += [f"{m.names[j]}:{c}" for c in ("vx", "vy", "vz", "wx", "wy", "wz")[: m.nvs[j]]]
+        return out
 
     @property
     def q_lower(self) -> np.ndarray:
@@ -368,8 +459,10 @@ class System:
         a = validation.configuration(q, self.nq, owner=f"system '{self.name}'", joint_names=self.joint_names)
         if not isinstance(warn_limits, (bool, np.bool_)):
             raise InvalidInputError(f"warn_limits must be True or False, got {warn_limits!r}")
+        if self.model.nq != self.model.nv:
+            self._check_quaternions(a, "q")
         if warn_limits and self.limits is not None:
-            desc = self.limits.describe(a, tol=1e-12)
+            desc = self.limits.describe(self.limit_coordinates(a), tol=1e-12)
             if desc:
                 warn(f"system '{self.name}': joint limits exceeded: {desc}", JointLimitWarning, key=self.name)
         return a
@@ -378,7 +471,8 @@ class System:
         """Uniform random q inside the limits (``scale < 1`` shrinks the box around its middle).
 
         Joints without finite limits (models built in code get ±1.8e308) are sampled in
-        [−π, π] (revolute) or [−1, 1] m (prismatic).  ``rng``: a ``numpy.random.Generator``; ``scale`` ∈ [0, 1].
+        [−π, π] (revolute) or [−1, 1] m (prismatic); a free flyer's position in [−1, 1] m and its
+        rotation as a rotation vector in [−π, π]³ (applied to the neutral pose by :meth:`integrate`).  ``rng``: a ``numpy.random.Generator``; ``scale`` ∈ [0, 1].
         """
         if not isinstance(rng, np.random.Generator):
             raise InvalidInputError(
@@ -390,13 +484,20 @@ class System:
         if np.any(unbounded):
             span = np.array(
                 [
-                    1.0 if self.model.joints[j].shortname().startswith("JointModelP") else np.pi
+                    s
                     for j in self._joint_ids_in_q()
+                    for s in (
+                        (1.0, 1.0, 1.0, np.pi, np.pi, np.pi)
+                        if self.model.joints[j].shortname() == "JointModelFreeFlyer"
+                        else (1.0 if self.model.joints[j].shortname().startswith("JointModelP") else np.pi,)
+                    )
                 ]
             )
             lo[unbounded], hi[unbounded] = -span[unbounded], span[unbounded]
         mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo) * scale
-        return rng.uniform(mid - half, mid + half)
+        sample = rng.uniform(mid - half, mid + half)
+        # with a free flyer the sample is a velocity from the neutral configuration (joints: their coordinate)
+        return sample if self.nq == self.nv else self.integrate(self.neutral(), sample)
 
     # ------------------------------------------------------------------ kinematics
     def end_points(self, q: Any) -> np.ndarray:
@@ -544,6 +645,10 @@ def _default_q0(model: Any, start: Any = None) -> np.ndarray:
 
     q = np.array(pin.neutral(model) if start is None else start, dtype=float)
     lo, hi = np.array(model.lowerPositionLimit), np.array(model.upperPositionLimit)
+    for j in range(1, model.njoints):  # a free flyer's coordinates have no bounds (Pinocchio stores ±1)
+        if model.nqs[j] != 1 or model.nvs[j] != 1:
+            lo[model.idx_qs[j] : model.idx_qs[j] + model.nqs[j]] = -np.inf
+            hi[model.idx_qs[j] : model.idx_qs[j] + model.nqs[j]] = np.inf
     bad = (q < lo) | (q > hi)
     q[bad] = 0.5 * (lo[bad] + hi[bad])
     with np.errstate(over="ignore"):  # models built in code have limits ±1.8e308: no finite range
@@ -683,8 +788,11 @@ def from_urdf(
     package_dirs: Sequence[str | Path] | None = None,
     groups: Mapping[str, Any] | None = None,
     active: Sequence[str] | None = None,
+    free_flyer: bool = False,
 ) -> System:
-    """Build a system from any URDF Pinocchio loads (fixed base).
+    """Build a system from any URDF Pinocchio loads (fixed base; with ``free_flyer=True`` the root link is a
+    floating base, a ``JointModelFreeFlyer`` named ``root_joint``: q starts with its position [m] and unit
+    quaternion x y z w, q̇ with its LOCAL [v; ω] — module docstring).
 
     ``package_dirs``: folders that resolve the ``package://`` mesh URIs of its ``<visual>``
     elements (default: the URDF's folder and three of its parents); the visual geometry is
@@ -701,7 +809,7 @@ def from_urdf(
     if name is not None and (not isinstance(name, str) or not name):
         raise InvalidInputError(f"name must be a non-empty string (or None: the file's stem), got {name!r}")
     dirs = _default_package_dirs(p) if package_dirs is None else _dirs(package_dirs, "package_dirs")
-    model = read_urdf(p, "urdf_path")
+    model = read_urdf(p, "urdf_path", free_flyer=free_flyer)
     return from_model(
         model,
         end_frames,

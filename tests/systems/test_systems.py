@@ -270,15 +270,14 @@ def test_outside_limits_warns_and_is_not_clipped():
         s.end_points(s.q0)  # no warning inside the limits
 
 
-def test_free_flyer_model_is_rejected():
+def test_free_flyer_model_is_accepted():
     import example_robot_data as erd
 
     model = erd.load("g1").model  # example-robot-data adds a FreeFlyer root
     assert model.nq == model.nv + 1
-    with pytest.raises(UnsupportedJointError, match="buildReducedModel"):
-        KinematicTree(model, ["left_rubber_hand"])
-    with pytest.raises(UnsupportedJointError):
-        systems.from_model(model, ["left_rubber_hand"])
+    assert KinematicTree(model, ["left_rubber_hand"]).geometric_jacobians(pin.neutral(model))[0].shape == (7, model.nv)
+    s = systems.from_model(model, ["left_rubber_hand"])
+    assert (s.nq, s.nv) == (model.nq, model.nv)
 
 
 def test_unsupported_joint_type_is_rejected():

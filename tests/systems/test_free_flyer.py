@@ -1,0 +1,96 @@
+"""Systems with a free-flyer root (nq ≠ nv): integrate/difference, limits, loading with the free flyer."""
+
+from __future__ import annotations
+
+import os
+import warnings
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from coop_ga import systems
+from coop_ga.errors import InvalidInputError
+from coop_ga.systems.library import g1_floating
+
+
+def _g1_urdf() -> str:
+    import example_robot_data as erd
+
+    L = erd.robots_loader.G1Loader
+    rel = os.path.join(L.path, L.urdf_subpath, L.urdf_filename)
+    return os.path.join(erd.getModelPath(rel), rel)
+
+
+@pytest.fixture(scope="module")
+def floating():
+    return g1_floating()
+
+
+def test_sizes_names_and_q0(floating) -> None:
+    s = floating
+    assert (s.nq, s.nv) == (24, 23)
+    assert s.joint_names[:7] == [f"root_joint:{c}" for c in ("vx", "vy", "vz", "wx", "wy", "wz")] + ["waist_yaw_joint"]
+    assert len(s.joint_names) == s.nv == s.limits.velocity.shape[0]
+    fixed = systems.load("g1_arms")
+    np.testing.assert_allclose(s.end_points(s.q0), fixed.end_points(fixed.q0), atol=1e-12)
+    np.testing.assert_array_equal(s.neutral(), pin.neutral(s.model))
+
+
+def test_integrate_and_difference_are_pinocchios(floating) -> None:
+    s = floating
+    rng = np.random.default_rng(1)
+    q0, v = s.random_q(rng), rng.normal(size=s.nv)
+    q1 = s.integrate(q0, v)
+    np.testing.assert_array_equal(q1, pin.integrate(s.model, q0, v))
+    assert abs(np.linalg.norm(q1[3:7]) - 1.0) < 1e-14
+    np.testing.assert_allclose(s.difference(q0, q1), v, atol=1e-12)
+    fixed = systems.load("g1_arms")  # nq = nv: plain + and −
+    qf, vf = fixed.q0, rng.normal(size=fixed.nv)
+    np.testing.assert_array_equal(fixed.integrate(qf, vf), qf + vf)
+    np.testing.assert_array_equal(fixed.difference(qf, qf + vf), (qf + vf) - qf)
+    assert fixed.limit_coordinates(qf) is not None and np.array_equal(fixed.limit_coordinates(qf), qf)
+
+
+def test_limits_bound_the_joints_only(floating) -> None:
+    s = floating
+    assert np.all(np.isinf(s.limits.lower[:6])) and np.all(np.isinf(s.limits.upper[:6]))
+    np.testing.assert_array_equal(s.limits.lower[6:], s.model.lowerPositionLimit[7:])
+    q = s.q0.copy()
+    q[:3] = [5.0, -7.0, 3.0]  # far away: the base has no position limit
+    q[3:7] = [0.0, 0.0, 1.0, 0.0]  # w = 0: outside the ±1 Pinocchio stores, yet a valid quaternion
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        s.check_q(q)
+    lc = s.limit_coordinates(q)
+    assert lc.shape == (s.nv,) and np.all(lc[:6] == 0.0) and np.array_equal(lc[6:], q[7:])
+    assert s.limits.position_violation(lc) == 0.0
+    q[7] = 10.0  # waist yaw far outside its limits: reported by name
+    assert "waist_yaw_joint=10.0000" in s.limits.describe(s.limit_coordinates(q))
+    for _ in range(5):
+        r = s.random_q(np.random.default_rng(_))
+        assert abs(np.linalg.norm(r[3:7]) - 1.0) < 1e-12 and s.limits.position_violation(s.limit_coordinates(r)) == 0
+
+
+def test_non_unit_quaternion_is_refused(floating) -> None:
+    q = floating.q0.copy()
+    q[3:7] = [0.0, 0.0, 0.0, 0.5]
+    with pytest.raises(InvalidInputError, match=r"free flyer 'root_joint'.*norm 0\.5.*normalise"):
+        floating.check_q(q)
+    with pytest.raises(InvalidInputError, match=r"norm 0\.5"):
+        systems.System("bad", floating.model, floating.end_frames, q)
+
+
+def test_from_urdf_with_its_free_flyer() -> None:
+    groups = {"base": "root_joint", "arms": [".*_(shoulder|elbow|wrist)_.*", "waist_.*"]}
+    s = systems.from_urdf(
+        _g1_urdf(), ["left_rubber_hand", "right_rubber_hand"], free_flyer=True, groups=groups, active=["base", "arms"]
+    )
+    assert (s.nq, s.nv) == (24, 23) and s.model.joints[1].shortname() == "JointModelFreeFlyer"
+    np.testing.assert_array_equal(s.q0[:7], [0, 0, 0, 0, 0, 0, 1])  # the default q0 leaves the quaternion alone
+    fixed = systems.from_urdf(
+        _g1_urdf(), ["left_rubber_hand"], groups=groups | {"base": "waist_yaw_joint"}, active=["arms"]
+    )
+    assert fixed.nq == fixed.nv == 17
+    with pytest.raises(InvalidInputError, match="free_flyer must be True or False"):
+        systems.from_urdf(_g1_urdf(), ["left_rubber_hand"], free_flyer="yes")
