@@ -102,6 +102,11 @@ def check_q(task: Any, q: Any, what: str = "q") -> np.ndarray:
     return validation.configuration(q, task.nq, what, owner=f"task '{task.name}'")
 
 
+def check_v(task: Any, v: Any, what: str = "velocity") -> np.ndarray:
+    """A joint velocity of ``task`` (nv,) as a new float array (nv = nq without a free flyer)."""
+    return validation.configuration(v, getattr(task, "nv", task.nq), what, owner=f"task '{task.name}'")
+
+
 def bounds(task: Any) -> tuple[np.ndarray, np.ndarray]:
     """Joint position limits ``(lower, upper)`` (nq,) of the task's system [rad or m] (``system.limits``)."""
     lim = task.system.limits

@@ -8,7 +8,7 @@ once per q and shared.  Here the kinematics are those of the cooperative task gr
 one compiled call ``(q, V_d) → (V_Sc, B_Sc, J^G, checks, end points, end-point Jacobians, e, K)``
 gives
 
-* V_Sc (12,), B_Sc = log V_Sc (7,) and the body Jacobian J^G (7, nq) (Eq 28, 30);
+* V_Sc (12,), B_Sc = log V_Sc (7,) and the body Jacobian J^G (7, nv) (Eq 28, 30; nv = nq without a free flyer);
 * the end points p_i (n, 3) [m] and their world Jacobians J_{p,i} (n, 3, nq) [m/rad] (Eq 7, 17);
 * for one target V_d: e = log(Ṽ_Sc V_d) (7,) (Eq 44) and K = ∂e/∂b with J_e = K J^G (Eq 47),
 
@@ -112,8 +112,8 @@ class Configuration:
 
     Args:
         model: a :class:`~coop_ga.CooperativeTask` (its system, kinematic tree and task graph).
-        q: (nq,) joint configuration [rad or m] (copied).
-        velocity: (nq,) joint velocity q̇ of the previous step [rad/s] (None: at rest, zeros).
+        q: (nq,) joint configuration [rad or m] (copied; with a free flyer its quaternion must be unit).
+        velocity: (nv,) joint velocity q̇ of the previous step [rad/s] (None: at rest, zeros).
 
     Raises:
         InvalidInputError: q or velocity of the wrong size; NonFiniteError (at the first evaluation): not finite.
@@ -146,7 +146,7 @@ class Configuration:
             out[7],
         )
         self.q = np.zeros(model.nq)
-        self.velocity = np.zeros(model.nq)
+        self.velocity = np.zeros(getattr(model, "nv", model.nq))
         self._done = False
         self._src: np.ndarray = _IDENTITY
         self._errors: dict[int, tuple[Any, np.ndarray, np.ndarray]] = {}
@@ -155,8 +155,25 @@ class Configuration:
 
     @property
     def nq(self) -> int:
-        """Number of joints."""
+        """Number of coordinates of q."""
         return int(self.model.nq)
+
+    @property
+    def nv(self) -> int:
+        """Number of velocities: the size of q̇ and of every task's Jacobian rows (nq, or nq − 1 with a free flyer)."""
+        return int(getattr(self.model, "nv", self.model.nq))
+
+    @property
+    def system(self) -> Any:
+        """The task's system (:meth:`~coop_ga.systems.System.integrate`, limits)."""
+        return self.model.system
+
+    def limit_coordinates(self) -> np.ndarray:
+        """The coordinates of q the position limits bound, in q̇ order (nv,): q itself when nq = nv
+        (:meth:`~coop_ga.systems.System.limit_coordinates`)."""
+        if self.nq == self.nv:
+            return self.q
+        return self.model.system.limit_coordinates(self.q)
 
     @property
     def limits(self) -> Any:
@@ -171,7 +188,7 @@ class Configuration:
         if velocity is None:
             self.velocity[...] = 0.0
         else:
-            self.velocity[...] = _vector(velocity, n, "velocity", owner)
+            self.velocity[...] = _vector(velocity, self.velocity.shape[0], "velocity", owner)
         self._vb[...] = self._src = _IDENTITY
         self._done = False
         if self._errors:

@@ -94,7 +94,7 @@ from ..cooperative.manipulability import damped_pinv
 from ..diagnostics import collect_warnings, warn
 from ..errors import InvalidInputError, JointLimitWarning
 from ..geometry.groups import SimilarityLike
-from .base import SolverResult, check_problem, check_q, resolve_options
+from .base import SolverResult, check_problem, check_q, check_v, resolve_options
 from .configuration import Configuration
 from .limits import Limit, UserConstraints, default_limits
 from .qp import DEFAULT_LIMIT_GAIN, LinearConstraint, QPSolution, project_into_limits
@@ -147,7 +147,7 @@ def step_limits(task: Any, mode: str, limit_gain: float, acceleration: bool, con
     items = constraints if isinstance(constraints, list) else [constraints]
     if all(isinstance(c, Limit) and not isinstance(c, LinearConstraint) for c in items):
         return lims + list(items)  # limits (e.g. a ClearanceLimit): evaluated on the step's configuration and Δt
-    return lims + [UserConstraints(constraints, task.nq)]
+    return lims + [UserConstraints(constraints, getattr(task, "nv", task.nq))]
 
 
 def _step(
@@ -162,7 +162,7 @@ def _step(
     b = _check_bivector(command_bivector)
     if limit_mode != "none":
         qv = project_into_limits(task, qv)
-    cfg = Configuration(task, qv, None if velocity is None else check_q(task, velocity, "velocity"))
+    cfg = Configuration(task, qv, None if velocity is None else check_v(task, velocity, "velocity"))
     lims = step_limits(task, limit_mode, gain, acceleration_limit, constraints)
     return qv, solve_step(cfg, [BodyVelocityTask(b)], lims, dt, damping=damping).solution
 
@@ -245,10 +245,13 @@ def diff_ik_step(
     """
     mode = "none" if limit_mode == "clamp" else limit_mode
     qv, sol = _step(task, q, command_bivector, dt, damping, mode, limit_gain, constraints, velocity, acceleration_limit)
-    q_next = advance(qv, sol.x, dt)
+    q_next = advance(qv, sol.x, dt, task.system)
     if limit_mode != "none":  # 'enforce': only rounding (γ(bound − q) reaches the bound at most); 'clamp': the ablation
         lim = task.system.limits
-        np.clip(q_next, lim.lower, lim.upper, out=q_next)
+        if task.nq == task.nv:
+            np.clip(q_next, lim.lower, lim.upper, out=q_next)
+        else:
+            task.system.clip(q_next, out=q_next)
     return q_next
 
 
@@ -342,7 +345,7 @@ def clamp_hooks(dt: float, counter: list[int]) -> RunHooks:
     """The hooks of the ``'clamp'`` ablation: count the steps whose q the clip changed."""
 
     def after(c: Any, st: Any, q_next: np.ndarray) -> np.ndarray:
-        counter[0] += bool(not st.used_qp and np.any(q_next != c.q + dt * st.velocity))
+        counter[0] += bool(not st.used_qp and np.any(q_next != advance(c.q, st.velocity, dt, c.system)))
         return q_next
 
     return RunHooks(after=after, clip=True)
@@ -372,6 +375,7 @@ def run_result(task: Any, run: IKRun, mode: str, caught: Any, extra: int = 0) ->
 
 def _warn_outside(task: Any, q: np.ndarray) -> None:
     lim = task.system.limits
+    q = task.system.limit_coordinates(q)
     if lim.position_violation(q) > 0.0:
         warn(
             f"diff_ik_reach(limit_mode='none'): the final configuration is outside the joint limits by up to "

@@ -193,11 +193,11 @@ def gauss_newton_ik(
         run.iterate()
         if run.it:
             task.error_and_jacobian(run.q, Vd)  # re-check the final configuration (reported once)
-        violation = task.system.limits.position_violation(run.q)
+        violation = task.system.limits.position_violation(run.x(run.q))
         if o.limit_mode == "none" and violation > 0.0:
             warn(
                 f"gauss_newton_ik(limit_mode='none'): the solution is outside the joint limits by up to {violation:.3g} "
-                f"({task.system.limits.describe(run.q)})",
+                f"({task.system.limits.describe(run.x(run.q))})",
                 JointLimitWarning,
                 key=str(task.system.name),
             )
@@ -210,6 +210,9 @@ class _Run:
     def __init__(self, task: Any, Vd: Any, o: GaussNewtonOptions, q: np.ndarray):
         self.task, self.Vd, self.o = task, Vd, o
         self.lo, self.hi = bounds(task)
+        # with a free flyer (nq ≠ nv) steps are velocities: q moves by the system's integrate, the limits bound
+        # the joints' coordinates in q̇ order; else (None) q + Δq as always
+        self.system = task.system if task.nq != getattr(task, "nv", task.nq) else None
         self.enforce = o.limit_mode == "enforce"
         self.q = q
         self.e, self.Je = task.error_and_jacobian(q, Vd)
@@ -219,6 +222,10 @@ class _Run:
         self.message = "max_iter reached"
         self.it = 0
         self.active_iters = 0
+
+    def x(self, q: np.ndarray) -> np.ndarray:
+        """The coordinates of q the limits bound, in q̇ order: q itself without a free flyer."""
+        return q if self.system is None else self.system.limit_coordinates(q)
 
     def iterate(self) -> None:
         o = self.o
@@ -243,7 +250,7 @@ class _Run:
         grad = self.Je.T @ self.e
         at = np.zeros(grad.shape[0], bool)
         if self.enforce:
-            at_lo, at_hi = _at_bounds(self.q, self.lo, self.hi, grad)
+            at_lo, at_hi = _at_bounds(self.x(self.q), self.lo, self.hi, grad)
             at = at_lo | at_hi
             grad = np.where(at, 0.0, grad)
         if float(np.linalg.norm(grad)) > self.o.gtol * float(np.linalg.norm(self.Je)) * self.hist[-1]:
@@ -262,7 +269,7 @@ class _Run:
     def _direction(self) -> np.ndarray | None:
         """The Gauss–Newton step (Eq 45–46), scaled to the trust bound, as a bounded QP when it leaves the
         limits (``'enforce'``); None when it is below xtol (sets the message)."""
-        o, q = self.o, self.q
+        o, q = self.o, self.x(self.q)
         dq = gauss_newton_step(self.e, self.Je, o.damping)
         big = float(np.max(np.abs(dq)))
         if self.enforce:
@@ -296,9 +303,14 @@ class _Run:
         slope = float(self.e @ (self.Je @ dq))  # d/dα ½‖e(q + α Δq)‖² at α = 0
         alpha = 1.0
         while True:
-            qt = self.q + alpha * dq
-            if o.limit_mode != "none":  # 'clamp': the ablation; 'enforce': rounding only (q + Δq is feasible)
-                np.clip(qt, self.lo, self.hi, out=qt)
+            if self.system is None:
+                qt = self.q + alpha * dq
+                if o.limit_mode != "none":  # 'clamp': the ablation; 'enforce': rounding only (q + Δq is feasible)
+                    np.clip(qt, self.lo, self.hi, out=qt)
+            else:
+                qt = self.system.integrate(self.q, alpha * dq)
+                if o.limit_mode != "none":
+                    self.system.clip(qt, out=qt)
             ft, et, Jt = self._trial(qt)
             if ft < np.inf and (not o.line_search or ft <= self.f + o.armijo * alpha * min(slope, 0.0)):
                 assert et is not None and Jt is not None  # a finite f comes with e and J_e
@@ -317,7 +329,7 @@ class _Run:
         o, q = self.o, self.q
         active: tuple[str, ...] = ()
         if o.limit_mode != "none":
-            at_lo, at_hi = _at_bounds(q, self.lo, self.hi, self.Je.T @ self.e)
+            at_lo, at_hi = _at_bounds(self.x(q), self.lo, self.hi, self.Je.T @ self.e)
             active = describe_active(self.task, q, np.flatnonzero(at_lo), np.flatnonzero(at_hi))
         converged = self.hist[-1] < o.tol and (o.limit_mode == "none" or violation <= 1e-9)
         message = self.message

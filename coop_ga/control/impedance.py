@@ -81,6 +81,7 @@ from .. import validation
 from ..diagnostics import collect_warnings, warn
 from ..errors import CoopGAError, InvalidInputError, JointLimitWarning, NonFiniteError
 from ..geometry.groups import SimilarityLike
+from ..kinematics.chains import require_nq_equals_nv
 from .base import SolverResult, check_q, resolve_options
 from .dynamics import task_inertia
 
@@ -283,6 +284,12 @@ def impedance_torque(
     Eq 52 with ``'none'``.
     """
     o = resolve_options(ImpedanceOptions, options, overrides, "impedance_torque")
+    require_nq_equals_nv(
+        task.system.model,
+        "impedance_torque",
+        "diff_ik_reach or gauss_newton_ik (kinematic, with the free flyer)",
+        f"task '{task.name}'",
+    )
     ctl = _Controller(task, target, o)
     tau = ctl(check_q(task, q), check_q(task, qd, "qd"))[0]
     if o.torque_limits == "saturate":
@@ -371,6 +378,12 @@ def simulate_impedance(
         :class:`ImpedanceResult`.  Raises :class:`NonFiniteError` if the state diverges.
     """
     o = resolve_options(ImpedanceOptions, options, overrides, "simulate_impedance")
+    require_nq_equals_nv(
+        task.system.model,
+        "simulate_impedance",
+        "diff_ik_reach or gauss_newton_ik (kinematic, with the free flyer)",
+        f"task '{task.name}'",
+    )
     dt, duration = o.dt, o.duration
     q = check_q(task, q_init, "q_init")
     qd = np.zeros(task.nq) if qd_init is None else check_q(task, qd_init, "qd_init")

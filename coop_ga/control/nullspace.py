@@ -55,6 +55,7 @@ from ..diagnostics import collect_warnings
 from ..errors import InvalidInputError
 from ..geometry.groups import SimilarityLike
 from ..geometry.primitives import center, normal
+from ..kinematics.chains import require_nq_equals_nv
 from .base import SolverResult, check_q, resolve_options
 from .configuration import Configuration
 from .diffik import step_limits
@@ -288,6 +289,12 @@ def nullspace_point_reach(
     incompatible set stops the run, ``message`` says where).
     """
     o = resolve_options(NullspaceOptions, options, overrides, "nullspace_point_reach")
+    require_nq_equals_nv(
+        task.system.model,
+        "nullspace_point_reach",
+        "solve_step/run_ik with a similarity task and a PositionTask level",
+        f"task '{task.name}'",
+    )
     q = check_q(task, q_init, "q_init")
     index = _index(task, index)
     p_star = validation.vector(target_point, 3, "target_point [m]")

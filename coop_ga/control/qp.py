@@ -134,9 +134,9 @@ class LinearConstraint:
         protocol; they do not depend on the configuration or Δt)."""
         from .limits.base import Inequalities
 
-        if self.G.shape[1] != configuration.nq:
+        if self.G.shape[1] != configuration.nv:
             raise InvalidInputError(
-                f"constraint {self.name or 'unnamed'}: G must have {configuration.nq} columns (one per joint), "
+                f"constraint {self.name or 'unnamed'}: G must have {configuration.nv} columns (one per joint velocity), "
                 f"got shape {self.G.shape}"
             )
         name = self.name or "constraint"
@@ -606,15 +606,16 @@ def project_into_limits(task: Any, q: np.ndarray, what: str = "q") -> np.ndarray
     from ..errors import JointLimitWarning
 
     lim = task.system.limits
-    if lim.position_violation(q) > 0.0:
+    x = q if task.nq == getattr(task, "nv", task.nq) else task.system.limit_coordinates(q)
+    if lim.position_violation(x) > 0.0:
         warn(
-            f"{what} lies outside the joint limits of '{task.system.name}' by up to {lim.position_violation(q):.3g} "
-            f"({lim.describe(q)}); it was projected onto the limits before solving (pass limit_mode='none' to "
+            f"{what} lies outside the joint limits of '{task.system.name}' by up to {lim.position_violation(x):.3g} "
+            f"({lim.describe(x)}); it was projected onto the limits before solving (pass limit_mode='none' to "
             "solve without limits)",
             JointLimitWarning,
             key=str(task.system.name),
         )
-        return lim.clip(q)
+        return lim.clip(q) if x is q else task.system.clip(q)
     return q
 
 

@@ -80,6 +80,7 @@ import numpy as np
 
 from .. import validation
 from ..errors import InvalidInputError
+from ..kinematics.chains import require_nq_equals_nv
 from ..systems.limits import JointLimits
 
 __all__ = [
@@ -460,6 +461,12 @@ def solve_reference(
         :class:`ReferenceSolution` (trajectories, cost, terminal error, bound violations,
         iterations, times, status).
     """
+    require_nq_equals_nv(
+        ocp.task.system.model,
+        "solve_reference (the IPOPT reference OCP)",
+        "diff_ik_reach or gauss_newton_ik",
+        f"task '{ocp.task.name}'",
+    )
     problem = ReferenceProblem(ocp, limits, limit_mode=limit_mode, terminal=terminal)
     return problem.solve(
         solver,

@@ -162,7 +162,7 @@ def _task_rows(configuration: Any, tasks: Sequence[Any]) -> tuple[np.ndarray | N
         return A, b, (t.lm_term(configuration) if t.lm_damping else 0.0)
     rows = [t.qp_rows(configuration) for t in tasks]
     lm = sum(t.lm_term(configuration) for t in tasks if t.lm_damping)
-    n = configuration.nq
+    n = configuration.nv
     A = np.vstack([np.eye(n) if a is None else a for a, _ in rows])
     return A, np.concatenate([b for _, b in rows]), lm
 
@@ -418,7 +418,7 @@ def solve_step(
     E, f = _equalities(configuration, equality, equality_gain) if equality else (None, None)
     lower_levels = [_task_rows(configuration, lv)[:2] for lv in levels]
     lam = math.sqrt(damping * damping + lm) if lm else float(damping)
-    pb = _Problem(A, b, lam, lower_levels, level_damping, E, f, configuration.nq)
+    pb = _Problem(A, b, lam, lower_levels, level_damping, E, f, configuration.nv)
     bd, relaxed = _bounds(configuration, limits, dt)
     try:
         sol, note, dropped = _robust(pb, bd)
@@ -507,10 +507,14 @@ class IKRun:
     max_acceleration_violation: float = 0.0
 
 
-def advance(q: np.ndarray, qd: np.ndarray, dt: float) -> np.ndarray:
-    """``q + Δt q̇`` (Eq 61), refused when it is not finite (a step beyond the float range)."""
+def advance(q: np.ndarray, qd: np.ndarray, dt: float, system: Any = None) -> np.ndarray:
+    """``q + Δt q̇`` (Eq 61), refused when it is not finite (a step beyond the float range); with a ``system``
+    whose nq ≠ nv (a free flyer), ``system.integrate(q, Δt q̇)`` (``pinocchio.integrate``)."""
     with np.errstate(over="ignore", invalid="ignore"):
-        q_next = q + dt * qd
+        if system is not None and system.nq != system.nv and np.all(np.isfinite(qd)):
+            q_next = system.integrate(q, dt * qd)
+        else:
+            q_next = q + dt * qd
     if not np.all(np.isfinite(q_next)):  # never a NaN
         raise InvalidInputError(
             f"the control step is not finite (dt = {dt:.3g} s, max |q̇| = {float(np.max(np.abs(qd))):.3g}); "
@@ -562,6 +566,8 @@ def run_ik(
     """
     hk = hooks or RunHooks()
     lim = configuration.limits
+    # with a free flyer q moves through the system's integrate/difference (else q + Δt q̇, as always)
+    system = configuration.system if configuration.nq != configuration.nv else None
     v0 = configuration.velocity.copy()
     qs, vs = [configuration.q.copy()], []
     errs = [hk.error(configuration) if hk.error else 0.0]
@@ -572,9 +578,12 @@ def run_ik(
         q = configuration.q.copy()
         try:
             st = hk.step(configuration) if hk.step else solve_step(configuration, tasks, limits, dt, **step_options)
-            q_next = advance(q, st.velocity, dt)
+            q_next = advance(q, st.velocity, dt, system)
             if hk.clip:
-                np.clip(q_next, lim.lower, lim.upper, out=q_next)
+                if system is None:
+                    np.clip(q_next, lim.lower, lim.upper, out=q_next)
+                else:
+                    system.clip(q_next, out=q_next)
             if hk.after is not None:
                 q_next = hk.after(configuration, st, q_next)
         except InfeasibleConstraintsError as exc:
@@ -587,14 +596,14 @@ def run_ik(
         dropped += st.feedback_dropped
         last = (st, q)
         vs.append(st.velocity.copy())
-        configuration.update(q_next, (q_next - q) / dt)
+        configuration.update(q_next, (q_next - q) / dt if system is None else system.difference(q, q_next) / dt)
         qs.append(q_next)
         errs.append(hk.error(configuration) if hk.error else 0.0)
         k += 1
     traj = np.array(qs)
     labels = active_labels(last[0], configuration) if last is not None and last[0].used_qp else ()
     return _verdict(
-        configuration, limits, traj, np.array(vs) if vs else np.zeros((0, traj.shape[1])), np.array(errs), dt, tol, hk, v0, k, infeasible,
+        configuration, limits, traj, np.array(vs) if vs else np.zeros((0, configuration.nv)), np.array(errs), dt, tol, hk, v0, k, infeasible,
         message, active, labels, relaxed, dropped,
     )  # fmt: skip
 
@@ -620,9 +629,13 @@ def _verdict(
     from .limits.joints import AccelerationLimit, ConfigurationLimit
 
     lim = configuration.limits
-    pv = lim.position_violation(traj)
-    vv = lim.trajectory_velocity_violation(traj, dt) if k else 0.0
-    av = trajectory_acceleration_violation(lim, traj, dt, v0) if k else 0.0
+    if configuration.nq != configuration.nv:  # limits in q̇ coordinates (a free flyer's position is unbounded)
+        traj_v = configuration.system.tangent_trajectory(traj)
+    else:
+        traj_v = traj
+    pv = lim.position_violation(traj_v)
+    vv = lim.trajectory_velocity_violation(traj_v, dt) if k else 0.0
+    av = trajectory_acceleration_violation(lim, traj_v, dt, v0) if k else 0.0
     accel = any(isinstance(x, AccelerationLimit) for x in limits)
     position = hk.clip or any(isinstance(x, ConfigurationLimit) for x in limits)
     ok_limits = (not position or pv <= 1e-9) and (not accel or av <= 1e-9)

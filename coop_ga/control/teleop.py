@@ -56,6 +56,7 @@ import numpy as np
 from .. import validation
 from ..errors import InvalidInputError
 from ..geometry.groups import Similarity
+from ..kinematics.chains import require_nq_equals_nv
 from .base import check_q
 from .configuration import Configuration
 from .diffik import LIMIT_MODES, step_limits
@@ -204,6 +205,9 @@ class Teleoperator:
         rz_mode: str = "dilation",
         acceleration_limit: bool = True,
     ):
+        require_nq_equals_nv(
+            task.system.model, "Teleoperator", "diff_ik_step (one step with the free flyer)", f"task '{task.name}'"
+        )
         self.task = task
         self.q = check_q(task, q_init, "q_init")
         self.dt = validation.positive(dt, "dt")

@@ -54,7 +54,7 @@ from ..geometry.similarity import (
     similarity_from_unit,
     unit_primitive,
 )
-from ..kinematics.chains import KinematicTree
+from ..kinematics.chains import KinematicTree, require_nq_equals_nv
 from .graph import CHART_WARN_ANGLE, TaskGraph, _closest_to_origin, versor_expr
 from .guard import TaskGuard
 from .primitive import cooperative_primitive, fit_parameters, fit_primitive, fit_well_definedness
@@ -159,6 +159,8 @@ class CooperativeTask:
         self.end_frames = tuple(frames[i] for i in self.point_indices)
         self.tree = KinematicTree(system.model, self.end_frames)
         self.nq = int(system.model.nq)
+        #: number of velocities (Jacobian columns): nq, or nq − 1 with a free flyer
+        self.nv = int(system.model.nv)
         if codegen not in ("auto", True, False):
             raise InvalidInputError(f"codegen must be 'auto', True or False, got {codegen!r}")
         self.codegen = codegen
@@ -412,6 +414,12 @@ class CooperativeTask:
         the inputs are checked like every entry point (the degeneracy guard runs through
         :meth:`error_and_jacobian` at the same q).
         """
+        require_nq_equals_nv(
+            self.system.model,
+            "CooperativeTask.error_hessian",
+            "error_and_jacobian (Gauss–Newton)",
+            f"task '{self.name}'",
+        )
         tgt = validation.target(target)
         self.error_and_jacobian(q, tgt)  # the guard (finite q, degeneracy, chart)
         wv = validation.vector(w, 7, "w")
@@ -421,6 +429,12 @@ class CooperativeTask:
     # ------------------------------------------------------------------ derivatives of J
     def jdot_qdot(self, q: Any, qd: Any) -> np.ndarray:
         """J̇^G q̇ (7,): the directional derivative of J^G(q) q̇ along q̇ (CasADi AD), for Eq 34–38."""
+        require_nq_equals_nv(
+            self.system.model,
+            "CooperativeTask.jdot_qdot",
+            "the differential IK (coop_ga.control.diff_ik_reach)",
+            f"task '{self.name}'",
+        )
         b = _binding(self._jdot_compiled)
         qb, qdb = b.flat_inputs[0], b.flat_inputs[1]
         self._load_q(qb, q)
@@ -456,12 +470,18 @@ class CooperativeTask:
             with collect_warnings():
                 for i in bad:
                     self.guard.diagnose(C[:, i], P[:, i], ((f"Q[{i}]", Qa[i]),), where=f" (configuration {i})")
-        J = J.reshape(7, N, self.nq).transpose(1, 0, 2)  # map concatenates horizontally
+        J = J.reshape(7, N, self.nv).transpose(1, 0, 2)  # map concatenates horizontally
         return V.T.copy(), B.T.copy(), J.copy()
 
     # ------------------------------------------------------------------ reference routes (tests)
     def jacobian_ad(self, q: Any) -> np.ndarray:
         """J^G by CasADi AD of the unstructured graph (reference route (b); VM, slow)."""
+        require_nq_equals_nv(
+            self.system.model,
+            "CooperativeTask.jacobian_ad",
+            "jacobian (motor kinematics, nv columns)",
+            f"task '{self.name}'",
+        )
         self._run(q)  # same input checks and guard
         return np.array(self.graph.ad_function(np.asarray(q, float))[1])
 

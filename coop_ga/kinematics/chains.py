@@ -67,6 +67,7 @@ __all__ = [
     "KinematicTree",
     "free_flyer_motor",
     "motor_from_se3",
+    "require_nq_equals_nv",
 ]
 
 
@@ -239,6 +240,16 @@ def _joint_axis(model: Any, jid: int, kind: str) -> tuple[float, float, float]:
     a = a / n
     x, y, z = (0.0 if abs(c) < 1e-15 else float(c) for c in a)  # a has 3 entries
     return x, y, z
+
+
+def require_nq_equals_nv(model: Any, what: str, instead: str, owner: str = "the model") -> None:
+    """Raise :class:`UnsupportedJointError` when ``model`` has nq ≠ nv (a free flyer), naming ``what`` (a
+    controller or function that assumes one coordinate per velocity) and ``instead`` (what works with it)."""
+    if model.nq != model.nv:
+        raise UnsupportedJointError(
+            f"{what} assumes one coordinate per velocity (q ← q + q̇ Δt) and {owner} has a free flyer "
+            f"(nq = {model.nq}, nv = {model.nv}); use {instead}, or lock the free flyer (a fixed-base model)"
+        )
 
 
 def _as_q(q: Any, nq: int, what: str = "q") -> Any:

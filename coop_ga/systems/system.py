@@ -40,7 +40,7 @@ import numpy as np
 from .. import validation
 from ..diagnostics import warn
 from ..errors import InvalidInputError, JointLimitWarning, UnknownNameError
-from ..kinematics.chains import KinematicTree
+from ..kinematics.chains import KinematicTree, require_nq_equals_nv
 from .groups import locked_joints as _group_locked
 from .joints import continuous_as_revolute
 from .limits import JointLimits
@@ -325,6 +325,41 @@ class System:
         idx = self._limit_index
         out = np.zeros(a.shape[:-1] + (self.nv,))
         out[..., idx >= 0] = a[..., idx[idx >= 0]]
+        return out
+
+    def require_nq_equals_nv(self, what: str, instead: str) -> None:
+        """Raise :class:`UnsupportedJointError` when this system has nq ≠ nv (a free flyer) naming ``what`` (a
+        controller or function that assumes one coordinate per velocity) and ``instead`` (what works)."""
+        require_nq_equals_nv(self.model, what, instead, f"system '{self.name}'")
+
+    def clip(self, q: Any, out: np.ndarray | None = None) -> np.ndarray:
+        """q (nq,) with its bounded coordinates clipped into the position limits (``out``: write there, may be q).
+
+        ``numpy.clip(q, lower, upper)`` when nq = nv; a free flyer's coordinates are left as they are."""
+        assert self.limits is not None
+        if self.model.nq == self.model.nv:
+            return np.clip(q, self.limits.lower, self.limits.upper, out=out)
+        a = np.array(q, dtype=float) if out is None else out
+        if out is not None and out is not q:
+            a[...] = q
+        idx = self._limit_index
+        on = idx >= 0
+        a[idx[on]] = np.clip(a[idx[on]], self.limits.lower[on], self.limits.upper[on])
+        return a
+
+    def tangent_trajectory(self, traj: Any) -> np.ndarray:
+        """A trajectory (T, nq) in q̇ coordinates (T, nv), for limits on speeds and accelerations by finite
+        differences: the trajectory itself when nq = nv; otherwise each 1-DOF joint's coordinate and, for a free
+        flyer, the sum of :meth:`difference` along the trajectory from 0 (so that a row difference is the step's
+        displacement; its position has no bound)."""
+        a = np.asarray(traj, dtype=float)
+        if self.model.nq == self.model.nv:
+            return a
+        out = self.limit_coordinates(a)
+        free = self._limit_index < 0
+        if len(a) > 1:
+            steps = np.array([self.difference(a[k], a[k + 1]) for k in range(len(a) - 1)])
+            out[1:, free] = np.cumsum(steps[:, free], axis=0)
         return out
 
     @property

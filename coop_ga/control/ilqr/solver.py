@@ -13,6 +13,7 @@ import numpy as np
 from ...diagnostics import collect_warnings
 from ...errors import DegeneratePrimitiveError, InvalidInputError
 from ...geometry.groups import SimilarityLike
+from ...kinematics.chains import require_nq_equals_nv
 from ..base import resolve_options
 from .feasibility import reference_controls, restore
 from .lq import Condensation, LQStep, add_state_hessian, controls_to, lq_step, second_order_correction
@@ -73,6 +74,12 @@ def ilqr_reach(
     is built (~0.2 s, once per task and process); ``solve_time_s`` covers everything else.
     """
     o = resolve_options(ILQROptions, options, overrides, "ilqr_reach")
+    require_nq_equals_nv(
+        task.system.model,
+        "ilqr_reach",
+        "diff_ik_reach or gauss_newton_ik (they integrate q on the free flyer)",
+        f"task '{task.name}'",
+    )
     ocp = _problem(task, q_init, target, qd_init, o)
     with collect_warnings() as caught:
         reason = unreachable(ocp, o.tol)

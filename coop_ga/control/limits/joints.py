@@ -51,7 +51,7 @@ class ConfigurationLimit:
 
     def inequalities(self, configuration: Any, dt: float) -> Inequalities:
         lim = configuration.limits
-        q = configuration.q
+        q = configuration.limit_coordinates()  # q itself when nq = nv
         lb = self.gain * (lim.lower - q) / dt
         ub = self.gain * (lim.upper - q) / dt
         np.minimum(lb, 0.0, out=lb)
@@ -149,7 +149,7 @@ class AccelerationLimit:
         lb = v - a * dt  # −inf for unbounded joints
         ub = v + a * dt
         if self.braking:
-            q = configuration.q
+            q = configuration.limit_coordinates()
             dist = self.gain * np.vstack([lim.upper - q, q - lim.lower])
             if not all_bounded:
                 dist[~bounded] = 0.0

@@ -12,6 +12,7 @@ import numpy as np
 from ... import validation
 from ...diagnostics import warn
 from ...errors import InfeasibleConstraintsError, RateWarning
+from ...kinematics.chains import require_nq_equals_nv
 from ..avoidance import ClearanceCost
 from ..base import resolve_options
 from ..configuration import Configuration
@@ -120,6 +121,12 @@ class CooperativeMPC:
         **overrides: Any,
     ):
         self.o = o = resolve_options(MPCOptions, options, overrides, "CooperativeMPC")
+        require_nq_equals_nv(
+            task.system.model,
+            "the MPC controller",
+            "diff_ik_reach (a kinematic loop with the free flyer)",
+            f"task '{task.name}'",
+        )
         self.task = task
         self.nq = int(task.nq)
         self.target = TargetSchedule(target, task)

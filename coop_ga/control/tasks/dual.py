@@ -53,7 +53,7 @@ from ...geometry.groups import (
     exp,
     log,
 )
-from ...kinematics.chains import KinematicTree, motor_from_se3
+from ...kinematics.chains import KinematicTree, motor_from_se3, require_nq_equals_nv
 from .base import BaseTask, row_indices
 
 __all__ = ["DUAL_COMPONENTS", "DUAL_ROWS", "DualState", "DualTask", "DualTaskSpace"]
@@ -143,6 +143,12 @@ class DualTaskSpace:
             raise InvalidInputError(f"the two frames of a dual task space must differ, got {names[0]!r} twice")
         self.system = system
         self.frames = names
+        require_nq_equals_nv(
+            system.model,
+            "DualTaskSpace",
+            "a similarity, point or line task (their Jacobians have nv columns)",
+            f"system '{getattr(system, 'name', 'custom')}'",
+        )
         self.tree = KinematicTree(system.model, names)
         self.nq = int(system.model.nq)
         self.codegen = getattr(model, "codegen", "auto") if codegen is None else codegen

@@ -13,7 +13,8 @@ __all__ = ["JointVelocityTask", "PostureTask"]
 
 
 class PostureTask(BaseTask):
-    """``q → q*``: error ``q − q*`` (nq,) [rad or m], Jacobian I (mink's ``PostureTask``).
+    """``q → q*``: error ``q − q*`` (nq,) [rad or m], Jacobian I (mink's ``PostureTask``); with a free flyer
+    (nq ≠ nv) the error is ``difference(q*, q)`` (nv,) with the Jacobian I, pink's approximation.
 
     Args:
         target: q* (nq,).  gain: α [1/s].  weight: scalar or (nq,).  lm_damping: μ.
@@ -24,10 +25,12 @@ class PostureTask(BaseTask):
         self.target = validation.array(target, "posture target").reshape(-1)
 
     def error(self, configuration: Any) -> np.ndarray:
+        if configuration.nq != configuration.nv:  # a free flyer: the velocity from q* to q (pink's approximation J = I)
+            return configuration.system.difference(self.target, configuration.q)
         return configuration.q - self.target
 
     def jacobian(self, configuration: Any) -> np.ndarray:
-        return np.eye(configuration.nq)
+        return np.eye(configuration.nv)
 
     def qp_rows(self, configuration: Any) -> tuple[np.ndarray | None, np.ndarray]:
         if isinstance(self.weight, float) and self.weight == 1.0:
@@ -56,7 +59,7 @@ class JointVelocityTask(BaseTask):
         return -self._reference(configuration)
 
     def jacobian(self, configuration: Any) -> np.ndarray:
-        return np.eye(configuration.nq)
+        return np.eye(configuration.nv)
 
     def qp_rows(self, configuration: Any) -> tuple[np.ndarray | None, np.ndarray]:
         return None, self._reference(configuration)

@@ -1,0 +1,138 @@
+"""Controllers on a free-flyer system (nq ≠ nv): a floating-base G1's two hands reach cooperative targets.
+
+The targets move the hands' line / point pair 0.6 m forward, 0.2 m left, 0.3 m up and turn it 0.4 rad about z:
+out of reach of the fixed-pelvis ``g1_arms`` (checked), reached with the floating base, which moves.  The final
+hands are checked with Pinocchio's own forward kinematics, the trajectory against the joint limits (position and
+velocity, in q̇ coordinates), and the quaternion stays unit.  Controllers that are not converted refuse the system
+with an UnsupportedJointError naming themselves and what works instead.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import coop_ga as cg
+from coop_ga.control import (
+    Configuration,
+    ConfigurationLimit,
+    PositionTask,
+    VelocityLimit,
+    avoidance_reach,
+    constrained_point_reach,
+    diff_ik_reach,
+    gauss_newton_ik,
+    ilqr_reach,
+    impedance_torque,
+    nullspace_point_reach,
+    run_ik,
+    simulate_impedance,
+)
+from coop_ga.control.tasks import DualTaskSpace
+from coop_ga.cooperative.targets import displaced_target
+from coop_ga.errors import UnsupportedJointError
+from coop_ga.systems.library import g1_floating
+
+MOVE = {"translation": (0.6, 0.2, 0.3), "axis": (0.0, 0.0, 1.0), "angle": 0.4}
+
+
+@pytest.fixture(scope="module")
+def system():
+    return g1_floating()
+
+
+def _hands(s, q) -> np.ndarray:
+    """The end points by Pinocchio's forward kinematics (independent of coop_ga's motors)."""
+    d = s.model.createData()
+    pin.framesForwardKinematics(s.model, d, q)
+    return np.array([d.oMf[s.model.getFrameId(f)].translation for f in s.end_frames])
+
+
+def _moved(s, q) -> tuple[np.ndarray, np.ndarray]:
+    """The hands at q moved by MOVE about their centroid (the target by construction) and its rotation."""
+    p = _hands(s, q)
+    c = p.mean(axis=0)
+    R = pin.AngleAxis(MOVE["angle"], np.array(MOVE["axis"])).toRotationMatrix()
+    return (p - c) @ R.T + c + np.array(MOVE["translation"]), R
+
+
+def _check_run(s, q_final, traj) -> None:
+    assert abs(np.linalg.norm(q_final[3:7]) - 1.0) < 1e-12
+    assert np.linalg.norm(q_final[:3]) > 0.1  # the base moved
+    x = s.tangent_trajectory(traj)
+    assert s.limits.position_violation(x) == 0.0
+
+
+@pytest.mark.parametrize("solver", ["diffik", "gauss_newton"])
+def test_point_pair_reached_with_the_floating_base(system, solver) -> None:
+    task = cg.cooperative_task(system, "point_pair")
+    Vd = displaced_target(task, system.q0, **MOVE)
+    if solver == "diffik":
+        r = diff_ik_reach(task, system.q0, Vd, steps=400)
+        tol, traj = 1e-4, r.trajectory
+        assert r.limit_violation == 0.0 and r.velocity_violation <= 1e-9
+    else:
+        r = gauss_newton_ik(task, system.q0, Vd)
+        tol, traj = 1e-10, np.array([system.q0, r.q])
+    assert r.converged and r.error <= tol, r.message
+    _check_run(system, r.q, traj)
+    expected, _ = _moved(system, system.q0)
+    assert np.abs(_hands(system, r.q) - expected).max() <= 10 * tol
+
+
+def test_line_reached_with_the_floating_base_and_not_without(system) -> None:
+    task = cg.cooperative_task(system, "line")
+    Vd = displaced_target(task, system.q0, **MOVE)
+    r = diff_ik_reach(task, system.q0, Vd, steps=400)
+    assert r.converged and r.error <= 1e-4, r.message
+    _check_run(system, r.q, r.trajectory)
+    expected, _ = _moved(system, system.q0)
+    d = (expected[1] - expected[0]) / np.linalg.norm(expected[1] - expected[0])
+    for p in _hands(system, r.q):  # both hands on the target line (Pinocchio FK)
+        off = (p - expected[0]) - d * ((p - expected[0]) @ d)
+        assert np.linalg.norm(off) <= 1e-3
+    fixed = cg.cooperative_task(cg.systems.load("g1_arms"), "point_pair")
+    rf = diff_ik_reach(fixed, fixed.system.q0, displaced_target(fixed, fixed.system.q0, **MOVE), steps=400)
+    assert not rf.converged and rf.error > 0.1  # out of reach from a fixed pelvis
+
+
+def test_point_task_with_position_and_velocity_limits(system) -> None:
+    task = cg.cooperative_task(system, "point_pair")
+    goal = _hands(system, system.q0)[0] + np.array([0.5, -0.3, 0.2])
+    cfg = Configuration(task, system.q0)
+    run = run_ik(
+        cfg,
+        [PositionTask(0, goal, gain=10.0, max_speed=1.0)],
+        [ConfigurationLimit(), VelocityLimit()],
+        dt=0.01,
+        steps=300,
+        tol=1e-5,
+        hooks=cg.control.RunHooks(error=lambda c: float(np.linalg.norm(c.kinematics().points[0] - goal))),
+    )
+    assert run.converged, run.message
+    assert np.linalg.norm(_hands(system, run.trajectory[-1])[0] - goal) <= 1e-5
+    assert run.max_position_violation == 0.0 and run.max_velocity_violation <= 1e-9
+    assert run.velocities.shape == (run.iterations, system.nv)
+
+
+def test_unconverted_controllers_refuse_a_free_flyer(system) -> None:
+    task = cg.cooperative_task(system, "point_pair")
+    q0 = system.q0
+    Vd = displaced_target(task, q0, translation=(0.05, 0.0, 0.0))
+    point = _hands(system, q0)[0]
+    calls = {
+        "ilqr_reach": lambda: ilqr_reach(task, q0, Vd),
+        "simulate_impedance": lambda: simulate_impedance(task, q0, Vd),
+        "impedance_torque": lambda: impedance_torque(task, q0, np.zeros(system.nv), Vd),
+        "avoidance_reach": lambda: avoidance_reach(task, q0, Vd, collision_model=None),
+        "nullspace_point_reach": lambda: nullspace_point_reach(task, q0, 0, point),
+        "constrained_point_reach": lambda: constrained_point_reach(task, q0, 0, point),
+        "Teleoperator": lambda: cg.control.Teleoperator(task, q0),
+        "DualTaskSpace": lambda: DualTaskSpace(task),
+        "jdot_qdot": lambda: task.jdot_qdot(q0, np.zeros(system.nv)),
+        "error_hessian": lambda: task.error_hessian(q0, Vd, np.ones(7)),
+    }
+    for name, call in calls.items():
+        with pytest.raises(UnsupportedJointError, match=rf"{name}.*free flyer.*nq = 24, nv = 23.*use "):
+            call()
