@@ -102,6 +102,14 @@ def check_q(task: Any, q: Any, what: str = "q") -> np.ndarray:
     return validation.configuration(q, task.nq, what, owner=f"task '{task.name}'")
 
 
+def require_one_coordinate_per_velocity(task: Any, what: str, instead: str) -> None:
+    """Refuse a task whose system has a free flyer (nq ≠ nv) in a runner ``what`` written for nq = nv
+    (:func:`~coop_ga.kinematics.chains.require_nq_equals_nv`; ``instead``: what works)."""
+    from ..kinematics.chains import require_nq_equals_nv
+
+    require_nq_equals_nv(task.system.model, what, instead, f"task '{task.name}'")
+
+
 def check_v(task: Any, v: Any, what: str = "velocity") -> np.ndarray:
     """A joint velocity of ``task`` (nv,) as a new float array (nv = nq without a free flyer)."""
     return validation.configuration(v, getattr(task, "nv", task.nq), what, owner=f"task '{task.name}'")

@@ -74,8 +74,7 @@ import numpy as np
 from .. import validation
 from ..diagnostics import collect_warnings
 from ..errors import InfeasibleConstraintsError, InvalidInputError
-from ..kinematics.chains import require_nq_equals_nv
-from .base import SolverResult, check_q, resolve_options
+from .base import SolverResult, check_q, require_one_coordinate_per_velocity, resolve_options
 from .configuration import Configuration
 from .diffik import step_limits
 from .limits import AccelerationLimit
@@ -590,9 +589,7 @@ def constrained_point_reach(
     :class:`ConstrainedReachOptions` (keyword ``overrides`` replace its fields).
     """
     o = resolve_options(ConstrainedReachOptions, options, overrides, "constrained_point_reach")
-    require_nq_equals_nv(
-        task.system.model, "constrained_point_reach", "solve_step/run_ik with equality= tasks", f"task '{task.name}'"
-    )
+    require_one_coordinate_per_velocity(task, "constrained_point_reach", "solve_step/run_ik with equality= tasks")
     q = check_q(task, q_init, "q_init")
     i = end_index(task, index)
     p_star = validation.vector(target_point, 3, "target_point [m]")

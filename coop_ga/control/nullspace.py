@@ -55,8 +55,7 @@ from ..diagnostics import collect_warnings
 from ..errors import InvalidInputError
 from ..geometry.groups import SimilarityLike
 from ..geometry.primitives import center, normal
-from ..kinematics.chains import require_nq_equals_nv
-from .base import SolverResult, check_q, resolve_options
+from .base import SolverResult, check_q, require_one_coordinate_per_velocity, resolve_options
 from .configuration import Configuration
 from .diffik import step_limits
 from .qp import DEFAULT_LIMIT_GAIN, project_into_limits
@@ -289,11 +288,8 @@ def nullspace_point_reach(
     incompatible set stops the run, ``message`` says where).
     """
     o = resolve_options(NullspaceOptions, options, overrides, "nullspace_point_reach")
-    require_nq_equals_nv(
-        task.system.model,
-        "nullspace_point_reach",
-        "solve_step/run_ik with a similarity task and a PositionTask level",
-        f"task '{task.name}'",
+    require_one_coordinate_per_velocity(
+        task, "nullspace_point_reach", "run_ik with a SimilarityTask and a PositionTask"
     )
     q = check_q(task, q_init, "q_init")
     index = _index(task, index)

@@ -21,8 +21,13 @@ sequences, ``fromto``, includes, inertias from geoms are all resolved by MuJoCo 
 
 MuJoCo has no velocity limits (they get :data:`~coop_ga.systems.limits.DEFAULT_VELOCITY_LIMIT`).  Tendons,
 equality constraints and actuators' dynamics are not part of a kinematic model and are not read.
-**Free and ball joints are refused** (:class:`~coop_ga.errors.UnsupportedJointError`): coop_ga's
-kinematics are fixed-base with one coordinate per joint; remove the ``<freejoint/>`` to fix the base.
+A **free joint** (``<freejoint/>``, on a body of the world) becomes a free flyer (``JointModelFreeFlyer``: 7
+coordinates, 6 velocities, nq ≠ nv; see :mod:`coop_ga.systems.system`): its placement is the identity, as
+MuJoCo puts the body at the pose in ``qpos``.  Its quaternion is ``w x y z`` in MuJoCo's ``qpos`` and ``x y z w``
+in Pinocchio's q: :func:`q_from_qpos` and :func:`qpos_from_q` convert (every other entry is the same), and
+:func:`v_from_qvel` the velocities (MuJoCo's free-joint ``qvel`` is the world-frame linear velocity and the local
+angular velocity, Pinocchio's v both in the local frame).  **Ball joints are refused**
+(:class:`~coop_ga.errors.UnsupportedJointError`): replace one by three hinges.
 
 Why not ``pinocchio.buildModelFromMJCF``: Pinocchio 4.1's parser reads only the first body tree under
 ``<worldbody>`` (the three Frankas of a ``coop_ga.sim`` scene give a 7-joint model), drops that body's
@@ -47,7 +52,7 @@ from ..errors import CoopGAError, InvalidInputError, UnknownNameError, Unsupport
 from .points import EndPoint
 from .system import System, VisualSource, _default_q0, _path, from_model, resolve_locked
 
-__all__ = ["from_mjcf", "model_from_mjcf"]
+__all__ = ["from_mjcf", "model_from_mjcf", "q_from_qpos", "qpos_from_q", "v_from_qvel"]
 
 _AXES = {(1.0, 0.0, 0.0): "RX", (0.0, 1.0, 0.0): "RY", (0.0, 0.0, 1.0): "RZ"}
 
@@ -85,16 +90,22 @@ def _se3(pos: Any, quat: Any) -> Any:
 
 
 def _joint_model(mm: Any, j: int) -> Any:
-    """Pinocchio joint model of MuJoCo joint ``j`` (hinge or slide); refuses free and ball joints."""
+    """Pinocchio joint model of MuJoCo joint ``j`` (hinge, slide or free); refuses ball joints."""
     import pinocchio as pin
 
     mj = _mujoco()
     t = int(mm.jnt_type[j])
-    if t in (int(mj.mjtJoint.mjJNT_FREE), int(mj.mjtJoint.mjJNT_BALL)):
-        kind = "free" if t == int(mj.mjtJoint.mjJNT_FREE) else "ball"
+    if t == int(mj.mjtJoint.mjJNT_FREE):
+        if int(mm.body_parentid[mm.jnt_bodyid[j]]) != 0:
+            raise UnsupportedJointError(
+                f"MJCF joint '{_name(mm, 'joint', j)}' is a free joint on a body that is not a child of the world; "
+                "coop_ga reads a free joint as a floating base only"
+            )
+        return pin.JointModelFreeFlyer()
+    if t == int(mj.mjtJoint.mjJNT_BALL):
         raise UnsupportedJointError(
-            f"MJCF joint '{_name(mm, 'joint', j)}' is a {kind} joint; coop_ga reads fixed-base models with hinge and "
-            "slide joints only: remove the <freejoint/> to fix the base, or replace a ball joint by three hinges"
+            f"MJCF joint '{_name(mm, 'joint', j)}' is a ball joint; coop_ga reads hinge, slide and free joints: "
+            "replace a ball joint by three hinges"
         )
     axis = np.asarray(mm.jnt_axis[j], dtype=float)
     key = tuple(float(a) for a in axis)
@@ -137,6 +148,8 @@ def _add_joints(model: Any, mm: Any, b: int, parent: int, placement: Any, eff: n
 
     big = np.finfo(float).max
     pre = placement
+    if int(mm.body_jntnum[b]) == 1 and int(mm.jnt_type[mm.body_jntadr[b]]) == int(_mujoco().mjtJoint.mjJNT_FREE):
+        return _add_free_joint(model, mm, int(mm.body_jntadr[b]), parent, eff), pin.SE3.Identity()
     for j in range(int(mm.body_jntadr[b]), int(mm.body_jntadr[b]) + int(mm.body_jntnum[b])):
         anchor = pin.SE3(np.eye(3), np.asarray(mm.jnt_pos[j], dtype=float))
         lo, hi = (float(mm.jnt_range[j, 0]), float(mm.jnt_range[j, 1])) if mm.jnt_limited[j] else (-big, big)
@@ -159,6 +172,61 @@ def _add_joints(model: Any, mm: Any, b: int, parent: int, placement: Any, eff: n
     return parent, pre
 
 
+def _add_free_joint(model: Any, mm: Any, j: int, parent: int, eff: np.ndarray) -> int:
+    """Add MuJoCo free joint ``j`` as a free flyer at the identity (MuJoCo puts its body at the qpos pose)."""
+    import pinocchio as pin
+
+    big = np.finfo(float).max
+    jid = model.addJoint(
+        parent, _joint_model(mm, j), pin.SE3.Identity(), _name(mm, "joint", j),
+        np.full(6, eff[j]), np.full(6, big), np.full(7, -big), np.full(7, big),
+    )  # fmt: skip
+    d = int(mm.jnt_dofadr[j])
+    for name, src in (("armature", mm.dof_armature), ("damping", mm.dof_damping), ("friction", mm.dof_frictionloss)):
+        getattr(model, name)[model.idx_vs[jid] : model.idx_vs[jid] + 6] = src[d : d + 6]
+    model.addJointFrame(jid)
+    return jid
+
+
+def _free_flyers(model: Any) -> list[int]:
+    """q indices of the free flyers of a Pinocchio model."""
+    return [
+        int(model.idx_qs[j]) for j in range(1, model.njoints) if model.joints[j].shortname() == "JointModelFreeFlyer"
+    ]
+
+
+def q_from_qpos(model: Any, qpos: Any) -> np.ndarray:
+    """Pinocchio's q (nq,) of :func:`model_from_mjcf`'s model from MuJoCo's ``qpos``: the same entries, a free
+    joint's quaternion reordered from w x y z to x y z w."""
+    q = np.array(qpos, dtype=float)
+    for i in _free_flyers(model):
+        q[i + 3 : i + 7] = np.roll(q[i + 3 : i + 7], -1)
+    return q
+
+
+def qpos_from_q(model: Any, q: Any) -> np.ndarray:
+    """MuJoCo's ``qpos`` from Pinocchio's q (:func:`q_from_qpos`'s inverse)."""
+    qpos = np.array(q, dtype=float)
+    for i in _free_flyers(model):
+        qpos[i + 3 : i + 7] = np.roll(qpos[i + 3 : i + 7], 1)
+    return qpos
+
+
+def v_from_qvel(model: Any, q: Any, qvel: Any) -> np.ndarray:
+    """Pinocchio's v (nv,) from MuJoCo's ``qvel`` at Pinocchio's q: a free joint's linear velocity is rotated from
+    the world frame into the body frame (``Rᵀ v``; its angular velocity is local in both), the rest is the same."""
+    import pinocchio as pin
+
+    v = np.array(qvel, dtype=float)
+    qa = np.asarray(q, dtype=float)
+    for j in range(1, model.njoints):
+        if model.joints[j].shortname() == "JointModelFreeFlyer":
+            iq, iv = int(model.idx_qs[j]), int(model.idx_vs[j])
+            R = pin.Quaternion(qa[iq + 6], qa[iq + 3], qa[iq + 4], qa[iq + 5]).normalized().matrix()
+            v[iv : iv + 3] = R.T @ v[iv : iv + 3]
+    return v
+
+
 def _body_inertia(mm: Any, b: int) -> Any:
     """``pinocchio.Inertia`` of MuJoCo body ``b`` in its body frame."""
     import pinocchio as pin
@@ -170,10 +238,11 @@ def _body_inertia(mm: Any, b: int) -> Any:
 
 
 def model_from_mjcf(mjcf_path: str | Path) -> Any:
-    """A fixed-base ``pinocchio.Model`` of an MJCF file, compiled by MuJoCo (module docstring).
+    """A ``pinocchio.Model`` of an MJCF file, compiled by MuJoCo (module docstring).
 
-    ``q`` of the model is MuJoCo's ``qpos`` (same order and meaning, ``ref`` included).  Raises
-    :class:`~coop_ga.errors.UnsupportedJointError` for a free or ball joint, :class:`InvalidInputError`
+    ``q`` of the model is MuJoCo's ``qpos`` (same order and meaning, ``ref`` included), except a free joint's
+    quaternion order (:func:`q_from_qpos`).  Raises
+    :class:`~coop_ga.errors.UnsupportedJointError` for a ball joint, :class:`InvalidInputError`
     for a missing or invalid file, :class:`~coop_ga.errors.CoopGAError` without MuJoCo.
     """
     model = _build(_compile(mjcf_path))
@@ -282,7 +351,8 @@ def from_mjcf(
     active: Sequence[str] | None = None,
     visuals: bool = True,
 ) -> System:
-    """Build a system from an MJCF file (fixed base, hinge and slide joints), read through MuJoCo.
+    """Build a system from an MJCF file (hinge and slide joints, a free joint as a floating base), read through
+    MuJoCo.  With a free joint, ``q0``/``q_lock`` are Pinocchio's q (quaternion x y z w, :func:`q_from_qpos`).
 
     The counterpart of :func:`~coop_ga.systems.from_urdf`.  ``end_frames``: body or ``<site>`` names
     (one per chain), or :class:`~coop_ga.systems.points.EndPoint` entries on a body.  ``locked_joints`` are removed at ``q_lock`` (full ``qpos``, default: the file's
@@ -306,11 +376,18 @@ def from_mjcf(
         raise InvalidInputError("give either keyframe= or q0=/q_lock=, not both")
     mm = _compile(p)
     full = _build(mm)
-    qpos0 = _keyframe_q(mm, keyframe)
+    qpos0 = q_from_qpos(full, _keyframe_q(mm, keyframe))
     locked = resolve_locked(full, locked_joints, groups, active)
     if q0 is None:
         start = qpos0 if keyframe is not None else _default_q0(full, qpos0)
-        q0 = np.array([start[full.idx_qs[j]] for j in range(1, full.njoints) if full.names[j] not in locked])
+        q0 = np.concatenate(
+            [[]]
+            + [
+                start[full.idx_qs[j] : full.idx_qs[j] + full.nqs[j]]
+                for j in range(1, full.njoints)
+                if full.names[j] not in locked
+            ]
+        )
     return from_model(
         full,
         end_frames,

@@ -5,6 +5,8 @@ body, a body without joints, an unaligned slide, sites, a keyframe) and the thre
 ``coop_ga.sim`` (``MjSpec.to_xml``) and read back: FK of every body and site against ``xpos``/``xmat``/``site_xpos``,
 limits against ``jnt_range``, the joint-space inertia against ``mj_fullM``, and a cooperative circle on the
 read-back Frankas equal to the registered system's; the visual geoms' poses against ``geom_xpos``/``geom_xmat``.
+A free joint is a free flyer: FK against ``site_xpos`` and point velocities against ``mj_jacSite`` (through the
+qpos/qvel conversions).
 """
 
 from __future__ import annotations
@@ -154,9 +156,40 @@ def _xml_with(tmp_path: Path, joint: str) -> Path:
     return p
 
 
-def test_from_mjcf_refuses_free_and_ball_joints_and_bad_input(arm_xml: Path, tmp_path: Path) -> None:
-    with pytest.raises(UnsupportedJointError, match=r"'floating' is a free joint.*remove the <freejoint/>"):
-        cg.systems.from_mjcf(_xml_with(tmp_path, "<freejoint name='floating'/>"), ["b"])
+FLOATING = """<mujoco><compiler angle="radian"/><worldbody>
+  <body name="base" pos="0.1 0.2 0.5" quat="0.9 0.1 0.3 0.2"><freejoint name="float"/><geom size="0.1"/>
+    <body name="l1" pos="0.2 0 0"><joint name="j1" type="hinge" axis="0 1 0" range="-2 2"/><geom size="0.05"/>
+      <body name="l2" pos="0.3 0 0"><joint name="j2" type="slide" axis="0 0.6 0.8" range="-0.2 0.2"/>
+        <geom size="0.03"/><site name="tip" pos="0.1 0 0.05"/></body></body></body>
+</worldbody></mujoco>"""
+
+
+def test_free_joint_is_a_free_flyer_matching_mujoco(tmp_path: Path) -> None:
+    from coop_ga.systems.mjcf import q_from_qpos, qpos_from_q, v_from_qvel
+
+    path = tmp_path / "floating.xml"
+    path.write_text(FLOATING)
+    s = cg.systems.from_mjcf(path, ["tip"])
+    assert (s.nq, s.nv) == (9, 8) and s.model.joints[1].shortname() == "JointModelFreeFlyer"
+    mm = mujoco.MjModel.from_xml_path(str(path))
+    d = mujoco.MjData(mm)
+    np.testing.assert_allclose(s.q0[:7], q_from_qpos(s.model, mm.qpos0)[:7], atol=0)  # the file's base pose
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        qpos = np.concatenate([rng.normal(size=3), rng.normal(size=4), rng.uniform(-0.2, 0.2, 2)])
+        qpos[3:7] /= np.linalg.norm(qpos[3:7])
+        d.qpos[:], d.qvel[:] = qpos, rng.normal(size=mm.nv)
+        mujoco.mj_forward(mm, d)
+        q = q_from_qpos(s.model, qpos)
+        np.testing.assert_array_equal(qpos_from_q(s.model, q), qpos)
+        assert np.abs(s.end_points(q)[0] - d.site_xpos[0]).max() <= 1e-12
+        jac = np.zeros((3, mm.nv))
+        mujoco.mj_jacSite(mm, d, jac, None, 0)
+        v = v_from_qvel(s.model, q, d.qvel)  # the same motion in Pinocchio's velocity convention
+        assert np.abs(jac @ d.qvel - s.tree.euclidean_point_jacobians(q)[0] @ v).max() <= 1e-12
+
+
+def test_from_mjcf_refuses_ball_joints_and_bad_input(arm_xml: Path, tmp_path: Path) -> None:
     with pytest.raises(UnsupportedJointError, match="'shoulder' is a ball joint"):
         cg.systems.from_mjcf(_xml_with(tmp_path, "<joint name='shoulder' type='ball'/>"), ["b"])
     with pytest.raises(InvalidInputError, match="MJCF file not found"):
