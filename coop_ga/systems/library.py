@@ -40,7 +40,7 @@ from .points import EndPoint, add_end_points
 from .registry import register
 from .system import ROBOTS_DIR, System, VisualSource, append_robots, prefixed
 
-__all__: list[str] = ["G1_PELVIS_HEIGHT", "IIWA_Q0", "g1_floating", "g1_model"]
+__all__: list[str] = ["G1_PELVIS_HEIGHT", "IIWA_Q0", "g1_floating", "g1_model", "hexapod_free_flyer"]
 
 #: The paper's nominal iiwa configuration (§4.1) [rad].
 IIWA_Q0 = np.array([0.0, -0.7854, 0.0, 1.3962, 0.0, 0.6109, 0.0])
@@ -525,6 +525,32 @@ def _hexapod_floating() -> System:
             "[x, y, z, yaw, pitch, roll, 18 leg joints in URDF order].  End points: the six feet (two tripods, "
             f"as 'hexapod'), world frame.  q0: stand pose, body at z = {HEXAPOD_STAND_HEIGHT} m, feet on z = 0"
         ),
+        labels=tuple(f"{leg} foot" for leg in _HEXAPOD_FEET),
+        visuals=(_own_visual("hexapod"),),
+    )
+
+
+def hexapod_free_flyer() -> System:
+    """The hexapod with its body on a real free flyer: nq = 25, nv = 24 (``hexapod_floating`` uses six virtual
+    joints with ±100 m, ±4π limits instead).
+
+    The hexapod URDF loaded with a ``JointModelFreeFlyer`` root (``root_joint``: the body pose, q[0:3] position
+    [m], q[3:7] quaternion x y z w, no position limits; q̇[0:6] its LOCAL [v; ω]), then the 18 leg joints in URDF
+    order.  A ``hexapod_floating`` configuration ``[x, y, z, yaw, pitch, roll, legs]`` is the pose
+    ``T(x, y, z) Rz(yaw) Ry(pitch) Rx(roll)``, the same body pose.  End frames: the feet, as ``hexapod``.  q0: the
+    stand pose with the body at :data:`HEXAPOD_STAND_HEIGHT`.  Kinematics only: nothing here keeps a foot on the
+    ground (the walking code in :mod:`coop_ga.legged` uses ``hexapod_floating``).  Not registered.
+    """
+    import pinocchio as pin
+
+    m = pin.buildModelFromUrdf(str(ROBOTS_DIR / "hexapod" / "hexapod.urdf"), pin.JointModelFreeFlyer())
+    q0 = np.concatenate([[0.0, 0.0, HEXAPOD_STAND_HEIGHT, 0.0, 0.0, 0.0, 1.0], np.tile(HEXAPOD_STAND, 6)])
+    return System(
+        name="hexapod_free_flyer",
+        model=m,
+        end_frames=tuple(f"{leg}_foot" for leg in _HEXAPOD_FEET),
+        q0=q0,
+        description="the hexapod with a free-flyer body (root_joint) + 18 leg joints; end points the six feet",
         labels=tuple(f"{leg} foot" for leg in _HEXAPOD_FEET),
         visuals=(_own_visual("hexapod"),),
     )

@@ -94,3 +94,18 @@ def test_from_urdf_with_its_free_flyer() -> None:
     assert fixed.nq == fixed.nv == 17
     with pytest.raises(InvalidInputError, match="free_flyer must be True or False"):
         systems.from_urdf(_g1_urdf(), ["left_rubber_hand"], free_flyer="yes")
+
+
+def test_hexapod_free_flyer_equals_the_virtual_joints() -> None:
+    from coop_ga.systems.library import hexapod_free_flyer
+
+    free, virtual = hexapod_free_flyer(), systems.load("hexapod_floating")
+    assert (free.nq, free.nv) == (25, 24)
+    np.testing.assert_allclose(free.end_points(free.q0), virtual.end_points(virtual.q0), atol=1e-12)
+    rng = np.random.default_rng(2)
+    for _ in range(10):
+        qv = virtual.random_q(rng, scale=0.3)
+        x, y, z, yaw, pitch, roll = qv[:6]
+        R = pin.utils.rotate("z", yaw) @ pin.utils.rotate("y", pitch) @ pin.utils.rotate("x", roll)
+        qf = np.concatenate([[x, y, z], pin.Quaternion(R).coeffs(), qv[6:]])  # coeffs: x y z w
+        np.testing.assert_allclose(free.end_points(qf), virtual.end_points(qv), atol=1e-12)
