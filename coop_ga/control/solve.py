@@ -511,8 +511,8 @@ def advance(q: np.ndarray, qd: np.ndarray, dt: float, system: Any = None) -> np.
     """``q + Δt q̇`` (Eq 61), refused when it is not finite (a step beyond the float range); with a ``system``
     whose nq ≠ nv (a free flyer), ``system.integrate(q, Δt q̇)`` (``pinocchio.integrate``)."""
     with np.errstate(over="ignore", invalid="ignore"):
-        if system is not None and system.nq != system.nv and np.all(np.isfinite(qd)):
-            q_next = system.integrate(q, dt * qd)
+        if system is not None and system.nq != system.nv:  # a non-finite q̇ gives NaN, refused below
+            q_next = system.integrate(q, dt * qd) if np.all(np.isfinite(qd)) else np.full(q.shape, np.nan)
         else:
             q_next = q + dt * qd
     if not np.all(np.isfinite(q_next)):  # never a NaN

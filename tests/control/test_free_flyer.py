@@ -136,3 +136,13 @@ def test_unconverted_controllers_refuse_a_free_flyer(system) -> None:
     for name, call in calls.items():
         with pytest.raises(UnsupportedJointError, match=rf"{name}.*free flyer.*nq = 24, nv = 23.*use "):
             call()
+
+
+def test_a_step_moves_q_on_the_manifold_and_refuses_non_finite(system) -> None:
+    from coop_ga.control.solve import advance
+    from coop_ga.errors import InvalidInputError
+
+    v = np.linspace(-1.0, 1.0, system.nv)
+    np.testing.assert_array_equal(advance(system.q0, v, 0.01, system), pin.integrate(system.model, system.q0, 0.01 * v))
+    with pytest.raises(InvalidInputError, match="not finite"):
+        advance(system.q0, np.full(system.nv, np.inf), 0.01, system)
