@@ -146,3 +146,18 @@ def test_a_step_moves_q_on_the_manifold_and_refuses_non_finite(system) -> None:
     np.testing.assert_array_equal(advance(system.q0, v, 0.01, system), pin.integrate(system.model, system.q0, 0.01 * v))
     with pytest.raises(InvalidInputError, match="not finite"):
         advance(system.q0, np.full(system.nv, np.inf), 0.01, system)
+
+
+def test_cooperative_error_jacobian_equals_differences_through_integrate(system) -> None:
+    task = cg.cooperative_task(system, "line")
+    q = system.random_q(np.random.default_rng(0), 0.3)
+    Vd = displaced_target(task, q, translation=(0.05, 0.0, 0.02))
+    h, J = 1e-6, task.error_jacobian(q, Vd)
+    assert J.shape == (7, system.nv)
+    for k in range(system.nv):
+        dv = np.zeros(system.nv)
+        dv[k] = h
+        fd = (task.error(system.integrate(q, dv), Vd) - task.error(system.integrate(q, -dv), Vd)) / (2 * h)
+        assert np.abs(fd - J[:, k]).max() <= 1e-8
+    _, _, Jb = task.evaluate_batch(np.array([q, system.q0]))
+    np.testing.assert_array_equal(Jb[0], task.jacobian(q))
