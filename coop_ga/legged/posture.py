@@ -587,7 +587,7 @@ def _body_message(u_N: np.ndarray, prims: Sequence[PrimitiveTask], what: str) ->
     if np.linalg.norm(w) > 0:
         parts.append(f"rotation {np.round(w, 6).tolist()} about B's axes (rotation vector)")
     return (
-        f"{what} has a body motion no stance primitive of {', '.join(p.describe() for p in prims)} can see with "
+        f"{what} has a part no stance primitive of {', '.join(p.describe() for p in prims)} can see with "
         f"the feet fixed: {' and '.join(parts)} (seed 003 Table 1: a sphere carries no rotation, a plane no "
         "in-plane translation or yaw, a circle no rotation about its axis, a point pair none about its own). "
         "Add the primitive that carries it — a circle or plane of 3 stance feet (tilt), a point pair of 2 "
