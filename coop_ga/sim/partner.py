@@ -59,7 +59,7 @@ from typing import Any
 import numpy as np
 
 from .. import validation
-from ..errors import CoopGAError, InvalidInputError, NonFiniteError
+from ..errors import InvalidInputError, NonFiniteError, UnreachableError
 from ._mujoco import mj as _mj
 from .hold import min_jerk
 from .objects import Box
@@ -94,6 +94,7 @@ RATE = 100.0  # [Hz] the recording's sampling rate
 PALM_MASS = 0.4  # [kg] the palm plate (welded to the mocap target, not to the bar)
 GRIP_TIMECONST = 0.01  # [s] the weld's time constant: how stiffly the palm follows the recording
 HOLD_S, LIFT_S = 0.6, 0.8  # [s] still (squeeze builds up), then the lift
+RAMP_S = 0.5  # [s] the figure-eight's clock speeds up from rest (and slows down to rest) over this
 LIFT_M = 0.05  # [m]
 CONTROL_DT = 0.002  # [s] the controller's period (the physics steps at 1 ms)
 
@@ -166,15 +167,22 @@ def figure_eight(
 ) -> HandRecording:
     """The synthetic recording (module docstring) starting at ``h0`` (3,) [m]: still for ``HOLD_S``, a lift of
     ``LIFT_M`` over ``LIFT_S`` (minimum jerk), then ``periods`` of example 12's figure-eight (±4 cm in x, ±3 cm in
-    y, rising 4 cm in z, times ``scale``) of ``period`` [s], then still for 0.5 s; sampled at ``rate`` [Hz]."""
+    y, rising 4 cm in z, times ``scale``) of ``period`` [s], then still for 0.5 s; sampled at ``rate`` [Hz].
+
+    The figure-eight's clock speeds up from rest over ``RAMP_S`` and slows down to rest over the last ``RAMP_S``
+    (minimum-jerk rate; the motion lasts ``periods × period + RAMP_S``): a hand does not start at full speed."""
     h0 = validation.vector(h0, 3, "h0")
     T = validation.positive(period, "period")
     n_per = validation.positive(periods, "periods")
     a = validation.nonnegative(scale, "scale")
-    t = np.arange(0.0, HOLD_S + LIFT_S + n_per * T + 0.5, 1.0 / validation.positive(rate, "rate"))
+    dt = 1.0 / validation.positive(rate, "rate")
+    move = n_per * T + RAMP_S
+    t = np.arange(0.0, HOLD_S + LIFT_S + move + 0.5, dt)
     lift = np.array([LIFT_M * min_jerk((x - HOLD_S) / LIFT_S) for x in t])
     w = 2 * math.pi / T
-    tm = np.clip(t - HOLD_S - LIFT_S, 0.0, n_per * T)
+    x = t - HOLD_S - LIFT_S
+    rate_ = np.array([min_jerk(u / RAMP_S) * min_jerk((move - u) / RAMP_S) for u in x])
+    tm = np.concatenate([[0.0], np.cumsum(0.5 * (rate_[1:] + rate_[:-1]) * dt)])  # the figure-eight's clock
     P = np.stack(
         [
             h0[0] + a * 0.04 * np.sin(w * tm),
@@ -487,8 +495,9 @@ def partner_setup(case: PartnerCase, recording: HandRecording | None = None) -> 
     case's period, periods and scale) and the controller of ``case`` (module docstring).
 
     Raises:
-        InvalidInputError: the pad's start point (the recording's first sample minus the contact length along
-            the bar) is out of the right arm's reach, e.g. a bar longer than the reach; a bad case.
+        UnreachableError: the pad's start point (the recording's first sample minus the contact length along
+            the bar) is out of the right arm's reach, e.g. a bar longer than the reach.
+        InvalidInputError: a bad case.
     """
     from .carry import point_ik
 
@@ -503,13 +512,13 @@ def partner_setup(case: PartnerCase, recording: HandRecording | None = None) -> 
     try:
         q_start = point_ik(system, np.asarray(system.q0, float), np.stack([p0, model.points(system.q0)[1]]))
     except InvalidInputError as e:
-        raise InvalidInputError(
+        raise UnreachableError(
             f"a bar of {L:g} m with the human's hand at {np.round(h0, 3).tolist()} puts the robot's pad at "
             f"{np.round(p0, 3).tolist()}, out of the G1's right-arm reach ({e}); use a bar of another length or "
             "start the hand elsewhere"
         ) from e
     if p0[0] < 0.15:  # the point IK ignores the body: a pad at or behind the chest is not a grasp
-        raise InvalidInputError(
+        raise UnreachableError(
             f"a bar of {L:g} m puts the robot's pad at x = {p0[0]:.3f} m, at or behind the G1's chest (needs x ≥ "
             "0.15 m): the bar is longer than the reach between the hand and the robot; use a shorter bar"
         )
@@ -595,7 +604,7 @@ def _series(run: PartnerRun) -> dict[str, np.ndarray]:
         "direction": 2 * np.arcsin(np.minimum(1.0, 0.5 * dd)),
         "length": tr["length"] - st.contact_length,
         "after_lift": t >= HOLD_S,
-        "moving": (t >= st.move_start) & (t <= st.move_start + st.case.periods * st.case.period),
+        "moving": (t >= st.move_start) & (t <= st.move_start + st.case.periods * st.case.period + RAMP_S),
     }
 
 
