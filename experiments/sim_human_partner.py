@@ -25,8 +25,9 @@ to the bar.
 
 Cases (the same scene): feedback only and feed-forward at the nominal hand (period 4 s) and a faster one
 (2.5 s); softer gains (K × 0.25); a weak squeeze (1 N: friction cannot carry the weight share — the control
-case that shows the squeeze is what holds the bar); ``--fast`` (the gallery) runs the first three, one period
-each.  Measured (``partner_metrics``): the bar dropped or not (its centre > 2 cm from where the pair holds
+case that shows the squeeze is what holds the bar); the figure-eight doubled and faster (period 2 s, up to
+0.45 m/s), feedback only and fed forward — beyond the claim's scope, run to show where it ends.  The full
+version runs two periods per case; ``--fast`` (the gallery) runs the first three cases, one period each.  Measured (``partner_metrics``): the bar dropped or not (its centre > 2 cm from where the pair holds
 it), slip at both ends (across the bar's axis, bar frame; the pad's rolling included), direction error [rad]
 and |ℓ − ℓ_c| [m] while the hand moves, the squeeze, the robot's contacts with anything but the bar, joint
 limits and torque saturation.  Success: not dropped, slip ≤ 5 mm, direction ≤ 0.05 rad, |ℓ − ℓ_c| ≤ 5 mm,
@@ -47,13 +48,11 @@ import sys
 import time
 from typing import Any
 
-import numpy as np
-
 from coop_ga.harness import Experiment
 
 CLAIM = (
-    "A G1 arm and a human hand (a measured point the controller cannot move, driven along a recorded "
-    "figure-eight) carry a free bar held only by the point pair's squeeze (MuJoCo, contacts and gravity, no "
+    "A G1 arm and a human hand (a measured point the controller cannot move, driven along example 12's recorded "
+    "figure-eight, up to ~0.2 m/s) carry a free bar held only by the point pair's squeeze (MuJoCo, contacts and gravity, no "
     "weld to the bar): the bar is not dropped, slips ≤ 5 mm, and the pair keeps its direction within 0.05 rad "
     "and its length within 5 mm while the hand moves; feeding the hand's measured velocity forward cuts the "
     "direction error."
@@ -72,9 +71,10 @@ def _cases(fast: bool) -> list[Any]:
     if not fast:
         cases += [
             PartnerCase("feed_forward_fast_hand", feed_forward=True, period=2.5, periods=periods),
-            PartnerCase("soft_gains_fast_hand", feed_forward=False, period=2.5, periods=periods,
-                        gains=PartnerGains().scaled(0.25)),  # fmt: skip
+            PartnerCase("soft_gains_fast_hand", False, 2.5, periods, gains=PartnerGains().scaled(0.25)),
             PartnerCase("weak_squeeze", feed_forward=True, periods=periods, gains=PartnerGains(squeeze=1.0)),
+            PartnerCase("big_fast_hand_feedback", feed_forward=False, period=2.0, scale=2.0, periods=periods),
+            PartnerCase("big_fast_hand_feed_forward", feed_forward=True, period=2.0, scale=2.0, periods=periods),
         ]
     return cases
 
@@ -101,7 +101,9 @@ def run(exp: Experiment, fast: bool, render: bool) -> int:
             times[f"{case.name}_s"] = time.perf_counter() - t
         runs.append(r)
         if not exp.quiet:
-            print(f"  {case.name}: {'success' if r.metrics['success'] else 'FAILED: ' + '; '.join(r.metrics['failures'])}")
+            print(
+                f"  {case.name}: {'success' if r.metrics['success'] else 'FAILED: ' + '; '.join(r.metrics['failures'])}"
+            )
     shown = runs[0]
     shown.log.save(exp.out)  # model.xml, log.npz (with the mocap target's pose per step)
     figures = [_plot(exp, runs)]
@@ -154,7 +156,10 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
         f"{sum(r['saturated_updates'] for r in m['runs'])}, joint limits left by "
         f"{max(r['max_limit_violation'] for r in m['runs']):.3g} rad. Failures: {fails}."
     )
-    agrees = all(r["success"] for r in held) and ff["direction_error_max_rad"] < fb["direction_error_max_rad"]
+    # the claim's scope: example 12's hand (scale 1, up to ~0.18 m/s) with the 15 N squeeze; the weak squeeze and
+    # the doubled, faster hand are the envelope's edges, reported as they come out
+    scoped = [r for r in held if r["case"]["scale"] == 1.0]
+    agrees = all(r["success"] for r in scoped) and ff["direction_error_max_rad"] < fb["direction_error_max_rad"]
     return {
         "title": "Physics: a G1 arm and a human hand carry a bar held by the point pair's squeeze, MuJoCo (our addition)",
         "claim": CLAIM,
@@ -188,7 +193,9 @@ def _plot(exp: Experiment, runs: list[Any]) -> str:
     for ax in axes:
         ax.axvline(st.move_start, color="0.8", lw=0.8, zorder=0)
         ax.axvline(st.move_start - 0.8, color="0.8", lw=0.8, zorder=0)
-    fig.suptitle("G1 + human hand carry a bar by the squeeze: lift at the first grey line, figure-eight after the second")
+    fig.suptitle(
+        "G1 + human hand carry a bar by the squeeze: lift at the first grey line, figure-eight after the second"
+    )
     fig.tight_layout()
     exp.save(fig, "partner.png")
     plt.close(fig)
@@ -217,8 +224,8 @@ def _render(exp: Experiment, r: Any, fast: bool) -> str:
 
         return [line, forces]
 
-    render.render_log(r.log, exp.out / "partner.gif", fps=5.0 if fast else 10.0, width=w, height=h, camera=cam,
-                      overlays=overlays)  # fmt: skip
+    fps = 5.0 if fast else 10.0
+    render.render_log(r.log, exp.out / "partner.gif", fps=fps, width=w, height=h, camera=cam, overlays=overlays)
     return "partner.gif"
 
 

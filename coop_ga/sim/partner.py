@@ -96,6 +96,7 @@ GRIP_TIMECONST = 0.01  # [s] the weld's time constant: how stiffly the palm foll
 HOLD_S, LIFT_S = 0.6, 0.8  # [s] still (squeeze builds up), then the lift
 RAMP_S = 0.5  # [s] the figure-eight's clock speeds up from rest (and slows down to rest) over this
 LIFT_M = 0.05  # [m]
+VISUAL_CELL = 0.008  # [m] the G1's visual meshes decimated to this (model.xml stays ~1 MB)
 CONTROL_DT = 0.002  # [s] the controller's period (the physics steps at 1 ms)
 
 
@@ -154,7 +155,9 @@ class HandRecording:
         m0, m1 = self.slopes[i] * h, self.slopes[i + 1] * h
         s2, s3 = s * s, s * s * s
         pos = (2 * s3 - 3 * s2 + 1) * P[i] + (s3 - 2 * s2 + s) * m0 + (-2 * s3 + 3 * s2) * P[i + 1] + (s3 - s2) * m1
-        dpos = (6 * s2 - 6 * s) * P[i] + (3 * s2 - 4 * s + 1) * m0 + (-6 * s2 + 6 * s) * P[i + 1] + (3 * s2 - 2 * s) * m1
+        dpos = (
+            (6 * s2 - 6 * s) * P[i] + (3 * s2 - 4 * s + 1) * m0 + (-6 * s2 + 6 * s) * P[i + 1] + (3 * s2 - 2 * s) * m1
+        )
         return pos, dpos / h
 
     def mocap(self, t: float) -> tuple[np.ndarray, np.ndarray]:
@@ -542,7 +545,7 @@ def _scene(case: PartnerCase, L: float, p0: np.ndarray, h0: np.ndarray) -> Scene
                static=True, friction=0.3, rgba=(0.45, 0.45, 0.5, 1.0))  # fmt: skip
     palm = Box(name="palm", size=PALM_SIZE, pos=h0, mass=PALM_MASS, friction=fr, condim=4, rgba=(0.9, 0.7, 0.6, 1.0))
     target = Box(name="hand_target", size=(0.01, 0.01, 0.01), pos=h0, mocap=True, rgba=(0.9, 0.3, 0.1, 0.5))
-    scene = build_scene(_tool_system(), objects=[bar, post, palm, target], floor=FLOOR)
+    scene = build_scene(_tool_system(), objects=[bar, post, palm, target], floor=FLOOR, visual_cell=VISUAL_CELL)
     mj = _mj()
     g = scene.spec.geom("hand_target_geom")
     g.contype = g.conaffinity = 0  # the target is a marker: only the palm touches
@@ -644,7 +647,9 @@ def partner_metrics(run: PartnerRun) -> dict[str, Any]:
         "squeeze_min_N": float(np.min(sq)),
         "squeeze_mean_N": float(np.mean(sq)),
         "squeeze_max_N": float(np.max(sq)),
-        "hand_speed_max_m_s": float(np.max(np.linalg.norm(np.gradient(tr["hand"][mov], tr["time"][mov], axis=0), axis=1))),
+        "hand_speed_max_m_s": float(
+            np.max(np.linalg.norm(np.gradient(tr["hand"][mov], tr["time"][mov], axis=0), axis=1))
+        ),
         "other_contact_updates": int(np.count_nonzero(tr["other_contacts"])),
         "saturated_updates": int(log.saturated_updates),
         "control_updates": int(log.control_updates),

@@ -78,7 +78,7 @@ def test_a_recording_with_a_nan_sample_is_refused():
 
 
 def test_a_bar_longer_than_the_reach_is_refused():
-    with pytest.raises(UnreachableError, match="bar of 1.5 m") as e:
+    with pytest.raises(UnreachableError, match=r"bar of 1\.5 m") as e:
         partner_setup(PartnerCase("long", bar_length=1.5))
     assert isinstance(e.value, CoopGAError)
     with pytest.raises(UnreachableError, match="out of the G1's right-arm reach"):
@@ -119,7 +119,7 @@ def test_the_short_run_holds_the_bar(short):
 
 
 def test_the_log_replays_with_mujoco_alone_and_needs_the_mocap_poses(short, tmp_path):
-    run, folder = short
+    _, folder = short
     log = np.load(folder / "log.npz")
     assert log["mocap_pos"].shape == (len(log["time"]), 1, 3) and log["mocap_quat"].shape == (len(log["time"]), 1, 4)
     assert replay(folder) == 0.0
