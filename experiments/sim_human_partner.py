@@ -84,7 +84,8 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--fast", action="store_true", help="gallery length: 3 runs, one period of the hand's figure-eight")
     exp.add("--no-render", action="store_true", help="skip the MuJoCo GIF")
     args = exp.parse(argv)
-    return run(exp, bool(args.fast), not args.no_render)
+    fast = bool(args.fast)
+    return run(exp, fast, not args.no_render)
 
 
 def run(exp: Experiment, fast: bool, render: bool) -> int:
