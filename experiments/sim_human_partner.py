@@ -207,7 +207,7 @@ def _render(exp: Experiment, r: Any, fast: bool) -> str:
     from coop_ga.sim import render
 
     tr = r.trace
-    cam = render.Camera(lookat=(0.5, -0.18, 0.1), distance=1.5, azimuth=-125.0, elevation=-20.0)
+    cam = render.Camera(lookat=(0.62, -0.18, 0.05), distance=1.45, azimuth=-100.0, elevation=-15.0)
     w, h = (400, 300) if fast else (640, 480)
     step = round(float(tr["time"][1] - tr["time"][0]) / float(r.setup.scene.model.opt.timestep))
 

@@ -1,8 +1,8 @@
 """A human partner in MuJoCo: the G1 and a human hand carry a free bar held only by the squeeze along it.
 
 The physics version of ``examples/12_human_partner.py`` (paper §5.5).  One end of the point pair is a
-**measured point the controller cannot move**: the human's hand, a MuJoCo mocap body (a flat palm plate)
-driven by a :class:`HandRecording`; the other is the G1's right hand (``g1_arms``: pelvis fixed to the
+**measured point the controller cannot move**: the human's hand, a palm plate that a MuJoCo mocap body drives
+along a :class:`HandRecording`; the other is the G1's right hand (``g1_arms``: pelvis fixed to the
 world, waist and both arms torque-controlled).  A free bar lies between the robot's pad and the human's palm,
 its axis along the pair; nothing welds or constrains it — contacts and gravity on.
 
@@ -14,8 +14,13 @@ Scene (:func:`partner_setup`)
   the contact out of it.  The left hand only holds its posture;
 * a free box bar (default 0.40 × 0.04 × 0.04 m, 0.4 kg, friction 1.0) along world x in front of the right
   hand, resting on a thin static post (the start: nobody holds it yet);
-* the human's palm: a mocap box 2 cm thick (the bar's end face presses on its flat face), its centre h is the
-  measured point.  The pair's contact length ℓ_c = bar length + pad radius + half the palm's thickness.
+* the human's palm: a free 0.4 kg box 2 cm thick (the bar's end face presses on its flat face; a forearm is
+  drawn behind it), **welded to a mocap target** ``hand_target`` that plays the recording (soft weld, time
+  constant 10 ms).  Why not the palm itself as the mocap body: MuJoCo gives a mocap body no velocity in its
+  contacts, so its friction does not drag what it touches — a bar pressed against a mocap palm slid 5 cm down
+  the palm as the palm rose 5 cm.  The weld joins the human's hand to its target, never the bar.  The palm's
+  centre h — measured from MuJoCo with its velocity, as a motion-capture system measures a real hand — is the
+  partner's point.  The pair's contact length ℓ_c = bar length + pad radius + half the palm's thickness.
 
 The hand's motion (:func:`figure_eight`): still while the squeeze builds up, a lift (the bar leaves the
 post), then the **synthetic** figure-eight of example 12 (±4 cm along the bar, ±3 cm across, rising 4 cm,
@@ -28,7 +33,7 @@ Controller (:class:`PartnerController`)
 Jacobian J_e (4, nq) with the hand held; the torque is a Jacobian-transpose impedance on it::
 
     f = −W e − D ė,   W = diag(K⊥ ℓ², K⊥ ℓ², K⊥ ℓ², K∥),  D = diag(D⊥ ℓ², …, D∥)
-    τ = h(q, q̇) + J_eᵀ f + J_pᵀ ŵ + N_pᵀ M (K_post (q_post − q) − D_null q̇)
+    τ = h(q, q̇) + J_eᵀ f + J_pᵀ ŵ + J_ωᵀ m_a + Nᵀ M (K_post (q_post − q) − D_null q̇)
 
 ``J_eᵀ f = J_pᵀ [(I − d dᵀ) f_d / ℓ + d f_ℓ]`` is a Cartesian force at the pad: K⊥ [N/m] pulls the pad
 across the pair back onto the line h + ℓ d*, K∥ [N/m] along it.  ℓ* is commanded ``s_d / K∥`` below ℓ_c
@@ -37,14 +42,16 @@ about s_d — the squeeze whose friction carries the bar's weight.  ℓ* ramps f
 value while the hand is still (minimum jerk).  The hand's motion enters
 
 * as a disturbance (feedback only): ``ė = J_e q̇`` — the robot damps its own motion and lags the hand;
-* fed forward: ``ė = J_e q̇ + (∂e/∂h) ḣ`` with ḣ the recording's velocity — the damping acts on the relative
+* fed forward: ``ė = J_e q̇ + (∂e/∂h) ḣ`` with ḣ the palm's measured velocity — the damping acts on the relative
   motion, so the pad moves with the hand (``PartnerPairTask.partner_jacobian``).
 
 ŵ is the bar's weight share, estimated: the pad's contact force across the pair, low-pass filtered
 (``weight_tau``) and fed forward (an integral action removing the impedance's sag, as in
-:class:`~coop_ga.sim.HoldController`).  The posture term (q_post: the start configuration) acts in the null
-space of the pad point's Jacobian J_p (dynamically consistent projector), so it holds the left arm, the
-waist and the hand's orientation without pushing the pad.
+:class:`~coop_ga.sim.HoldController`).  m_a holds the tool's axis along the bar (two rows across the axis,
+``K_axis``, ``D_axis``): the pad is a sphere, so a turning hand rolls it on the bar's end — without these
+rows the wrist turned ~45° under the posture alone and the pad rolled 12 mm.  The posture term (q_post: the
+start configuration) acts in the null space of the pad point's and the pointing rows' Jacobian N
+(dynamically consistent projector), so it holds the left arm and the waist without pushing the pad.
 
 :func:`run_partner` simulates a :class:`PartnerCase` and :func:`partner_metrics` measures it.
 """
@@ -540,7 +547,7 @@ def _scene(case: PartnerCase, L: float, p0: np.ndarray, h0: np.ndarray) -> Scene
     w = 0.04  # [m] the bar's square section
     bottom = centre[2] - 0.5 * w
     bar = Box(name="bar", size=(L, w, w), mass=case.bar_mass, pos=centre, friction=fr, condim=4,
-              rgba=(0.75, 0.55, 0.3, 1.0))  # fmt: skip
+              rgba=(0.75, 0.55, 0.3, 0.6))  # fmt: skip  # see-through: the pictures show the squeeze inside
     post = Box(name="post", size=(POST_SIZE, POST_SIZE, bottom - FLOOR), pos=(centre[0], centre[1], 0.5 * (bottom + FLOOR)),
                static=True, friction=0.3, rgba=(0.45, 0.45, 0.5, 1.0))  # fmt: skip
     palm = Box(name="palm", size=PALM_SIZE, pos=h0, mass=PALM_MASS, friction=fr, condim=4, rgba=(0.9, 0.7, 0.6, 1.0))
@@ -549,6 +556,10 @@ def _scene(case: PartnerCase, L: float, p0: np.ndarray, h0: np.ndarray) -> Scene
     mj = _mj()
     g = scene.spec.geom("hand_target_geom")
     g.contype = g.conaffinity = 0  # the target is a marker: only the palm touches
+    scene.spec.body("palm").add_geom(  # the human's forearm, drawn only (no contact, no mass)
+        name="forearm", type=mj.mjtGeom.mjGEOM_CAPSULE, size=[0.03, 0.0, 0.0], fromto=[0.03, 0, -0.01, 0.3, 0, -0.08],
+        contype=0, conaffinity=0, rgba=[0.9, 0.7, 0.6, 1.0],
+    )  # fmt: skip
     scene.spec.add_equality(
         name="hand_grip", type=mj.mjtEq.mjEQ_WELD, objtype=mj.mjtObj.mjOBJ_BODY, name1="hand_target", name2="palm",
         solref=[GRIP_TIMECONST, 1.0], data=[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0],

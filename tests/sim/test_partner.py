@@ -110,6 +110,7 @@ def test_the_short_run_holds_the_bar(short):
     a = run.setup.scene.object_qpos["bar"]
     z = run.log.qpos[:, a + 2]
     assert z[-1] - z[0] == pytest.approx(LIFT_M + 0.04, abs=0.005)
+    assert run.setup.scene.mocap_index == {"hand_target": 0} and run.setup.scene.object_qpos.keys() == {"bar", "palm"}
     # the palm followed its mocap target (the soft weld: lags ~ v × 10 ms, sags under the squeeze) within 5 mm
     rec = run.setup.recording
     k = len(run.log.time) // 2
