@@ -172,7 +172,7 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
 
 def _plot(exp: Experiment, runs: list[Any]) -> str:
     plt = exp.pyplot()
-    from coop_ga.sim.partner import BOUNDS, _series
+    from coop_ga.sim.partner import BOUNDS, HOLD_S, _series
 
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
     for i, r in enumerate(runs):
@@ -193,7 +193,7 @@ def _plot(exp: Experiment, runs: list[Any]) -> str:
     axes[2].legend(fontsize=7)
     for ax in axes:
         ax.axvline(st.move_start, color="0.8", lw=0.8, zorder=0)
-        ax.axvline(st.move_start - 0.8, color="0.8", lw=0.8, zorder=0)
+        ax.axvline(HOLD_S, color="0.8", lw=0.8, zorder=0)
     fig.suptitle(
         "G1 + human hand carry a bar by the squeeze: lift at the first grey line, figure-eight after the second"
     )

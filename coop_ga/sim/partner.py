@@ -622,6 +622,12 @@ def _series(run: PartnerRun) -> dict[str, np.ndarray]:
     }
 
 
+def _palm_lag(run: PartnerRun) -> float:
+    """The palm's largest distance [m] from its mocap target over the log (the soft weld's lag and sag)."""
+    a = run.setup.scene.object_qpos["palm"]
+    return float(np.max(np.linalg.norm(run.log.qpos[:, a : a + 3] - run.log.mocap_pos[:, 0], axis=1)))
+
+
 def partner_metrics(run: PartnerRun) -> dict[str, Any]:
     """The run's measured claims (lengths [m], angles [rad], forces [N]); windows: after the lift starts (the bar
     off its post) and while the hand moves (the figure-eight):
@@ -633,6 +639,7 @@ def partner_metrics(run: PartnerRun) -> dict[str, Any]:
     * ``direction_error_max_rad`` / ``_rms_rad`` and ``length_error_max_m`` (|ℓ − ℓ_c|, ℓ_c the contact length)
       while the hand moves; ``length_compression_m``: ℓ_c − ℓ* (the dilation that makes the squeeze);
     * ``squeeze_min_N`` / ``_mean_N`` / ``_max_N`` while the hand moves (the pad's contact force along d);
+    * ``palm_lag_max_m``: the palm's largest distance from its mocap target (the recording) over the run;
     * ``other_contact_updates``: control updates in which the robot touched anything but the bar;
     * ``max_limit_violation`` [rad], ``max_velocity_violation`` [rad/s], ``saturated_updates``, ``effort_ratio``;
     * ``success``: none dropped, slip ≤ 5 mm at both ends, direction error ≤ 0.05 rad, |ℓ − ℓ_c| ≤ 5 mm, the
@@ -661,6 +668,7 @@ def partner_metrics(run: PartnerRun) -> dict[str, Any]:
         "hand_speed_max_m_s": float(
             np.max(np.linalg.norm(np.gradient(tr["hand"][mov], tr["time"][mov], axis=0), axis=1))
         ),
+        "palm_lag_max_m": _palm_lag(run),
         "other_contact_updates": int(np.count_nonzero(tr["other_contacts"])),
         "saturated_updates": int(log.saturated_updates),
         "control_updates": int(log.control_updates),

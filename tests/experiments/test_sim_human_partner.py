@@ -36,6 +36,7 @@ def test_the_carry_with_the_human_holds_its_claims():
         assert r["direction_error_max_rad"] < 0.05 and r["length_error_max_m"] < 0.005
         assert r["squeeze_min_N"] > 0.25 * r["squeeze_set_N"] and r["squeeze_max_N"] < 1.25 * r["squeeze_set_N"]
         assert r["other_contact_updates"] == 0 and r["saturated_updates"] == 0
+        assert r["palm_lag_max_m"] < 0.005  # the palm (the measured point) follows the recording's mocap target
         assert r["max_limit_violation"] == 0.0 and r["max_velocity_violation"] == 0.0
         assert r["length_compression_m"] == pytest.approx(15.0 / 800.0)  # ℓ* = ℓ_c − s_d / K∥
     # the feed-forward of the hand's measured velocity: the direction error at least 3× smaller than feedback only

@@ -116,7 +116,8 @@ def test_the_short_run_holds_the_bar(short):
     k = len(run.log.time) // 2
     np.testing.assert_allclose(run.log.mocap_pos[k, 0], rec.at(float(run.log.time[k]))[0], atol=1e-15)
     p = run.setup.scene.object_qpos["palm"]
-    assert np.max(np.linalg.norm(run.log.qpos[:, p : p + 3] - run.log.mocap_pos[:, 0], axis=1)) < 0.005
+    lag = np.max(np.linalg.norm(run.log.qpos[:, p : p + 3] - run.log.mocap_pos[:, 0], axis=1))
+    assert lag < 0.005 and m["palm_lag_max_m"] == lag
 
 
 def test_the_log_replays_with_mujoco_alone_and_needs_the_mocap_poses(short, tmp_path):
