@@ -12,7 +12,8 @@ hand, then two periods of motion; run for three gains α, with the measured poin
 * with feed-forward of the measured hand velocity (``set_partner(h, velocity=ḣ)``, ḣ from the recording).
 
 Prints and writes (``metrics.json``) the worst direction error [rad] and length error [m] while the hand moves,
-per gain and mode, and ``errors.png`` (the errors over time for the middle gain).  Kinematic only: no physics.
+per gain and mode, and ``errors.png`` (the errors over time for the middle gain).  Kinematic only: the physics
+version (MuJoCo, a free bar held by the squeeze) is ``experiments/sim_human_partner.py``.
 
 Run::
 

@@ -117,6 +117,9 @@ FIGURES: tuple[Figure, ...] = (
         addition=True,
     ),
     Figure("sim_ball_hold", "ours_sim_ball_hold", "experiments/sim_ball_hold.py", ("--fast",), addition=True),
+    Figure(
+        "sim_human_partner", "ours_sim_human_partner", "experiments/sim_human_partner.py", ("--fast",), addition=True
+    ),
     Figure("sim_mpc_track", "ours_mpc_track", "experiments/sim_mpc_track.py", ("--fast",), addition=True),
     Figure("sim_mpc_carry", "ours_mpc_carry", "experiments/sim_mpc_carry.py", ("--fast",), addition=True),
     Figure(

@@ -16,6 +16,8 @@
 * :mod:`~coop_ga.sim.carry` — three iiwa arms carry a box: the scenario, a run, its metrics;
 * :mod:`~coop_ga.sim.ball` — :class:`SphereHoldController`, :class:`BallPlan`: the Allegro hand holds a
   ball through its cooperative sphere.
+* :mod:`~coop_ga.sim.partner` — the G1 and a human palm on a recorded trajectory (a mocap target) carry a
+  free bar held by the point pair's squeeze (:class:`~coop_ga.control.tasks.PartnerPairTask` in the loop).
 """
 
 from . import render

@@ -6,7 +6,10 @@ quaternion (w, x, y, z); 6 qvel: linear velocity of the body origin in the world
 angular velocity in the body frame [rad/s], MuJoCo's convention).  It is never welded or
 equality-constrained to a robot: it moves only by gravity, contacts and the disturbances a
 :class:`~coop_ga.sim.Simulation` applies.  With ``static=True`` it is part of the world instead (a
-table, a step): no joint, no mass, it only collides.
+table, a step): no joint, no mass, it only collides.  With ``mocap=True`` it is a MuJoCo **mocap
+body**: no joint and no mass either, but its pose is ``data.mocap_pos`` / ``data.mocap_quat``, set
+from outside each step (a measured human hand, :class:`~coop_ga.sim.Simulation`'s ``mocap=``): it
+pushes what it touches and nothing pushes it back.
 
 Common fields (keywords):
 
@@ -93,6 +96,7 @@ class SceneObject:
     condim: int = 3
     rgba: Any = (0.85, 0.55, 0.2, 1.0)
     static: bool = False
+    mocap: bool = False
 
     #: MuJoCo geom type name (``mjtGeom`` member without the prefix)
     geom_type: ClassVar[str] = ""
@@ -104,6 +108,8 @@ class SceneObject:
         object.__setattr__(self, "quat", _quat(self.quat, f"{self.name}.quat"))
         if not isinstance(self.static, bool):
             raise InvalidInputError(f"{self.name}.static must be True or False, got {self.static!r}")
+        if not isinstance(self.mocap, bool) or (self.mocap and self.static):
+            raise InvalidInputError(f"{self.name}.mocap must be True or False, and not both static and mocap")
         object.__setattr__(self, "mass", validation.positive(self.mass, f"{self.name}.mass"))
         object.__setattr__(self, "friction", friction(self.friction, f"{self.name}.friction"))
         if self.condim not in (1, 3, 4, 6):
@@ -115,6 +121,11 @@ class SceneObject:
         self._check_size()
         I = self.solid_inertia() if self.inertia is None else _inertia(self.inertia, f"{self.name}.inertia")
         object.__setattr__(self, "inertia", I)
+
+    @property
+    def free(self) -> bool:
+        """Whether the object is a free body (a ``freejoint``; neither static nor mocap)."""
+        return not (self.static or self.mocap)
 
     def _check_size(self) -> None:  # pragma: no cover - every subclass overrides it
         raise NotImplementedError

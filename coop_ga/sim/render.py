@@ -442,6 +442,8 @@ def render_log(
     with Renderer(scene, width, height, camera) as r:
         for k in range(0, len(log.time), step):
             d.qpos[:], d.qvel[:], d.time = log.qpos[k], log.qvel[k], float(log.time[k])
+            if m.nmocap and len(log.mocap_pos):  # a recorded hand: its pose of that step
+                d.mocap_pos[:], d.mocap_quat[:] = log.mocap_pos[k], log.mocap_quat[k]
             mj().mj_forward(m, d)
             frames.append(r.frame(d, overlays(k, d) if overlays is not None else ()))
     if path is not None:

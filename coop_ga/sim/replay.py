@@ -10,6 +10,9 @@ A run folder (:meth:`coop_ga.sim.SimulationLog.save`) holds
                    during that step (the last row is the final state; its ctrl is not applied).
                    With disturbances also ``xfrc_bodies`` (m,) body ids and ``xfrc`` (T, m, 6):
                    the ``data.xfrc_applied`` rows of those bodies during each step.
+                   With mocap bodies (a recorded human hand) also ``mocap_pos`` (T, nmocap, 3)
+                   and ``mocap_quat`` (T, nmocap, 4): their poses during each step, set like
+                   ``ctrl`` (the hand is an input of the run, not part of its state).
                    A thinned log (long walks) keeps ``ctrl`` (and ``xfrc``) at every step and the
                    state at some steps only: ``state_rows`` (S,) the step index of each row of
                    ``time``, ``qpos`` and ``qvel`` (S rows; the first is step 0).  ``ctrl`` may be
@@ -20,7 +23,7 @@ A run folder (:meth:`coop_ga.sim.SimulationLog.save`) holds
 =================  ==========================================================================
 
 Replaying: load the model, set ``qpos[0]``, ``qvel[0]``, ``time[0]``, then for k = 0 … T − 2 set
-``ctrl[k]`` (and ``xfrc``), call ``mujoco.mj_step`` and compare with row k + 1 (a thinned log: with the
+``ctrl[k]`` (and ``xfrc``, ``mocap_pos``/``mocap_quat``), call ``mujoco.mj_step`` and compare with row k + 1 (a thinned log: with the
 state row of step k + 1, where there is one).  MuJoCo is
 deterministic on one thread, so the replay is bitwise (difference 0.0) on the machine that ran it.
 """
@@ -57,7 +60,11 @@ def replay(folder: str | Path, *, return_states: bool = False) -> Any:
     rows = log["state_rows"] if "state_rows" in log.files else np.arange(len(time))
     bodies = log["xfrc_bodies"] if "xfrc_bodies" in log.files else np.zeros(0, dtype=np.int64)
     xfrc = log["xfrc"] if "xfrc" in log.files else None
+    mpos = log["mocap_pos"] if "mocap_pos" in log.files else None
+    mquat = log["mocap_quat"] if "mocap_quat" in log.files else None
     data = mujoco.MjData(model)
+    if mpos is not None and mquat is not None:
+        data.mocap_pos[:], data.mocap_quat[:] = mpos[0], mquat[0]
     data.qpos[:] = qpos[0]
     data.qvel[:] = qvel[0]
     data.time = float(time[0])
@@ -69,6 +76,8 @@ def replay(folder: str | Path, *, return_states: bool = False) -> Any:
         data.ctrl[:] = ctrl[k]
         if xfrc is not None and len(bodies):
             data.xfrc_applied[bodies] = xfrc[k]
+        if mpos is not None and mquat is not None:
+            data.mocap_pos[:], data.mocap_quat[:] = mpos[k], mquat[k]
         mujoco.mj_step(model, data)
         if j < len(rows) and rows[j] == k + 1:
             out[j] = data.qpos

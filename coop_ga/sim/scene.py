@@ -496,8 +496,8 @@ def _add_objects(spec: Any, objects: Sequence[SceneObject], taken: set[str]) -> 
                 f"object name '{ob.name}' is already used in the scene (a link or another object); rename the object"
             )
         taken.add(ob.name)
-        body = spec.worldbody.add_body(name=ob.name, pos=ob.pos, quat=ob.quat)
-        if not ob.static:
+        body = spec.worldbody.add_body(name=ob.name, pos=ob.pos, quat=ob.quat, mocap=ob.mocap)
+        if ob.free:
             body.add_freejoint(name=ob.name)
             _set_inertial(body, ob.mass, np.zeros(3), ob.inertia, f"object '{ob.name}'")
         body.add_geom(
@@ -548,7 +548,8 @@ class Scene:
         end_bodies: (k,) int — the MuJoCo body carrying each end frame (whose geoms' contacts are the
             end point's contact force, :meth:`coop_ga.sim.Simulation.end_forces`).
         object_ids: object name → body id; free objects also in ``object_qpos`` / ``object_qvel``
-            (name → address of the freejoint's 7 qpos / 6 qvel).
+            (name → address of the freejoint's 7 qpos / 6 qvel); mocap objects in ``mocap_index`` (name →
+            row of ``data.mocap_pos`` / ``data.mocap_quat``).
         robot_bodies: ids of every MuJoCo body of the robot (static link bodies and the base included).
         excluded: (body, body, reason) of every excluded robot body pair.
         visual_skipped: visual objects left out (their mesh vanished at ``visual_cell``).
@@ -574,6 +575,7 @@ class Scene:
     object_ids: dict[str, int] = field(init=False)
     object_qpos: dict[str, int] = field(init=False)
     object_qvel: dict[str, int] = field(init=False)
+    mocap_index: dict[str, int] = field(init=False)
     robot_bodies: frozenset[int] = field(init=False)
 
     def __post_init__(self) -> None:
@@ -615,8 +617,9 @@ class Scene:
             [self.id_of("geom", capsule_geom_name(c, i)) for i, c in enumerate(self.capsules)], dtype=np.int64
         )
         self.object_qpos, self.object_qvel = {}, {}
+        self.mocap_index = {o.name: int(m.body_mocapid[self.object_ids[o.name]]) for o in self.objects if o.mocap}
         for o in self.objects:
-            if not o.static:
+            if o.free:
                 j = self.id_of("joint", o.name)
                 self.object_qpos[o.name] = int(m.jnt_qposadr[j])
                 self.object_qvel[o.name] = int(m.jnt_dofadr[j])

@@ -30,7 +30,10 @@ geom2, the force acting on geom2) rotated to the world by ``contact.frame``.
 Logging: every physics step appends a row to the log: ``time`` (T,), ``qpos`` (T, model.nq), ``qvel``
 (T, model.nv) — the state at the start of the step — and ``ctrl`` (T, model.nu), the controls applied
 during it; the last row is the final state (its ``ctrl`` repeats the previous row's and is not
-applied).  :meth:`SimulationLog.save` writes ``model.xml``, ``log.npz`` and ``metrics.json``
+applied).  A scene with mocap bodies (``SceneObject(mocap=True)``) also logs ``mocap_pos`` (T, nmocap, 3)
+and ``mocap_quat`` (T, nmocap, 4), their poses during each step: ``mocap=`` gives them as a function of
+time (a recorded hand), set before each step's control update; without it they stay where the model
+puts them.  :meth:`SimulationLog.save` writes ``model.xml``, ``log.npz`` and ``metrics.json``
 (layout in :mod:`coop_ga.sim.replay`), which :func:`coop_ga.sim.replay` re-simulates with MuJoCo
 alone.
 """
@@ -51,7 +54,7 @@ from ..errors import CoopGAError, InvalidInputError, NonFiniteError, UnknownName
 from ._mujoco import mj
 from .scene import Scene
 
-__all__ = ["LOG_VERSION", "Controller", "Disturbance", "Sensors", "Simulation", "SimulationLog"]
+__all__ = ["LOG_VERSION", "Controller", "Disturbance", "MocapTrajectory", "Sensors", "Simulation", "SimulationLog"]
 
 #: ``log_version`` written in ``metrics.json`` (the layout of ``log.npz``, :mod:`coop_ga.sim.replay`).
 LOG_VERSION = 1
@@ -60,6 +63,8 @@ _NO_XFRC = np.zeros((0, 6))
 
 #: ``controller(time [s], q (nq,), q̇ (nq,), sensors) -> τ (nq,)`` [N m or N]
 Controller = Callable[[float, np.ndarray, np.ndarray, "Sensors"], Any]
+#: ``mocap(time [s]) -> (positions (nmocap, 3) [m], unit quaternions (nmocap, 4) (w, x, y, z))``, world frame
+MocapTrajectory = Callable[[float], tuple[Any, Any]]
 
 
 @dataclass(frozen=True)
@@ -186,6 +191,8 @@ class SimulationLog:
     tau_command (T, nq): the controller's command before saturation.
     xfrc_bodies (m,) int and xfrc (T, m, 6): ``data.xfrc_applied`` rows of the disturbed bodies
     (m = 0 without disturbances).
+    mocap_pos (T, nmocap, 3) [m], mocap_quat (T, nmocap, 4): the mocap bodies' poses during each step
+    (nmocap = 0 for a scene without mocap bodies).
     control_updates, saturated_updates: controller calls, and those clipped at the effort limit;
     effort_ratio: max |τ_cmd| / effort (> 1 iff something was clipped).
     """
@@ -202,6 +209,8 @@ class SimulationLog:
     saturated_updates: int = 0
     effort_ratio: float = 0.0
     extra: dict[str, Any] = field(default_factory=dict)
+    mocap_pos: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    mocap_quat: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 4)))
 
     def __repr__(self) -> str:
         return (
@@ -230,7 +239,7 @@ class SimulationLog:
 
     def metrics(self) -> dict[str, Any]:
         """The run's summary for ``metrics.json`` (``object_body``: the first free object's body, or None)."""
-        free = [o.name for o in self.scene.objects if not o.static]
+        free = [o.name for o in self.scene.objects if o.free]
         return {
             "log_version": LOG_VERSION,
             "system": self.scene.system.name,
@@ -261,6 +270,8 @@ class SimulationLog:
         arrays: dict[str, Any] = {"time": self.time, "qpos": self.qpos, "qvel": self.qvel, "ctrl": self.ctrl}
         if len(self.xfrc_bodies):
             arrays |= {"xfrc_bodies": self.xfrc_bodies, "xfrc": self.xfrc}
+        if self.mocap_pos.ndim == 3 and self.mocap_pos.shape[1]:
+            arrays |= {"mocap_pos": self.mocap_pos, "mocap_quat": self.mocap_quat}
         np.savez_compressed(out / "log.npz", **arrays)
         (out / "metrics.json").write_text(json.dumps(self.metrics(), indent=2, allow_nan=False))
         return out
@@ -281,6 +292,8 @@ class Simulation:
         disturbances: :class:`Disturbance` list (more with :meth:`add_disturbance`).
         torque_limits: ``"saturate"`` (clip to ±effort, counted) or ``"error"`` (raise).
         penetration_tol: initial overlaps deeper than this [m] raise (:meth:`Scene.check_state`); None: no check.
+        mocap: the mocap bodies' poses as a function of time (:data:`MocapTrajectory`; the scene must have
+            mocap bodies), set before every step and logged; None: they stay at the model's poses.
 
     Raises:
         InvalidInputError: bad arguments, an initial state with an object inside a robot (or anything
@@ -300,6 +313,7 @@ class Simulation:
         disturbances: Sequence[Disturbance] = (),
         torque_limits: str = "saturate",
         penetration_tol: float | None = 1e-3,
+        mocap: MocapTrajectory | None = None,
     ):
         if not isinstance(scene, Scene):
             raise InvalidInputError(f"scene must be a coop_ga.sim.Scene (build_scene(...)), got {type(scene).__name__}")
@@ -321,6 +335,16 @@ class Simulation:
             self._every = round(k)
         self.torque_limits = validation.choice(torque_limits, ("saturate", "error"), "torque_limits")
         self.data = scene.make_data(q, qd, base_pose)
+        self._nmocap = int(self.model.nmocap)
+        if mocap is not None and (not callable(mocap) or self._nmocap == 0):
+            raise InvalidInputError(
+                "mocap= must be a function of time returning the mocap bodies' (positions, quaternions), and the "
+                f"scene needs mocap bodies (it has {self._nmocap}): add an object with mocap=True"
+            )
+        self._mocap = mocap
+        if mocap is not None:
+            self._set_mocap()
+            mj().mj_forward(self.model, self.data)
         if penetration_tol is not None:
             scene.check_state(self.data, validation.nonnegative(penetration_tol, "penetration_tol"))
         # views into the MjData buffers (fixed for its lifetime): no attribute lookup per step
@@ -449,6 +473,25 @@ class Simulation:
             tau = np.clip(cmd, -self._effort, self._effort)
         self._tau_cmd, self._tau = cmd, tau
 
+    def _set_mocap(self) -> None:
+        """The mocap bodies' poses at the current time from ``mocap=`` (checked: shapes, finite, unit quaternions)."""
+        t = self.time
+        pos, quat = self._mocap(t)  # type: ignore[misc]
+        n = self._nmocap
+        try:
+            p = np.array(pos, dtype=float).reshape(n, 3)
+            qu = np.array(quat, dtype=float).reshape(n, 4)
+        except (TypeError, ValueError) as e:
+            raise InvalidInputError(
+                f"mocap({t:.4f}) must return positions ({n}, 3) and quaternions ({n}, 4): {e}"
+            ) from e
+        if not (np.isfinite(p).all() and np.isfinite(qu).all()):
+            raise NonFiniteError(f"mocap({t:.4f}) returned NaN/inf: the mocap trajectory is not finite there")
+        if np.any(np.abs(np.linalg.norm(qu, axis=1) - 1.0) > 1e-6):
+            raise InvalidInputError(f"mocap({t:.4f}) returned quaternions that are not unit (w, x, y, z)")
+        self.data.mocap_pos[:] = p
+        self.data.mocap_quat[:] = qu
+
     def _apply_disturbances(self) -> None:
         if not self._disturbances:
             return
@@ -465,6 +508,8 @@ class Simulation:
         m, d = self.model, self.data
         act = self.scene.actuator_index
         for _ in range(validation.integer(n, "n", minimum=0)):
+            if self._mocap is not None:
+                self._set_mocap()
             if self._steps % self._every == 0:
                 self._control()
             self._ctrl[act] = self._tau
@@ -482,7 +527,16 @@ class Simulation:
         d = self.data
         x = d.xfrc_applied[self._xfrc_bodies] if len(self._xfrc_bodies) else _NO_XFRC
         self._rows.append(
-            (np.float64(d.time), self._qpos.copy(), self._qvel.copy(), self._ctrl.copy(), self._tau_cmd, x)
+            (
+                np.float64(d.time),
+                self._qpos.copy(),
+                self._qvel.copy(),
+                self._ctrl.copy(),
+                self._tau_cmd,
+                x,
+                d.mocap_pos.copy(),
+                d.mocap_quat.copy(),
+            )
         )
 
     def run(self, duration: float, *, progress: bool = False) -> SimulationLog:
@@ -508,7 +562,8 @@ class Simulation:
         d = self.data
         last = self._rows[-1][3] if self._rows else d.ctrl  # the final row repeats the last applied ctrl
         x = d.xfrc_applied[self._xfrc_bodies] if len(self._xfrc_bodies) else _NO_XFRC
-        rows = [*self._rows, (np.float64(d.time), d.qpos.copy(), d.qvel.copy(), np.array(last), self._tau_cmd, x)]
+        final = (np.float64(d.time), d.qpos.copy(), d.qvel.copy(), np.array(last), self._tau_cmd, x)
+        rows = [*self._rows, (*final, d.mocap_pos.copy(), d.mocap_quat.copy())]
         return SimulationLog(
             scene=self.scene,
             time=np.array([r[0] for r in rows]),
@@ -521,4 +576,6 @@ class Simulation:
             control_updates=int(self._counts["updates"]),
             saturated_updates=int(self._counts["saturated"]),
             effort_ratio=float(self._counts["ratio"]),
+            mocap_pos=np.stack([r[6] for r in rows]),
+            mocap_quat=np.stack([r[7] for r in rows]),
         )
