@@ -309,7 +309,8 @@ def _ratios(problems: dict[str, Any], clearance: dict[str, Any] | None, croc: bo
                 "never within 1e-6 of the best cost" if tto is None else f"{d['ilqr_time_to_optimum_over_ref']:.3g}×"
             )
             near = ", ".join(
-                f"{k}: " + ("never" if v is None else f"{v:.3g}×") for k, v in d["ilqr_time_to_ipopt_cost_over_ref"].items()
+                f"{k}: " + ("never" if v is None else f"{v:.3g}×")
+                for k, v in d["ilqr_time_to_ipopt_cost_over_ref"].items()
             )
             out["lines"].append(
                 f"[{name}] iLQR vs {ref}: to stationarity (tol = 0) {d['ilqr_tol0_over_ref']:.3g}×, to within 1e-6 of "

@@ -241,7 +241,9 @@ def double_integrator_problem(ocp: Any, *, state_bounds: float | None = None) ->
         running.addCost("bounds", bounds, validation.positive(state_bounds, "state_bounds"))
     terminal = crocoddyl.CostModelSum(state, n)
     sim = SimilarityResidual(state, task, ocp.target, n)
-    terminal.addCost("similarity", crocoddyl.CostModelResidual(state, crocoddyl.ActivationModelWeightedQuad(q2), sim), 1.0)
+    terminal.addCost(
+        "similarity", crocoddyl.CostModelResidual(state, crocoddyl.ActivationModelWeightedQuad(q2), sim), 1.0
+    )
     rest = crocoddyl.ActivationModelWeightedQuad(np.concatenate([np.zeros(n), qv2]))
     zero = crocoddyl.ResidualModelState(state, np.zeros(2 * n), n)  # x itself: its q̇ part is q̇_n
     terminal.addCost("rest", crocoddyl.CostModelResidual(state, rest, zero), 1.0)

@@ -497,9 +497,7 @@ class CollisionModel:
         kk, rows, g = self._close(Q, cutoff)
         return kk, rows, g[0]
 
-    def close_pairs_and_jacobian(
-        self, Q: Any, cutoff: float
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def close_pairs_and_jacobian(self, Q: Any, cutoff: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`close_pairs` and the Jacobian rows ``∂d/∂q`` (P, nq) of those pairs (Eq 3): one Pinocchio
         ``computeJointJacobians`` per configuration that has a close pair, the witness points from the batch."""
         kk, rows, g = self._close(Q, cutoff)

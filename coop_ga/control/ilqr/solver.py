@@ -432,7 +432,17 @@ class _Solve:
             condensed = self.o.backward == "auto" and not (model.state_active and model.riccati)
             rows = model.rows if model.state_active else None
             step = lq_step(
-                ocp, self.cond, self.u, ev.q, ev.qd, Vxx, model.vx, model.lx, model.lxx, condensed=condensed, rows=rows,
+                ocp,
+                self.cond,
+                self.u,
+                ev.q,
+                ev.qd,
+                Vxx,
+                model.vx,
+                model.lx,
+                model.lxx,
+                condensed=condensed,
+                rows=rows,
                 max_travel=self.o.max_travel,
             )
             if step is None or not step.d1 < 0:
