@@ -31,18 +31,37 @@ Solvers (same problem data, same initial guess u = 0 with the system at rest at 
   building the Opti problem and creating the nlpsol (expansion, FATROP's structure
   detection) are reported separately, not in the solve time.
 
+Solver rows added where they run:
+
+* ``BoxFDDP``: crocoddyl's box-FDDP (where crocoddyl imports: it needs pinocchio 4.0.0, the environment of
+  ``.ci/run``'s crocoddyl step) on the same double integrator —
+  :func:`coop_ga.adapters.crocoddyl.double_integrator_problem`: the same knots, exact-ZOH dynamics, cost (the
+  terminal error through the adapter's ``SimilarityResidual``) and acceleration box (exact in box-FDDP); FDDP has
+  no state constraints, so the position and velocity bounds are a quadratic-barrier penalty of weight
+  ``CROC_BOUND_WEIGHT`` (its violation is in the table); same initial guess, its defaults, best of ``--repeat``
+  after a warm-up.  Its action models are Python classes (one call per knot per pass), as a crocoddyl user of the
+  residual writes them.
+
+Every solver runs on one core: the benchmark sets ``OPENBLAS_NUM_THREADS`` (and OMP/MKL) to 1 unless set.
+
 Item ratios printed at the end of the run (``ratios`` in the JSON):
 
-* with active state bounds (``velocity``): the iLQR's time to the optimum against IPOPT's and FATROP's solve
-  time — ``iLQR (tol = 0)`` run to stationarity, and the time its iteration history first comes within 1e-6
-  (relative) of the best feasible cost of the table (``time_to_optimum_s``, the sum of its iterations' times);
-* with the clearance constraints of the obstacle scene (``--clearance``, on by default; the scene, target and
+* with active state bounds (``velocity``): the iLQR's time to the optimum against IPOPT's, FATROP's and
+  BoxFDDP's solve time, by three definitions — ``iLQR (tol = 0)`` run to stationarity (its own end); the time its
+  iteration history (feasible iterates) first comes within 1e-6 (relative) of the best feasible cost of the table
+  (``time_to_optimum_s``, the sum of its iterations' times); and the time it first comes within 1e-6, 1e-8 and
+  IPOPT's own tol (1e-10), relative, of IPOPT's cost (``time_to_ipopt_cost_s``) — and how far the iLQR at its
+  default tol (``‖e‖ < 1e-5``, a test on the terminal error, not on optimality) stops from IPOPT's optimum;
+* with the clearance cost of the obstacle scene (``--clearance``, on by default; the scene, target and
   clearance cost of ``experiments/obstacle_circle.py``: a 4 cm sphere in arm 0's straight path, the circle carried
   30 cm along +y, 100 knots × 0.03 s, ``ClearanceCost(weight 1e4, activation 5 cm)``): the reach's solve time with
-  the clearance cost over the same reach without it, with iterations and time per iteration;
-* crocoddyl's BoxFDDP: not run — crocoddyl cannot be installed with this project's pinocchio 4.1.0 (crocoddyl
-  3.2.1 works only with pinocchio 4.0.0; its current wheel crashes with pinocchio 4 on frame costs); the run
-  says whether a crocoddyl module is importable at all.
+  the clearance cost over the same reach without it (each best of ``--repeat`` after a warm-up that builds the
+  compiled functions), with iterations and time per iteration, and the smallest clearance of both results at the
+  knots and at 10 points per interval of the exact motion, by ``coop_ga.collision`` and independently by coal's
+  GJK on the same capsules (``independent_clearance``).
+
+Measured 2026-12-02 on the shared 2-core machine under load 10–13 (wall times 2–12× the CPU times): see
+docs/performance.md ("The constrained reaching OCP") for the numbers of the last full run.
 
 Columns: iterations; solve time [ms] (wall) and CPU [ms]; the cost J of Eq 53 of the
 returned controls (re-integrated); ΔJ relative to the best feasible row; terminal ‖e‖;

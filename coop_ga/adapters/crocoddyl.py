@@ -16,6 +16,11 @@ every joint actuated: ``ActuationModelFull``), integrated by explicit Euler:
 ``crocoddyl.SolverBoxFDDP`` then keeps the torques within the model's effort limits.  coop_ga's iLQR solves the
 kinematic problem (a double integrator, Eq 53–57); the two reach the same primitive, not the same trajectory.
 
+:func:`double_integrator_problem` is coop_ga's iLQR's own problem instead (:class:`~coop_ga.control.ilqr.ReachingOCP`:
+the double integrator with exact zero-order hold, ``Σ uᵀRu + e(q_n)ᵀQe(q_n) + q̇_nᵀQ_vq̇_n`` with the terminal error
+through :class:`SimilarityResidual`, the acceleration bounds as the control box of ``SolverBoxFDDP``, the position
+and velocity bounds as an optional quadratic-barrier penalty): the crocoddyl row of ``benchmarks/ocp.py``.
+
 Versions: crocoddyl 3.2.1 (the last on the package index) is built against Pinocchio 4.0; with Pinocchio 4.1 it
 imports but its free forward dynamics disagree with ``pin.aba`` and its frame costs crash, so the ``crocoddyl``
 extra pins ``pin==4.0.0``.  The systems of coop_ga have revolute and prismatic joints only (nq = nv).

@@ -486,6 +486,16 @@ class ClearanceCost:
         viol = self.activation - d
         return 0.5 * self.weight * float(viol @ viol)
 
+    def trajectory_min(self, Q: np.ndarray) -> float:
+        """The smallest clearance [m] over the configurations Q (K, nq) and every pair (``inf`` without pairs): one
+        batched evaluation where the model has one (:meth:`~coop_ga.collision.model.CollisionModel.close_pairs`
+        with no cutoff), else :meth:`evaluate` at every configuration."""
+        Q = np.asarray(Q, float)
+        close = getattr(self.model, "close_pairs", None)
+        if not callable(close):
+            return float(min((self.evaluate(q, hessian=False)[3] for q in Q), default=np.inf))
+        return float(np.min(close(Q, np.inf)[2], initial=np.inf))
+
     def trajectory_rows(self, Q: np.ndarray, lookahead: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The rows of the hinge within ``lookahead`` [m] of activation along Q (K, nq) (d_i < d_a + lookahead):
         ``(k (m,) the configuration of each row, v (m,) = d_a − d_i [m] (> 0: active), J (m, nq) = ∂d_i/∂q)``;
