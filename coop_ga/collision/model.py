@@ -51,6 +51,14 @@ the shared 2-core machine by ``python -m coop_ga.collision.model``): ``distances
 (0.4–0.5 ms under load), ``distances_and_jacobian`` ≈ 0.35 ms (0.7 ms under load); the CasADi
 SX function with its AD Jacobian, interpreted, ≈ 1.2 ms.  ``tests/collision/test_model.py``
 prints the numbers of its run.
+
+Trajectories (the iLQR's clearance cost): :meth:`CollisionModel.trajectory_ends` places every capsule at K
+configurations in one call of generated C (the motor kinematics of :meth:`CollisionModel.casadi` mapped over K;
+~1.5 µs a configuration for three_franka), :meth:`CollisionModel.lower_bounds` bounds every distance by the
+capsules' bounding spheres (a broad phase: a capsule lies inside its sphere), and
+:meth:`CollisionModel.close_pairs` / :meth:`CollisionModel.close_pairs_and_jacobian` compute exactly, all at once,
+only the (configuration, pair) entries whose bound is below a cutoff — the same numbers as :meth:`distances` and
+Eq (3) (tested), at ~1.5 ms for 100 configurations of the obstacle scene against ~40 ms knot by knot.
 """
 
 from __future__ import annotations
