@@ -31,18 +31,37 @@ Solvers (same problem data, same initial guess u = 0 with the system at rest at 
   building the Opti problem and creating the nlpsol (expansion, FATROP's structure
   detection) are reported separately, not in the solve time.
 
+Solver rows added where they run:
+
+* ``BoxFDDP``: crocoddyl's box-FDDP (where crocoddyl imports: it needs pinocchio 4.0.0, the environment of
+  ``.ci/run``'s crocoddyl step) on the same double integrator —
+  :func:`coop_ga.adapters.crocoddyl.double_integrator_problem`: the same knots, exact-ZOH dynamics, cost (the
+  terminal error through the adapter's ``SimilarityResidual``) and acceleration box (exact in box-FDDP); FDDP has
+  no state constraints, so the position and velocity bounds are a quadratic-barrier penalty of weight
+  ``CROC_BOUND_WEIGHT`` (its violation is in the table); same initial guess, its defaults, best of ``--repeat``
+  after a warm-up.  Its action models are Python classes (one call per knot per pass), as a crocoddyl user of the
+  residual writes them.
+
+Every solver runs on one core: the benchmark sets ``OPENBLAS_NUM_THREADS`` (and OMP/MKL) to 1 unless set.
+
 Item ratios printed at the end of the run (``ratios`` in the JSON):
 
-* with active state bounds (``velocity``): the iLQR's time to the optimum against IPOPT's and FATROP's solve
-  time — ``iLQR (tol = 0)`` run to stationarity, and the time its iteration history first comes within 1e-6
-  (relative) of the best feasible cost of the table (``time_to_optimum_s``, the sum of its iterations' times);
-* with the clearance constraints of the obstacle scene (``--clearance``, on by default; the scene, target and
+* with active state bounds (``velocity``): the iLQR's time to the optimum against IPOPT's, FATROP's and
+  BoxFDDP's solve time, by three definitions — ``iLQR (tol = 0)`` run to stationarity (its own end); the time its
+  iteration history (feasible iterates) first comes within 1e-6 (relative) of the best feasible cost of the table
+  (``time_to_optimum_s``, the sum of its iterations' times); and the time it first comes within 1e-6, 1e-8 and
+  IPOPT's own tol (1e-10), relative, of IPOPT's cost (``time_to_ipopt_cost_s``) — and how far the iLQR at its
+  default tol (``‖e‖ < 1e-5``, a test on the terminal error, not on optimality) stops from IPOPT's optimum;
+* with the clearance cost of the obstacle scene (``--clearance``, on by default; the scene, target and
   clearance cost of ``experiments/obstacle_circle.py``: a 4 cm sphere in arm 0's straight path, the circle carried
   30 cm along +y, 100 knots × 0.03 s, ``ClearanceCost(weight 1e4, activation 5 cm)``): the reach's solve time with
-  the clearance cost over the same reach without it, with iterations and time per iteration;
-* crocoddyl's BoxFDDP: not run — crocoddyl cannot be installed with this project's pinocchio 4.1.0 (crocoddyl
-  3.2.1 works only with pinocchio 4.0.0; its current wheel crashes with pinocchio 4 on frame costs); the run
-  says whether a crocoddyl module is importable at all.
+  the clearance cost over the same reach without it (each best of ``--repeat`` after a warm-up that builds the
+  compiled functions), with iterations and time per iteration, and the smallest clearance of both results at the
+  knots and at 10 points per interval of the exact motion, by ``coop_ga.collision`` and independently by coal's
+  GJK on the same capsules (``independent_clearance``).
+
+Measured 2026-12-02 on the shared 2-core machine under load 10–13 (wall times 2–12× the CPU times): see
+docs/performance.md ("The constrained reaching OCP") for the numbers of the last full run.
 
 Columns: iterations; solve time [ms] (wall) and CPU [ms]; the cost J of Eq 53 of the
 returned controls (re-integrated); ΔJ relative to the best feasible row; terminal ‖e‖;
@@ -57,9 +76,15 @@ Run: ``python benchmarks/ocp.py`` (``--help`` for the options).  Every number go
 
 from __future__ import annotations
 
+import os
+
+# every solver on one core: multi-threaded BLAS on a loaded 2-core machine made single linear solves of the iLQR's
+# clearance step 50× slower (6.5 ms → 307 ms measured) and the plain reach's times erratic; set before numpy loads
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
 import argparse
 import dataclasses
-import os
 import platform
 import sys
 import time
@@ -79,6 +104,7 @@ from coop_ga.harness import Experiment, int_at_least, positive_float, positive_i
 TARGET = {"translation": (0.10, -0.05, 0.10), "axis": (1.0, 0.0, 0.0), "angle": np.deg2rad(25.0), "scale": 1.25}
 PROBLEMS = ("flagship", "velocity", "position")
 FEASIBLE = 1e-6  # bound violation below which a row counts as feasible
+REF_TOL = 1e-10  # IPOPT's and FATROP's tol (ReferenceProblem's default)
 
 
 def make_system(name: str) -> tuple[Any, str]:
@@ -200,9 +226,49 @@ def _obstacle_scene() -> Any:
     return mod
 
 
+def independent_clearance(cm: Any, Q: np.ndarray, rows: str = "all") -> float:
+    """The smallest clearance [m] of the collision model's pairs at the configurations Q (K, nq), computed by coal's
+    GJK on the same capsules and spheres (``coal.Capsule``/``coal.Sphere`` placed by Pinocchio's frame placements):
+    an implementation independent of ``coop_ga.collision``'s closed forms and compiled kinematics.  ``rows``:
+    ``"all"`` or ``"obstacle"``."""
+    import coal
+    import pinocchio as pin
+
+    model = cm.system.model
+    data = model.createData()
+    caps = cm.capsules
+    fids = [model.getFrameId(c.frame) for c in caps]
+    shapes = [coal.Capsule(c.radius, float(np.linalg.norm(c.b - c.a))) for c in caps]
+    req, res = coal.DistanceRequest(), coal.DistanceResult()
+    pairs = [(int(i), int(k), kind) for (i, k), kind in zip(cm.pairs, cm.kinds) if rows == "all" or kind == "obstacle"]
+    obst = [(coal.Sphere(ob.radius), coal.Transform3s(np.eye(3), np.asarray(ob.center, float))) for ob in cm.obstacles]
+    best = np.inf
+    for q in Q:
+        pin.framesForwardKinematics(model, data, q)
+        tf = []
+        for c, f in zip(caps, fids):
+            M = data.oMf[f]
+            a, b = M.act(c.a), M.act(c.b)
+            z = b - a
+            L = float(np.linalg.norm(z))
+            z = z / L if L > 0 else np.array([0.0, 0.0, 1.0])
+            x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
+            x /= np.linalg.norm(x)
+            tf.append(coal.Transform3s(np.column_stack([x, np.cross(z, x), z]), 0.5 * (a + b)))
+        for i, k, kind in pairs:
+            if kind == "obstacle":
+                d = coal.distance(shapes[i], tf[i], obst[k][0], obst[k][1], req, res)
+            else:
+                d = coal.distance(shapes[i], tf[i], shapes[k], tf[k], req, res)
+            best = min(best, d - cm.margin)
+    return float(best)
+
+
 def run_clearance(repeat: int) -> dict[str, Any]:
-    """The obstacle scene's reach with and without the clearance cost (module docstring): best of ``repeat`` without,
-    one solve with it."""
+    """The obstacle scene's reach with and without the clearance cost (module docstring): each best of ``repeat``
+    after a warm-up (which builds the task's and the collision model's compiled functions, outside the timed solve),
+    and the clearance of the result: at the knots and at ``SUBSAMPLES`` points per interval of the exact motion by
+    ``coop_ga.collision``, and at the knots (every pair) and the dense points (the obstacle pairs) by coal."""
     from coop_ga.collision.distance import Sphere
     from coop_ga.collision.model import CollisionModel
     from coop_ga.control.avoidance import ClearanceCost
@@ -216,17 +282,22 @@ def run_clearance(repeat: int) -> dict[str, Any]:
     out: dict[str, Any] = {"horizon": sc.ILQR_HORIZON, "dt": sc.ILQR_DT}
     for key, cost in (("plain", None), ("clearance", ClearanceCost(cm, sc.CLEARANCE_WEIGHT, sc.CLEARANCE_ACTIVATION))):
         call = dict(horizon=sc.ILQR_HORIZON, dt=sc.ILQR_DT, clearance=cost)
-        if cost is None:
-            ilqr_reach(task, q0, Vd, **call)  # warm-up: compiles the task's functions (the collision model has none)
-        n = repeat if cost is None else 1  # the clearance reach takes seconds to minutes: once
-        best = min((ilqr_reach(task, q0, Vd, **call) for _ in range(n)), key=lambda r: r.solve_time_s)
+        ilqr_reach(task, q0, Vd, **call)  # warm-up
+        best = min((ilqr_reach(task, q0, Vd, **call) for _ in range(repeat)), key=lambda r: r.solve_time_s)
+        dense = sc._dense(best, sc.SUBSAMPLES)
         out[key] = {
             "solve_time_s": best.solve_time_s,
             "iterations": best.iterations,
             "per_iteration_s": best.solve_time_s / max(best.iterations, 1),
             "converged": best.converged,
             "error": best.error,
-            "min_clearance_knots_m": float(min(cm.min_clearance(q) for q in best.trajectory)),
+            "cost": best.cost,
+            "backward": [it.backward for it in best.stats],
+            "line_search_trials": int(sum(it.line_search_trials for it in best.stats)),
+            "min_clearance_knots_m": float(cm.min_clearance(best.trajectory).min()),
+            "min_clearance_dense_m": float(cm.min_clearance(dense).min()),
+            "coal_min_clearance_knots_m": independent_clearance(cm, best.trajectory),
+            "coal_min_clearance_dense_obstacle_m": independent_clearance(cm, dense, "obstacle"),
         }
     p, c = out["plain"], out["clearance"]
     out["time_ratio"] = c["solve_time_s"] / p["solve_time_s"]
@@ -234,13 +305,13 @@ def run_clearance(repeat: int) -> dict[str, Any]:
     return out
 
 
-def _ratios(problems: dict[str, Any], clearance: dict[str, Any] | None) -> dict[str, Any]:
+def _ratios(problems: dict[str, Any], clearance: dict[str, Any] | None, croc: bool = False) -> dict[str, Any]:
     """The ratios of the module docstring, and the lines that print them."""
     out: dict[str, Any] = {"lines": []}
     for name, pr in problems.items():
         rows = {r["solver"]: r for r in pr["rows"]}
         il, il0 = rows.get("iLQR"), rows.get("iLQR (tol = 0)")
-        for ref in ("IPOPT", "FATROP"):
+        for ref in ("IPOPT", "FATROP", "BoxFDDP"):
             if ref not in rows or il0 is None or il is None:
                 continue
             t_ref = rows[ref]["solve_time_s"]
@@ -250,14 +321,28 @@ def _ratios(problems: dict[str, Any], clearance: dict[str, Any] | None) -> dict[
                 "ilqr_time_to_optimum_over_ref": None if tto is None else tto / t_ref,
                 "ilqr_tol_over_ref": il["solve_time_s"] / t_ref,
             }
+            tip = il0.get("time_to_ipopt_cost_s") or {}
+            d["ilqr_time_to_ipopt_cost_over_ref"] = {k: None if v is None else v / t_ref for k, v in tip.items()}
             out[f"{name}_vs_{ref.lower()}"] = d
             tto_s = (
                 "never within 1e-6 of the best cost" if tto is None else f"{d['ilqr_time_to_optimum_over_ref']:.3g}×"
             )
+            near = ", ".join(
+                f"{k}: " + ("never" if v is None else f"{v:.3g}×")
+                for k, v in d["ilqr_time_to_ipopt_cost_over_ref"].items()
+            )
             out["lines"].append(
                 f"[{name}] iLQR vs {ref}: to stationarity (tol = 0) {d['ilqr_tol0_over_ref']:.3g}×, to within 1e-6 of "
                 f"the best cost {tto_s}, to its tol {d['ilqr_tol_over_ref']:.3g}× {ref}'s solve time"
+                + (f"; to within (relative) {near} of IPOPT's cost" if near else "")
                 + (" (target ≤ 1.0× with active state bounds)" if name == "velocity" else "")
+            )
+        if il is not None and "IPOPT" in rows:
+            gap = (il["cost"] - rows["IPOPT"]["cost"]) / abs(rows["IPOPT"]["cost"])
+            out[f"{name}_default_tol_gap"] = gap
+            out["lines"].append(
+                f"[{name}] the iLQR at its default tol stops {gap:+.2e} (relative cost) from IPOPT's optimum "
+                f"(terminal ‖e‖ {il['terminal_error']:.1e})"
             )
     if clearance is not None:
         p, c = clearance["plain"], clearance["clearance"]
@@ -265,12 +350,40 @@ def _ratios(problems: dict[str, Any], clearance: dict[str, Any] | None) -> dict[
         out["lines"].append(
             f"[clearance] the obstacle scene's reach with the clearance cost takes {clearance['time_ratio']:.1f}× the "
             f"same reach without it (target ≤ 5×): {1e3 * c['solve_time_s']:.0f} ms, {c['iterations']} iterations "
-            f"(converged {c['converged']}, ‖e‖ {c['error']:.1e}, clearance at the knots "
-            f"{1e3 * c['min_clearance_knots_m']:.1f} mm) vs {1e3 * p['solve_time_s']:.0f} ms, {p['iterations']} "
-            f"iterations ({1e3 * p['min_clearance_knots_m']:.1f} mm); per iteration {clearance['per_iteration_ratio']:.1f}×"
+            f"(converged {c['converged']}, ‖e‖ {c['error']:.1e}) vs {1e3 * p['solve_time_s']:.0f} ms, "
+            f"{p['iterations']} iterations; per iteration {clearance['per_iteration_ratio']:.1f}×"
         )
-    out["lines"].append(crocoddyl_note())
+        for key, what in (("clearance", "with the clearance cost"), ("plain", "without it")):
+            r = clearance[key]
+            if "coal_min_clearance_knots_m" not in r:
+                continue
+            out["lines"].append(
+                f"[clearance] smallest clearance {what}: {1e3 * r['min_clearance_knots_m']:.1f} mm at the knots, "
+                f"{1e3 * r['min_clearance_dense_m']:.1f} mm at 10 points per interval (coop_ga.collision); by coal: "
+                f"{1e3 * r['coal_min_clearance_knots_m']:.1f} mm at the knots, "
+                f"{1e3 * r['coal_min_clearance_dense_obstacle_m']:.1f} mm to the obstacle at 10 points per interval"
+            )
+    if not croc:
+        out["lines"].append(crocoddyl_note())
     return out
+
+
+#: BoxFDDP's weight of the quadratic-barrier penalty that stands for the position and velocity bounds (FDDP has no
+#: state constraints): ½·weight·dist(x, box)² at every knot
+CROC_BOUND_WEIGHT = 1e6
+
+
+def crocoddyl_available() -> bool:
+    """Whether crocoddyl imports here (it runs with pinocchio 4.0.0 only: the CI's second environment)."""
+    import importlib.util
+
+    if importlib.util.find_spec("crocoddyl") is None:
+        return False
+    try:
+        import coop_ga.adapters.crocoddyl  # noqa: F401
+    except Exception:  # a crocoddyl that does not load with this pinocchio
+        return False
+    return True
 
 
 def crocoddyl_note() -> str:
@@ -281,9 +394,50 @@ def crocoddyl_note() -> str:
 
     found = importlib.util.find_spec("crocoddyl") is not None
     return (
-        f"[crocoddyl] BoxFDDP not run: crocoddyl cannot be installed with this pinocchio {pinocchio.__version__} "
-        "(crocoddyl 3.2.1 works only with pinocchio 4.0.0; its current wheel crashes with pinocchio 4 on frame "
-        f"costs); crocoddyl importable here: {found}"
+        f"[crocoddyl] BoxFDDP not run: crocoddyl 3.2.1 works only with pinocchio 4.0.0 (this one is "
+        f"{pinocchio.__version__}; its wheel crashes with pinocchio 4.1 on frame costs); crocoddyl importable here: "
+        f"{found}.  Run this benchmark in the environment with pin 4.0.0 and crocoddyl (.ci/run's croc step) for "
+        "its row"
+    )
+
+
+def run_boxfddp(ocp: ReachingOCP, lim: Any, repeat: int) -> dict[str, Any]:
+    """crocoddyl's BoxFDDP on the same double integrator (:func:`coop_ga.adapters.crocoddyl.double_integrator_problem`:
+    same knots, cost, acceleration box; the position/velocity bounds as a quadratic-barrier penalty of weight
+    ``CROC_BOUND_WEIGHT``), from the same initial guess (u = 0 at rest), its defaults (th_stop
+    1e-9, at most 1000 iterations); best of ``repeat`` after a warm-up."""
+    import crocoddyl
+
+    from coop_ga.adapters.crocoddyl import double_integrator_problem
+
+    problem = double_integrator_problem(ocp, state_bounds=CROC_BOUND_WEIGHT)
+    x0 = np.concatenate([ocp.q_init, ocp.qd_init])
+    xs0 = [x0] * (ocp.horizon + 1)
+    us0 = [np.zeros(ocp.nq)] * ocp.horizon
+
+    def solve() -> tuple[Any, float, float, bool]:
+        solver = crocoddyl.SolverBoxFDDP(problem)
+        c0, t0 = time.process_time(), time.perf_counter()
+        ok = solver.solve(xs0, us0, 1000, False)
+        return solver, time.perf_counter() - t0, time.process_time() - c0, bool(ok)
+
+    solve()  # warm-up
+    best = min((solve() for _ in range(max(1, repeat))), key=lambda r: r[1])
+    solver, wall, cpu, ok = best
+    u = np.array(solver.us)
+    q, qd = ocp.rollout(u)
+    return _row(
+        "BoxFDDP",
+        iterations=solver.iter,
+        solve_s=wall,
+        cpu_s=cpu,
+        u=u,
+        q=q,
+        qd=qd,
+        ocp=ocp,
+        lim=lim,
+        status=f"{'ok' if ok else 'not converged'} (stop {solver.stop:.1e}; q/q̇ bounds a penalty)",
+        success=ok,
     )
 
 
@@ -339,6 +493,7 @@ def main(argv: list[str] | None = None) -> int:
     exp.add("--no-ipopt", action="store_true", help="skip IPOPT")
     exp.add("--no-clearance", action="store_true", help="skip the obstacle scene's reach with/without clearance")
     exp.add("--no-fatrop", action="store_true", help="skip FATROP")
+    exp.add("--no-crocoddyl", action="store_true", help="skip crocoddyl's BoxFDDP (run only where it imports)")
     exp.add(
         "--json",
         type=Path,
@@ -354,6 +509,7 @@ def main(argv: list[str] | None = None) -> int:
     solvers = [s for s, skip in (("ipopt", args.no_ipopt), ("fatrop", args.no_fatrop)) if not skip]
     missing = [s for s in solvers if not ca.has_nlpsol(s)]
     solvers = [s for s in solvers if s not in missing]
+    croc = not args.no_crocoddyl and crocoddyl_available()
     kw, note = ilqr_kwargs(args.terminal)
     out: dict[str, Any] = {
         "meta": {
@@ -403,13 +559,22 @@ def main(argv: list[str] | None = None) -> int:
                     f"{r['nlpsol_creation_s']:.2f} s (not in the solve time)",
                     flush=True,
                 )
+        if croc:
+            with exp.stage(f"[{name}] crocoddyl BoxFDDP"):
+                rows.append(run_boxfddp(ocp, lim, args.repeat))
         ref_t = rows[0]["solve_time_s"]
         feasible = [r["cost"] for r in rows if r["max_violation"] <= FEASIBLE and r["success"]] or [
             r["cost"] for r in rows if r["max_violation"] <= FEASIBLE
         ]
         jmin = min(feasible) if feasible else np.nan
         table = []
-        rows[1]["time_to_optimum_s"] = time_to_optimum(rows[1].pop("_result"), jmin) if np.isfinite(jmin) else None
+        res0 = rows[1].pop("_result")
+        rows[1]["time_to_optimum_s"] = time_to_optimum(res0, jmin) if np.isfinite(jmin) else None
+        ipopt = next((r for r in rows if r["solver"] == "IPOPT" and r["success"]), None)
+        if ipopt is not None:  # within IPOPT's own tolerance (relative) of IPOPT's optimum, and looser levels
+            rows[1]["time_to_ipopt_cost_s"] = {
+                f"{rel:g}": time_to_optimum(res0, ipopt["cost"], rel) for rel in (1e-6, 1e-8, REF_TOL)
+            }
         rows[0].pop("_result")
         for r in rows:
             r["rel_cost"] = (r["cost"] - jmin) / abs(jmin) if np.isfinite(jmin) else np.nan
@@ -454,7 +619,7 @@ def main(argv: list[str] | None = None) -> int:
         with exp.stage("[clearance] the obstacle scene's reach with and without the clearance cost"):
             clearance = run_clearance(args.repeat)
         out["clearance"] = clearance
-    out["ratios"] = _ratios(out["problems"], clearance)
+    out["ratios"] = _ratios(out["problems"], clearance, croc)
     print("\nRatios (wall solve times of this run, load " + f"{os.getloadavg()[0]:.1f}):")
     for line in out["ratios"]["lines"]:
         print("  " + line)

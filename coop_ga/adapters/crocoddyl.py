@@ -16,6 +16,11 @@ every joint actuated: ``ActuationModelFull``), integrated by explicit Euler:
 ``crocoddyl.SolverBoxFDDP`` then keeps the torques within the model's effort limits.  coop_ga's iLQR solves the
 kinematic problem (a double integrator, Eq 53–57); the two reach the same primitive, not the same trajectory.
 
+:func:`double_integrator_problem` is coop_ga's iLQR's own problem instead (:class:`~coop_ga.control.ilqr.ReachingOCP`:
+the double integrator with exact zero-order hold, ``Σ uᵀRu + e(q_n)ᵀQe(q_n) + q̇_nᵀQ_vq̇_n`` with the terminal error
+through :class:`SimilarityResidual`, the acceleration bounds as the control box of ``SolverBoxFDDP``, the position
+and velocity bounds as an optional quadratic-barrier penalty): the crocoddyl row of ``benchmarks/ocp.py``.
+
 Versions: crocoddyl 3.2.1 (the last on the package index) is built against Pinocchio 4.0; with Pinocchio 4.1 it
 imports but its free forward dynamics disagree with ``pin.aba`` and its frame costs crash, so the ``crocoddyl``
 extra pins ``pin==4.0.0``.  The systems of coop_ga have revolute and prismatic joints only (nq = nv).
@@ -32,7 +37,7 @@ import pinocchio as pin
 from .. import validation
 from ..errors import InvalidInputError
 
-__all__ = ["SimilarityResidual", "SimilarityResidualData", "reach_problem"]
+__all__ = ["SimilarityResidual", "SimilarityResidualData", "double_integrator_problem", "reach_problem"]
 
 
 class SimilarityResidual(crocoddyl.ResidualModelAbstract):
@@ -159,3 +164,101 @@ def reach_problem(
         return crocoddyl.IntegratedActionModelEuler(dam, h)
 
     return crocoddyl.ShootingProblem(x0, [model(running, step)] * n, model(terminal, 0.0))
+
+
+class _DoubleIntegrator(crocoddyl.ActionModelAbstract):
+    """One knot of :func:`double_integrator_problem`: ``x⁺ = A x + B u`` (exact ZOH, or x⁺ = x at the terminal
+    node) and the cost of a ``crocoddyl.CostModelSum``."""
+
+    def __init__(self, state: Any, costs: Any, A: np.ndarray, B: np.ndarray, terminal: bool):
+        crocoddyl.ActionModelAbstract.__init__(self, state, int(B.shape[1]), int(costs.nr))
+        self.costs, self.A, self.B, self.terminal = costs, A, B, terminal
+        self._zero = np.zeros(int(B.shape[1]))
+
+    def calc(self, data: Any, x: Any, u: Any = None) -> None:
+        u = self._zero if u is None or self.terminal else u
+        self.costs.calc(data.costs, x, u)
+        data.cost = data.costs.cost
+        data.xnext[:] = x if self.terminal else self.A @ x + self.B @ u
+
+    def calcDiff(self, data: Any, x: Any, u: Any = None) -> None:
+        u = self._zero if u is None or self.terminal else u
+        self.costs.calcDiff(data.costs, x, u)
+        c = data.costs
+        data.Lx[:], data.Lxx[:] = c.Lx, c.Lxx
+        if not self.terminal:
+            data.Fx[:], data.Fu[:] = self.A, self.B
+            data.Lu[:], data.Luu[:], data.Lxu[:] = c.Lu, c.Luu, c.Lxu
+
+    def createData(self) -> Any:
+        return _DoubleIntegratorData(self)
+
+
+class _DoubleIntegratorData(crocoddyl.ActionDataAbstract):
+    def __init__(self, model: _DoubleIntegrator):
+        crocoddyl.ActionDataAbstract.__init__(self, model)
+        self.collector = crocoddyl.DataCollectorAbstract()
+        self.costs = model.costs.createData(self.collector)
+
+
+def _diagonal(W: np.ndarray, what: str) -> np.ndarray:
+    """The diagonal of a weight matrix that must be diagonal (crocoddyl's weighted activations)."""
+    d = np.diag(W).copy()
+    if not np.allclose(W, np.diag(d)):
+        raise InvalidInputError(f"{what} must be diagonal for crocoddyl's weighted quadratic activation")
+    return d
+
+
+def double_integrator_problem(ocp: Any, *, state_bounds: float | None = None) -> crocoddyl.ShootingProblem:
+    """coop_ga's reaching OCP (Eq 53–57, :class:`~coop_ga.control.ilqr.ReachingOCP`) as a crocoddyl shooting problem
+    on the same double integrator: the same knots, dynamics (x = [q; q̇], u = q̈, exact ZOH), cost and control box.
+
+    * running nodes k = 0 … n−1: ``u_kᵀ R u_k`` (``ResidualModelControl``, weights 2R) and x⁺ = A x + B u;
+    * terminal node: ``e(q_n)ᵀ Q e(q_n)`` (:class:`SimilarityResidual`, weights 2Q) + ``q̇_nᵀ Q_v q̇_n``;
+    * the acceleration bounds ``|u_k| ≤ a`` as the action models' control limits (``u_lb``, ``u_ub``): exact for
+      ``crocoddyl.SolverBoxFDDP``;
+    * the position and velocity bounds at the knots 1 … n (FDDP has no state constraints): with ``state_bounds``
+      (a weight) a ``ActivationModelQuadraticBarrier`` penalty ``weight · ½ dist(x, box)²`` — not a constraint, so
+      its solution may violate them (measure it); None (default): left out.
+
+    R, Q, Q_v must be diagonal (crocoddyl's weighted activations).  The problem holds Python action models (one
+    call per knot per pass), as a crocoddyl user of this residual would write them.
+
+    Raises:
+        InvalidInputError: a non-diagonal weight, or a task whose system has nq ≠ nv.
+    """
+    task, n = ocp.task, int(ocp.nq)
+    state = crocoddyl.StateMultibody(pin.Model(task.system.model))
+    r2, q2, qv2 = (2.0 * _diagonal(W, name) for W, name in ((ocp.R, "R"), (ocp.Q, "Q"), (ocp.Qv, "Qv")))
+    x0 = np.concatenate([ocp.q_init, ocp.qd_init])
+    running = crocoddyl.CostModelSum(state, n)
+    ctrl = crocoddyl.ResidualModelControl(state, n)
+    running.addCost("control", crocoddyl.CostModelResidual(state, crocoddyl.ActivationModelWeightedQuad(r2), ctrl), 1.0)
+    lo = np.concatenate([ocp.q_lower, -ocp.v_max])
+    hi = np.concatenate([ocp.q_upper, ocp.v_max])
+    if state_bounds is not None and np.any(np.isfinite(lo) | np.isfinite(hi)):
+        big = 1e10  # crocoddyl's bounds must be finite
+        act = crocoddyl.ActivationModelQuadraticBarrier(
+            crocoddyl.ActivationBounds(np.maximum(lo, -big), np.minimum(hi, big))
+        )
+        res = crocoddyl.ResidualModelState(state, np.zeros(2 * n), n)
+        bounds = crocoddyl.CostModelResidual(state, act, res)
+        running.addCost("bounds", bounds, validation.positive(state_bounds, "state_bounds"))
+    terminal = crocoddyl.CostModelSum(state, n)
+    sim = SimilarityResidual(state, task, ocp.target, n)
+    terminal.addCost(
+        "similarity", crocoddyl.CostModelResidual(state, crocoddyl.ActivationModelWeightedQuad(q2), sim), 1.0
+    )
+    rest = crocoddyl.ActivationModelWeightedQuad(np.concatenate([np.zeros(n), qv2]))
+    zero = crocoddyl.ResidualModelState(state, np.zeros(2 * n), n)  # x itself: its q̇ part is q̇_n
+    terminal.addCost("rest", crocoddyl.CostModelResidual(state, rest, zero), 1.0)
+    if state_bounds is not None:
+        terminal.addCost("bounds", bounds, state_bounds)  # the bound at knot n as well
+    A, B = np.asarray(ocp.A, float), np.asarray(ocp.B, float)
+    models = []
+    for _ in range(ocp.horizon):
+        m = _DoubleIntegrator(state, running, A, B, terminal=False)
+        if np.all(np.isfinite(ocp.a_max)):
+            m.u_lb, m.u_ub = -ocp.a_max, ocp.a_max.copy()
+        models.append(m)
+    return crocoddyl.ShootingProblem(x0, models, _DoubleIntegrator(state, terminal, A, B, terminal=True))

@@ -418,6 +418,12 @@ def conformal_point(x: Any) -> Multivector:
 
 
 def _point_sphere_product(v: Vec3, sphere: Sphere) -> Any:
+    if type(v[0]) is np.ndarray and v[0].ndim:
+        # a numpy batch (the collision model's trajectories): the same inner product expanded,
+        # P(x)·S = x·c − ½|x|² − ½(|c|² − r²) = ½(r² − |x − c|²) — the Multivector product costs ~1 ms per call
+        c = sphere.center
+        w = (v[0] - c[0], v[1] - c[1], v[2] - c[2])
+        return 0.5 * (sphere.radius * sphere.radius - _dot(w, w))
     P = Multivector(_VEC, (1.0 + 0.0 * v[0], v[0], v[1], v[2], 0.5 * _dot(v, v)))
     return P.lc(sphere.dual).get(0)
 

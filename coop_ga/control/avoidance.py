@@ -482,6 +482,48 @@ class ClearanceCost:
             H = self.weight * (JA.T @ JA)
         return c, g, H, float(d.min(initial=np.inf))
 
+    def trajectory_value(self, Q: np.ndarray) -> float:
+        """``Σ_k c(q_k)`` over the configurations Q (K, nq): with a model that has a broad phase
+        (:meth:`~coop_ga.collision.model.CollisionModel.close_pairs`), one batched kinematics call and the exact
+        distances of the pairs whose bounding spheres come within the activation distance only."""
+        close = getattr(self.model, "close_pairs", None)
+        if not callable(close):
+            return float(sum(self.value(q) for q in Q))
+        _, _, d = close(np.asarray(Q, float), self.activation)
+        viol = self.activation - d
+        return 0.5 * self.weight * float(viol @ viol)
+
+    def trajectory_min(self, Q: np.ndarray) -> float:
+        """The smallest clearance [m] over the configurations Q (K, nq) and every pair (``inf`` without pairs): one
+        batched evaluation where the model has one (:meth:`~coop_ga.collision.model.CollisionModel.close_pairs`
+        with no cutoff), else :meth:`evaluate` at every configuration."""
+        Q = np.asarray(Q, float)
+        close = getattr(self.model, "close_pairs", None)
+        if not callable(close):
+            return float(min((self.evaluate(q, hessian=False)[3] for q in Q), default=np.inf))
+        return float(np.min(close(Q, np.inf)[2], initial=np.inf))
+
+    def trajectory_rows(self, Q: np.ndarray, lookahead: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The rows of the hinge within ``lookahead`` [m] of activation along Q (K, nq) (d_i < d_a + lookahead):
+        ``(k (m,) the configuration of each row, v (m,) = d_a − d_i [m] (> 0: active), J (m, nq) = ∂d_i/∂q)``;
+        the cost is ``½ weight Σ max(0, v)²``, its gradient at q_k ``−weight Σ_{rows at k} max(0, v) J_rᵀ`` and
+        its Gauss–Newton Hessian ``weight Σ_{v > 0} J_rᵀ J_r``.  Jacobians only of these rows
+        (:meth:`~coop_ga.collision.model.CollisionModel.close_pairs_and_jacobian`) where the model can; else
+        :meth:`evaluate`'s model at every configuration."""
+        Q = np.asarray(Q, float)
+        cut = self.activation + validation.nonnegative(lookahead, "lookahead [m]")
+        if not callable(getattr(self.model, "close_pairs_and_jacobian", None)):
+            ks, vs, Js = [], [], []
+            for k, q in enumerate(Q):
+                d, Jd = model_distances(self.model, q)
+                a = np.flatnonzero(d < cut)
+                ks.append(np.full(a.size, k))
+                vs.append(self.activation - d[a])
+                Js.append(Jd[a])
+            return np.concatenate(ks).astype(int), np.concatenate(vs), np.concatenate(Js).reshape(-1, Q.shape[1])
+        kk, _, d, J = self.model.close_pairs_and_jacobian(Q, cut)
+        return kk, self.activation - d, J
+
     def value(self, q: np.ndarray) -> float:
         """c(q) at one configuration."""
         qv = np.asarray(q, float)

@@ -12,8 +12,9 @@ crocoddyl = pytest.importorskip("crocoddyl")
 import pinocchio as pin  # noqa: E402
 
 import coop_ga as cg  # noqa: E402
-from coop_ga.adapters.crocoddyl import SimilarityResidual, reach_problem  # noqa: E402
+from coop_ga.adapters.crocoddyl import SimilarityResidual, double_integrator_problem, reach_problem  # noqa: E402
 from coop_ga.control import displaced_target, ilqr_reach  # noqa: E402
+from coop_ga.control.ilqr import ReachingOCP  # noqa: E402
 from coop_ga.errors import InvalidInputError  # noqa: E402
 from coop_ga.geometry.similarity import primitive_parameters  # noqa: E402
 
@@ -107,3 +108,23 @@ def test_bad_input_is_refused(circle, load_system):
         reach_problem(task, q0, target, w_error=-1.0)
     with pytest.raises(InvalidInputError, match="q_init"):
         reach_problem(task, q0[:3], target)
+
+
+def test_double_integrator_problem_is_coop_gas_ocp(circle):
+    """The crocoddyl problem of the iLQR's own OCP: its cost is J(u) of ReachingOCP for any controls (to round-off),
+    and BoxFDDP from rest ends at the iLQR's optimum (tol = 0) to 1e-4 of the cost, inside the acceleration box."""
+    task, q0, target = circle
+    ocp = ReachingOCP(task, q0, target, horizon=30, dt=0.05)
+    problem = double_integrator_problem(ocp, state_bounds=1e6)
+    u = 0.3 * np.random.default_rng(1).standard_normal((30, task.nq))
+    xs = problem.rollout(list(u))
+    assert problem.calc(xs, list(u)) == pytest.approx(ocp.cost(u), rel=1e-12)
+    np.testing.assert_allclose(np.asarray(xs)[:, : task.nq], ocp.rollout(u)[0], atol=1e-12)
+    solver = crocoddyl.SolverBoxFDDP(problem)
+    solver.solve([problem.x0] * 31, [np.zeros(task.nq)] * 30, 500, False)
+    ilqr = ilqr_reach(task, q0, target, horizon=30, dt=0.05, terminal="soft", tol=0.0)
+    U = np.asarray(solver.us)
+    assert ocp.cost(U) == pytest.approx(ilqr.cost, rel=1e-4), (ocp.cost(U), ilqr.cost)
+    assert np.all(np.abs(U) <= ocp.a_max + 1e-12)
+    with pytest.raises(InvalidInputError):
+        double_integrator_problem(ReachingOCP(task, q0, target, horizon=5, Q=np.ones((7, 7)) + np.eye(7)))

@@ -176,3 +176,53 @@ def test_speed_three_franka(franka, cm):
         out[name] = 1e6 * (time.perf_counter() - t0) / reps
     print(f"\nthree_franka, {cm.n} distances: {out}")
     assert out["distances"] < 20_000 and out["distances_and_jacobian"] < 40_000
+
+
+# ----------------------------------------------------------------------------- trajectories (broad phase)
+def _trajectory(franka: object, K: int = 12, scale: float = 0.25) -> np.ndarray:
+    q0 = np.asarray(franka.q0, float)  # type: ignore[attr-defined]
+    return q0 + scale * np.random.default_rng(7).standard_normal((K, q0.size))
+
+
+def test_trajectory_ends_equal_pinocchio_placements(franka, cm):
+    Q = _trajectory(franka)
+    A, B = cm.trajectory_ends(Q)
+    assert A.shape == B.shape == (len(Q), len(cm.capsules), 3)
+    for k in (0, 5, 11):
+        A0, B0 = cm.capsule_segments(Q[k])
+        np.testing.assert_allclose(A[k], A0, atol=1e-12)
+        np.testing.assert_allclose(B[k], B0, atol=1e-12)
+
+
+def test_close_pairs_are_every_pair_below_the_cutoff_exactly(franka, cm):
+    """The broad phase drops no pair: close_pairs returns exactly the (configuration, row) pairs of the full
+    evaluation below the cutoff, with the same distances; the bounding-sphere bounds never exceed a distance."""
+    Q = _trajectory(franka)
+    D = np.array([cm.distances(q) for q in Q])
+    A, B = cm.trajectory_ends(Q)
+    assert np.all(cm.lower_bounds(A, B) <= D + 1e-12)
+    for cutoff in (0.0, 0.05, 0.2):
+        kk, rows, d = cm.close_pairs(Q, cutoff)
+        expect = np.argwhere(D < cutoff)
+        assert len(expect) > 0 or cutoff == 0.0
+        assert sorted(zip(kk.tolist(), rows.tolist())) == sorted(map(tuple, expect.tolist()))
+        np.testing.assert_allclose(d, D[kk, rows], atol=1e-12)
+
+
+def test_close_pairs_jacobian_rows_match_the_full_jacobian_and_differences(franka, cm):
+    Q = _trajectory(franka, K=4)
+    kk, rows, d, J = cm.close_pairs_and_jacobian(Q, 0.1)
+    assert len(kk) > 20
+    h = 1e-6
+    for i in range(0, len(kk), max(1, len(kk) // 15)):
+        k, r = int(kk[i]), int(rows[i])
+        np.testing.assert_allclose(J[i], cm.distances_and_jacobian(Q[k])[1][r], atol=1e-12)
+        dq = np.zeros(cm.nq)
+        for j in np.flatnonzero(np.abs(J[i]) > 1e-3)[:3]:
+            dq[:] = 0.0
+            dq[j] = h
+            fd = (cm.distances(Q[k] + dq)[r] - cm.distances(Q[k] - dq)[r]) / (2 * h)
+            assert fd == pytest.approx(J[i, j], abs=1e-6)
+    d2, J2 = cm.rows_and_jacobian(Q[kk[0]], rows[kk == kk[0]])
+    np.testing.assert_allclose(d2, d[kk == kk[0]], atol=1e-12)
+    np.testing.assert_allclose(J2, J[kk == kk[0]], atol=1e-12)

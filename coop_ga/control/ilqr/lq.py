@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .problem import ReachingOCP
+from .problem import ClearanceRows, ReachingOCP
 
 __all__ = [
     "Condensation",
@@ -17,6 +17,7 @@ __all__ = [
     "backward_box",
     "box_qp",
     "condensed_box_step",
+    "condensed_rows_step",
     "condensed_step",
     "control_box_step",
     "controls_to",
@@ -70,6 +71,112 @@ def condensed_step(
     gu = u @ ocp.R2.T + np.outer(ck, vx[:n]) + dt * vx[n:][None, :]
     d1 = float(np.sum(gu * du))
     return du, ck @ du, dt * du.sum(axis=0), d1
+
+
+def condensed_rows_step(
+    ocp: ReachingOCP,
+    cond: Condensation,
+    u: np.ndarray,
+    Vxx: np.ndarray,
+    vx: np.ndarray,
+    rows: ClearanceRows,
+    max_travel: float = np.inf,
+    max_sets: int = 8,
+) -> tuple[np.ndarray, float, float] | None:
+    """The LQ step with the terminal model and the clearance rows, in closed form, with an active set on the rows.
+
+    The model is ``Σ (u+δu)ᵀR(u+δu) + v_xᵀδx_n + ½δx_nᵀV_xxδx_n + Σ_r ½w max(0, v_r − y_r)²`` with
+    ``y_r = J_r δq_{k_r}`` (the Gauss–Newton model of the hinge, :class:`ClearanceRows`): convex and piecewise
+    quadratic.  For a fixed active set A of rows it is quadratic and :func:`_rows_solve` minimises it in closed
+    form; the active set is then updated to the rows with ``v_r − y_r > 0`` (a semi-smooth Newton / primal-dual
+    active-set iteration, starting from the rows active now), at most ``max_sets`` times; the step with the
+    smallest model value is returned.  Rows not active now enter when the step brings them within d_a, so the
+    line search is not left to discover them — unless the first step moves a joint by more than ``max_travel``
+    (the line search's trust region): the linearised rows say nothing about where such a step ends.  Returns ``(δu, d1, d2)`` — d1 the exact directional derivative at
+    δu = 0, ``d1 + d2`` the model change of the full step — or None (not convex).
+    """
+    try:
+        np.linalg.cholesky(cond.Winv + Vxx)  # the rows add a PSD term: the model is convex when this holds
+    except np.linalg.LinAlgError:
+        return None
+    C = cond.C
+    assert C is not None  # built for a problem with a clearance cost
+    Ck = C[rows.knots]
+    Ru = u @ ocp.R
+    v0 = np.maximum(rows.v, 0.0)
+    base = 0.5 * rows.w * float(v0 @ v0)
+
+    def model(du: np.ndarray, dx: np.ndarray, y: np.ndarray) -> float:
+        hinge = np.maximum(rows.v - y, 0.0)
+        run = float(np.sum((2.0 * Ru + du @ ocp.R) * du))
+        return run + float(vx @ dx) + 0.5 * float(dx @ Vxx @ dx) + 0.5 * rows.w * float(hinge @ hinge) - base
+
+    act = rows.v > 0
+    best: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
+    for it in range(max_sets):
+        du = _rows_solve(ocp, cond, u, Vxx, vx, rows, act)
+        if du is None:
+            return None
+        dx = np.concatenate([cond.ck @ du, ocp.dt * du.sum(axis=0)])
+        y = np.einsum("ri,ri->r", rows.J, Ck @ du)
+        f = model(du, dx, y)
+        if best is None or f < best[0]:
+            best = (f, du, dx, y)
+        if it == 0 and float(np.max(np.abs(C @ du))) > max_travel:
+            break  # a step beyond the trust region: its linearised rows say nothing about where it ends
+        new = rows.v - y > 0
+        if np.array_equal(new, act):
+            break
+        act = new
+    assert best is not None
+    f, du, dx, y = best
+    d1 = 2.0 * float(np.sum(Ru * du)) + float(vx @ dx) - rows.w * float(v0 @ y)
+    return du, d1, f - d1
+
+
+def _rows_solve(
+    ocp: ReachingOCP,
+    cond: Condensation,
+    u: np.ndarray,
+    Vxx: np.ndarray,
+    vx: np.ndarray,
+    rows: ClearanceRows,
+    act: np.ndarray,
+) -> np.ndarray | None:
+    """The minimiser δu (n, nq) of the quadratic model with the rows ``act`` active, by Woodbury.
+
+    Every term other than ``Σ u_kᵀRu_k`` is a function of the observations ``z = [δx_n; y_A]``, linear in δu:
+    ``z = G δu``.  With the model ``bᵀz + ½ zᵀ H_z z`` (``H_z = diag(V_xx, w I)``, ``b = [v_x; −w v_A]``)
+    stationarity gives ``δu = −u − (2R)⁻¹ Gᵀ m`` with ``(I + H_z M) m = b − H_z s``, ``s = G u`` and
+    ``M = G (2R)⁻¹ Gᵀ`` — the Gramian of the observations, in closed form for the double integrator
+    (``Cov(q_k, q_l) = Γ_kl (2R)⁻¹``, :class:`Condensation`): one (2nq + |A|)-dimensional solve instead of the
+    Riccati pass over the n knots.
+    """
+    n, dt, T = ocp.nq, ocp.dt, ocp.horizon
+    C, Gam = cond.C, cond.Gamma
+    assert C is not None and Gam is not None
+    k, J, R2inv, w = rows.knots[act], rows.J[act], cond.R2inv, rows.w
+    m = k.size
+    Ck = C[k]
+    JR = J @ R2inv
+    M = np.empty((2 * n + m, 2 * n + m))
+    M[: 2 * n, : 2 * n] = np.kron(cond.G2, R2inv)
+    M[2 * n :, :n] = Gam[k, T][:, None] * JR
+    M[2 * n :, n : 2 * n] = (dt * Ck.sum(axis=1))[:, None] * JR
+    M[: 2 * n, 2 * n :] = M[2 * n :, : 2 * n].T
+    M[2 * n :, 2 * n :] = Gam[np.ix_(k, k)] * (JR @ J.T)
+    HzM = np.empty_like(M)
+    HzM[: 2 * n] = Vxx @ M[: 2 * n]
+    HzM[2 * n :] = w * M[2 * n :]
+    sx = np.concatenate([cond.ck @ u, dt * u.sum(axis=0)])
+    sy = np.einsum("ri,ri->r", J, Ck @ u)
+    rhs = np.concatenate([vx - Vxx @ sx, -w * rows.v[act] - w * sy])
+    try:
+        mv = np.linalg.solve(np.eye(2 * n + m) + HzM, rhs)
+    except np.linalg.LinAlgError:
+        return None
+    GTm = np.outer(cond.ck, mv[:n]) + dt * mv[n : 2 * n][None, :] + Ck.T @ (J * mv[2 * n :, None])
+    return -u - GTm @ R2inv
 
 
 def box_qp(
@@ -417,12 +524,24 @@ class Condensation:
     R2inv: np.ndarray
     Winv: np.ndarray
     wmin: float
+    C: np.ndarray | None = None
+    Gamma: np.ndarray | None = None
 
     @classmethod
     def of(cls, ocp: ReachingOCP) -> Condensation:
+        """The Gramian data; with a clearance cost also ``C`` (n+1, n): ``∂q_k/∂u_j = C[k, j] I``
+        (``h + (k−1−j) Δt²`` for j < k, else 0) and ``Γ = C Cᵀ`` (n+1, n+1), for :func:`condensed_rows_step`."""
         ck, G2, R2inv = gramian(ocp)
         Winv = np.kron(np.linalg.inv(G2), ocp.R2)
-        return cls(ck=ck, G2=G2, R2inv=R2inv, Winv=Winv, wmin=float(np.linalg.eigvalsh(Winv)[0]))
+        C = Gamma = None
+        if ocp.clearance is not None:
+            T = ocp.horizon
+            k = np.arange(T + 1, dtype=float)[:, None]
+            j = np.arange(T, dtype=float)[None, :]
+            C = np.where(j < k, ocp.h + (k - 1.0 - j) * ocp.dt**2, 0.0)
+            Gamma = C @ C.T
+        wmin = float(np.linalg.eigvalsh(Winv)[0])
+        return cls(ck=ck, G2=G2, R2inv=R2inv, Winv=Winv, wmin=wmin, C=C, Gamma=Gamma)
 
 
 @dataclass(frozen=True)
@@ -453,16 +572,33 @@ def lq_step(
     lxx: np.ndarray,
     *,
     condensed: bool,
+    rows: ClearanceRows | None = None,
+    max_travel: float = np.inf,
 ) -> LQStep | None:
     """One LQ step from u (trajectory q, q̇), or None if the model is not convex.
 
     ``Vxx, vx``: the terminal model; ``lx, lxx``: the state terms at the knots (:func:`backward_box`).
-    With ``condensed`` (no AL term active, ``backward="auto"``): :func:`condensed_box_step` when the full step's
+    With ``condensed`` (no AL term active, ``backward="auto"``) and clearance ``rows``: :func:`condensed_rows_step`
+    when its trajectory is inside every bound at the largest α the line search tries (``max_travel`` / the
+    step's joint travel, or 1).  With ``condensed`` and no rows: :func:`condensed_box_step` when the full step's
     trajectory is inside every bound (then every α ∈ [0, 1] is: the bounds are linear in u), or
     :func:`control_box_step` when only the acceleration bounds are in the way; else (or when those fail the bounds)
     ``"riccati"`` (:func:`backward_box` with the AL terms and the control box).
     """
-    if condensed:
+    if condensed and rows is not None:  # clearance rows: closed form while the step stays inside every bound
+        rstep = condensed_rows_step(ocp, cond, u, Vxx, vx, rows, max_travel)
+        if rstep is None:
+            return None
+        du, d1, d2 = rstep
+        # the line search tries α ≤ max_travel / (the full step's joint travel) only, and the bounds are linear in
+        # u: the step is inside every bound for all those α when it is at the largest one
+        q1, qd1 = ocp.rollout(u + du)
+        travel = float(np.max(np.abs(q1 - q)))
+        a = min(1.0, max_travel / travel) if travel > 0 else 1.0
+        q1, qd1 = ocp.rollout(u + a * du)
+        if ocp.violation(q1, qd1, u + a * du) <= 1e-12:
+            return LQStep("condensed", u, du, d1, d2)
+    elif condensed:
         step = condensed_box_step(ocp, u, q, qd, Vxx, vx, cond.ck, cond.R2inv, cond.Winv)
         if step is None:
             return None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -11,7 +12,7 @@ from ...errors import InvalidInputError
 from ...geometry.groups import SimilarityLike
 from ..base import check_problem, check_q
 
-__all__ = ["DEFAULT_Q", "DEFAULT_QV", "DEFAULT_R", "ReachingOCP", "check_clearance"]
+__all__ = ["DEFAULT_Q", "DEFAULT_QV", "DEFAULT_R", "ClearanceRows", "ReachingOCP", "check_clearance"]
 
 #: Default control weight R (scalar → R · I) [1/(rad/s²)²].
 DEFAULT_R = 1e-3
@@ -29,6 +30,37 @@ def check_clearance(c: Any) -> Any:
     raise InvalidInputError(
         f"clearance must be None or a coop_ga.control.avoidance.ClearanceCost, got {type(c).__name__}"
     )
+
+
+@dataclass(frozen=True)
+class ClearanceRows:
+    """The rows of a clearance cost near activation along a trajectory, as the LQ model sees them: row r at knot
+    ``knots[r]`` (1 … n) with ``v_r = d_a − d_r`` [m] (> 0: active) and ``J[r] = ∂d_r/∂q`` (m, nq) contributes
+    ``½ w max(0, v_r − J_r δq_k)²`` to the model (w: the weight [1/m²]); rows with v_r ≤ 0 (within the
+    model's look-ahead margin of activation) cost nothing now but enter once a step brings them within d_a."""
+
+    knots: np.ndarray
+    J: np.ndarray
+    v: np.ndarray
+    w: float
+
+    def active(self) -> ClearanceRows:
+        """The rows with v > 0 (the cost's own terms at the trajectory)."""
+        a = self.v > 0
+        return ClearanceRows(self.knots[a], self.J[a], self.v[a], self.w)
+
+    def gradient(self, T: int, nq: int) -> np.ndarray:
+        """(T+1, nq): the cost's gradient w.r.t. q_k at every knot, ``−w Σ_{r at k, v_r > 0} v_r J_r`` (row 0 zero)."""
+        g = np.zeros((T + 1, nq))
+        np.add.at(g, self.knots, (-self.w * np.maximum(self.v, 0.0))[:, None] * self.J)
+        return g
+
+    def hessians(self, T: int, nq: int) -> np.ndarray:
+        """(T+1, nq, nq): the Gauss–Newton Hessians ``w Σ_{r at k, v_r > 0} J_rᵀ J_r`` at every knot."""
+        H = np.zeros((T + 1, nq, nq))
+        a = self.active()
+        np.add.at(H, a.knots, self.w * a.J[:, :, None] * a.J[:, None, :])
+        return H
 
 
 class ReachingOCP:
@@ -139,16 +171,32 @@ class ReachingOCP:
         """``Σ_{k=1}^{n} c(q_k)`` of the clearance cost (0 without one); q (n+1, nq)."""
         if self.clearance is None:
             return 0.0
+        batch = getattr(self.clearance, "trajectory_value", None)
+        if callable(batch):
+            return float(batch(q[1:]))
         return float(sum(self.clearance.value(qk) for qk in q[1:]))
+
+    def clearance_rows(self, q: np.ndarray, lookahead: float = 0.0) -> ClearanceRows | None:
+        """The rows of the clearance cost within ``lookahead`` [m] of activation at the knots 1 … n of q (n+1, nq)
+        (:class:`ClearanceRows`), or None when the clearance cost cannot list them (then :meth:`clearance_terms`
+        evaluates it knot by knot)."""
+        rows = getattr(self.clearance, "trajectory_rows", None)
+        if not callable(rows):
+            return None
+        k, v, J = rows(q[1:], lookahead)
+        return ClearanceRows(knots=np.asarray(k, int) + 1, J=J, v=v, w=float(self.clearance.weight))
 
     def clearance_terms(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
         """Gradients (n+1, nq) and Gauss–Newton Hessians (n+1, nq, nq) of the clearance cost at the
         knots (row 0 zero), and whether any pair is within the activation distance."""
         T, n = self.horizon, self.nq
+        if self.clearance is None:
+            return np.zeros((T + 1, n)), np.zeros((T + 1, n, n)), False
+        rows = self.clearance_rows(q)
+        if rows is not None:
+            return rows.gradient(T, n), rows.hessians(T, n), bool(np.any(rows.v > 0))
         g = np.zeros((T + 1, n))
         H = np.zeros((T + 1, n, n))
-        if self.clearance is None:
-            return g, H, False
         for k in range(1, T + 1):
             _, g[k], Hk, _ = self.clearance.evaluate(q[k])
             assert Hk is not None  # hessian=True

@@ -162,9 +162,12 @@ def finish(
     lf, e, _ = ocp.terminal(q[-1], qd[-1])
     c_cost = ocp.clearance_cost(q)
     cost = ocp.running_cost(u) + lf + c_cost
-    min_clear = (
-        float(min(ocp.clearance.evaluate(qk, hessian=False)[3] for qk in q)) if ocp.clearance is not None else np.inf
-    )
+    min_clear = np.inf
+    if ocp.clearance is not None:
+        batch = getattr(ocp.clearance, "trajectory_min", None)
+        min_clear = (
+            float(batch(q)) if callable(batch) else float(min(ocp.clearance.evaluate(qk, hessian=False)[3] for qk in q))
+        )
     # the last iterate's entries re-evaluated (an early exit has no history yet: its only entry)
     costs = [*progress.costs[:-1], cost]
     errs = [*progress.errs[:-1], float(np.linalg.norm(e))]

@@ -17,9 +17,9 @@ from ...kinematics.chains import require_nq_equals_nv
 from ..base import resolve_options
 from .feasibility import reference_controls, restore
 from .lq import Condensation, LQStep, add_state_hessian, controls_to, lq_step, second_order_correction
-from .merit import Evaluation, Merit, gauss_newton_hessian, multiplier_estimate, terminal_model
+from .merit import Evaluation, Merit, StateTerms, gauss_newton_hessian, multiplier_estimate, terminal_model
 from .options import ILQROptions
-from .problem import ReachingOCP
+from .problem import ClearanceRows, ReachingOCP
 from .reachability import bounded_stationarity, unreachable
 from .results import ILQRIteration, ILQRResult, Progress, finish
 
@@ -229,6 +229,8 @@ class _Model:
     lxx: np.ndarray
     state_active: bool
     tries: list[tuple[str, float]]
+    riccati: bool = False  # a state term that only the Riccati pass knows (AL terms, or unlisted clearance rows)
+    rows: ClearanceRows | None = None
 
 
 @dataclass(frozen=True)
@@ -266,6 +268,8 @@ class _Solve:
             task.error_and_jacobian(ocp.q_init, ocp.target)  # build/compile once, outside the timed solve
             if o.hessian == "newton":
                 task.graph.error_hessian_function  # noqa: B018  (built once per task, outside the timed solve)
+            if ocp.clearance is not None:  # the collision model's batched kinematics (compiled once per horizon)
+                ocp.clearance_cost(ocp.rollout(u)[0])
 
         t_start = time.perf_counter()
         self.cond = Condensation.of(ocp) if cond is None else cond
@@ -355,10 +359,15 @@ class _Solve:
         while p.iterations < o.max_iter:
             t_it = time.perf_counter()
             e_norm = float(np.linalg.norm(self.ev.e))
-            newton = o.hessian == "newton" and e_norm < o.newton_switch
+            st = self.merit.state_terms(self.ev)
+            # the multiplier estimate ignores the clearance cost: neither the Newton model nor the terminal shift
+            # estimated from it while a clearance row is near (measured: the shift then stalls the obstacle scene
+            # of tests/control/test_avoidance.py short of tol)
+            clearance_near = st.clearance_gradient is not None
+            newton = o.hessian == "newton" and e_norm < o.newton_switch and not clearance_near
             w = multiplier_estimate(self.ocp, self.ev, self.cond.ck) if newton else None
             shift_estimated = self._estimate_shift(w, e_norm)
-            model = self._model(w, newton)
+            model = self._model(w, newton, st)
             acc = self._search(model)
             if acc is None:
                 p.message = (
@@ -391,12 +400,11 @@ class _Solve:
             self.ev = ev_s
         return True
 
-    def _model(self, w: np.ndarray | None, newton: bool) -> _Model:
-        """The terminal model (Newton with multiplier w, or Gauss–Newton while an AL term is active), the state
-        terms (LM-damped on the states in the Riccati pass), and the (model, damping) pairs to try."""
+    def _model(self, w: np.ndarray | None, newton: bool, st: StateTerms) -> _Model:
+        """The terminal model (Newton with multiplier w, or Gauss–Newton while a state term is active), the state
+        terms ``st`` (LM-damped on the states in the Riccati pass), and the (model, damping) pairs to try."""
         ocp, ev, cond = self.ocp, self.ev, self.cond
         gf, Hf = terminal_model(ocp, ev, w)
-        st = self.merit.state_terms(ev)
         lx, lxx = st.lx, st.lxx
         if st.active:
             newton = False  # the multiplier estimate ignores the AL terms: Gauss–Newton while a bound is active
@@ -418,7 +426,7 @@ class _Solve:
             tries += [("newton", base + lm), ("newton", base + lm + wmin), ("newton", base + lm + 16.0 * wmin)]
         tries += [("gauss_newton", lm)]
         tries += [("gauss_newton", lm + 10.0**p * hscale) for p in range(-6, 3)]
-        return _Model(newton, vx, Hf_b, hscale, lx, lxx, st.active, tries)
+        return _Model(newton, vx, Hf_b, hscale, lx, lxx, st.active, tries, st.al or st.rows is None, st.rows)
 
     def _search(self, model: _Model) -> _Accepted | None:
         """The first (model, damping) whose LQ step passes the line search."""
@@ -428,8 +436,22 @@ class _Solve:
             H = model.Hf_b if mode == "newton" or not model.newton else gauss_newton_hessian(ocp, ev, model.lxx[-1])
             Vxx = H + mu * self.eye2
             n_back += 1
-            condensed = self.o.backward == "auto" and not model.state_active
-            step = lq_step(ocp, self.cond, self.u, ev.q, ev.qd, Vxx, model.vx, model.lx, model.lxx, condensed=condensed)
+            condensed = self.o.backward == "auto" and not (model.state_active and model.riccati)
+            rows = model.rows if model.state_active else None
+            step = lq_step(
+                ocp,
+                self.cond,
+                self.u,
+                ev.q,
+                ev.qd,
+                Vxx,
+                model.vx,
+                model.lx,
+                model.lxx,
+                condensed=condensed,
+                rows=rows,
+                max_travel=self.o.max_travel,
+            )
             if step is None or not step.d1 < 0:
                 continue
             acc = self._line_search(step)

@@ -1,0 +1,137 @@
+"""The iLQR's clearance cost on trajectories: the batched cost and rows, and the closed-form LQ step on the rows."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import coop_ga as cg
+from coop_ga.collision.distance import Sphere
+from coop_ga.collision.model import CollisionModel
+from coop_ga.control.avoidance import ClearanceCost
+from coop_ga.control.ilqr import ReachingOCP, displaced_target, ilqr_reach
+from coop_ga.control.ilqr.lq import Condensation, _rows_solve, condensed_rows_step
+from coop_ga.control.ilqr.merit import Merit, gauss_newton_hessian, terminal_model
+
+CENTER, RADIUS = np.array([0.014, -0.346, 0.478]), 0.04  # the sphere of tests/control/test_avoidance.py
+
+
+@pytest.fixture(scope="module")
+def problem():
+    """A 20-knot reach whose controls (the plain iLQR's, perturbed) run arm 0 through the sphere."""
+    s = cg.systems.load("three_franka")
+    task = cg.cooperative_task(s, "circle")
+    q0 = np.array(s.q0, float)
+    Vd = displaced_target(task, q0, translation=(0.0, 0.30, 0.0))
+    cm = CollisionModel(s, obstacles=[Sphere(CENTER, RADIUS)], self_collision=True)
+    cost = ClearanceCost(cm, weight=1e4, activation=0.05)
+    ocp = ReachingOCP(task, q0, Vd, horizon=20, dt=0.1, clearance=cost)
+    plain = ilqr_reach(task, q0, Vd, horizon=20, dt=0.1)
+    u = plain.u + 0.01 * np.random.default_rng(0).standard_normal(plain.u.shape)
+    return ocp, cost, u
+
+
+def test_trajectory_cost_and_rows_equal_the_knot_by_knot_evaluation(problem):
+    ocp, cost, u = problem
+    q, _ = ocp.rollout(u)
+    per_knot = [cost.evaluate(qk) for qk in q[1:]]
+    assert cost.trajectory_value(q[1:]) == pytest.approx(sum(c[0] for c in per_knot), rel=1e-12)
+    assert ocp.clearance_cost(q) > 1.0  # the hinge is active
+    rows = ocp.clearance_rows(q, 0.02)
+    assert rows is not None and np.any(rows.v > 0) and np.any(rows.v <= 0)  # active rows and look-ahead rows
+    g = rows.gradient(ocp.horizon, ocp.nq)
+    H = rows.hessians(ocp.horizon, ocp.nq)
+    for k in range(1, ocp.horizon + 1):
+        np.testing.assert_allclose(g[k], per_knot[k - 1][1], atol=1e-9)
+        np.testing.assert_allclose(H[k], per_knot[k - 1][2], atol=1e-6)
+
+
+def _model(ocp: ReachingOCP, u: np.ndarray):
+    merit = Merit(ocp, 0.0)
+    ev = merit.evaluate(u)
+    gf, _ = terminal_model(ocp, ev, None)
+    Vxx = gauss_newton_hessian(ocp, ev, np.zeros(2 * ocp.nq))
+    return ev, gf, Vxx
+
+
+def test_rows_solve_is_the_dense_lq_minimiser(problem):
+    """_rows_solve (Woodbury on the observations) equals the minimiser of the same quadratic model over the whole
+    control sequence, formed and solved densely (T·nq = 420 unknowns)."""
+    ocp, _, u = problem
+    ev, vx, Vxx = _model(ocp, u)
+    cond = Condensation.of(ocp)
+    rows = ocp.clearance_rows(ev.q, 0.02)
+    act = rows.v > 0
+    du = _rows_solve(ocp, cond, u, Vxx, vx, rows, act)
+    T, n, dt = ocp.horizon, ocp.nq, ocp.dt
+    # G: δu (T·n) → [δq_n; δq̇_n; y_A]
+    Gx = np.zeros((2 * n, T * n))
+    for j in range(T):
+        Gx[:n, j * n : (j + 1) * n] = cond.ck[j] * np.eye(n)
+        Gx[n:, j * n : (j + 1) * n] = dt * np.eye(n)
+    k, J = rows.knots[act], rows.J[act]
+    Gy = np.zeros((k.size, T * n))
+    for r in range(k.size):
+        for j in range(T):
+            Gy[r, j * n : (j + 1) * n] = cond.C[k[r], j] * J[r]
+    H = np.kron(np.eye(T), ocp.R2) + Gx.T @ Vxx @ Gx + rows.w * Gy.T @ Gy
+    g = (u @ ocp.R2.T).ravel() + Gx.T @ vx - rows.w * Gy.T @ rows.v[act]
+    x = -np.linalg.solve(H, g)
+
+    def f(v: np.ndarray) -> float:
+        return float(0.5 * v @ H @ v + g @ v)
+
+    # the stiff terminal model (Q = 1e5) makes H ill-conditioned: compare the model's values and the step's size
+    print(f"condition {np.linalg.cond(H):.1e}, f {f(du.ravel()):.10e} (Woodbury) {f(x):.10e} (dense)")
+    assert f(du.ravel()) == pytest.approx(f(x), rel=1e-9)
+    assert np.linalg.norm(du.ravel() - x) < 1e-3 * np.linalg.norm(x)
+
+
+def test_condensed_rows_step_is_a_descent_step_with_the_exact_slope(problem):
+    """d1 is the exact directional derivative of J at u along the step (the adjoint gradient of ReachingOCP,
+    terminal and clearance parts), negative; the active set ends with the rows the step leaves within d_a."""
+    ocp, _, u = problem
+    ev, vx, Vxx = _model(ocp, u)
+    rows = ocp.clearance_rows(ev.q, 0.02)
+    du, d1, d2 = condensed_rows_step(ocp, Condensation.of(ocp), u, Vxx, vx, rows)
+    slope = float(np.sum(ocp.gradient(u) * du))
+    assert d1 == pytest.approx(slope, rel=1e-8)
+    assert d1 < 0
+    # the model's prediction of a short step matches the true change to first order
+    a = 1e-4
+    change = ocp.cost(u + a * du) - ocp.cost(u)
+    assert change == pytest.approx(a * d1 + a * a * d2, rel=1e-2)
+
+
+def test_clearance_reach_result_is_clear_of_the_sphere_by_an_independent_check(problem):
+    """The 20-knot reach with the clearance cost ends clear of the sphere: coop_ga.collision and coal's GJK on
+    the same capsules agree on the smallest obstacle clearance at the knots."""
+    coal = pytest.importorskip("coal")
+    import pinocchio as pin
+
+    ocp, cost, _ = problem
+    res = ilqr_reach(ocp.task, ocp.q_init, ocp.target, horizon=20, dt=0.1, clearance=cost)
+    assert res.converged, res.message
+    cm = cost.model
+    d_ours = float(np.min(cm.min_clearance(res.trajectory, kind="obstacle")))
+    assert d_ours > 0.03
+    model, data = cm.system.model, cm.system.model.createData()
+    sphere = coal.Sphere(RADIUS)
+    tf_s = coal.Transform3s(np.eye(3), CENTER)
+    best = np.inf
+    for q in res.trajectory:
+        pin.framesForwardKinematics(model, data, q)
+        for c in cm.capsules:
+            M = data.oMf[model.getFrameId(c.frame)]
+            a, b = M.act(c.a), M.act(c.b)
+            z = b - a
+            L = float(np.linalg.norm(z))
+            z = z / L if L > 0 else np.array([0.0, 0.0, 1.0])
+            x = np.cross(z, [1.0, 0.0, 0.0] if abs(z[0]) < 0.9 else [0.0, 1.0, 0.0])
+            x /= np.linalg.norm(x)
+            tf = coal.Transform3s(np.column_stack([x, np.cross(z, x), z]), 0.5 * (a + b))
+            d = coal.distance(
+                coal.Capsule(c.radius, L), tf, sphere, tf_s, coal.DistanceRequest(), coal.DistanceResult()
+            )
+            best = min(best, d)
+    assert best == pytest.approx(d_ours, abs=1e-6)
