@@ -13,16 +13,17 @@ feedback).
 Measured per run (``coop_ga.sim.mpc_carry.carry_track_metrics``) over the tracking window: the box's position
 against the target carried through the grasp (RMS, max, vertical), its turn, each pad's slip on the box, drop,
 the squeeze, MuJoCo's robot–robot contacts, the arm–arm clearance (collision model), joint limit excursions, the
-tube (measured vs nominal centre), the MPC tick times (wall clock on this shared machine, with the load) and
-fallbacks.  Several paths: headings 0°, 90° and 45° (the last with a 3 kg box); a failed claim is listed in
+tube (measured vs nominal centre), the MPC's ticks (none dropped), iterations and fallbacks — all independent of
+the machine (a re-run writes the same ``metrics.json``); the wall-clock tick times, the overruns of the period and
+the load go to ``timing.json`` and ``timing.png`` (untracked).  Several paths: headings 0°, 90° and 45° (the last with a 3 kg box); a failed claim is listed in
 ``failures``.
 
 ``--fast`` (the gallery): 3 runs of 4 s tracking.  Full: the same with 8 s of tracking (two periods) and a fourth
 path (heading 135°, 7 cm).
 
 Writes to ``--out``: ``model.xml`` + ``log.npz`` (the first run; replay with ``coop_ga.sim.replay``),
-``metrics.json``, ``mpc_carry.png`` (box vs target, slip, tick times), ``mpc_carry.gif`` (MuJoCo offscreen:
-the circle through the pads, the squeeze forces), ``timing.json``.
+``metrics.json``, ``mpc_carry.png`` (box vs target, slip, the tube per tick), ``mpc_carry.gif`` (MuJoCo offscreen:
+the circle through the pads, the squeeze forces), ``timing.json``, ``timing.png``.
 
     python experiments/sim_mpc_carry.py [--fast] [--track 8] [--no-render] --out DIR
 """

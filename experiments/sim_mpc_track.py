@@ -18,10 +18,12 @@ rows of the safety layer off: the sphere must then hit an arm (else the path tes
 Measured per run (``coop_ga.sim.mpc_track.track_metrics``): the primitive's centre and radius against the
 target's (RMS and max after 0.5 s), ‖e‖ (Eq 44), the collision model's smallest arm–obstacle and arm–arm
 clearance with the sphere where MuJoCo has it, MuJoCo's robot–sphere and robot–robot contacts (counted at every
-physics step; claim 0), joint position/velocity limit excursions (claim 0), torque saturation, the MPC tick
-time (median / p95 / max; wall clock on this shared machine, with the load) and the overruns of the 40 ms
-period (warned, never skipped), the safety layer's fallbacks; the push: peak centre deviation and recovery
-time (back within max(2 × the p95 before the push, 5 mm) for 0.2 s).
+physics step; claim 0), joint position/velocity limit excursions (claim 0), torque saturation, the MPC's ticks
+(one per 40 ms period: none dropped) and iterations, the safety layer's fallbacks; the push: peak centre deviation
+and recovery time (back within max(2 × the p95 before the push, 5 mm) for 0.2 s).  These depend on the seeds
+alone (a tick's budget is a count of iterations), so a re-run writes the same ``metrics.json``; the wall-clock
+numbers (``coop_ga.sim.mpc_track.track_timing``: tick / solve / safety-step times, the overruns of the period,
+warned and never skipped, the load) go to ``timing.json`` and ``timing.png`` (untracked).
 
 ``--fast`` (the gallery): 3 sphere paths (seeds 0, 1, 6) of 4 s and the push run of 3.5 s.  Full: 4 paths of
 20 s (seeds 0–3; one crossing per run) and the push run of 6 s.  A run fails a claim → listed in
@@ -30,7 +32,8 @@ time (back within max(2 × the p95 before the push, 5 mm) for 0.2 s).
 Writes to ``--out``: ``model.xml`` + ``log.npz`` (the first sphere run; replay with ``coop_ga.sim.replay``),
 ``runs/<name>/{model.xml, log.npz, metrics.json}`` for every other run (full version only), ``metrics.json`` (every run's numbers,
 the claims, failures, the ``gallery`` block), ``track.png`` (target vs primitive centre and radius, clearance,
-tick times, the push), ``track.gif`` (MuJoCo offscreen: actual circle orange, target green), ``timing.json``.
+the plans' end error per tick, the push), ``track.gif`` (MuJoCo offscreen: actual circle orange, target green),
+``timing.json`` and ``timing.png`` (the ticks' wall times).
 
     python experiments/sim_mpc_track.py [--fast] [--seeds 0 1 2 3] [--duration 20] [--no-render] --out DIR
 """
