@@ -14,7 +14,7 @@ the tick's wall time (everything: checks, target, the iLQR call and its set-up, 
 ``solve_time_s``, the sustained rate 1/median and 1/p95 [Hz], the ratio of the median tick to two anchors
 measured in the same run — one compiled task evaluation (``task.error_and_jacobian``, the unit of the iLQR's
 line search) and one collision-model evaluation (``distances_and_jacobian``, 453 distances) — and the share of
-the tick spent on the clearance cost (``1 − plain/clearance``).  Also the safety layer's QP step (median).
+the tick spent on the clearance cost (``1 − plain/clearance``).  Also the safety layer's QP step (median; one step after each tick).
 Where the time goes: a cProfile of the default controller's warm ticks and of the safety steps between them, split
 into iLQR, collision model, FK/task evaluation (compiled), QP, RNEA and the MPC's own code, each with the share
 spent in Python bytecode (``PARTS``; cProfile's overhead inflates the Python shares).  The process is pinned to
@@ -83,7 +83,8 @@ def run_loop(task: Any, q0: np.ndarray, target: Any, sphere: Any, horizon: int, 
             tick_s.append(tick.tick_time)
             solve_s.append(tick.solve_time)
             iters.append(tick.iterations)
-            filt_s.append(mpc.filter(t, q, qd).step_time)
+            tf = t + mpc.o.filter_dt  # a safety step between ticks (at a tick's instant it shares its collision model)
+            filt_s.append(mpc.filter(tf, *mpc.sample_plan(tf)).step_time)
         t += mpc.o.period
         q, qd = mpc.sample_plan(t)
     return {
