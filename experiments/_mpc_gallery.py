@@ -68,13 +68,20 @@ def tick_timing(timing: dict[str, Any], names: Sequence[str]) -> dict[str, Any]:
     }
 
 
-def tick_sentence(per: list[dict[str, Any]]) -> str:
-    """The evidence's sentence on the ticks, from deterministic numbers only."""
-    ticks = sum(m["mpc_ticks"] for m in per)
+def tick_sentence(per: list[dict[str, Any]], instants: Sequence[int]) -> str:
+    """The evidence's sentence on the ticks, from deterministic numbers only; ``instants``: each run's tick
+    instants (its simulated tracking time over the period)."""
+    ticks, total = sum(m["mpc_ticks"] for m in per), sum(instants)
     warm = max(m["iterations_per_tick"]["median"] for m in per)
     period = per[0]["period_s"]
+    solved = (
+        "every one re-planned"
+        if ticks == total
+        else f"{ticks} re-planned, the other {total - ticks} answered with the braking fallback from an infeasible "
+        "state (counted in the runs' fallbacks)"
+    )
     return (
-        f"MPC: {ticks} ticks, one every {1000 * period:.0f} ms of simulated time in every run (none dropped), "
+        f"MPC: {total} tick instants (one per {1000 * period:.0f} ms of simulated time), {solved}; none skipped; "
         f"{warm:.0f} iLQR iterations per warm tick (a count, not a time: the runs do not depend on the machine); "
         "the ticks' wall times are in timing.json, the sustained rate in benchmarks/mpc.py."
     )

@@ -128,6 +128,7 @@ def _summary(per: list[dict[str, Any]], fast: bool) -> dict[str, Any]:
 
 def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
     w, n, k = m["worst"], m["runs_count"], m["success_count"]
+    instants = [round(r["case"]["track_s"] / r["period_s"]) for r in m["runs"]]  # tick instants per run
     fails = "; ".join(f"{name}: {', '.join(why)}" for name, why in m["failures"].items()) or "none"
     evidence = (
         f"{k} of {n} runs pass ({_describe(m['runs'])}; period 4 s, {m['runs'][0]['case']['track_s']:g} s of "
@@ -139,7 +140,8 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
         f"{w['contacts_robot_robot']}, arm–arm clearance ≥ {1000 * w['min_clearance_arm_arm_m']:.0f} mm (collision "
         f"model); joint limits left by {w['position_violation_rad']:.3g} rad / {w['velocity_violation_rad_s']:.3g} "
         f"rad/s; measured centre within {1000 * w['tube_max_m']:.1f} mm of the MPC's nominal; {w['fallbacks']} "
-        f"fallbacks. {tick_sentence(m['runs'])} Failures: {fails}."
+        f"fallbacks. {tick_sentence(m['runs'], instants)} "
+        f"Failures: {fails}."
     )
     return {
         "title": "Physics: receding-horizon control of a held box along a moving target, MuJoCo (our addition)",

@@ -204,6 +204,7 @@ def _variant(per: list[dict[str, Any]]) -> dict[str, Any] | None:
 
 def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
     w, n, k, p = m["worst"], m["runs_count"], m["success_count"], m["push"]
+    instants = [round(r["duration_s"] / r["period_s"]) for r in m["runs"]]  # tick instants per run
     fails = "; ".join(f"{name}: {', '.join(why)}" for name, why in m["failures"].items()) or "none"
     evidence = (
         f"{k} of {n} runs pass. Sphere runs: circle centre within {1000 * w['centre_rms_m']:.1f} mm RMS "
@@ -214,7 +215,7 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
         f"{w['position_violation_rad']:.3g} rad / {w['velocity_violation_rad_s']:.3g} rad/s; safety fallbacks "
         f"{w['fallbacks']}. Push of {p['force_n']:g} N for {p['duration_s']:g} s on arm 0's hand: centre "
         f"deviation {1000 * p['peak_centre_error_m']:.0f} mm, recovered in {_seconds(p['recovery_time_s'])}. "
-        f"{tick_sentence(m['runs'])}{_variant_text(m['clearance_cost_variant'])}{_blind_text(m['no_avoidance'])} "
+        f"{tick_sentence(m['runs'], instants)}{_variant_text(m['clearance_cost_variant'])}{_blind_text(m['no_avoidance'])} "
         f"Failures: {fails}."
     )
     return {
