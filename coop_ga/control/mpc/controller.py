@@ -141,7 +141,7 @@ class CooperativeMPC:
         self._pin_model = task.system.model
         self._pin_data = self._pin_model.createData()
         self.plan: MPCTick | None = None
-        self._placed: tuple[float, bytes, bytes] | None = None  # (t, q, q̇) of the configuration (_place)
+        self._placed_at: float | None = None  # the time [s] of the configuration's (q, q̇) (_place)
         self.ticks = 0
         self.overruns = 0
         self._warned = False
@@ -179,11 +179,12 @@ class CooperativeMPC:
         configuration caches the collision model's distances and Jacobian, so the model is evaluated once per
         (t, q, q̇) — the state's check, the safety step's clearance rows and their obstacle rates share it, and so
         do a tick and the safety step at the same instant (the closed loop's tick instants)."""
-        key = (float(t), q.tobytes(), qd.tobytes())
-        if key != self._placed or self.world.time != t:
+        conf = self.configuration
+        placed = self._placed_at == t == self.world.time
+        if not (placed and np.array_equal(conf.q, q) and np.array_equal(conf.velocity, qd)):
             self.world.at(t)
-            self.configuration.update(q, qd)
-            self._placed = key
+            conf.update(q, qd)
+            self._placed_at = float(t)
 
     def _distances(self) -> np.ndarray:
         """The collision model's distances (n,) [m] at the placed configuration (:meth:`_place`)."""

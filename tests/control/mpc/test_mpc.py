@@ -185,6 +185,36 @@ def test_infeasible_safety_qp_gives_active_set_and_brake(setup):
     assert np.allclose(err.fallback_torque, mpc.torque(q0, qd, a))
 
 
+def test_one_collision_evaluation_per_instant(setup):
+    """A tick and the safety step at the same (t, q, q̇) share one evaluation of the collision model (distances and
+    Jacobian: the state check, the clearance rows and the rows' obstacle rates); a step at a new instant makes one
+    more, plus the one at the sphere's shifted position for ∂d/∂t — the filtered velocity is unchanged by it."""
+    task, q0, target = setup
+    tcp = task.points(q0)[0]
+    sphere = MovingSphere(0.05, lambda t: tcp + (0.2 - 0.1 * t) * np.array([0.0, -1.0, 0.0]))  # within d_influence
+    mpc = CooperativeMPC(task, target, OPTS, obstacles=[sphere], time_budget=60.0)
+    model, calls = mpc.world.model, {"distances": 0, "distances_and_jacobian": 0}
+    for name in calls:
+        method = getattr(model, name)
+
+        def counted(*args, _method=method, _name=name):
+            calls[_name] += 1
+            return _method(*args)
+
+        setattr(model, name, counted)  # the instance attribute shadows the method
+    qd = np.zeros(task.nq)
+    mpc.tick(0.0, q0, qd)
+    first = mpc.filter(0.0, q0, qd)
+    assert calls == {"distances": 1, "distances_and_jacobian": 1}  # the shifted sphere's, and the shared one
+    q1, qd1 = mpc.sample_plan(0.01)
+    mpc.filter(0.01, q1, qd1)
+    assert calls == {"distances": 2, "distances_and_jacobian": 2}
+    fresh = CooperativeMPC(task, target, OPTS, obstacles=[sphere], time_budget=60.0)
+    fresh.tick(0.0, q0, qd)
+    fresh.world.at(0.5)  # the obstacles moved elsewhere in between: the step places them again
+    np.testing.assert_array_equal(fresh.filter(0.0, q0, qd).velocity, first.velocity)
+
+
 def test_penetrating_obstacle_is_infeasible(setup):
     task, q0, target = setup
     tcp = task.points(q0)[0]
