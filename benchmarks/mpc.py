@@ -10,12 +10,13 @@ double integrator, Eq 54: no physics here — the closed loop in MuJoCo is ``exp
 The first (cold, 20-iteration) tick of every horizon is left out of the statistics.
 
 For every horizon, with the clearance cost (``clearance``) and without it (``plain``): median / p95 / max of
-the tick's wall time (everything: checks, target, the iLQR call and its set-up, RNEA) and of the iLQR's own
-``solve_time_s``, the sustained rate 1/median and 1/p95 [Hz], the ratio of the median tick to two anchors
-measured in the same run — one compiled task evaluation (``task.error_and_jacobian``, the unit of the iLQR's
+the tick's wall time (everything: checks, target, the iLQR call and its set-up, RNEA), of its CPU time (what it
+costs with the core to itself: the wall time on a loaded machine includes the other processes' turns) and of the
+iLQR's own ``solve_time_s``, the sustained rate 1/median (wall and CPU) [Hz], the ratio of the median tick to two
+anchors measured in the same run — one compiled task evaluation (``task.error_and_jacobian``, the unit of the iLQR's
 line search) and one collision-model evaluation (``distances_and_jacobian``, 453 distances) — and the share of
 the tick spent on the clearance cost (``1 − plain/clearance``).  Also the safety layer's QP step (median; one step after each tick).
-Where the time goes: a cProfile of the default controller's warm ticks and of the safety steps between them, split
+Where the time goes: a cProfile (CPU time) of the default controller's warm ticks and of the safety steps between them, split
 into iLQR, collision model, FK/task evaluation (compiled), QP, RNEA and the MPC's own code, each with the share
 spent in Python bytecode (``PARTS``; cProfile's overhead inflates the Python shares).  The process is pinned to
 one core (``sched_setaffinity``).
@@ -76,10 +77,12 @@ def run_loop(task: Any, q0: np.ndarray, target: Any, sphere: Any, horizon: int, 
         task, target, obstacles=[sphere], horizon=horizon, clearance_weight=1e4 if clearance else 0.0, time_budget=1e9
     )
     q, qd, t = q0.copy(), np.zeros(task.nq), 0.0
-    tick_s, solve_s, filt_s, iters = [], [], [], []
+    tick_s, cpu_s, solve_s, filt_s, iters = [], [], [], [], []
     for k in range(ticks + 1):
+        c = time.process_time()
         tick = mpc.tick(t, q, qd)
         if k:
+            cpu_s.append(time.process_time() - c)
             tick_s.append(tick.tick_time)
             solve_s.append(tick.solve_time)
             iters.append(tick.iterations)
@@ -89,6 +92,7 @@ def run_loop(task: Any, q0: np.ndarray, target: Any, sphere: Any, horizon: int, 
         q, qd = mpc.sample_plan(t)
     return {
         "tick_s": _stats(tick_s),
+        "tick_cpu_s": _stats(cpu_s),
         "solve_s": _stats(solve_s),
         "filter_s": _stats(filt_s),
         "iterations": float(np.mean(iters)),
@@ -211,7 +215,7 @@ def profile(task: Any, q0: np.ndarray, target: Any, sphere: Any, horizon: int, t
     mpc = CooperativeMPC(task, target, obstacles=[sphere], horizon=horizon, time_budget=1e9)
     q, qd, t = q0.copy(), np.zeros(task.nq), 0.0
     mpc.tick(t, q, qd)  # the cold tick: not profiled
-    prof = {"tick": cProfile.Profile(), "filter": cProfile.Profile()}
+    prof = {"tick": cProfile.Profile(time.process_time), "filter": cProfile.Profile(time.process_time)}  # CPU time
     for _ in range(ticks):
         t += mpc.o.period
         q, qd = mpc.sample_plan(t)
@@ -280,6 +284,7 @@ def main(argv: list[str] | None = None) -> int:
             r[variant]["tick_over_task_evaluate"] = r[variant]["tick_s"]["median"] / a["task_evaluate_s"]
             r[variant]["tick_over_collision_evaluate"] = r[variant]["tick_s"]["median"] / a["collision_evaluate_s"]
             r[variant]["sustained_rate_hz"] = 1.0 / r[variant]["tick_s"]["median"]
+            r[variant]["cpu_rate_hz"] = 1.0 / r[variant]["tick_cpu_s"]["median"]  # the core to itself
         with exp.stage(f"horizon {h}, the inner call with and without its per-call set-up"):
             r["setup_overhead"] = setup_overhead(task, q0, target, sphere, h, ticks)
         with exp.stage(f"horizon {h}, profile of the tick and of the safety step (cProfile)"):
@@ -312,13 +317,27 @@ def _report(results: list[dict[str, Any]], a: dict[str, float], quiet: bool) -> 
             rows.append([
                 r["horizon"], v, f"{1e3 * x['tick_s']['median']:.1f}", f"{1e3 * x['tick_s']['p95']:.1f}",
                 f"{1e3 * x['tick_s']['max']:.1f}", f"{1e3 * x['solve_s']['median']:.1f}",
-                f"{x['sustained_rate_hz']:.1f}", f"{x['tick_over_task_evaluate']:.0f}",
+                f"{x['sustained_rate_hz']:.1f}", f"{1e3 * x['tick_cpu_s']['median']:.1f}",
+                f"{1e3 * x['tick_cpu_s']['p95']:.1f}", f"{x['cpu_rate_hz']:.1f}", f"{x['tick_over_task_evaluate']:.0f}",
                 f"{1e3 * x['filter_s']['median']:.2f}",
             ])  # fmt: skip
     print_table(
         f"MPC tick on three_franka (load {os.getloadavg()[0]:.1f}; task evaluate {1e6 * a['task_evaluate_s']:.0f} µs, "
         f"collision evaluate {1e6 * a['collision_evaluate_s']:.0f} µs)",
-        ["H", "variant", "tick med ms", "p95", "max", "iLQR solve med", "rate Hz", "tick/task eval", "filter ms"],
+        [
+            "H",
+            "variant",
+            "tick med ms",
+            "p95",
+            "max",
+            "iLQR solve med",
+            "rate Hz",
+            "CPU med ms",
+            "CPU p95",
+            "CPU rate Hz",
+            "tick/task eval",
+            "filter ms",
+        ],
         rows,
     )
     for r in results:
