@@ -237,9 +237,9 @@ def _hold(seconds: float) -> dict[str, Any]:
 def _wrench(n: int, repeat: int) -> dict[str, Any]:
     """Part 3 (module docstring): interleaved best-of-``repeat`` times of ``n`` calls each [µs per call]."""
     from coop_ga.cooperative import wrench_map
-    from coop_ga.sim.carry import _task
+    from coop_ga.sim.carry import carry_task
 
-    task = _task()
+    task = carry_task()
     wm = wrench_map(task)
     q = np.asarray(task.system.q0, float)
     P = task.points(q)
@@ -249,7 +249,7 @@ def _wrench(n: int, repeat: int) -> dict[str, Any]:
     calls = {
         "wrench": lambda: wm(P, F, T),
         "evaluate": lambda: task.evaluate(q),
-        "wrench_views": lambda: wm.evaluate_views(*flat, 0.0),
+        "wrench_views": lambda: wm.evaluate_views(flat[0], flat[1], flat[2], flat[3], 0.0),
         "evaluate_views": lambda: task.evaluate_views(q),
     }
     best = dict.fromkeys(calls, float("inf"))

@@ -13,16 +13,17 @@ feedback).
 Measured per run (``coop_ga.sim.mpc_carry.carry_track_metrics``) over the tracking window: the box's position
 against the target carried through the grasp (RMS, max, vertical), its turn, each pad's slip on the box, drop,
 the squeeze, MuJoCo's robot–robot contacts, the arm–arm clearance (collision model), joint limit excursions, the
-tube (measured vs nominal centre), the MPC tick times (wall clock on this shared machine, with the load) and
-fallbacks.  Several paths: headings 0°, 90° and 45° (the last with a 3 kg box); a failed claim is listed in
+tube (measured vs nominal centre), the MPC's ticks (none dropped), iterations and fallbacks — all independent of
+the machine (a re-run writes the same ``metrics.json``); the wall-clock tick times, the overruns of the period and
+the load go to ``timing.json`` and ``timing.png`` (untracked).  Several paths: headings 0°, 90° and 45° (the last with a 3 kg box); a failed claim is listed in
 ``failures``.
 
 ``--fast`` (the gallery): 3 runs of 4 s tracking.  Full: the same with 8 s of tracking (two periods) and a fourth
 path (heading 135°, 7 cm).
 
 Writes to ``--out``: ``model.xml`` + ``log.npz`` (the first run; replay with ``coop_ga.sim.replay``),
-``metrics.json``, ``mpc_carry.png`` (box vs target, slip, tick times), ``mpc_carry.gif`` (MuJoCo offscreen:
-the circle through the pads, the squeeze forces), ``timing.json``.
+``metrics.json``, ``mpc_carry.png`` (box vs target, slip, the tube per tick), ``mpc_carry.gif`` (MuJoCo offscreen:
+the circle through the pads, the squeeze forces), ``timing.json``, ``timing.png``.
 
     python experiments/sim_mpc_carry.py [--fast] [--track 8] [--no-render] --out DIR
 """
@@ -30,12 +31,23 @@ the circle through the pads, the squeeze forces), ``timing.json``.
 from __future__ import annotations
 
 import math
-import os
 import sys
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _mpc_gallery import (
+    plot_tick_times,
+    render_gif,
+    simulate_cases,
+    summary_head,
+    tick_sentence,
+    tick_timing,
+    write_gallery,
+)
 
 from coop_ga.harness import Experiment, positive_float
 
@@ -70,48 +82,30 @@ def _cases(track: float, fast: bool) -> list[Any]:
 
 def run(exp: Experiment, track: float, render: bool) -> int:
     """Simulate, measure, draw and write (module docstring)."""
+    t0 = time.perf_counter()
+    runs, per, timing = simulate_cases(exp, _cases(track, exp.fast), _simulate)
+    timing["worst"] = tick_timing(timing, [m["case"]["name"] for m in per])
+    timing["total_s"] = time.perf_counter() - t0
+    write_gallery(exp, runs, _summary(per, exp.fast), timing, _plot, _render if render else None, _gallery)
+    return 0
+
+
+def _simulate(case: Any) -> tuple[Any, dict[str, Any], dict[str, Any]]:
+    """One run: (the run, its deterministic metrics with the claims checked, its wall-clock numbers)."""
     import warnings
 
     from coop_ga.errors import RateWarning
-    from coop_ga.sim.mpc_carry import carry_track_metrics, run_carry_track
+    from coop_ga.sim.mpc_carry import carry_track_metrics, carry_track_timing, run_carry_track
 
-    t0 = time.perf_counter()
-    runs, per, times = [], [], {}
-    for case in _cases(track, exp.fast):
-        with exp.stage(f"simulating {case.name} ({case.track:g} s tracking)"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RateWarning)  # overruns are counted in the metrics
-            t = time.perf_counter()
-            r = run_carry_track(case, progress=not exp.quiet)
-            m = carry_track_metrics(r)
-            times[f"{case.name}_s"] = time.perf_counter() - t
-        runs.append(r)
-        per.append(m)
-        if not exp.quiet:
-            print(f"  {case.name}: {'ok' if not m['failures'] else 'FAILED: ' + '; '.join(m['failures'])}")
-    runs[0].log.save(exp.out)
-    figures = [_plot(exp, runs)]
-    if render:
-        t = time.perf_counter()
-        figures.append(_render(exp, runs[0], exp.fast))
-        times["render_s"] = time.perf_counter() - t
-    metrics = {**runs[0].log.metrics(), **_summary(per, exp.fast)}
-    metrics["gallery"] = _gallery(metrics, figures)
-    exp.write_json("metrics.json", metrics)
-    times["total_s"] = time.perf_counter() - t0
-    exp.write_timing(times)
-    if not exp.quiet:
-        print(metrics["gallery"]["evidence"])
-    return 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RateWarning)  # overruns are counted in timing.json
+        r = run_carry_track(case, progress=False)
+    return r, carry_track_metrics(r), carry_track_timing(r)
 
 
 def _summary(per: list[dict[str, Any]], fast: bool) -> dict[str, Any]:
     return {
-        "experiment": "mpc_carry",
-        "fast": fast,
-        "load_average": list(os.getloadavg()),
-        "runs_count": len(per),
-        "success_count": sum(not m["failures"] for m in per),
-        "failures": {m["case"]["name"]: m["failures"] for m in per if m["failures"]},
+        **summary_head("mpc_carry", per, fast, lambda m: m["case"]["name"]),
         "worst": {
             "box_rms_m": max(m["box_error_m"]["rms"] for m in per),
             "box_max_m": max(m["box_error_m"]["max"] for m in per),
@@ -127,11 +121,6 @@ def _summary(per: list[dict[str, Any]], fast: bool) -> dict[str, Any]:
             "squeeze_max_N": max(m["squeeze_N"]["max"] for m in per),
             "tube_max_m": max(m["tube_max_m"] for m in per),
             "fallbacks": sum(m["fallbacks"] for m in per),
-            "tick_median_s": max(m["tick_time_s"]["median"] for m in per),
-            "tick_p95_s": max(m["tick_time_s"]["p95"] for m in per),
-            "tick_max_s": max(m["tick_time_s"]["max"] for m in per),
-            "overruns": sum(m["mpc_overruns"] for m in per),
-            "ticks": sum(m["mpc_ticks"] for m in per),
         },
         "runs": per,
     }
@@ -139,6 +128,7 @@ def _summary(per: list[dict[str, Any]], fast: bool) -> dict[str, Any]:
 
 def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
     w, n, k = m["worst"], m["runs_count"], m["success_count"]
+    instants = [round(r["case"]["track_s"] / r["period_s"]) for r in m["runs"]]  # tick instants per run
     fails = "; ".join(f"{name}: {', '.join(why)}" for name, why in m["failures"].items()) or "none"
     evidence = (
         f"{k} of {n} runs pass ({_describe(m['runs'])}; period 4 s, {m['runs'][0]['case']['track_s']:g} s of "
@@ -150,9 +140,7 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
         f"{w['contacts_robot_robot']}, arm–arm clearance ≥ {1000 * w['min_clearance_arm_arm_m']:.0f} mm (collision "
         f"model); joint limits left by {w['position_violation_rad']:.3g} rad / {w['velocity_violation_rad_s']:.3g} "
         f"rad/s; measured centre within {1000 * w['tube_max_m']:.1f} mm of the MPC's nominal; {w['fallbacks']} "
-        f"fallbacks. MPC tick (wall, load {m['load_average'][0]:.1f} on 2 cores; worst run): median "
-        f"{1000 * w['tick_median_s']:.0f} ms, p95 {1000 * w['tick_p95_s']:.0f} ms, max {1000 * w['tick_max_s']:.0f} "
-        f"ms against a 40 ms period, {w['overruns']} of {w['ticks']} ticks over it (counted, none dropped). "
+        f"fallbacks. {tick_sentence(m['runs'], instants)} "
         f"Failures: {fails}."
     )
     return {
@@ -190,16 +178,14 @@ def _plot(exp: Experiment, runs: list[Any]) -> str:
         s = slip_series(r.carry, "carry")
         since = ~np.isnan(s).all(axis=1)  # NaN before the lift's end
         axes[2].plot(r.carry.trace["time"][since], 1000 * s[since].max(axis=1), color=f"C{i}", label=r.case.name)
-        axes[3].plot([k.time for k in r.follower.ticks], [1000 * k.tick_time for k in r.follower.ticks], ".", ms=2,
-                     color=f"C{i}", label=r.case.name)  # fmt: skip
+        tube = np.array(r.follower.tube).reshape(-1, 2)  # (t, measured centre − nominal) per tick
+        axes[3].plot(tube[:, 0], 1000 * tube[:, 1], ".", ms=2, color=f"C{i}", label=r.case.name)
     axes[0].set_aspect("equal")
     axes[0].set_xlabel("box x [m]")
     axes[0].set_ylabel("box y [m]")
     axes[1].set_ylabel("box error [mm]")
     axes[2].set_ylabel("largest pad slip since the lift's end [mm]")
-    axes[3].axhline(1000 * runs[0].follower.mpc.o.period, color="r", ls="--", lw=0.8, label="period")
-    axes[3].set_yscale("log")
-    axes[3].set_ylabel("MPC tick, wall [ms]")
+    axes[3].set_ylabel("measured centre − MPC's nominal, per tick [mm]")
     for a in axes[1:]:
         a.set_xlabel("t [s]")
     for a in axes:
@@ -208,18 +194,16 @@ def _plot(exp: Experiment, runs: list[Any]) -> str:
     fig.tight_layout()
     exp.save(fig, "mpc_carry.png")
     plt.close(fig)
+    plot_tick_times(exp, [(r.case.name, r.follower.ticks) for r in runs], runs[0].follower.mpc.o.period)
     return "mpc_carry.png"
 
 
-def _render(exp: Experiment, run: Any, fast: bool) -> str:
+def _render(exp: Experiment, run: Any) -> str:
     from coop_ga.sim import render
     from coop_ga.sim.carry import grasp_overlays
 
     cam = render.Camera(lookat=(-0.05, 0.0, 0.5), distance=1.7, azimuth=-60.0, elevation=-28.0)
-    w, h = (400, 300) if fast else (640, 480)
-    render.render_log(run.log, exp.out / "mpc_carry.gif", fps=10.0, width=w, height=h, camera=cam,
-                      overlays=lambda k, d: grasp_overlays(run.carry, k))  # fmt: skip
-    return "mpc_carry.gif"
+    return render_gif(exp, run.log, "mpc_carry.gif", cam, lambda k, d: grasp_overlays(run.carry, k))
 
 
 if __name__ == "__main__":

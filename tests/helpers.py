@@ -47,3 +47,19 @@ def read_metrics(out, name: str = "metrics.json") -> dict:
     from pathlib import Path
 
     return strict_json((Path(out) / name).read_text())
+
+
+#: keys of wall-clock numbers: they belong in timing.json, never in a committed metrics.json
+WALL_CLOCK_KEYS = ("tick_time_s", "solve_time_s", "filter_time_s", "tick_median_s", "mpc_overruns", "overruns",
+                   "wall_s", "load_average")  # fmt: skip
+
+
+def wall_clock_keys(obj: object, path: str = "") -> list[str]:
+    """Every key of :data:`WALL_CLOCK_KEYS` in a metrics tree, with its path."""
+    if isinstance(obj, dict):
+        return [f"{path}.{k}" for k in obj if k in WALL_CLOCK_KEYS] + [
+            x for k, v in obj.items() for x in wall_clock_keys(v, f"{path}.{k}")
+        ]
+    if isinstance(obj, list):
+        return [x for i, v in enumerate(obj) for x in wall_clock_keys(v, f"{path}[{i}]")]
+    return []

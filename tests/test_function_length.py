@@ -18,15 +18,12 @@ MAX_LINES = 80
 SCRIPT_DIRS = ("experiments", "benchmarks", "paper_figures")
 #: scripts not checked yet (being rewritten elsewhere; the list only shrinks), as glob patterns relative to ROOT
 NOT_YET_CHECKED = (
-    "experiments/sim_*.py",
-    "experiments/plan_*.py",
+    "experiments/sim_hexapod_ablation.py",
+    "experiments/sim_hexapod_walk.py",
     "experiments/hexapod_*.py",
-    "benchmarks/mpc.py",
     "benchmarks/ocp.py",
     "benchmarks/anchors.py",
-    "benchmarks/plan_box_lift.py",
     "benchmarks/sim_hexapod.py",
-    "benchmarks/sim.py",
 )
 
 

@@ -35,7 +35,8 @@ not in this loop: the hold controller is the torque law (it must be, to squeeze)
 Metrics (:func:`carry_track_metrics`): the box's position against the target carried through the grasp (the box
 at the track start moved by the target's displacement), its turn, slip of each pad on the box
 (:func:`~coop_ga.sim.carry.slip_series`), drop (the box back on the table or 3 cm below its lifted height),
-squeeze, robot–robot contacts, joint limit excursions, MPC tick times and fallbacks.
+squeeze, robot–robot contacts, joint limit excursions, MPC ticks and fallbacks; the wall-clock tick times apart
+(:func:`carry_track_timing`).
 """
 
 from __future__ import annotations
@@ -52,6 +53,7 @@ from .. import validation
 from ..control.mpc import CooperativeMPC, MPCInfeasibleError, MPCOptions
 from .carry import FAST_DURATIONS, CarryCase, CarryRun, box_state, carry_setup, slip_series
 from .hold import CarryPlan, HoldController, PlanPoint, circle_target, min_jerk
+from .mpc_track import mpc_timing, stats
 from .simulation import Simulation, SimulationLog
 
 __all__ = [
@@ -61,6 +63,7 @@ __all__ = [
     "MPCFollower",
     "carry_target",
     "carry_track_metrics",
+    "carry_track_timing",
     "run_carry_track",
 ]
 
@@ -308,18 +311,13 @@ def _arm_clearance(run: CarryTrackRun, rows: np.ndarray) -> float:
     )
 
 
-def _stats(x: Any) -> dict[str, float]:
-    x = np.asarray(x, float)
-    return {"median": float(np.median(x)), "p95": float(np.percentile(x, 95)), "max": float(x.max())} if x.size else {}
-
-
 def carry_track_metrics(run: CarryTrackRun) -> dict[str, Any]:
     """The run's numbers over the tracking window (module docstring): ``box_error_m`` (RMS, max, and its
     largest vertical part), ``turn_max_deg``, ``slip_mm`` (each pad, from the lift's end: 1 s before the track start), ``dropped``,
     ``squeeze_N`` (min, max), ``contacts`` (robot–robot), ``min_clearance_arm_arm_m``, joint limit excursions,
-    ``tube_max_m``, the MPC's ticks, tick times, overruns and fallbacks; ``failures`` lists every claim missed
-    (box RMS ≤ 1 cm, max ≤ 2 cm, slip ≤ 5 mm, no drop, no robot–robot contact, no joint limit left, no
-    fallback)."""
+    ``tube_max_m``, the MPC's ticks, iterations and fallbacks (its wall-clock tick times:
+    :func:`carry_track_timing`); ``failures`` lists every claim missed (box RMS ≤ 1 cm, max ≤ 2 cm, slip ≤ 5 mm,
+    no drop, no robot–robot contact, no joint limit left, no fallback, no tick dropped)."""
     log, f = run.log, run.follower
     rows = np.flatnonzero(log.time >= f.start - 1e-9)
     err, turn = _box_error(run, rows)
@@ -342,13 +340,21 @@ def carry_track_metrics(run: CarryTrackRun) -> dict[str, Any]:
         "velocity_violation_rad_s": float(lim.velocity_violation(log.qd)),
         "saturated_updates": int(log.saturated_updates),
         "tube_max_m": max((d for _, d in f.tube), default=0.0),
-        "mpc_ticks": len(f.ticks), "mpc_overruns": int(f.mpc.overruns), "fallbacks": len(f.fallbacks),
-        "tick_time_s": _stats([k.tick_time for k in f.ticks]),
+        "mpc_ticks": len(f.ticks), "fallbacks": len(f.fallbacks),
+        "iterations_per_tick": stats([k.iterations for k in f.ticks]),
         "plan_violation_max": float(max((k.violation for k in f.ticks), default=0.0)),
-        "period_s": f.mpc.o.period, "horizon": f.mpc.o.horizon, "wall_s": run.wall_s,
+        "period_s": f.mpc.o.period, "horizon": f.mpc.o.horizon,
     }  # fmt: skip
     m["failures"] = _failures(m)
     return m
+
+
+def carry_track_timing(run: CarryTrackRun) -> dict[str, Any]:
+    """The run's wall-clock numbers (:func:`~coop_ga.sim.mpc_track.mpc_timing`: tick and solve times, overruns,
+    the simulation's wall time), for ``timing.json``: apart from :func:`carry_track_metrics`, which depend on the
+    case alone."""
+    f = run.follower
+    return mpc_timing(f.mpc, f.ticks, (), run.wall_s)
 
 
 def _failures(m: dict[str, Any]) -> list[str]:
@@ -368,4 +374,7 @@ def _failures(m: dict[str, Any]) -> list[str]:
         )
     if m["fallbacks"]:
         out.append(f"{m['fallbacks']} MPC fallbacks")
+    expected = round(m["case"]["track_s"] / m["period_s"])
+    if m["mpc_ticks"] != expected:
+        out.append(f"{m['mpc_ticks']} MPC ticks solved of {expected} (one every {m['period_s']} s)")
     return out

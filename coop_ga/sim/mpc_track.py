@@ -20,16 +20,17 @@ with a velocity lead so that it follows that path (the lag of a position servo o
 Metrics (:func:`track_metrics`): the primitive's centre and radius against the target's (from the logged q,
 every 10 ms), ‖e‖ (Eq 44), the collision model's clearance with the sphere at its *simulated* position
 (arm–obstacle and arm–arm), MuJoCo's contacts robot–sphere and robot–robot (counted at every physics step),
-joint position / velocity limit excursions of the simulated state, torque saturation, MPC tick times, the
-safety layer's fallbacks; with a push (:class:`TrackCase` ``push``: 20 N on one arm for 0.2 s through
-``xfrc_applied``) the peak deviation and the recovery time.
+joint position / velocity limit excursions of the simulated state, torque saturation, the MPC's ticks and
+iterations, the safety layer's fallbacks; with a push (:class:`TrackCase` ``push``: 20 N on one arm for 0.2 s
+through ``xfrc_applied``) the peak deviation and the recovery time.  These depend on the seed alone (the MPC's
+budget is a count of iterations, not a time); the wall-clock tick times are apart (:func:`track_timing`).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -38,7 +39,7 @@ import numpy as np
 from ..control.mpc import CooperativeMPC, MovingSphere, MPCInfeasibleError, MPCOptions
 from ._mujoco import mj
 from .hold import circle_target
-from .scene import Scene, _set_inertial, build_scene
+from .scene import Scene, build_scene, set_inertial
 from .simulation import Disturbance, Simulation, SimulationLog
 
 __all__ = [
@@ -46,11 +47,14 @@ __all__ = [
     "TrackRun",
     "TrackingController",
     "figure_eight_target",
+    "mpc_timing",
     "obstacle_path",
     "recovery_time",
     "run_track",
+    "stats",
     "track_metrics",
     "track_scene",
+    "track_timing",
 ]
 
 OBSTACLE = "obstacle"
@@ -144,7 +148,7 @@ def track_scene(system: Any, start: Any, radius: float) -> Scene:
             name=f"{OBSTACLE}_{ax}_servo", target=f"{OBSTACLE}_{ax}", trntype=m.mjtTrn.mjTRN_JOINT
         )
         act.set_to_position(kp=SERVO_KP, kv=SERVO_KV)
-    _set_inertial(body, 1.0, np.zeros(3), 0.4 * radius * radius * np.eye(3), "the obstacle sphere")  # 1 kg solid
+    set_inertial(body, 1.0, np.zeros(3), 0.4 * radius * radius * np.eye(3), "the obstacle sphere")  # 1 kg solid
     body.add_geom(
         name=f"{OBSTACLE}_geom", type=m.mjtGeom.mjGEOM_SPHERE, size=[radius, 0, 0], rgba=[0.85, 0.2, 0.2, 0.8], contype=1, conaffinity=1,
     )  # fmt: skip
@@ -329,11 +333,36 @@ def _finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 
 
-def _stats(x: np.ndarray) -> dict[str, float]:
+def stats(x: Any) -> dict[str, float]:
+    """``{"median", "p95", "max"}`` of the values x (m,) (NaN for none)."""
     x = np.asarray(x, float)
     if not x.size:
         return {"median": math.nan, "p95": math.nan, "max": math.nan}
     return {"median": float(np.median(x)), "p95": float(np.percentile(x, 95)), "max": float(x.max())}
+
+
+def mpc_timing(
+    mpc: CooperativeMPC, ticks: Sequence[Any], filters: Sequence[Any] = (), wall_s: float = 0.0
+) -> dict[str, Any]:
+    """The wall-clock side of a closed-loop run, for ``timing.json`` and never ``metrics.json`` (it changes with
+    the machine and its load, the rest of a run does not): the MPC ticks' own time (``tick_s``), their iLQR solve
+    (``solve_s``) and the safety steps (``filter_s``) as :func:`stats` [s], the ticks over the budget
+    (``overruns``: warned and counted, never skipped: :class:`~coop_ga.control.mpc.CooperativeMPC`) and the whole
+    simulation's ``wall_s`` [s]."""
+    return {
+        "tick_s": stats([k.tick_time for k in ticks]),
+        "solve_s": stats([k.solve_time for k in ticks]),
+        "filter_s": stats([f.step_time for f in filters]),
+        "overruns": int(mpc.overruns),
+        "ticks": len(ticks),
+        "wall_s": float(wall_s),
+    }
+
+
+def track_timing(run: TrackRun) -> dict[str, Any]:
+    """:func:`mpc_timing` of a tracking run."""
+    ctrl = run.controller
+    return mpc_timing(ctrl.mpc, ctrl.ticks, ctrl.filters, run.wall_s)
 
 
 def _limits(run: TrackRun, rows: np.ndarray | None = None) -> dict[str, float]:
@@ -356,7 +385,6 @@ def track_metrics(run: TrackRun, settle: float = 0.5) -> dict[str, Any]:
     ok = tr["t"] >= settle
     ce = np.linalg.norm(tr["centre"] - tr["target_centre"], axis=1)
     re = np.abs(tr["radius"] - tr["target_radius"])
-    ticks = np.array([k.tick_time for k in ctrl.ticks])
     m: dict[str, Any] = {
         "case": case.name, "seed": case.seed, "duration_s": case.duration, "obstacle": case.obstacle,
         "centre_error_m": {"rms": float(np.sqrt(np.mean(ce[ok] ** 2))), "max": float(ce[ok].max())},
@@ -366,15 +394,11 @@ def track_metrics(run: TrackRun, settle: float = 0.5) -> dict[str, Any]:
         "min_clearance_arm_arm_m": float(cl["arm_arm"].min(initial=np.inf)),
         "contacts": dict(ctrl.contacts),
         "limits": _limits(run),
-        "mpc_ticks": len(ctrl.ticks), "mpc_overruns": int(ctrl.mpc.overruns),
-        "tick_time_s": _stats(ticks),
-        "solve_time_s": _stats(np.array([k.solve_time for k in ctrl.ticks])),
-        "filter_time_s": _stats(np.array([f.step_time for f in ctrl.filters])),
-        "iterations_per_tick": _stats(np.array([k.iterations for k in ctrl.ticks], float)),
+        "mpc_ticks": len(ctrl.ticks),
+        "iterations_per_tick": stats(np.array([k.iterations for k in ctrl.ticks], float)),
         "plan_violation_max": float(max((k.violation for k in ctrl.ticks), default=0.0)),
         "fallbacks": len(ctrl.fallbacks), "first_fallback": ctrl.fallbacks[0][1] if ctrl.fallbacks else None,
         "period_s": ctrl.mpc.o.period, "filter_dt_s": ctrl.mpc.o.filter_dt, "horizon": ctrl.mpc.o.horizon,
-        "wall_s": run.wall_s,
     }  # fmt: skip
     if case.push:
         m["push"] = _push_metrics(tr["t"], ce, case)

@@ -68,11 +68,12 @@ from .carry import (
     box_state,
     carry_setup,
     default_gains,
+    limit_excursions,
     slip_series,
 )
 from .hold import CarryPlan, HoldController, HoldGains, PhasedPlan, PlanPoint
 from .objects import Ball
-from .scene import Scene, _add_objects
+from .scene import Scene, add_objects
 from .simulation import Simulation, SimulationLog
 
 __all__ = [
@@ -146,7 +147,7 @@ def with_static(scene: Scene, objects: Any) -> Scene:
     if any(not o.static for o in objects):
         raise InvalidInputError("with_static adds static objects only; give free objects to build_scene")
     spec = scene.spec.copy()
-    _add_objects(spec, objects, {o.name for o in scene.objects})
+    add_objects(spec, objects, {o.name for o in scene.objects})
     return Scene(
         scene.system, spec, spec.compile(), (*scene.objects, *objects), scene.floating_base, scene.base_body,
         scene.excluded, scene.visual_skipped, scene.capsules,
@@ -511,8 +512,6 @@ def execution_metrics(run: CarryRun, p: PathCarryPlan, lift: Lift) -> dict[str, 
     """The run's measured claims (module docstring); ``success`` = the box ends in the goal region (its
     displacement inside the region's, tilt ≤ 10°), not dropped, slip ≤ 5 mm per pad, no shelf contact, no
     joint-limit violation."""
-    from .carry import _limits
-
     pos, R = box_state(run)
     t = run.log.time
     i0 = int(np.searchsorted(t, p.follow_start - 1e-9))
@@ -542,7 +541,7 @@ def execution_metrics(run: CarryRun, p: PathCarryPlan, lift: Lift) -> dict[str, 
         "squeeze_max_N": float(np.max(run.trace["squeeze"][i0:])),
         "weight_estimate_kg": float(run.trace["weight_estimate"][-1]),
         "saturated_updates": int(run.log.saturated_updates),
-        **_limits(run),
+        **limit_excursions(run),
         **_tracking(run, p),
     }
     fails = []

@@ -83,7 +83,9 @@ __all__ = [
     "GROUP_VISUAL",
     "INTEGRATORS",
     "Scene",
+    "add_objects",
     "build_scene",
+    "set_inertial",
 ]
 
 GROUP_SCENE, GROUP_VISUAL, GROUP_COLLISION, GROUP_SITES = 0, 2, 3, 4
@@ -197,9 +199,16 @@ def _groups(att: dict[int, _Attach], model: Any) -> list[_Attach]:
     return out
 
 
-def _set_inertial(body: Any, mass: float, com: Any, I_c: Any, what: str) -> None:
-    """Give ``body`` an explicit inertial: ``mass`` [kg], centre of mass ``com`` (3,) and inertia ``I_c``
-    (3, 3) about it [kg m²] in the body frame, as MuJoCo's principal moments and axes."""
+def set_inertial(body: Any, mass: float, com: Any, I_c: Any, what: str) -> None:
+    """Give ``body`` (an ``mujoco.MjsBody`` of a scene's spec) an explicit inertial: ``mass`` [kg], centre of
+    mass ``com`` (3,) [m] and inertia ``I_c`` (3, 3) about it [kg m²] in the body frame, as MuJoCo's principal
+    moments and axes.  Used for the robot's bodies, the scene's free objects and bodies added to a scene
+    elsewhere (e.g. the moving obstacle of :mod:`coop_ga.sim.mpc_track`).
+
+    Raises:
+        InvalidInputError: a non-physical inertia (a principal moment ≤ 0 or the triangle inequality broken),
+            naming ``what`` (e.g. "object 'box'").
+    """
     w, q = _principal(np.asarray(I_c, float))
     if w[0] <= 0.0 or w[0] + w[1] < w[2] * (1.0 - 1e-9):
         raise InvalidInputError(
@@ -228,7 +237,7 @@ def _set_inertias(att: dict[int, _Attach], model: Any) -> None:
                 "be singular); give the link an <inertial> in the URDF, or lock the joint "
                 "(from_urdf(..., locked_joints=[...]))"
             )
-        _set_inertial(a.body, total.mass, total.lever, total.inertia, f"the body moved by joint(s) {names}")
+        set_inertial(a.body, total.mass, total.lever, total.inertia, f"the body moved by joint(s) {names}")
 
 
 def _name_bodies(att: dict[int, _Attach], model: Any) -> None:
@@ -488,7 +497,15 @@ def _add_world(spec: Any, floor: float | None) -> None:
     )
 
 
-def _add_objects(spec: Any, objects: Sequence[SceneObject], taken: set[str]) -> None:
+def add_objects(spec: Any, objects: Sequence[SceneObject], taken: set[str]) -> None:
+    """Add each :class:`~coop_ga.sim.objects.SceneObject` to ``spec``'s world body: a body at its pose (with a
+    free joint and its inertial unless ``static``) and its geom (scene group, colliding with everything).
+    ``taken``: the body names already in the spec; each object's name is added to it.  Used by
+    :func:`build_scene` and to add objects to an existing scene (:mod:`coop_ga.sim.plan_execute`).
+
+    Raises:
+        InvalidInputError: an object's name is already taken (a link or another object).
+    """
     mj = _mj()
     for ob in objects:
         if ob.name in taken:
@@ -499,7 +516,7 @@ def _add_objects(spec: Any, objects: Sequence[SceneObject], taken: set[str]) -> 
         body = spec.worldbody.add_body(name=ob.name, pos=ob.pos, quat=ob.quat, mocap=ob.mocap)
         if ob.free:
             body.add_freejoint(name=ob.name)
-            _set_inertial(body, ob.mass, np.zeros(3), ob.inertia, f"object '{ob.name}'")
+            set_inertial(body, ob.mass, np.zeros(3), ob.inertia, f"object '{ob.name}'")
         body.add_geom(
             name=f"{ob.name}_geom",
             type=getattr(mj.mjtGeom, f"mjGEOM_{ob.geom_type}"),
@@ -844,7 +861,7 @@ def build_scene(
         excluded = _add_excludes(spec, system, caps, bodies, self_collision, fr)
     skipped = _add_visuals(spec, root, system, att, float(visual_cell)) if visuals else 0
     _add_world(spec, floor)
-    _add_objects(spec, objects, {b.name for b in spec.bodies})
+    add_objects(spec, objects, {b.name for b in spec.bodies})
     return Scene(system, spec, _compile(spec), objects, bool(floating_base), base_name, excluded, skipped, caps)
 
 
@@ -880,5 +897,5 @@ def _floating_root(spec: Any, system: Any) -> tuple[Any, str]:
     name = f"{fixed[0]}_free" if fixed else "base_free"
     body = spec.worldbody.add_body(name=name)
     body.add_freejoint(name=name)
-    _set_inertial(body, I0.mass, I0.lever, I0.inertia, f"the world-fixed part of system '{system.name}'")
+    set_inertial(body, I0.mass, I0.lever, I0.inertia, f"the world-fixed part of system '{system.name}'")
     return body, name

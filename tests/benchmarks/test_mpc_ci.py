@@ -50,6 +50,13 @@ def test_results_structure_and_ratios(doc: dict[str, Any]) -> None:
     o = r["setup_overhead"]  # the inner call set up once vs ilqr_reach on the same ticks (CPU)
     assert o["receding_reach_cpu_s"] > 0 and o["ilqr_reach_cpu_s"] > 0 and o["ratio"] > 0
     assert "RecedingReach" in r["note"]
+    assert doc["config"]["core"] is not None  # pinned to one core
+    for part in ("tick", "filter"):  # the profile: shares of the profiled time, each with its Python share
+        shares = r["profile"][part]
+        assert sum(v["share"] for v in shares.values()) == pytest.approx(1.0, abs=1e-4)
+        assert all(0.0 <= v["share"] <= 1.0 and 0.0 <= v["python"] <= 1.0 for v in shares.values())
+    assert {"iLQR", "collision"} <= set(r["profile"]["tick"]) and "QP" in r["profile"]["filter"]
+    assert "profile, tick: " in r["note"] and "profile, safety step: " in r["note"]
 
 
 def test_cli(capsys: pytest.CaptureFixture[str]) -> None:

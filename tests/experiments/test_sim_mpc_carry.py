@@ -13,7 +13,7 @@ import pytest
 
 pytest.importorskip("mujoco")
 
-from tests.helpers import read_metrics
+from tests.helpers import read_metrics, wall_clock_keys
 
 ROOT = Path(__file__).resolve().parents[2]
 OUT = ROOT / "paper_figures" / "ours_mpc_carry"
@@ -34,6 +34,9 @@ def test_the_held_box_follows_the_moving_target():
         assert r["squeeze_N"]["min"] > 20.0  # the box stayed squeezed (set-point 40 N)
         assert r["fallbacks"] == 0 and r["plan_violation_max"] == 0.0
         assert r["mpc_ticks"] == round(r["case"]["track_s"] / r["period_s"])  # every tick solved, none dropped
+    # no wall-clock number in the committed file (a re-run writes it byte for byte): those are in timing.json
+    assert not wall_clock_keys(m), wall_clock_keys(m)
+    assert "timing.json" in m["gallery"]["evidence"] and " ms, p95 " not in m["gallery"]["evidence"]
     g = m["gallery"]
     assert g["agrees"] is True and g["figures"] == ["mpc_carry.png", "mpc_carry.gif"]
     for name in g["figures"]:

@@ -9,6 +9,8 @@ import warnings
 import numpy as np
 import pytest
 
+from coop_ga.errors import RateWarning
+
 pytest.importorskip("mujoco")
 
 
@@ -52,7 +54,41 @@ def test_tracks_without_contact_or_limit_violation(run):
     assert m["fallbacks"] == 0 and m["plan_violation_max"] == 0.0
     assert m["centre_error_m"]["rms"] < 0.02 and m["radius_error_m"]["max"] < 0.01  # target moves ~8 cm here
     assert m["mpc_ticks"] == 30  # 1.2 s / 40 ms: every tick solved, none dropped
-    assert m["tick_time_s"]["median"] > 0.0
+    assert m["iterations_per_tick"]["median"] == 2.0  # the warm ticks' budget (a count: the run is reproducible)
+
+
+def test_wall_clock_numbers_are_kept_apart(run):
+    """The metrics hold no wall-clock number (a re-run gives the same file); the timing holds them all."""
+    from coop_ga.sim.mpc_track import track_timing
+
+    r, m = run
+    assert not {"tick_time_s", "solve_time_s", "filter_time_s", "mpc_overruns", "wall_s"} & set(m)
+    t = track_timing(r)
+    assert t["ticks"] == m["mpc_ticks"] == 30 and 0 <= t["overruns"] <= 30
+    assert 0.0 < t["tick_s"]["median"] <= t["tick_s"]["p95"] <= t["tick_s"]["max"] and t["wall_s"] > 0.0
+
+
+def _late_run(budget: float | None):
+    from coop_ga.control.mpc import MPCOptions
+    from coop_ga.sim.mpc_track import TrackCase, run_track
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        r = run_track(TrackCase("late", duration=0.2, obstacle=False), MPCOptions(time_budget=budget))
+    return r, [w for w in caught if issubclass(w.category, RateWarning)]
+
+
+def test_an_unmet_rate_warns_once_and_drops_no_tick():
+    """A budget no tick meets (1 µs): one RateWarning with the measured tick time, every tick still solved and
+    applied (0.2 s / 40 ms = 5) — the motion is the same as with a budget every tick meets."""
+    late, warned = _late_run(1e-6)
+    ticks = late.controller.ticks
+    assert len(warned) == 1 and f"took {1e3 * ticks[0].tick_time:.1f} ms" in str(warned[0].message)
+    assert len(ticks) == 5 and late.controller.mpc.ticks == 5 and late.controller.mpc.overruns == 5
+    assert late.controller.fallbacks == []
+    ok, warned_ok = _late_run(60.0)
+    assert warned_ok == [] and ok.controller.mpc.overruns == 0
+    np.testing.assert_array_equal(late.log.qpos, ok.log.qpos)
 
 
 def test_sphere_follows_its_path(run):

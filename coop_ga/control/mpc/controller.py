@@ -148,6 +148,7 @@ class CooperativeMPC:
         self._pin_model = task.system.model
         self._pin_data = self._pin_model.createData()
         self.plan: MPCTick | None = None
+        self._placed_at: float | None = None  # the time [s] of the configuration's (q, q̇) (_place)
         self.ticks = 0
         self.overruns = 0
         self._warned = False
@@ -180,15 +181,32 @@ class CooperativeMPC:
             tau,
         )
 
-    def check_state(self, q: np.ndarray, qd: np.ndarray) -> None:
+    def _place(self, t: float, q: np.ndarray, qd: np.ndarray) -> None:
+        """Move the obstacles to t and the configuration to (q, q̇), unless they are there already: the
+        configuration caches the collision model's distances and Jacobian, so the model is evaluated once per
+        (t, q, q̇) — the state's check, the safety step's clearance rows and their obstacle rates share it, and so
+        do a tick and the safety step at the same instant (the closed loop's tick instants)."""
+        conf = self.configuration
+        placed = self._placed_at == t == self.world.time
+        if not (placed and np.array_equal(conf.q, q) and np.array_equal(conf.velocity, qd)):
+            self.world.at(t)
+            conf.update(q, qd)
+            self._placed_at = float(t)
+
+    def _distances(self) -> np.ndarray:
+        """The collision model's distances (n,) [m] at the placed configuration (:meth:`_place`)."""
+        return distances(self.world.model, self.configuration)[0]
+
+    def check_state(self, q: np.ndarray, qd: np.ndarray, d: np.ndarray | None = None) -> None:
         """Raise :class:`MPCInfeasibleError` (with the violated constraints) if (q, q̇) is outside a position or
-        velocity limit or (with ``avoid``) a pair of the collision model penetrates (clearance < 0)."""
+        velocity limit or (with ``avoid``) a pair of the collision model penetrates (clearance < 0); ``d`` (n,)
+        [m]: the collision model's distances at q with the obstacles placed now, if already known."""
         lim, names = self.lim, self.lim.joint_names
         active = [f"{names[i]} (lower position limit)" for i in np.flatnonzero(q < lim.lower - STATE_TOL)]
         active += [f"{names[i]} (upper position limit)" for i in np.flatnonzero(q > lim.upper + STATE_TOL)]
         active += [f"{names[i]} (velocity limit)" for i in np.flatnonzero(np.abs(qd) > lim.velocity + STATE_TOL)]
         if self.o.avoid:
-            d = self.world.model.distances(q)
+            d = self.world.model.distances(q) if d is None else d
             active += [f"clearance of {self.world.model.labels[k]} ({d[k]:.4f} m)" for k in np.flatnonzero(d < 0.0)]
         if active:
             raise self._infeasible(q, qd, "infeasible constraints at the current state", active)
@@ -212,8 +230,8 @@ class CooperativeMPC:
         o = self.o
         qv, qdv = self._state(q, qd)
         t = validation.scalar(t, "t")
-        self.world.at(t)
-        self.check_state(qv, qdv)
+        self._place(t, qv, qdv)
+        self.check_state(qv, qdv, self._distances() if o.avoid else None)
         V_now, V_end = self.target(t), self.target(t + o.lookahead)
         solver = self._warm if self.plan is not None else self._cold
         res = solver.solve(qv, V_end, qd_init=qdv, u_init=self._warm_start())
@@ -282,21 +300,18 @@ class CooperativeMPC:
         t0 = time.perf_counter()
         o = self.o
         qv, qdv = self._state(q, qd)
-        self.world.at(t)
-        self.check_state(qv, qdv)
+        self._place(t, qv, qdv)
+        conf, d = self.configuration, self._distances()
+        self.check_state(qv, qdv, d)
         q_p, _ = self.sample_plan(t)
         _, qd_p = self.sample_plan(t + o.filter_dt)
         desired = qd_p + o.feedback * (q_p - qv)
-        conf = self.configuration
-        conf.update(qv, qdv)
         try:
             step = solve_step(conf, [JointVelocityTask(desired)], self.limits, o.filter_dt)
         except InfeasibleConstraintsError as exc:
-            d = self.world.model.distances(qv)
             near = [f"clearance of {self.world.model.labels[k]}" for k in np.flatnonzero(d < o.d_influence)]
             raise self._infeasible(qv, qdv, f"the safety QP is infeasible ({exc})", near) from exc
         v = np.array(step.velocity)
-        d, _ = distances(self.world.model, conf)
         return FilterStep(
             float(t),
             v,

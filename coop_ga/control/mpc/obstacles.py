@@ -88,13 +88,14 @@ class ObstacleWorld:
             self.model.obstacles = tuple(self._placed(self.time))
         return self.model
 
-    def obstacle_rate(self, q: np.ndarray) -> np.ndarray:
-        """``∂d/∂t`` (n,) [m/s] of every distance at fixed q and the current time (0 on the self rows)."""
+    def obstacle_rate(self, q: np.ndarray, d: np.ndarray | None = None) -> np.ndarray:
+        """``∂d/∂t`` (n,) [m/s] of every distance at fixed q and the current time (0 on the self rows); ``d``
+        (n,) [m]: the distances at q now, if already known (saves one evaluation of the model)."""
         n_obs = self.model.n_obstacle_rows
         rate = np.zeros(self.model.n)
         if not n_obs:
             return rate
-        d0 = self.model.distances(q)
+        d0 = self.model.distances(q) if d is None else d
         placed = self.model.obstacles
         t = self.time
         self.model.obstacles = tuple(
@@ -127,5 +128,5 @@ class MovingClearanceLimit(ClearanceLimit):
         idx = np.flatnonzero(d < self.d_influence)  # the rows' pairs (damper_rows' selection)
         if not idx.size or rows.h is None:
             return rows
-        rate = self.world.obstacle_rate(configuration.q.copy())
+        rate = self.world.obstacle_rate(configuration.q.copy(), d)
         return Inequalities(None, None, rows.G, rows.h + rate[idx], rows.labels)

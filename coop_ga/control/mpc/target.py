@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from ...errors import InvalidInputError, NonFiniteError
+from ...errors import InvalidInputError, InvalidVersorError, NonFiniteError
 from ...geometry.groups import Similarity
 
 __all__ = ["TargetSchedule"]
@@ -66,4 +66,7 @@ class TargetSchedule:
             )
         if not np.all(np.isfinite(V.coeffs)):
             raise NonFiniteError(f"{where} has NaN/inf coefficients {np.round(V.coeffs, 4).tolist()}")
-        return self.task.check_target(V, where)
+        try:
+            return self.task.check_target(V, where)
+        except InvalidVersorError as exc:  # a Similarity built unchecked around numbers that are no versor
+            raise InvalidVersorError(f"{where} is not a similarity versor: {exc}") from None

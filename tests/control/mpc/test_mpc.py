@@ -83,6 +83,24 @@ def test_bad_target(setup, bad, error, words):
     assert "t = 0.2500" in str(info.value) or "t = 0.6500" in str(info.value)
 
 
+@pytest.mark.parametrize(
+    ("coeffs", "words"), [(np.zeros(12), "no rotor part"), (np.random.default_rng(0).normal(size=12), "dilator")]
+)
+def test_target_similarity_with_non_versor_coefficients(setup, coeffs, words):
+    """A Similarity built unchecked (``check=False``) around 12 numbers that are no similarity versor is refused,
+    naming the time."""
+    from coop_ga.algebra import Multivector
+    from coop_ga.errors import InvalidVersorError
+    from coop_ga.geometry.groups import SIMILARITY_BLADES, Similarity
+
+    task, q0, _ = setup
+    V = Similarity(Multivector(SIMILARITY_BLADES, tuple(coeffs.tolist())), check=False)
+    mpc = CooperativeMPC(task, lambda t: V, OPTS)
+    with pytest.raises(InvalidVersorError, match=words) as info:
+        mpc.tick(0.25, q0, np.zeros(task.nq))
+    assert "the target at t = 0.2500 s is not a similarity versor" in str(info.value)
+
+
 def test_bad_target_forms(setup):
     task, _, _ = setup
     with pytest.raises(InvalidInputError, match="callable"):
@@ -112,11 +130,12 @@ def test_rate_warning_once_and_counted(setup):
     mpc = CooperativeMPC(task, target, OPTS, time_budget=1e-6)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        for k in range(3):
-            mpc.tick(0.04 * k, q0, np.zeros(task.nq))
+        ticks = [mpc.tick(0.04 * k, q0, np.zeros(task.nq)) for k in range(3)]
     rate = [w for w in caught if issubclass(w.category, RateWarning)]
-    assert len(rate) == 1 and "ms, more than its budget" in str(rate[0].message)
-    assert mpc.overruns == 3 and mpc.ticks == 3
+    assert len(rate) == 1  # once per controller, with the first late tick's measured time and the budget
+    assert f"took {1e3 * ticks[0].tick_time:.1f} ms, more than its budget of 0.0 ms" in str(rate[0].message)
+    assert mpc.overruns == 3 and mpc.ticks == 3 and all(k.overrun for k in ticks)  # counted, none skipped
+    assert [k.time for k in ticks] == [0.0, 0.04, 0.08]
 
 
 def test_infeasible_state_gives_active_set_and_brake(setup):
@@ -137,6 +156,63 @@ def test_infeasible_state_gives_active_set_and_brake(setup):
     assert np.all(np.abs(a) <= lim.acceleration + 1e-12)
     assert a[0] == -lim.acceleration[0]  # braking the over-speed joint as hard as allowed
     assert np.allclose(err.fallback_torque, mpc.torque(q, qd, a))
+
+
+def test_infeasible_safety_qp_gives_active_set_and_brake(setup):
+    """A sphere 5.6 cm from arm 0's fingers closing in at 3 m/s: no joint velocity within the limits moves the
+    arm away fast enough, so the safety QP has no feasible point — the error names the clearance rows within
+    d_influence (the most violated one first in its message) and gives the braking command."""
+    task, q0, target = setup
+    tcp = task.points(q0)[0]
+    path = lambda t: tcp + (0.13 - 3.0 * t) * np.array([0.0, -1.0, 0.0])  # noqa: E731
+    mpc = CooperativeMPC(task, target, OPTS, obstacles=[MovingSphere(0.05, path)], time_budget=60.0)
+    mpc.tick(0.0, q0, np.zeros(task.nq))
+    qd = np.zeros(task.nq)
+    qd[0] = 0.1  # [rad/s] moving: the brake is not zero
+    d = mpc.world.model.distances(q0)
+    assert 0.0 < d.min() < mpc.o.d_influence  # the state itself is feasible (no penetration)
+    with pytest.raises(MPCInfeasibleError, match="the safety QP is infeasible") as info:
+        mpc.filter(0.0, q0, qd)
+    err = info.value
+    assert "most violated: clearance of arm0_panda_leftfinger – obstacle" in str(err)
+    assert len(err.active) == int(np.sum(d < mpc.o.d_influence))  # every pair within d_influence, by name
+    near_sphere = [a for a in err.active if a.endswith("– obstacle")]
+    assert "clearance of arm0_panda_leftfinger – obstacle" in near_sphere
+    assert all(a.startswith("clearance of arm0_") for a in near_sphere)  # the sphere is at arm 0's hand
+    lim = task.system.limits
+    a = err.fallback_acceleration
+    assert a[0] == pytest.approx(max(-0.1 / mpc.o.filter_dt, -lim.acceleration[0])) and np.all(a[1:] == 0.0)
+    assert np.allclose(err.fallback_torque, mpc.torque(q0, qd, a))
+
+
+def test_one_collision_evaluation_per_instant(setup):
+    """A tick and the safety step at the same (t, q, q̇) share one evaluation of the collision model (distances and
+    Jacobian: the state check, the clearance rows and the rows' obstacle rates); a step at a new instant makes one
+    more, plus the one at the sphere's shifted position for ∂d/∂t — the filtered velocity is unchanged by it."""
+    task, q0, target = setup
+    tcp = task.points(q0)[0]
+    sphere = MovingSphere(0.05, lambda t: tcp + (0.2 - 0.1 * t) * np.array([0.0, -1.0, 0.0]))  # within d_influence
+    mpc = CooperativeMPC(task, target, OPTS, obstacles=[sphere], time_budget=60.0)
+    model, calls = mpc.world.model, {"distances": 0, "distances_and_jacobian": 0}
+    for name in calls:
+        method = getattr(model, name)
+
+        def counted(*args, _method=method, _name=name):
+            calls[_name] += 1
+            return _method(*args)
+
+        setattr(model, name, counted)  # the instance attribute shadows the method
+    qd = np.zeros(task.nq)
+    mpc.tick(0.0, q0, qd)
+    first = mpc.filter(0.0, q0, qd)
+    assert calls == {"distances": 1, "distances_and_jacobian": 1}  # the shifted sphere's, and the shared one
+    q1, qd1 = mpc.sample_plan(0.01)
+    mpc.filter(0.01, q1, qd1)
+    assert calls == {"distances": 2, "distances_and_jacobian": 2}
+    fresh = CooperativeMPC(task, target, OPTS, obstacles=[sphere], time_budget=60.0)
+    fresh.tick(0.0, q0, qd)
+    fresh.world.at(0.5)  # the obstacles moved elsewhere in between: the step places them again
+    np.testing.assert_array_equal(fresh.filter(0.0, q0, qd).velocity, first.velocity)
 
 
 def test_penetrating_obstacle_is_infeasible(setup):
