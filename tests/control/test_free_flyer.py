@@ -130,8 +130,6 @@ def test_unconverted_controllers_refuse_a_free_flyer(system) -> None:
         "constrained_point_reach": lambda: constrained_point_reach(task, q0, 0, point),
         "Teleoperator": lambda: cg.control.Teleoperator(task, q0),
         "DualTaskSpace": lambda: DualTaskSpace(task),
-        "jdot_qdot": lambda: task.jdot_qdot(q0, np.zeros(system.nv)),
-        "error_hessian": lambda: task.error_hessian(q0, Vd, np.ones(7)),
     }
     for name, call in calls.items():
         with pytest.raises(UnsupportedJointError, match=rf"{name}.*free flyer.*nq = 24, nv = 23.*use "):
@@ -161,3 +159,33 @@ def test_cooperative_error_jacobian_equals_differences_through_integrate(system)
         assert np.abs(fd - J[:, k]).max() <= 1e-8
     _, _, Jb = task.evaluate_batch(np.array([q, system.q0]))
     np.testing.assert_array_equal(Jb[0], task.jacobian(q))
+
+
+def test_task_second_derivatives_along_integrate(system) -> None:
+    """J̇q̇, ∇²(wᵀe) and the AD Jacobian of a floating G1's line task equal central differences of the
+    task's own Jacobian / error through pinocchio.integrate (tangent coordinates, nv columns)."""
+    task = cg.cooperative_task(system, "line")
+    rng = np.random.default_rng(3)
+    q = system.random_q(rng, 0.3)
+    Vd = displaced_target(task, q, translation=(0.05, 0.0, 0.02), axis=(0.0, 1.0, 0.0), angle=0.2)
+    nv = system.nv
+    qd = rng.standard_normal(nv)
+    h = 1e-5
+    jq = lambda x: task.jacobian(x) @ qd  # noqa: E731
+    fd = (jq(pin.integrate(system.model, q, h * qd)) - jq(pin.integrate(system.model, q, -h * qd))) / (2 * h)
+    jd = task.jdot_qdot(q, qd)
+    assert jd.shape == (7,) and np.abs(jd).max() > 0.1
+    assert np.abs(jd - fd).max() <= 1e-7 * max(1.0, np.abs(fd).max())
+    np.testing.assert_allclose(task.jacobian_ad(q), task.jacobian(q), atol=1e-12)
+    w = rng.standard_normal(7)
+    H = task.error_hessian(q, Vd, w)
+    assert H.shape == (nv, nv) and np.abs(H - H.T).max() == 0.0
+    E = lambda dv: w @ task.error(pin.integrate(system.model, q, dv), Vd)  # noqa: E731
+    h2, worst = 1e-4, 0.0
+    for i in range(nv):
+        for j in range(nv):
+            a, b = np.zeros(nv), np.zeros(nv)
+            a[i], b[j] = h2, h2
+            fd2 = (E(a + b) - E(a - b) - E(b - a) + E(-a - b)) / (4 * h2 * h2)
+            worst = max(worst, abs(fd2 - H[i, j]))
+    assert np.abs(H[:6, :6]).max() > 0.1 and worst <= 1e-6 * np.abs(H).max()
