@@ -71,7 +71,7 @@ from ..geometry.kinds import KIND_SPECS, CooperativeKind, Kind, kind_spec
 from ..geometry.primitives import point as conformal_point
 from ..geometry.primitives import well_definedness
 from ..geometry.similarity import primitive_parameters, similarity_from_parameters, similarity_from_unit
-from ..kinematics.chains import KinematicTree, integrate_to_second_order
+from ..kinematics.chains import KinematicTree, at_zero_velocity
 from .primitive import FIT_ROOTS, cooperative_primitive, fit_at, fit_parameters, fit_root, fit_well_definedness
 
 __all__ = ["CHART_WARN_ANGLE", "NB", "TaskGraph", "versor_expr"]
@@ -375,12 +375,8 @@ class TaskGraph:
         return ca.Function("coop_ad", [q], [Vv, ca.densify(_body_columns(V, dV))])
 
     def _at_zero_velocity(self, build: Any, q: ca.SX, *extra: ca.SX) -> ca.SX:
-        """``build(q ⊕ v, v)`` (an expression of q, v and ``extra``) evaluated at v = 0, with q ⊕ v
-        :func:`~coop_ga.kinematics.chains.integrate_to_second_order` (exact to the second derivative in v)."""
-        v = ca.SX.sym("v", self.nv)
-        qs = ca.SX.sym("q", self.nq)
-        f = ca.Function("at_v", [qs, v, *extra], [build(integrate_to_second_order(self.tree.model, qs, v), v)])
-        return f(q, ca.DM.zeros(self.nv), *extra)
+        """:func:`~coop_ga.kinematics.chains.at_zero_velocity` on this graph's model."""
+        return at_zero_velocity(self.tree.model, build, q, *extra)
 
     def _ad_versor(self, q: ca.SX) -> Multivector:
         """V_Sc of :attr:`ad_function` as one expression of q (world origin, no chain rule)."""

@@ -65,6 +65,7 @@ __all__ = [
     "QUATERNION_TOLERANCE",
     "Joint",
     "KinematicTree",
+    "at_zero_velocity",
     "free_flyer_motor",
     "integrate_to_second_order",
     "motor_from_se3",
@@ -305,6 +306,18 @@ def integrate_to_second_order(model: Any, q: Any, v: Any) -> Any:
                 "free flyers move by integrate_to_second_order; lock it (pinocchio.buildReducedModel)"
             )
     return ca.vertcat(*out)
+
+
+def at_zero_velocity(model: Any, build: Any, q: Any, *extra: Any) -> Any:
+    """``build(q ⊕ v, v)`` evaluated at v = 0 (CasADi SX): ``build`` returns an expression of its two arguments
+    and of the symbols ``extra`` (e.g. ``lambda qv, v: ca.jacobian(f(qv), v)``, the derivative of f along the
+    tangent space, nv columns), q ⊕ v is :func:`integrate_to_second_order` (exact up to second derivatives)."""
+    import casadi as ca
+
+    v = ca.SX.sym("v", int(model.nv))
+    qs = ca.SX.sym("q", int(model.nq))
+    f = ca.Function("at_v", [qs, v, *extra], [build(integrate_to_second_order(model, qs, v), v)])
+    return f(q, ca.DM.zeros(int(model.nv)), *extra)
 
 
 def _as_q(q: Any, nq: int, what: str = "q") -> Any:

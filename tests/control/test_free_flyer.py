@@ -29,7 +29,7 @@ from coop_ga.control import (
     run_ik,
     simulate_impedance,
 )
-from coop_ga.control.tasks import DualTaskSpace
+from coop_ga.control.tasks import DualTask, DualTaskSpace
 from coop_ga.cooperative.targets import displaced_target
 from coop_ga.errors import UnsupportedJointError
 from coop_ga.systems.library import g1_floating
@@ -120,16 +120,11 @@ def test_unconverted_controllers_refuse_a_free_flyer(system) -> None:
     task = cg.cooperative_task(system, "point_pair")
     q0 = system.q0
     Vd = displaced_target(task, q0, translation=(0.05, 0.0, 0.0))
-    point = _hands(system, q0)[0]
     calls = {
         "ilqr_reach": lambda: ilqr_reach(task, q0, Vd),
         "simulate_impedance": lambda: simulate_impedance(task, q0, Vd),
         "impedance_torque": lambda: impedance_torque(task, q0, np.zeros(system.nv), Vd),
         "avoidance_reach": lambda: avoidance_reach(task, q0, Vd, collision_model=None),
-        "nullspace_point_reach": lambda: nullspace_point_reach(task, q0, 0, point),
-        "constrained_point_reach": lambda: constrained_point_reach(task, q0, 0, point),
-        "Teleoperator": lambda: cg.control.Teleoperator(task, q0),
-        "DualTaskSpace": lambda: DualTaskSpace(task),
     }
     for name, call in calls.items():
         with pytest.raises(UnsupportedJointError, match=rf"{name}.*free flyer.*nq = 24, nv = 23.*use "):
@@ -189,3 +184,86 @@ def test_task_second_derivatives_along_integrate(system) -> None:
             fd2 = (E(a + b) - E(a - b) - E(b - a) + E(-a - b)) / (4 * h2 * h2)
             worst = max(worst, abs(fd2 - H[i, j]))
     assert np.abs(H[:6, :6]).max() > 0.1 and worst <= 1e-6 * np.abs(H).max()
+
+
+def test_nullspace_slides_a_hand_along_the_held_line(system) -> None:
+    task = cg.cooperative_task(system, "line")
+    p0 = _hands(system, system.q0)
+    d = (p0[1] - p0[0]) / np.linalg.norm(p0[1] - p0[0])
+    goal = p0[0] + 0.1 * d
+    r = nullspace_point_reach(task, system.q0, 0, goal)
+    assert r.converged and r.error <= 1e-4, r.message
+    assert r.similarity_distance.max() <= 1e-5  # the line is held while the hand slides along it
+    assert np.linalg.norm(_hands(system, r.q)[0] - goal) <= 1e-4  # Pinocchio FK
+    assert r.limit_violation == 0.0 and r.velocity_violation == 0.0
+    assert abs(np.linalg.norm(r.q[3:7]) - 1.0) < 1e-12 and np.linalg.norm(r.q[:3] - system.q0[:3]) > 0.01
+
+
+def test_constrained_reach_holds_the_other_hand(system) -> None:
+    from coop_ga.control.constrained import point_constraint
+
+    task = cg.cooperative_task(system, "line")
+    p0 = _hands(system, system.q0)
+    goal = p0[0] + np.array([0.3, 0.1, 0.2])
+    r = constrained_point_reach(task, system.q0, 0, goal, constraints=point_constraint(task, 1, p0[1]))
+    assert r.converged and r.error <= 1e-4, r.message
+    assert r.constraint_deviation.max() <= 1e-12
+    final = _hands(system, r.q)
+    assert np.linalg.norm(final[0] - goal) <= 1e-4 and np.abs(final[1] - p0[1]).max() <= 1e-12
+    assert r.limit_violation == 0.0 and r.velocity_violation == 0.0
+    _check_run(system, r.q, r.trajectory)
+
+
+def test_teleoperator_moves_both_hands_with_the_base(system) -> None:
+    from coop_ga.control.teleop import ScriptedInput
+
+    task = cg.cooperative_task(system, "point_pair")
+    tel = cg.control.Teleoperator(task, system.q0)
+    qf = tel.run(ScriptedInput([(1.0, [1, 0, 0, 0, 0, 0])], tel.dt))
+    dp = _hands(system, qf) - _hands(system, system.q0)
+    assert tel.velocity.shape == (system.nv,) and len(tel.log.q) == 101
+    assert dp[0, 0] > 5e-3 and abs(dp[0, 0] - dp[1, 0]) <= 1e-9 and np.abs(dp[:, 1:]).max() <= 1e-6
+    assert abs(np.linalg.norm(qf[3:7]) - 1.0) < 1e-12 and np.linalg.norm(qf[:3]) > 1e-3
+
+
+def test_dual_task_space_with_the_floating_base(system) -> None:
+    from coop_ga.control import SimilarityTask, default_limits
+
+    task = cg.cooperative_task(system, "point_pair")
+    space = DualTaskSpace(task)
+    q = system.random_q(np.random.default_rng(5), 0.3)
+    st = space.evaluate(q)
+    d = system.model.createData()
+    pin.framesForwardKinematics(system.model, d, q)
+    X = [d.oMf[system.model.getFrameId(n)] for n in space.frames]
+    S = st.relative.as_similarity()
+    H = np.eye(4)
+    H[:3, :3], H[:3, 3] = S.rotation_matrix, S.translation
+    assert np.abs(H - (X[1].inverse() * X[0]).homogeneous).max() <= 1e-12
+    h = 1e-6
+    for which, J in (("relative", st.relative_jacobian), ("absolute", st.absolute_jacobian)):
+        M0 = getattr(st, which)
+        target = M0 @ cg.Motor.exp([0.4, -0.3, 0.5, 0.1, -0.05, 0.08])
+        _, E, _ = space.error_and_jacobian(q, which, target)
+        assert J.shape == E.shape == (6, system.nv)
+        for k in range(system.nv):
+            dv = np.zeros(system.nv)
+            dv[k] = h
+            qp, qm = pin.integrate(system.model, q, dv), pin.integrate(system.model, q, -dv)
+            log = lambda x: np.asarray((M0.inverse() @ getattr(space.evaluate(x), which)).log())  # noqa: E731
+            assert np.abs((log(qp) - log(qm)) / (2 * h) - J[:, k]).max() <= 1e-8
+            err = lambda x: space.error_and_jacobian(x, which, target)[0]  # noqa: E731
+            assert np.abs((err(qp) - err(qm)) / (2 * h) - E[:, k]).max() <= 1e-8
+    # the base does not change the relative motor; it moves the absolute one
+    assert np.abs(st.relative_jacobian[:, :6]).max() <= 1e-14 and np.abs(st.absolute_jacobian[:, :6]).max() > 0.5
+    # a reach that needs the base, with the hands' relative orientation held
+    target = displaced_target(task, system.q0, translation=(0.3, 0.1, 0.2), axis=(0, 0, 1), angle=0.5, scale=1.0)
+    rel = DualTask(space, "relative", space.relative(system.q0), components="orientation")
+    run = run_ik(
+        Configuration(task, system.q0), [SimilarityTask(target), rel], default_limits(system.limits), steps=300
+    )
+    qf = run.trajectory[-1]
+    assert np.linalg.norm(task.error(qf, target)) <= 1e-10
+    assert max(np.linalg.norm(rel.error(Configuration(task, x))) for x in run.trajectory) <= 1e-3
+    assert np.linalg.norm(rel.error(Configuration(task, qf))) <= 1e-12
+    assert run.max_position_violation == 0.0 and np.linalg.norm(qf[:3] - system.q0[:3]) > 0.1
