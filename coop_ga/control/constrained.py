@@ -74,7 +74,7 @@ import numpy as np
 from .. import validation
 from ..diagnostics import collect_warnings
 from ..errors import InfeasibleConstraintsError, InvalidInputError
-from .base import SolverResult, check_q, require_one_coordinate_per_velocity, resolve_options
+from .base import SolverResult, check_q, resolve_options
 from .configuration import Configuration
 from .diffik import step_limits
 from .limits import AccelerationLimit
@@ -107,7 +107,7 @@ LIMIT_MODES = ("enforce", "none")
 
 # ============================================================================ kinematics
 def end_point_jacobians(task: Any, q: Any) -> tuple[np.ndarray, np.ndarray]:
-    """End points ``p`` (n, 3) [m] and their world-frame Jacobians ``J`` (n, 3, nq) [m/rad] at q (nq,).
+    """End points ``p`` (n, 3) [m] and their world-frame Jacobians ``J`` (n, 3, nv) [m/rad] at q (nq,).
 
     The motor kinematics of the task (Eq 7, 16–17; the Euclidean part of ``∂P_i/∂q``), the same
     numbers as ``task.points(q)`` and ``task.tree.euclidean_point_jacobians(q)``, from one compiled
@@ -115,7 +115,7 @@ def end_point_jacobians(task: Any, q: Any) -> tuple[np.ndarray, np.ndarray]:
     """
     k = Configuration(task, check_q(task, q)).kinematics()
     n = k.points.shape[0]
-    return k.points.copy(), k.point_jacobians.reshape(n, 3, task.nq).copy()
+    return k.points.copy(), k.point_jacobians.reshape(n, 3, task.nv).copy()
 
 
 def line_parameters(task: Any, q: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -179,29 +179,31 @@ class EqualityConstraint:
         """Number of rows m."""
         return int(self.target.size)
 
-    def evaluate(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(c(q) (m,), ∂c/∂q (m, nq))``, checked for shape and finiteness."""
+    def evaluate(self, q: np.ndarray, nv: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(c(q) (m,), ∂c/∂q (m, nv))``, checked for shape and finiteness (``nv``: the number of velocities,
+        None: nq; a free flyer's Jacobian has nv < nq columns)."""
         c, C = self.function(q)
         c = np.asarray(c, dtype=float).reshape(-1)
         C = np.asarray(C, dtype=float)
-        if c.shape != self.target.shape or C.shape != (self.size, q.shape[0]):
+        cols = q.shape[0] if nv is None else nv
+        if c.shape != self.target.shape or C.shape != (self.size, cols):
             raise InvalidInputError(
                 f"constraint '{self.name}' returned c of shape {c.shape} and ∂c/∂q of shape {C.shape}; expected "
-                f"{self.target.shape} and ({self.size}, {q.shape[0]})"
+                f"{self.target.shape} and ({self.size}, {cols})"
             )
         if not (np.all(np.isfinite(c)) and np.all(np.isfinite(C))):
             raise InvalidInputError(f"constraint '{self.name}' returned non-finite values at q = {q.tolist()}"[:300])
         return c, C
 
-    def residual(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(c(q) − target (m,), ∂c/∂q (m, nq))``."""
-        c, C = self.evaluate(q)
+    def residual(self, q: np.ndarray, nv: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``(c(q) − target (m,), ∂c/∂q (m, nv))`` (``nv`` as :meth:`evaluate`)."""
+        c, C = self.evaluate(q, nv)
         return c - self.target, C
 
     def _at(self, configuration: Any) -> tuple[np.ndarray, np.ndarray]:
         if self.task is not None:
             return self.task.value(configuration), self.task.jacobian(configuration)
-        return configuration.cached(id(self), lambda cfg: self.evaluate(cfg.q.copy()))
+        return configuration.cached(id(self), lambda cfg: self.evaluate(cfg.q.copy(), cfg.nv))
 
     def value(self, configuration: Any) -> np.ndarray:
         """c (m,) at the configuration."""
@@ -267,7 +269,7 @@ def _check_constraints(constraints: Any) -> tuple[EqualityConstraint, ...]:
 def _stack(constraints: Sequence[EqualityConstraint], cfg: Any) -> tuple[np.ndarray, np.ndarray]:
     """``(r (m,), C (m, nq))`` of all constraints at the configuration."""
     if not constraints:
-        return np.zeros(0), np.zeros((0, cfg.nq))
+        return np.zeros(0), np.zeros((0, cfg.nv))
     return np.concatenate([c.error(cfg) for c in constraints]), np.vstack([c.jacobian(cfg) for c in constraints])
 
 
@@ -309,8 +311,8 @@ class _Rows:
 def _check_rows(task: Any, A: Any, b: Any) -> tuple[np.ndarray, np.ndarray]:
     Am = validation.array(A, "A")
     bv = validation.array(b, "b")
-    if Am.ndim != 2 or Am.shape[1] != task.nq or bv.shape != (Am.shape[0],):
-        raise InvalidInputError(f"A must be (k, {task.nq}) and b (k,), got {Am.shape} and {bv.shape}")
+    if Am.ndim != 2 or Am.shape[1] != task.nv or bv.shape != (Am.shape[0],):
+        raise InvalidInputError(f"A must be (k, {task.nv}) and b (k,), got {Am.shape} and {bv.shape}")
     return Am, bv
 
 
@@ -400,7 +402,9 @@ def _project(
 ) -> tuple[np.ndarray, int, float]:
     """The projection from the configuration's q (the configuration is moved along the iterates)."""
     q = cfg.q.copy()
-    n = q.shape[0]
+    system = cfg.system
+    free = system.nq != system.nv  # a free flyer: steps are velocities, the bounds are on limit coordinates
+    n = system.nv
     if not cons:
         return q, 0, 0.0
     r, C = _stack(cons, cfg)
@@ -409,16 +413,22 @@ def _project(
     eye = np.eye(n)
     while res > tol and it < max_iter:
         _check_rank(C, _labels(cons))
-        lb = None if lower is None else np.minimum(lower - q, 0.0)
-        ub = None if upper is None else np.maximum(upper - q, 0.0)
+        x = system.limit_coordinates(q) if free else q
+        lb = None if lower is None else np.minimum(lower - x, 0.0)
+        ub = None if upper is None else np.maximum(upper - x, 0.0)
         x_free = equality_minimiser(eye, np.zeros(n), 0.0, C, -r)
         try:
             dq = solve_qp(eye, np.zeros(n), 0.0, lb, ub, E=C, f=-r, x_free=x_free, what="projection").x
         except InfeasibleConstraintsError:
             break
-        q_new = q + dq
-        if lower is not None and upper is not None:
-            np.clip(q_new, lower, upper, out=q_new)
+        if not free:
+            q_new = q + dq
+            if lower is not None and upper is not None:
+                np.clip(q_new, lower, upper, out=q_new)
+        else:  # the step clipped to the box in q̇ coordinates, then q moved by integrate and kept in the limits
+            if lb is not None and ub is not None:
+                dq = np.clip(dq, lb, ub)
+            q_new = system.clip(system.integrate(q, dq))
         cfg.update(q_new)
         r_new, C_new = _stack(cons, cfg)
         it += 1
@@ -531,14 +541,15 @@ class _Projection:
 
     def __init__(self, task: Any, cons: tuple[EqualityConstraint, ...], o: ConstrainedReachOptions, accel: bool):
         self.cons, self.o, self.accel = cons, o, accel
-        self.cfg = Configuration(task, task.system.limits.clip(task.system.q0))
+        self.cfg = Configuration(task, task.system.clip(task.system.q0))
         self.iterations: list[int] = []
         self.failures = 0
 
     def box(self, cfg: Any, st: StepSolution) -> tuple[np.ndarray | None, np.ndarray | None]:
         if self.o.limit_mode != "enforce":
             return None, None
-        lim, q, dt = cfg.limits, cfg.q, self.o.dt
+        lim, dt = cfg.limits, self.o.dt
+        q = cfg.q if cfg.nq == cfg.nv else cfg.system.limit_coordinates(cfg.q)  # the coordinates the limits bound
         if self.accel and st.lower is not None and st.upper is not None:  # velocity, acceleration and braking
             return np.maximum(lim.lower, q + dt * st.lower), np.minimum(lim.upper, q + dt * st.upper)
         return np.maximum(lim.lower, q - lim.velocity * dt), np.minimum(lim.upper, q + lim.velocity * dt)
@@ -589,7 +600,6 @@ def constrained_point_reach(
     :class:`ConstrainedReachOptions` (keyword ``overrides`` replace its fields).
     """
     o = resolve_options(ConstrainedReachOptions, options, overrides, "constrained_point_reach")
-    require_one_coordinate_per_velocity(task, "constrained_point_reach", "solve_step/run_ik with equality= tasks")
     q = check_q(task, q_init, "q_init")
     i = end_index(task, index)
     p_star = validation.vector(target_point, 3, "target_point [m]")

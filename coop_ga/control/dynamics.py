@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from .. import validation
-from .base import check_q
+from .base import check_q, check_v
 
 __all__ = [
     "TaskDynamics",
@@ -63,7 +63,8 @@ def _data(task: Any) -> Any:
 
 
 def joint_dynamics(task_or_system: Any, q: Any, qd: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(M (nq,nq) symmetric, C (nq,nq), g (nq,))`` of Eq 32 from Pinocchio.
+    """``(M (nv,nv) symmetric, C (nv,nv), g (nv,))`` of Eq 32 from Pinocchio at q (nq,), q̇ (nv,) (nv = nq
+    without a free flyer; with one, its six velocities are Pinocchio's LOCAL [v; ω]).
 
     ``pin.crba`` writes only the upper triangle of M; it is symmetrised here.
     Accepts a :class:`CooperativeTask` (uses its system's model) or a System.
@@ -73,9 +74,8 @@ def joint_dynamics(task_or_system: Any, q: Any, qd: Any) -> tuple[np.ndarray, np
     model = sysm.model
     task = task_or_system if hasattr(task_or_system, "system") else None
     data = _data(task) if task is not None else sysm.data
-    nq = model.nq
-    q = validation.configuration(q, nq, "q")
-    qd = validation.configuration(qd, nq, "qd")
+    q = validation.configuration(q, model.nq, "q")
+    qd = validation.configuration(qd, model.nv, "qd")
     M = pin.crba(model, data, q)
     M = np.triu(M) + np.triu(M, 1).T
     C = np.array(pin.computeCoriolisMatrix(model, data, q, qd))
@@ -109,8 +109,8 @@ def dynamically_consistent_projector(J: np.ndarray, Minv: np.ndarray, Lam: np.nd
 class TaskDynamics:
     """Everything :func:`task_space_dynamics` computes (arrays are copies).
 
-    Lambda (7,7) Eq 36; mu (7,) Eq 37; g (7,) Eq 38; J (7,nq) J^G; Jdot_qd (7,) J̇^G q̇;
-    M, C (nq,nq); g_joint (nq,); Minv (nq,nq).
+    Lambda (7,7) Eq 36; mu (7,) Eq 37; g (7,) Eq 38; J (7,nv) J^G; Jdot_qd (7,) J̇^G q̇;
+    M, C (nv,nv); g_joint (nv,); Minv (nv,nv).
     """
 
     Lambda: np.ndarray
@@ -132,7 +132,7 @@ def task_space_dynamics(task: Any, q: Any, qd: Any, *, rcond: float = 1e-8, damp
 
     Args:
         task: a :class:`coop_ga.CooperativeTask`.
-        q: (nq,) [rad].  qd: (nq,) [rad/s].
+        q: (nq,) [rad].  qd: (nv,) [rad/s].
         rcond: pseudo-inverse option of :func:`task_inertia` (J is rank deficient).
         damping: pseudo-inverse option of :func:`task_inertia`.
 
@@ -142,7 +142,7 @@ def task_space_dynamics(task: Any, q: Any, qd: Any, *, rcond: float = 1e-8, damp
         ``τ = Jᵀ (Λ 𝒱̇_d + μ + g_S)`` realises the task acceleration 𝒱̇_d on range(J) (Eq 51–52).
     """
     q = check_q(task, q, "q")
-    qd = check_q(task, qd, "qd")
+    qd = check_v(task, qd, "qd")
     J = task.jacobian(q)
     M, C, g = joint_dynamics(task, q, qd)
     Minv = np.linalg.inv(M)

@@ -48,6 +48,12 @@ Simulation: the plant is Pinocchio's forward dynamics ``q̈ = ABA(q, q̇, τ)`` 
 ``model.gravity``, no friction) integrated with semi-implicit Euler
 (``q̇ += Δt q̈; q += Δt q̇``), Δt = 1 ms by default.
 
+A free flyer (nq ≠ nv): M(q), h(q, q̇) = C q̇ + g and the torques have nv entries (``pin.crba``,
+``pin.nonLinearEffects`` on the floating model), q moves by ``pinocchio.integrate`` and the first six torque
+entries are a wrench on the base in its LOCAL frame ([f; m], effort unbounded) — a fully actuated free flyer
+(thrusters, or a base held by an external mechanism), not a legged robot, which must produce that wrench through
+its contacts.
+
 Limits (``task.system.limits``, :class:`~coop_ga.systems.limits.JointLimits`)
 -----------------------------------------------------------------------------
 * Torque: with ``torque_limits='saturate'`` (default) the command of Eq 52 is clipped
@@ -81,8 +87,7 @@ from .. import validation
 from ..diagnostics import collect_warnings, warn
 from ..errors import CoopGAError, InvalidInputError, JointLimitWarning, NonFiniteError
 from ..geometry.groups import SimilarityLike
-from ..kinematics.chains import require_nq_equals_nv
-from .base import SolverResult, check_q, resolve_options
+from .base import SolverResult, check_q, check_v, resolve_options
 from .dynamics import task_inertia
 
 __all__ = ["PAPER_GAINS", "ImpedanceOptions", "ImpedanceResult", "error_rate", "impedance_torque", "simulate_impedance"]
@@ -155,7 +160,7 @@ def error_rate(
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(B_e, Ḃ_e)`` (7,), (7,) at (q, q̇): exact ``Ḃ_e = J_e q̇`` or approximate ``−J^G q̇``."""
     validation.choice(mode, ("exact", "approx"), "mode")
-    qdv = check_q(task, qd, "qd")
+    qdv = check_v(task, qd, "qd")
     e, Je = task.error_and_jacobian(q, validation.target(target))
     if mode == "exact":
         return e, Je @ qdv
@@ -169,11 +174,11 @@ class ImpedanceResult(SolverResult):
     ‖B_e‖ < ``tol`` and no state left the position or velocity limits, ``q`` = the final
     configuration):
 
-    t (T,) [s]; trajectory (T, nq) [rad]; qd (T, nq) [rad/s]; error_vectors (T, 7) B_e;
+    t (T,) [s]; trajectory (T, nq) [rad]; qd (T, nv) [rad/s]; error_vectors (T, 7) B_e;
     error_norm (T,) ‖B_e‖;
-    tau (T, nq) [N m]: the torque applied from state t[k] — the command clipped to ±effort
+    tau (T, nv) [N m]: the torque applied from state t[k] — the command clipped to ±effort
     with ``torque_limits='saturate'`` (the last row is the command at the final state, not
-    applied); tau_command (T, nq) [N m]: the command of Eq 52 before saturation.
+    applied); tau_command (T, nv) [N m]: the command of Eq 52 before saturation.
 
     Limits (those of ``task.system.limits``; every number below can be recomputed from the
     arrays above and the limits — ``tests/control/test_impedance.py`` does):
@@ -242,11 +247,11 @@ class _Controller:
         self.nullspace = o.nullspace
         self.error_rate = o.error_rate
         self.rcond = float(o.rcond)
-        self.I = np.eye(task.nq)
-        self._iu = np.triu_indices(task.nq, 1)
+        self.I = np.eye(task.nv)
+        self._iu = np.triu_indices(task.nv, 1)
 
     def __call__(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """τ (nq,) and B_e (7,) at (q, q̇)."""
+        """τ (nv,) and B_e (7,) at (q (nq,), q̇ (nv,))."""
         pin, model, data, task = self.pin, self.model, self.data, self.task
         J = task.evaluate_views(q)[2]
         e, Je = task.error_and_jacobian(q, self.Vd)
@@ -274,7 +279,7 @@ class _Controller:
 def impedance_torque(
     task: Any, q: Any, qd: Any, target: SimilarityLike, options: ImpedanceOptions | None = None, **overrides: Any
 ) -> np.ndarray:
-    """Joint torque τ (nq,) [N m] of the similarity impedance law (Eq 49–52) at (q, q̇).
+    """Joint torque τ (nv,) [N m] of the similarity impedance law (Eq 49–52) at (q, q̇).
 
     See the module docstring for the law, the nullspace options and ``error_rate``;
     ``options``: :class:`ImpedanceOptions` (keyword ``overrides`` replace its fields; only the
@@ -284,14 +289,8 @@ def impedance_torque(
     Eq 52 with ``'none'``.
     """
     o = resolve_options(ImpedanceOptions, options, overrides, "impedance_torque")
-    require_nq_equals_nv(
-        task.system.model,
-        "impedance_torque",
-        "diff_ik_reach or gauss_newton_ik (kinematic, with the free flyer)",
-        f"task '{task.name}'",
-    )
     ctl = _Controller(task, target, o)
-    tau = ctl(check_q(task, q), check_q(task, qd, "qd"))[0]
+    tau = ctl(check_q(task, q), check_v(task, qd, "qd"))[0]
     if o.torque_limits == "saturate":
         eff = task.system.limits.effort
         tau = np.clip(tau, -eff, eff)
@@ -308,10 +307,12 @@ def _simulate(
     model = task.system.model
     plant = model.createData()
     T = n + 1
+    system = task.system
+    free = system.nq != system.nv  # a free flyer: q moves by integrate, velocities and torques have nv entries
     Q = np.empty((T, task.nq))
-    QD = np.empty((T, task.nq))
-    TAU = np.empty((T, task.nq))
-    TAU_CMD = np.empty((T, task.nq))
+    QD = np.empty((T, task.nv))
+    TAU = np.empty((T, task.nv))
+    TAU_CMD = np.empty((T, task.nv))
     E = np.empty((T, 7))
     effort = task.system.limits.effort
     saturate = o.torque_limits == "saturate" and bool(np.any(np.isfinite(effort)))
@@ -326,7 +327,7 @@ def _simulate(
             break
         qdd = pin.aba(model, plant, q, qd, tau)
         qd = qd + dt * qdd
-        q = q + dt * qd
+        q = system.integrate(q, dt * qd) if free else q + dt * qd
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))) or float(np.max(np.abs(q))) > 1e3:
             raise NonFiniteError(f"impedance simulation diverged at t = {(k + 1) * dt:.4f} s")
     return Q, QD, TAU, TAU_CMD, E
@@ -364,7 +365,7 @@ def simulate_impedance(
 
     Args:
         task: a :class:`coop_ga.CooperativeTask` (its system's Pinocchio model is the plant).
-        q_init: (nq,) initial configuration [rad]; qd_init: (nq,) initial velocity (default 0).
+        q_init: (nq,) initial configuration [rad]; qd_init: (nv,) initial velocity (default 0).
         target: V_Sd, a :class:`~coop_ga.Similarity`; constant (V̇_Sd = 0).
         options: :class:`ImpedanceOptions` (gains, duration, Δt, nullspace handling, …);
             keyword ``overrides`` replace its fields (``simulate_impedance(t, q, V, K=25, D=10)``).
@@ -378,22 +379,16 @@ def simulate_impedance(
         :class:`ImpedanceResult`.  Raises :class:`NonFiniteError` if the state diverges.
     """
     o = resolve_options(ImpedanceOptions, options, overrides, "simulate_impedance")
-    require_nq_equals_nv(
-        task.system.model,
-        "simulate_impedance",
-        "diff_ik_reach or gauss_newton_ik (kinematic, with the free flyer)",
-        f"task '{task.name}'",
-    )
     dt, duration = o.dt, o.duration
     q = check_q(task, q_init, "q_init")
-    qd = np.zeros(task.nq) if qd_init is None else check_q(task, qd_init, "qd_init")
+    qd = np.zeros(task.nv) if qd_init is None else check_v(task, qd_init, "qd_init")
     ctl = _Controller(task, target, o)
     n = round(duration / dt)
     T = n + 1
     lim = task.system.limits
     with collect_warnings() as caught:
         Q, QD, TAU, TAU_CMD, E = _simulate(task, ctl, q, qd, o, n)
-        stats = _limit_statistics(lim, Q, QD, TAU_CMD[:n])
+        stats = _limit_statistics(lim, task.system.limit_coordinates(Q), QD, TAU_CMD[:n])
         if o.warn_limits:
             _warn_limits(task.name, stats, o.torque_limits, T)
     En = np.linalg.norm(E, axis=1)
@@ -420,8 +415,9 @@ def simulate_impedance(
 
 
 def _limit_statistics(lim: Any, Q: np.ndarray, QD: np.ndarray, tau_applied_cmd: np.ndarray) -> dict[str, Any]:
-    """Limit counts of a run (see :class:`ImpedanceResult`): states Q, QD (T, nq), the commands of the
-    applied steps (T − 1, nq) before saturation."""
+    """Limit counts of a run (see :class:`ImpedanceResult`): states Q, QD (T, nv) (Q in the limits' coordinates,
+    :meth:`~coop_ga.systems.System.limit_coordinates`), the commands of the applied steps (T − 1, nv) before
+    saturation."""
     finite = np.isfinite(lim.effort)
     if tau_applied_cmd.size and np.any(finite):
         ratio = np.abs(tau_applied_cmd[:, finite]) / lim.effort[finite]

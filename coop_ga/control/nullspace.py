@@ -55,7 +55,7 @@ from ..diagnostics import collect_warnings
 from ..errors import InvalidInputError
 from ..geometry.groups import SimilarityLike
 from ..geometry.primitives import center, normal
-from .base import SolverResult, check_q, require_one_coordinate_per_velocity, resolve_options
+from .base import SolverResult, check_q, check_v, resolve_options
 from .configuration import Configuration
 from .diffik import step_limits
 from .qp import DEFAULT_LIMIT_GAIN, project_into_limits
@@ -88,10 +88,10 @@ def point_reaching_velocity(
     damping: float = 1e-3,
     max_speed: float | None = 0.2,
 ) -> np.ndarray:
-    """Secondary joint velocity ``[0 … q̇_{i,d} … 0]`` (nq,) moving end point ``index`` to ``target_point``.
+    """Secondary joint velocity ``[0 … q̇_{i,d} … 0]`` (nv,) moving end point ``index`` to ``target_point``.
 
     ``q̇ = J_p⁺ v`` with ``v = gain · (p* − p_i(q))`` [m/s] (capped at ``max_speed`` m/s),
-    ``J_p`` the 3×nq world point Jacobian of end point ``index`` of ``task`` (only its own
+    ``J_p`` the 3×nv world point Jacobian of end point ``index`` of ``task`` (only its own
     chain's columns are non-zero), damped pseudo-inverse with ``damping`` λ: the joint-space rows of a
     :class:`~coop_ga.control.tasks.PositionTask` with ``form='joint'``.
     """
@@ -136,7 +136,7 @@ def nullspace_step(
         q: (nq,) [rad or m] (projected onto the limits, with a :class:`~coop_ga.errors.JointLimitWarning`,
             if outside and limit_mode ≠ 'none').
         V_hold: the similarity versor to keep (primary task).
-        qd_secondary: (nq,) secondary joint velocity q̇_2 [rad/s].
+        qd_secondary: (nv,) secondary joint velocity q̇_2 [rad/s] (nv = nq without a free flyer).
         dt: step [s].  primary_gain: k_p [1/s] of the primary error feedback (0 disables it).
         damping: λ of the pseudo-inverse in J⁺ and N (0 = exact projector, ``J N = 0``).
         project: False applies q̇_2 directly, without projection and without primary term.
@@ -144,8 +144,10 @@ def nullspace_step(
             ``'clamp'`` (Eq 60, then clip q; may break ``J N = 0``) or ``'none'``.
         limit_gain: safety gain γ ∈ (0, 1] of the position bounds.
         constraints: user rows ``G q̇ ≤ h`` on the joint velocity [rad/s], imposed on both levels.
-        velocity: (nq,) the previous step's q̇ [rad/s] for the acceleration limit (None: at rest).
+        velocity: (nv,) the previous step's q̇ [rad/s] for the acceleration limit (None: at rest).
         acceleration_limit: impose the system's acceleration limits (``'enforce'`` only).
+
+    With a free flyer (nq ≠ nv) q moves by ``system.integrate`` (``pinocchio.integrate``).
 
     Raises:
         InfeasibleConstraintsError: the constraints cannot be met with the limits.
@@ -158,19 +160,24 @@ def nullspace_step(
     if not isinstance(project, bool):
         raise InvalidInputError(f"project must be True or False, got {project!r}")
     q = check_q(task, q)
-    qd2 = check_q(task, qd_secondary, "qd_secondary")
+    qd2 = check_v(task, qd_secondary, "qd_secondary")
     hold = validation.target(V_hold, "V_hold")
     if limit_mode != "none":
         q = project_into_limits(task, q)
-    cfg = Configuration(task, q, None if velocity is None else check_q(task, velocity, "velocity"))
+    cfg = Configuration(task, q, None if velocity is None else check_v(task, velocity, "velocity"))
     lims = step_limits(
         task, "none" if limit_mode == "clamp" else limit_mode, limit_gain, acceleration_limit, constraints
     )
     st = _step(cfg, hold, JointVelocityTask(qd2), dt, primary_gain, damping, project, lims)
-    q_next = advance(q, st.velocity, dt)
-    if limit_mode != "none":  # 'enforce': rounding only; 'clamp': the ablation
-        lim = task.system.limits
-        np.clip(q_next, lim.lower, lim.upper, out=q_next)
+    system = task.system
+    if system.nq == system.nv:
+        q_next = advance(q, st.velocity, dt)
+        if limit_mode != "none":  # 'enforce': rounding only; 'clamp': the ablation
+            np.clip(q_next, system.limits.lower, system.limits.upper, out=q_next)
+    else:  # a free flyer: q moves by the system's integrate, the limits bound its velocity coordinates
+        q_next = advance(q, st.velocity, dt, system)
+        if limit_mode != "none":
+            system.clip(q_next, out=q_next)
     return q_next
 
 
@@ -288,9 +295,6 @@ def nullspace_point_reach(
     incompatible set stops the run, ``message`` says where).
     """
     o = resolve_options(NullspaceOptions, options, overrides, "nullspace_point_reach")
-    require_one_coordinate_per_velocity(
-        task, "nullspace_point_reach", "run_ik with a SimilarityTask and a PositionTask"
-    )
     q = check_q(task, q_init, "q_init")
     index = _index(task, index)
     p_star = validation.vector(target_point, 3, "target_point [m]")

@@ -56,7 +56,6 @@ import numpy as np
 from .. import validation
 from ..errors import InvalidInputError
 from ..geometry.groups import Similarity
-from ..kinematics.chains import require_nq_equals_nv
 from .base import check_q
 from .configuration import Configuration
 from .diffik import LIMIT_MODES, step_limits
@@ -205,9 +204,6 @@ class Teleoperator:
         rz_mode: str = "dilation",
         acceleration_limit: bool = True,
     ):
-        require_nq_equals_nv(
-            task.system.model, "Teleoperator", "diff_ik_step (one step with the free flyer)", f"task '{task.name}'"
-        )
         self.task = task
         self.q = check_q(task, q_init, "q_init")
         self.dt = validation.positive(dt, "dt")
@@ -225,7 +221,7 @@ class Teleoperator:
 
     @property
     def velocity(self) -> np.ndarray:
-        """The joint velocity q̇ (nq,) [rad/s] of the last step (zeros at the start)."""
+        """The joint velocity q̇ (nv,) [rad/s] of the last step (zeros at the start)."""
         return self._configuration.velocity.copy()
 
     @property
@@ -245,11 +241,17 @@ class Teleoperator:
         if q is not self.q or not np.array_equal(cfg.q, q):
             cfg.update(q, cfg.velocity.copy())  # q set from outside (or projected): keep the last velocity
         st = solve_step(cfg, [BodyVelocityTask(b)], self._limits, self.dt, damping=self.damping)
-        q_next = advance(q, st.velocity, self.dt)
-        if self.limit_mode != "none":  # 'enforce': rounding only; 'clamp': the ablation
-            lim = self.task.system.limits
-            np.clip(q_next, lim.lower, lim.upper, out=q_next)
-        cfg.update(q_next, (q_next - q) / self.dt)
+        system = self.task.system
+        if system.nq == system.nv:
+            q_next = advance(q, st.velocity, self.dt)
+            if self.limit_mode != "none":  # 'enforce': rounding only; 'clamp': the ablation
+                np.clip(q_next, system.limits.lower, system.limits.upper, out=q_next)
+            cfg.update(q_next, (q_next - q) / self.dt)
+        else:  # a free flyer: q moves by the system's integrate, the limits bound its velocity coordinates
+            q_next = advance(q, st.velocity, self.dt, system)
+            if self.limit_mode != "none":
+                system.clip(q_next, out=q_next)
+            cfg.update(q_next, system.difference(q, q_next) / self.dt)
         self.q = q_next
         self.t += self.dt
         self.log.t.append(self.t)

@@ -71,7 +71,7 @@ from ..geometry.kinds import KIND_SPECS, CooperativeKind, Kind, kind_spec
 from ..geometry.primitives import point as conformal_point
 from ..geometry.primitives import well_definedness
 from ..geometry.similarity import primitive_parameters, similarity_from_parameters, similarity_from_unit
-from ..kinematics.chains import KinematicTree
+from ..kinematics.chains import KinematicTree, at_zero_velocity
 from .primitive import FIT_ROOTS, cooperative_primitive, fit_at, fit_parameters, fit_root, fit_well_definedness
 
 __all__ = ["CHART_WARN_ANGLE", "NB", "TaskGraph", "versor_expr"]
@@ -149,6 +149,7 @@ class TaskGraph:
         self.name = name
         self.n_points = self.spec.points_used(len(tree.end_frames))
         self.nq = int(tree.model.nq)
+        self.nv = int(tree.model.nv)
         unit_axis = self.spec.axis
         # the axis the minimal-rotation chart is measured from (None: the unit primitive's, Eq 26)
         self.chart_axis = (
@@ -303,20 +304,26 @@ class TaskGraph:
     def jdot_function(self) -> ca.Function:
         """``(q, q̇) → (J̇^G q̇ (7), checks (4), points (3n))`` by forward AD of J^G q̇ along q̇."""
         q = ca.SX.sym("q", self.nq)
-        qd = ca.SX.sym("qd", self.nq)
+        qd = ca.SX.sym("qd", self.nv)
         s = self.evaluate(q)
-        Jqd = ca.mtimes(s["jacobian"], qd)
+        if self.nq == self.nv:
+            jd = ca.jtimes(ca.mtimes(s["jacobian"], qd), q, qd)
+        else:  # along the tangent space: J(q ⊕ v) q̇ differentiated in v along q̇ at v = 0
+            jd = self._at_zero_velocity(
+                lambda qv, v: ca.jtimes(ca.mtimes(self.evaluate(qv)["jacobian"], qd), v, qd), q, qd
+            )
         return ca.Function(
             f"coop_jdot_{self.name}",
             [q, qd],
-            [ca.densify(jd := ca.jtimes(Jqd, q, qd)), self.checks(s, (q, qd), (jd,)), s["points"]],
+            [ca.densify(jd), self.checks(s, (q, qd), (jd,)), s["points"]],
             ["q", "qd"],
             ["Jdot_qd", "checks", "points"],
         )
 
     @cached_property
     def error_hessian_function(self) -> ca.Function:
-        """``(q (nq), V_d (12), w (7)) → H (nq × nq) = ∇²_q (wᵀ e(q))``, w held constant.
+        """``(q (nq), V_d (12), w (7)) → H (nv × nv) = ∇²_q (wᵀ e(q))``, w held constant (with a free flyer,
+        ∇²_v (wᵀ e(q ⊕ v)) at v = 0, the Hessian along the tangent space, :func:`integrate_to_second_order`).
 
         Built with the structure of the task (differentiating the whole graph twice
         generates ~10⁵ instructions and takes minutes to compile): with the end points
@@ -333,7 +340,10 @@ class TaskGraph:
         p, Jp = self.points(q)
         m = int(p.shape[0])
         g = ca.SX.sym("g", m)
-        Hq, _ = ca.hessian(ca.dot(g, p), q)
+        if nq == self.nv:
+            Hq, _ = ca.hessian(ca.dot(g, p), q)
+        else:  # ∇²_v (gᵀ p(q ⊕ v)) at v = 0: the second derivative along the tangent space (nv × nv)
+            Hq = self._at_zero_velocity(lambda qv, v: ca.hessian(ca.dot(g, self.points(qv)[0]), v)[0], q, g)
         f_pts = ca.Function("hess_points", [q, g], [p, Jp, Hq])
 
         ps = ca.SX.sym("p", m)
@@ -356,6 +366,20 @@ class TaskGraph:
         """Reference route (b): plain AD of the unstructured graph q → V_Sc = similarity_from_unit(∧P(p_i(q)))
         (world origin, no centroid shift, no chain rule), ``J^G = −2 Ṽ ∂V/∂q``."""
         q = ca.SX.sym("q", self.nq)
+        V = self._ad_versor(q)
+        Vv = _coeffs_expr(V)
+        if self.nq == self.nv:
+            dV = ca.jacobian(Vv, q)
+        else:  # a free flyer: J^G = −2 Ṽ ∂V(q ⊕ v)/∂v at v = 0, nv columns
+            dV = self._at_zero_velocity(lambda qv, v: ca.jacobian(_coeffs_expr(self._ad_versor(qv)), v), q)
+        return ca.Function("coop_ad", [q], [Vv, ca.densify(_body_columns(V, dV))])
+
+    def _at_zero_velocity(self, build: Any, q: ca.SX, *extra: ca.SX) -> ca.SX:
+        """:func:`~coop_ga.kinematics.chains.at_zero_velocity` on this graph's model."""
+        return at_zero_velocity(self.tree.model, build, q, *extra)
+
+    def _ad_versor(self, q: ca.SX) -> Multivector:
+        """V_Sc of :attr:`ad_function` as one expression of q (world origin, no chain rule)."""
         pts = self.tree.end_points(q)
         if (fit := self.spec.fit_name) is not None:  # the fit end to end in world coordinates, no chain rule
             bar, c_rel, r, o = fit_parameters(fit, [tuple(pt) for pt in pts])
@@ -366,5 +390,4 @@ class TaskGraph:
         else:
             X = cooperative_primitive(self.primitive_kind, [conformal_point(list(pt)) for pt in pts])
             V = similarity_from_unit(X, chart_axis=self.chart_axis)
-        Vv = _coeffs_expr(V)
-        return ca.Function("coop_ad", [q], [Vv, ca.densify(_body_columns(V, ca.jacobian(Vv, q)))])
+        return V

@@ -54,7 +54,7 @@ from ..geometry.similarity import (
     similarity_from_unit,
     unit_primitive,
 )
-from ..kinematics.chains import KinematicTree, require_nq_equals_nv
+from ..kinematics.chains import KinematicTree
 from .graph import CHART_WARN_ANGLE, TaskGraph, _closest_to_origin, versor_expr
 from .guard import TaskGuard
 from .primitive import cooperative_primitive, fit_parameters, fit_primitive, fit_well_definedness
@@ -408,18 +408,13 @@ class CooperativeTask:
         return out[0].reshape(-1).copy(), out[1].copy()
 
     def error_hessian(self, q: Any, target: SimilarityLike, w: Any) -> np.ndarray:
-        """``∇²_q (wᵀ e(q))`` (nq, nq) with w (7,) held constant (for Newton-type solvers; CasADi VM).
+        """``∇²_q (wᵀ e(q))`` (nv, nv) with w (7,) held constant (for Newton-type solvers; CasADi VM); with a
+        free flyer ``∇²_v (wᵀ e(q ⊕ v))`` at v = 0 (the Hessian along ``pinocchio.integrate``).
 
         Built by :meth:`TaskGraph.error_hessian_function` (structured second derivatives);
         the inputs are checked like every entry point (the degeneracy guard runs through
         :meth:`error_and_jacobian` at the same q).
         """
-        require_nq_equals_nv(
-            self.system.model,
-            "CooperativeTask.error_hessian",
-            "error_and_jacobian (Gauss–Newton)",
-            f"task '{self.name}'",
-        )
         tgt = validation.target(target)
         self.error_and_jacobian(q, tgt)  # the guard (finite q, degeneracy, chart)
         wv = validation.vector(w, 7, "w")
@@ -428,17 +423,15 @@ class CooperativeTask:
 
     # ------------------------------------------------------------------ derivatives of J
     def jdot_qdot(self, q: Any, qd: Any) -> np.ndarray:
-        """J̇^G q̇ (7,): the directional derivative of J^G(q) q̇ along q̇ (CasADi AD), for Eq 34–38."""
-        require_nq_equals_nv(
-            self.system.model,
-            "CooperativeTask.jdot_qdot",
-            "the differential IK (coop_ga.control.diff_ik_reach)",
-            f"task '{self.name}'",
-        )
+        """J̇^G q̇ (7,): the directional derivative of J^G(q) q̇ along q̇ (CasADi AD), for Eq 34–38.  With a
+        free flyer, q̇ is a velocity (nv,) and the derivative is along ``q ⊕ t q̇`` (``pinocchio.integrate``)."""
         b = _binding(self._jdot_compiled)
         qb, qdb = b.flat_inputs[0], b.flat_inputs[1]
         self._load_q(qb, q)
-        self._load_q(qdb, qd, "qd")
+        if self.nq == self.nv:
+            self._load_q(qdb, qd, "qd")
+        else:  # a velocity (nv,), not a configuration
+            np.copyto(qdb, validation.vector(qd, self.nv, "qd"))
         b.eval()
         out = b.outputs
         if not out[1].item(0) > self.warn_below:
@@ -475,13 +468,8 @@ class CooperativeTask:
 
     # ------------------------------------------------------------------ reference routes (tests)
     def jacobian_ad(self, q: Any) -> np.ndarray:
-        """J^G by CasADi AD of the unstructured graph (reference route (b); VM, slow)."""
-        require_nq_equals_nv(
-            self.system.model,
-            "CooperativeTask.jacobian_ad",
-            "jacobian (motor kinematics, nv columns)",
-            f"task '{self.name}'",
-        )
+        """J^G (7, nv) by CasADi AD of the unstructured graph (reference route (b); VM, slow); with a free
+        flyer, of V_Sc(q ⊕ v) in v at v = 0."""
         self._run(q)  # same input checks and guard
         return np.array(self.graph.ad_function(np.asarray(q, float))[1])
 

@@ -65,7 +65,9 @@ __all__ = [
     "QUATERNION_TOLERANCE",
     "Joint",
     "KinematicTree",
+    "at_zero_velocity",
     "free_flyer_motor",
+    "integrate_to_second_order",
     "motor_from_se3",
     "require_nq_equals_nv",
 ]
@@ -250,6 +252,72 @@ def require_nq_equals_nv(model: Any, what: str, instead: str, owner: str = "the 
             f"{what} assumes one coordinate per velocity (q ← q + q̇ Δt) and {owner} has a free flyer "
             f"(nq = {model.nq}, nv = {model.nv}); use {instead}, or lock the free flyer (a fixed-base model)"
         )
+
+
+def _free_flyer_step(qf: Any, v: Any) -> list[Any]:
+    """A free flyer's 7 coordinates moved by its LOCAL velocity ``v = [ν; ω]`` (6), to second order in v:
+    ``M exp6(v)`` with ``exp6(v) ≈ (exp(ω), ν + ½ ω × ν)`` and the quaternion ``(ω/2, 1 − |ω|²/8)``."""
+    px, py, pz, x, y, z, w = (qf[i] for i in range(7))
+    nu, om = [v[i] for i in range(3)], [v[3 + i] for i in range(3)]
+    # ν + ½ ω × ν, then rotated by the flyer's rotation R(x, y, z, w) into its parent frame
+    t = [
+        nu[0] + 0.5 * (om[1] * nu[2] - om[2] * nu[1]),
+        nu[1] + 0.5 * (om[2] * nu[0] - om[0] * nu[2]),
+        nu[2] + 0.5 * (om[0] * nu[1] - om[1] * nu[0]),
+    ]
+    R = (
+        (1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)),
+        (2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)),
+        (2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)),
+    )
+    p = [c + R[i][0] * t[0] + R[i][1] * t[1] + R[i][2] * t[2] for i, c in enumerate((px, py, pz))]
+    ex, ey, ez = (0.5 * c for c in om)
+    ew = 1 - 0.125 * (om[0] * om[0] + om[1] * om[1] + om[2] * om[2])
+    # Hamilton product (x, y, z, w) ⊗ (ex, ey, ez, ew): the rotation R exp(ω)
+    quat = [
+        w * ex + ew * x + y * ez - z * ey,
+        w * ey + ew * y + z * ex - x * ez,
+        w * ez + ew * z + x * ey - y * ex,
+        w * ew - x * ex - y * ey - z * ez,
+    ]
+    return p + quat
+
+
+def integrate_to_second_order(model: Any, q: Any, v: Any) -> Any:
+    """``q ⊕ v`` (nq CasADi SX) as a polynomial in the velocity v (nv), equal to ``pinocchio.integrate(model,
+    q, v)`` up to O(|v|³): q + v for 1-DOF joints, ``M exp6(v)`` to second order for a free flyer.
+
+    Its first and second derivatives in v at v = 0 are those through ``pinocchio.integrate``, so
+    ``f(integrate_to_second_order(model, q, v))`` differentiated by AD at v = 0 gives a function's
+    derivatives along the tangent space (nv columns) — exactly, without the 0/0 of ``sin|ω|/|ω|``.
+    Raises :class:`UnsupportedJointError` for a joint that is neither 1-DOF nor a free flyer."""
+    import casadi as ca
+
+    out: list[Any] = []
+    for jid in range(1, model.njoints):
+        iq, iv, nqj, nvj = (int(a[jid]) for a in (model.idx_qs, model.idx_vs, model.nqs, model.nvs))
+        if nqj == nvj:
+            out += [q[iq + k] + v[iv + k] for k in range(nqj)]
+        elif model.joints[jid].shortname() == "JointModelFreeFlyer":
+            out += _free_flyer_step([q[iq + k] for k in range(7)], [v[iv + k] for k in range(6)])
+        else:
+            raise UnsupportedJointError(
+                f"joint '{model.names[jid]}' has type {model.joints[jid].shortname()}: only 1-DOF joints and "
+                "free flyers move by integrate_to_second_order; lock it (pinocchio.buildReducedModel)"
+            )
+    return ca.vertcat(*out)
+
+
+def at_zero_velocity(model: Any, build: Any, q: Any, *extra: Any) -> Any:
+    """``build(q ⊕ v, v)`` evaluated at v = 0 (CasADi SX): ``build`` returns an expression of its two arguments
+    and of the symbols ``extra`` (e.g. ``lambda qv, v: ca.jacobian(f(qv), v)``, the derivative of f along the
+    tangent space, nv columns), q ⊕ v is :func:`integrate_to_second_order` (exact up to second derivatives)."""
+    import casadi as ca
+
+    v = ca.SX.sym("v", int(model.nv))
+    qs = ca.SX.sym("q", int(model.nq))
+    f = ca.Function("at_v", [qs, v, *extra], [build(integrate_to_second_order(model, qs, v), v)])
+    return f(q, ca.DM.zeros(int(model.nv)), *extra)
 
 
 def _as_q(q: Any, nq: int, what: str = "q") -> Any:

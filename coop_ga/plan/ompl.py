@@ -307,9 +307,14 @@ def plan(problem: PlanningProblem, options: PlannerOptions | None = None, **over
 
     Raises:
         InvalidInputError: the start is invalid or off the path constraint (the message says which check).
+        UnsupportedJointError: the system has a free flyer (nq ≠ nv).
     """
     import dataclasses
 
+    # OMPL's state space here is R^nq with box bounds, interpolated linearly: not a quaternion
+    problem.system.require_nq_equals_nv(
+        "plan (OMPL's real-vector state space on q)", "gauss_newton_ik or diff_ik_reach (they move q by integrate)"
+    )
     o = dataclasses.replace(options or PlannerOptions(), **overrides)
     ob, og, _ = _ompl()
     seed_ompl(o.seed)

@@ -87,7 +87,12 @@ def project(
     Returns:
         A :class:`Projection`; ``converged=False`` (never NaN) when the start is degenerate or the solver
         stops above ``tol``.
+
+    Raises:
+        UnsupportedJointError: the system has a free flyer (nq ≠ nv).
     """
+    # the residuals of coop_ga.plan.regions differentiate in q with nq columns, one per coordinate
+    system.require_nq_equals_nv("plan.project (region residuals on q)", "gauss_newton_ik on a cooperative task")
     q0 = validation.configuration(q_init, int(residual.nq), "q_init")
     opts = options if options is not None else PROJECTION_OPTIONS
     task = _ResidualTask(residual, system)

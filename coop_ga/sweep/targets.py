@@ -222,12 +222,17 @@ def certify(task: Any, q_init: np.ndarray, target: SimilarityLike) -> dict[str, 
 
     Raises:
         InvalidInputError: ``task`` is not a cooperative task, ``q_init`` not a finite (nq,) vector.
+        UnsupportedJointError: the task's system has a free flyer (nq ≠ nv).
     """
     from scipy.optimize import least_squares
 
     if not (hasattr(task, "error_and_jacobian") and hasattr(task, "system") and hasattr(task, "nq")):
         raise InvalidInputError(f"task must be a coop_ga cooperative task, got {type(task).__name__}")
     q_init = validation.configuration(q_init, int(task.nq), "q_init")
+    # scipy's bounded least squares moves q as a vector (q + Δq) inside a box: not a quaternion
+    task.system.require_nq_equals_nv(
+        "sweep certify (scipy least_squares on q)", "gauss_newton_ik, which moves q by the system's integrate"
+    )
 
     lim = task.system.limits
     lo, hi = np.asarray(lim.lower, dtype=float), np.asarray(lim.upper, dtype=float)

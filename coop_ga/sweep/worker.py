@@ -269,7 +269,8 @@ def _result_fields(job: Mapping[str, Any], task: Any, res: Any) -> dict[str, Any
     traj = None if traj is None else np.asarray(traj, dtype=float)
     qf = np.asarray(res.q, dtype=float)
     qs = qf[None, :] if traj is None else np.vstack([traj, qf[None, :]])
-    out["violation"] = _finite(lim.position_violation(qs))
+    system = task.system  # with a free flyer the limits bound q̇ coordinates: compare those (limit_coordinates)
+    out["violation"] = _finite(lim.position_violation(system.limit_coordinates(qs)))
     qd = getattr(res, "qd", None)
     name = CONTROLLERS[job["controller"]]
     dt = getattr(res, "dt", None)
@@ -280,7 +281,7 @@ def _result_fields(job: Mapping[str, Any], task: Any, res: Any) -> dict[str, Any
     if qd is not None:
         qd = np.asarray(qd, dtype=float)
     elif traj is not None and len(traj) > 1 and dt is not None:
-        qd = np.diff(traj, axis=0) / float(dt)  # q_{t+1} = q_t + Δt q̇
+        qd = np.diff(system.tangent_trajectory(traj), axis=0) / float(dt)  # q_{t+1} = q_t ⊕ Δt q̇
     out["max_speed"] = out["final_speed"] = out["speed_violation"] = None
     if qd is not None and qd.size:
         out["max_speed"] = _finite(np.max(np.abs(qd)))
@@ -345,18 +346,22 @@ def _target(job: Mapping[str, Any], task: Any, rng: np.random.Generator, rec: di
 
 
 def _start(job: Mapping[str, Any], task: Any, rng: np.random.Generator, draw: Any) -> tuple[np.ndarray, Any]:
-    """Initial (q, q̇): q0 (or ``start.q``) plus U(±spread), clipped to the limits; q̇ U(±qd_max) or from the draw."""
+    """Initial (q, q̇): q0 (or ``start.q``) plus U(±spread), clipped to the limits; q̇ U(±qd_max) or from the draw.
+    With a free flyer (nq ≠ nv) the spread is a velocity (nv) applied by the system's integrate."""
     q = np.asarray(task.system.q0, dtype=float).copy()
     qd = None
     st = job.get("start") or {}
     if "q" in st:
         q = np.asarray(st["q"], dtype=float)
-    if st.get("spread"):
+    system = task.system
+    if st.get("spread") and system.nq != system.nv:
+        q = system.clip(system.integrate(q, rng.uniform(-float(st["spread"]), float(st["spread"]), size=system.nv)))
+    elif st.get("spread"):
         q = q + rng.uniform(-float(st["spread"]), float(st["spread"]), size=task.nq)
         lim = task.system.limits
         q = np.clip(q, np.asarray(lim.lower, dtype=float), np.asarray(lim.upper, dtype=float))
     if st.get("qd_max"):
-        qd = rng.uniform(-float(st["qd_max"]), float(st["qd_max"]), size=task.nq)
+        qd = rng.uniform(-float(st["qd_max"]), float(st["qd_max"]), size=system.nv)
     if CONTROLLERS[job["controller"]] == MOVING_ILQR and draw is not None:
         qd = np.asarray(draw.qd_init, dtype=float)
     return q, qd

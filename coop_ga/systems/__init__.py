@@ -26,7 +26,7 @@ from .joints import continuous_as_revolute
 from .limits import DEFAULT_VELOCITY_LIMIT, JointLimits
 from .mjcf import from_mjcf, model_from_mjcf
 from .points import EndPoint, add_end_points
-from .registry import load, names, register
+from .registry import load, names, register, register_free_flyer
 from .synthetic import CARTESIAN_BASES, cartesian_points
 from .system import ROBOTS_DIR, System, VisualSource, append_robots, from_model, from_urdf, prefixed, unique_frames
 
@@ -52,5 +52,6 @@ __all__ = [
     "names",
     "prefixed",
     "register",
+    "register_free_flyer",
     "unique_frames",
 ]

@@ -37,7 +37,7 @@ from collections.abc import Iterable
 import numpy as np
 
 from .points import EndPoint, add_end_points
-from .registry import register
+from .registry import register, register_free_flyer
 from .system import ROBOTS_DIR, System, VisualSource, append_robots, prefixed
 
 __all__: list[str] = ["G1_PELVIS_HEIGHT", "IIWA_Q0", "g1_floating", "g1_model", "hexapod_free_flyer"]
@@ -253,6 +253,7 @@ def _g1_arms() -> System:
     )
 
 
+@register_free_flyer("g1_arms")
 def g1_floating() -> System:
     """Unitree G1 with a floating pelvis (a free flyer) + waist + arms, legs locked straight: nq = 24, nv = 23.
 
@@ -260,8 +261,8 @@ def g1_floating() -> System:
     (``root_joint``, the pelvis pose: q[0:3] position [m], q[3:7] quaternion x y z w; q̇[0:6] its LOCAL
     [v; ω]), the 12 leg joints (and any hand joints) locked at 0, then the 17 joints of ``g1_arms`` in the same
     order.  q0: the pelvis at the origin, unrotated, and ``g1_arms``' q0, so the hands start where they do
-    there.  End frames: right and left hand, as in ``g1_arms``.  Not registered (the registered systems are
-    fixed-base); build it with this function.
+    there.  End frames: right and left hand, as in ``g1_arms``.  ``load("g1_arms", free_flyer=True)`` (not a
+    registered name of its own: the registered systems are fixed-base).
     """
     import os
 
@@ -530,6 +531,7 @@ def _hexapod_floating() -> System:
     )
 
 
+@register_free_flyer("hexapod")
 def hexapod_free_flyer() -> System:
     """The hexapod with its body on a real free flyer: nq = 25, nv = 24 (``hexapod_floating`` uses six virtual
     joints with ±100 m, ±4π limits instead).
@@ -539,7 +541,8 @@ def hexapod_free_flyer() -> System:
     order.  A ``hexapod_floating`` configuration ``[x, y, z, yaw, pitch, roll, legs]`` is the pose
     ``T(x, y, z) Rz(yaw) Ry(pitch) Rx(roll)``, the same body pose.  End frames: the feet, as ``hexapod``.  q0: the
     stand pose with the body at :data:`HEXAPOD_STAND_HEIGHT`.  Kinematics only: nothing here keeps a foot on the
-    ground (the walking code in :mod:`coop_ga.legged` uses ``hexapod_floating``).  Not registered.
+    ground (the walking code in :mod:`coop_ga.legged` uses ``hexapod_floating``).  ``load("hexapod",
+    free_flyer=True)`` (not a registered name of its own).
     """
     import pinocchio as pin
 

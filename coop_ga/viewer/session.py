@@ -327,7 +327,8 @@ class TeleopSession:
         names = np.array(task.system.joint_names)
         v = self.teleop.velocity
         m = self.limit_margin
-        at_pos = (q - lim.lower <= m) | (lim.upper - q <= m)
+        x = task.system.limit_coordinates(q)  # q̇ order (nv,): a free flyer's entries are unbounded
+        at_pos = (x - lim.lower <= m) | (lim.upper - x <= m)
         at_vel = np.abs(v) >= (1.0 - 1e-6) * lim.velocity
         at_acc = np.isfinite(lim.acceleration) & (np.abs(v - v_prev) >= (1.0 - 1e-6) * lim.acceleration * self.dt)
         return Readout(

@@ -73,7 +73,11 @@ def skeleton(system: Any, q: Any) -> Skeleton:
     for j in range(1, m.njoints):
         b = np.array(d.oMi[j].translation)
         p = int(m.parents[j])
-        segs.append((np.array(d.oMi[p].translation) if p > 0 else root_of(j), b))
+        if p == 0 and m.joints[j].shortname() == "JointModelFreeFlyer":
+            start = b  # a free flyer hangs from nothing: no segment from the world origin to the floating base
+        else:
+            start = np.array(d.oMi[p].translation) if p > 0 else root_of(j)
+        segs.append((start, b))
         kinds.append("joint")
     ends, chains = [], []
     for f in system.end_frames:

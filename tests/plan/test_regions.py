@@ -195,3 +195,24 @@ def test_projection_of_a_degenerate_start_is_a_failure_not_nan(load_system):
 
     p = project(Degenerate(), s, s.q0)
     assert not p.converged and "collinear" in p.message and np.all(np.isfinite(p.q))
+
+
+def test_planning_refuses_a_free_flyer():
+    """The planner's state space and the region residuals treat q as a vector: a floating G1 (nq = 24, nv = 23) is
+    refused with an UnsupportedJointError naming the function and what works, before anything runs."""
+    from coop_ga.errors import UnsupportedJointError
+    from coop_ga.plan.ompl import PlanningProblem, plan
+    from coop_ga.systems import load
+
+    s = load("g1_arms", free_flyer=True)
+
+    class Residual:
+        nq, dim = s.nq, 1
+
+        def evaluate(self, q):
+            raise AssertionError("not reached")
+
+    with pytest.raises(UnsupportedJointError, match=r"plan.project .*nq = 24, nv = 23.*gauss_newton_ik"):
+        project(Residual(), s, s.q0)
+    with pytest.raises(UnsupportedJointError, match=r"plan \(OMPL.*nq = 24, nv = 23.*diff_ik_reach"):
+        plan(PlanningProblem(s, s.q0, Residual(), None))

@@ -437,3 +437,32 @@ def test_benchmark_ci_mode(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     ext = res["extrapolation"]
     assert [e["cores"] for e in ext] == [2, 64, 640]
     assert np.isclose(ext[2]["jobs_per_s"] / ext[1]["jobs_per_s"], 10.0, rtol=1e-3)  # linear in the cores
+
+
+def test_free_flyer_recipe_job() -> None:
+    """The hexapod body on a free flyer (from_urdf(free_flyer=True), nq = 25, nv = 24): the start spread is a
+    velocity applied by integrate, the limit measures compare the joints (not the quaternion) with the limits,
+    and certify — scipy's bounded least squares on q — refuses it with an UnsupportedJointError record."""
+    from coop_ga.systems import ROBOTS_DIR
+
+    recipe = {
+        "urdf": str(ROBOTS_DIR / "hexapod" / "hexapod.urdf"),
+        "end_frames": ["lf_foot", "lr_foot", "rm_foot"],
+        "free_flyer": True,
+        "name": "tripod_ff",
+    }
+    job = {
+        "system": recipe,
+        "kind": "circle",
+        "controller": "gauss_newton",
+        "target": {"translation": [0.0, 0.0, 0.01], "scale": 0.97},
+        "start": {"spread": 0.05},
+        "seed": 0,
+    }
+    gn, diffik, cert = sw.run([job, {**job, "controller": "diff_ik"}, {**job, "certify": True}])
+    assert gn["nq"] == 25 and gn["status"] == "ok" and gn["converged"] and gn["error"] < 1e-9
+    assert gn["violation"] == 0.0
+    assert diffik["status"] == "ok" and diffik["converged"] and diffik["error"] < 1e-4
+    assert diffik["violation"] == 0.0 and diffik["speed_violation"] == 0.0 and diffik["max_speed"] > 0.1
+    assert cert["status"] == "failed" and cert["exception_type"] == "UnsupportedJointError"
+    assert "certify: sweep certify" in cert["exception"] and "nq = 25, nv = 24" in cert["exception"]

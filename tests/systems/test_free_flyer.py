@@ -109,3 +109,21 @@ def test_hexapod_free_flyer_equals_the_virtual_joints() -> None:
         R = pin.utils.rotate("z", yaw) @ pin.utils.rotate("y", pitch) @ pin.utils.rotate("x", roll)
         qf = np.concatenate([[x, y, z], pin.Quaternion(R).coeffs(), qv[6:]])  # coeffs: x y z w
         np.testing.assert_allclose(free.end_points(qf), virtual.end_points(qv), atol=1e-12)
+
+
+def test_registry_loads_the_free_flyer_variants() -> None:
+    from coop_ga.errors import UnsupportedJointError
+
+    assert systems.names(free_flyer=True) == ["g1_arms", "hexapod"]
+    assert "g1_floating" not in systems.names() and len(systems.names(free_flyer=True)) < len(systems.names())
+    g1 = systems.load("g1_arms", free_flyer=True)
+    assert (g1.nq, g1.nv) == (24, 23) and g1 is systems.load("g1_arms", free_flyer=True)
+    fixed = systems.load("g1_arms")
+    assert (fixed.nq, fixed.nv) == (17, 17) and g1.end_frames == fixed.end_frames
+    np.testing.assert_array_equal(g1.q0, g1_floating().q0)
+    hexa = systems.load("hexapod", free_flyer=True)
+    assert (hexa.nq, hexa.nv) == (25, 24) and hexa.end_frames == systems.load("hexapod").end_frames
+    with pytest.raises(UnsupportedJointError, match=r"'three_franka' has no free-flyer variant.*g1_arms, hexapod"):
+        systems.load("three_franka", free_flyer=True)
+    with pytest.raises(InvalidInputError, match="free_flyer must be True or False"):
+        systems.load("g1_arms", free_flyer="yes")

@@ -192,3 +192,24 @@ def test_hold_and_reset(circle_task):
     assert np.max(np.abs(s.q - q)) < 0.02  # stops (braking from the last velocity within the limits)
     s.reset()
     assert np.array_equal(s.q, s.q0) and s.target is s.home and np.all(s.teleop.velocity == 0)
+
+
+def test_session_on_a_free_flyer():
+    """The floating G1 (nq = 24, nv = 23): the session steps (the Teleoperator moves q by integrate) and its
+    read-out compares the joints, not the quaternion, with the limits (one name per velocity)."""
+    system = cg.systems.load("g1_arms", free_flyer=True)
+    task = cg.cooperative_task(system, "point_pair")
+    s = TeleopSession(task, dt=DT)
+    p, wxyz, _ = s.handle_pose()
+    assert s.set_target_pose(p + [0.05, 0.0, 0.03], wxyz, 1.0)
+    errors = [s.step().error_norm for _ in range(120)]
+    assert errors[-1] < 1e-3 < errors[0]
+    assert abs(np.linalg.norm(s.q[3:7]) - 1.0) < 1e-12 and np.linalg.norm(s.q[:3]) > 1e-3
+    r = s.readout
+    assert not any(n.startswith("root") for n in r.at_position_limit)
+    # a joint put at its upper limit is named, with the free flyer's coordinates shifting nothing
+    q = system.q0.copy()
+    j = system.joint_names.index(system.joint_names[10])
+    q[system.model.idx_qs[system.model.getJointId(system.joint_names[j])]] = system.limits.upper[j]
+    s.teleop.q = q
+    assert system.joint_names[j] in s._read(np.zeros(6), np.zeros(system.nv), 0.0).at_position_limit

@@ -96,3 +96,23 @@ def test_any_system_renders(tmp_path):
         sk = viz.skeleton(s, s.q0)
         np.testing.assert_allclose(sk.end_points, s.tree.end_points_array(s.q0), atol=1e-12)
         assert viz.render(s, s.q0, (), tmp_path / f"{name}.png", size=(3, 3), dpi=50).exists()
+
+
+def test_a_free_flyer_skeleton_and_meshes_follow_the_base():
+    """The floating G1 (nq = 24): the base moved 1 m along x and turned 90° about z moves every skeleton point and
+    visual object rigidly (Pinocchio FK on the 7 free-flyer coordinates); a q of nv entries is refused."""
+    from coop_ga.viz.mesh import object_placements
+
+    s = cg.systems.load("g1_arms", free_flyer=True)
+    q = s.q0.copy()
+    q[:3] = [1.0, 0.0, 0.0]
+    q[3:7] = [0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4)]  # x y z w
+    Rz = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    a, b = viz.skeleton(s, s.q0), viz.skeleton(s, q)
+    np.testing.assert_allclose(b.points(), a.points() @ Rz.T + [1.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(b.end_points, a.end_points @ Rz.T + [1.0, 0.0, 0.0], atol=1e-12)
+    P0, P1 = object_placements(s, s.q0), object_placements(s, q)
+    assert P0 is not None and P1 is not None and len(P0) > 10
+    np.testing.assert_allclose(P1[:, :3, 3], P0[:, :3, 3] @ Rz.T + [1.0, 0.0, 0.0], atol=1e-12)
+    with pytest.raises(ValueError, match="q must have 24 entries"):
+        viz.skeleton(s, np.zeros(s.nv))

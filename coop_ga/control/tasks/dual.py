@@ -53,7 +53,7 @@ from ...geometry.groups import (
     exp,
     log,
 )
-from ...kinematics.chains import KinematicTree, motor_from_se3, require_nq_equals_nv
+from ...kinematics.chains import KinematicTree, at_zero_velocity, motor_from_se3
 from .base import BaseTask, row_indices
 
 __all__ = ["DUAL_COMPONENTS", "DUAL_ROWS", "DualState", "DualTask", "DualTaskSpace"]
@@ -143,14 +143,10 @@ class DualTaskSpace:
             raise InvalidInputError(f"the two frames of a dual task space must differ, got {names[0]!r} twice")
         self.system = system
         self.frames = names
-        require_nq_equals_nv(
-            system.model,
-            "DualTaskSpace",
-            "a similarity, point or line task (their Jacobians have nv columns)",
-            f"system '{getattr(system, 'name', 'custom')}'",
-        )
         self.tree = KinematicTree(system.model, names)
         self.nq = int(system.model.nq)
+        #: number of velocities (Jacobian columns): nq, or nq − 1 per free flyer
+        self.nv = int(system.model.nv)
         self.codegen = getattr(model, "codegen", "auto") if codegen is None else codegen
         self.name = f"{getattr(system, 'name', 'custom')}_dual_{names[0]}_{names[1]}"
         self._functions: dict[str, Any] = {}  # the compiled motors, built on first use
@@ -193,15 +189,16 @@ class DualTaskSpace:
             m = self.symbolic(q)
             M = m[which]
             c = _motor_coeffs(M)
-            dM = ca.jacobian(c, q)
+            dM = self._tangent_jacobian(lambda qq: _motor_coeffs(self.symbolic(qq)[which]), q)
             Mrev = M.reverse()
             cols = []
-            for j in range(self.nq):
+            for j in range(self.nv):
                 b = bivector_to_tangent((Mrev * _motor_expr(dM[:, j])).grade(2).scale(-2.0))
                 cols.append(ca.vertcat(*[b[i] for i in _MOTOR_SLOTS]))
             J = ca.horzcat(*cols)
             lg = log((Mrev * _motor_expr(target)).project(MOTOR_BLADES))
             e = -ca.vertcat(*[lg[i] for i in _MOTOR_SLOTS])
+            E = self._tangent_jacobian(lambda qq: self._error_expr(self.symbolic(qq)[which], target), q, target)
             f = ca.Function(
                 f"coop_dual_{which}_{hashlib.sha1(key.encode()).hexdigest()[:12]}",
                 [q, target],
@@ -211,13 +208,30 @@ class DualTaskSpace:
                     c,
                     ca.densify(J),
                     e,
-                    ca.densify(ca.jacobian(e, q)),
+                    ca.densify(E),
                 ],
                 ["q", "target"],
                 ["M1", "M2", "M", "J", "e", "E"],
             )
             cf = cache[key] = CompiledFunction(f, codegen=self.codegen)
         return cf
+
+    @staticmethod
+    def _error_expr(M: Multivector, target: Any) -> Any:
+        """e = −log(M̃ M*) on the six motor slots (module docstring), an SX of the motor M and the target."""
+        import casadi as ca
+
+        lg = log((M.reverse() * _motor_expr(target)).project(MOTOR_BLADES))
+        return -ca.vertcat(*[lg[i] for i in _MOTOR_SLOTS])
+
+    def _tangent_jacobian(self, f: Any, q: Any, *extra: Any) -> Any:
+        """∂f(q)/∂q (nq columns) when nq = nv, else ∂f(q ⊕ v)/∂v at v = 0 (nv columns, a free flyer's LOCAL
+        velocities; :func:`~coop_ga.kinematics.chains.at_zero_velocity`)."""
+        import casadi as ca
+
+        if self.nq == self.nv:
+            return ca.jacobian(f(q), q)
+        return at_zero_velocity(self.system.model, lambda qv, v: ca.jacobian(f(qv), v), q, *extra)
 
     # ------------------------------------------------------------------ numeric read-outs
     def evaluate(self, q: Any) -> DualState:
