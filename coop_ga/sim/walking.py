@@ -838,12 +838,22 @@ class HexapodWalker:
             now = math.floor(self._tau_g / T - tab.offsets[i])
             support = sum(1 for j, o in enumerate(self._legs) if j != i and o.mode == 0)
             if leg.mode == 0 and now > before and cmd is not None and t - leg.touchdown > 0.5 * sigma * T:
-                if late or support < 3:  # never lift a leg off a support of fewer than three feet: wait
+                # never lift a leg off a support of fewer than three feet, nor off a foot whose load is still
+                # ramping in (a late foot that lands as its partners lift takes its share at once and slides)
+                if late or support < 3 or self._loading(i, t):
                     self.counts["held_lift_offs"] += 1
                     return False
                 self._lift_off(i, (now + tab.offsets[i]) * T, t, data)
         self._tau_prev = self._tau_g
         return True
+
+    def _loading(self, i: int, t: float) -> bool:
+        """Whether a stance foot other than leg i touched down less than ``load_ramp`` ago (with feedback: its
+        feed-forward load is still ramping in, :meth:`_weights`)."""
+        ramp = self.options.load_ramp
+        return self.options.feedback and any(
+            j != i and o.mode == 0 and t - o.touchdown < ramp for j, o in enumerate(self._legs)
+        )
 
     def _lift_off(self, i: int, tau_lo: float, t: float, data: Any) -> None:
         from ..legged.gait import swing_arc
