@@ -144,8 +144,8 @@ def fit_capsule(vertices: Any, axis: Any = None) -> tuple[np.ndarray, np.ndarray
 
     ``axis``: the capsule's direction (3,) in the vertices' frame instead of the principal axis (step 1), for a
     link whose vertices are not spread along its length: PCA weights vertices by count, so a finely tessellated
-    servo horn across a link turns the axis across the link too (the hexapod's femur: a 42.6 mm capsule along
-    the horn around a 40 × 32 mm servo box; along the link 26.9 mm).
+    servo horn across a link turns the axis across the link too (the hexapod's femur: a capsule of radius 42.6
+    mm along the horn around a 40 × 32 mm servo box; along the link 26.9 mm).
 
     Raises :class:`InvalidInputError` for an empty or non-finite vertex array, vertices beyond ±1e100 m, or a
     zero or non-finite ``axis``.

@@ -13,8 +13,12 @@ and :class:`~coop_ga.legged.walk.WalkResult` reports it (``rolling``) — the er
 contact as fixed, a few mm per stance for the hexapod.
 
 **Leg capsules.**  The capsules of every leg link are those :func:`coop_ga.collision.fit_capsules` fits
-to the URDF's geometry (the ones :func:`coop_ga.sim.build_scene` uses by default), with one change:
-the fitted tibia capsule (radius 24.7 mm around the knee's servo horn and the tibia bracket) reaches
+to the URDF's geometry (the ones :func:`coop_ga.sim.build_scene` uses by default), with two changes.  The
+coxa and femur capsules are fitted along their links (from the joint toward the next joint,
+:func:`coop_ga.collision.fit_capsule` with ``axis``): the principal-axis fit follows the vertices of the
+finely tessellated servo horn across the link, and gave the femur a capsule along its pitch axis of radius 42.6
+mm around a 40 × 32 mm servo box (26.9 mm along the link), which reached back past the femur joint and met
+the body.  And the fitted tibia capsule (radius 24.7 mm around the knee's servo horn and the tibia bracket) reaches
 15.7 mm short of the foot centre, so its end cap hangs below the 9 mm ball whenever the tibia is not
 vertical (by 1.7 mm at the stand pose's 27°, 3.3 mm at 38°): the tibia, not the ball, would touch the
 ground.  :func:`leg_capsules` shortens it (the **shin**) so that its end cap stays above the ball's

@@ -19,16 +19,21 @@ source of both the planner's leg–terrain clearance and this scene's contacts:
 * **shins**: the tibia capsule fitted to the URDF's geometry (radius 24.7 mm), shortened so that its end cap stays
   above the ball's lowest point for tibia tilts up to 60° (:func:`~coop_ga.legged.contact.shin_capsule`): a
   shin–terrain contact is a real shin collision (a riser, a tile edge), never the foot;
-* **coxas, femurs**: the fitted capsules of their servo boxes;
+* **coxas, femurs**: capsules fitted along their links (joint to joint) around their servo boxes and horns
+  (radius 31.3 and 26.9 mm);
 * **body**: the URDF's body box, 0.24 × 0.16 × 0.04 m (the fitted body capsule, radius 82 mm, would hang 27 mm
   above the ground at the ride height; the planner does not use it).
 
-Every robot geom touches the terrain; contacts between the legs' links are off (the legs of these gaits do not
-meet; a self-collision check would cost more than the rest of a step), but the body box is not excluded from
-them: a femur lifted high with its coxa turned toward the body meets it (at coxa 0.4 rad from ~1.2 rad of femur
-lift) — as the real servo brackets would meet the body plate.  Contacts between the terrain and anything but a
-foot ball are counted by :meth:`HexapodScene.terrain_contacts` (the walking metrics' "shin contacts"), and the
-robot's contacts with itself (a femur on the body box) as ``self``.
+The URDF has no ``<collision>`` geometry: its only body geometry is that box, its ``<visual>`` and the box of
+its inertia (its README: a plate/electronics box with the six coxa servos at the corners of the hexagon of the
+leg mounts), so the scene's body box is the robot description's body exactly.  Every robot geom touches the
+terrain; contacts between the legs' links are off (the legs of these gaits do not meet; a self-collision check
+would cost more than the rest of a step), but the body box is not excluded from them.  Within the joint limits
+no femur reaches it (closest 0.2 mm, with the coxa at its limit toward the body and the femur at +90°;
+``tests/sim/test_hexapod.py`` scans the range) — the femur capsule fitted across the link, along its servo
+horn (radius 42.6 mm around a 40 × 32 mm servo), met it from ~1.2 rad of lift.  Contacts between the terrain and
+anything but a foot ball are counted by :meth:`HexapodScene.terrain_contacts` (the walking metrics' "shin
+contacts"), and the robot's contacts with itself (a femur on the body box) as ``self``.
 
 Terrain (:func:`terrain_geoms`)
 -------------------------------
