@@ -112,6 +112,22 @@ def test_no_femur_reaches_the_body_box_within_the_joint_limits() -> None:
     assert 0.0 < closest < 0.005  # it comes close at the corners of the range, never into the box
 
 
+def test_contact_time_constant() -> None:
+    """MuJoCo's default (0.02 s) unless asked; then on every colliding geom (feet, legs, body, terrain), so that every
+    contact has it; below two physics steps it is refused."""
+    hs = scene("random")
+    collide = (hs.model.geom_contype > 0) | (hs.model.geom_conaffinity > 0)
+    assert np.all(hs.model.geom_solref[collide] == (0.02, 1.0))
+    stiff = hexapod_scene(Terrain.random(seed=0), geometry=HexapodGeometry(contact_timeconst=0.005), visuals=False)
+    m = stiff.model
+    ids = [*stiff.foot_geoms, *stiff.tibia_geoms, *stiff.femur_geoms, stiff.body_geom, *stiff.terrain_geom_ids]
+    assert np.all(m.geom_solref[ids] == (0.005, 1.0))
+    with pytest.raises(InvalidInputError, match="two physics steps"):
+        hexapod_scene(geometry=HexapodGeometry(contact_timeconst=0.0015), visuals=False)
+    with pytest.raises(InvalidInputError, match="contact_timeconst"):
+        HexapodGeometry(contact_timeconst=0.0)
+
+
 def test_sensors_of_a_robot_standing_still() -> None:
     """Standing on its six feet: the touch sensors carry the weight, the IMU reads R_WB, zero rate and +g."""
     from coop_ga.sim import Simulation
