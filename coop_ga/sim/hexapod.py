@@ -72,8 +72,8 @@ ball turned in place (tripod, flat ground: the centre stays within 0.8 mm while 
 a 1.2 s stance, the tangential force at 0.1–0.15 of the normal one, far inside the friction cone).  The slide is
 proportional to τ — the fast tripod rows' worst slip per stance, τ = 20 / 10 / 5 ms: flat 3.32 / 1.54 / 0.72 mm,
 random tiles 5.44 / 2.72 / 1.20 mm (map), 6.63 / 3.51 / 3.15 mm (blind) — and does not change with ``impratio``
-(1000) or MuJoCo's no-slip solver.  The default stays MuJoCo's: at 10 ms the blind wave gait on random tiles
-rests a shin on a tile edge and loses a foot (walked 79 %), a failure the softer contact hid.
+(1000) or MuJoCo's no-slip solver.  The default stays MuJoCo's: at 10 ms the short blind wave walk on random
+tiles rests a shin on a tile edge and loses a foot (walked 79 %), a failure the softer contact hid.
 
 Sensors (MuJoCo's, read by :class:`~coop_ga.sim.Simulation` controllers through ``sensors.sensor(name)`` or the
 addresses in :class:`HexapodScene`)
