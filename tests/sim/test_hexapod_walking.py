@@ -156,6 +156,28 @@ def test_no_lift_off_while_a_support_foot_takes_its_load() -> None:
     assert m["max_slip_m"] < 0.0075 and m["self_contact_steps"] == 0
 
 
+def test_a_searching_leg_that_bears_load_without_contact_steps_over() -> None:
+    """A searching foot whose femur and tibia servos push with more than search_load (its shin on an edge) steps
+    over along its swing; one that follows its target keeps searching."""
+    hs = hexapod_scene(Terrain.flat(), visuals=False)
+    opt = WalkingOptions(blind=True)
+    q0, pose = standing_start(hs, opt)
+    walker = HexapodWalker(hs, VelocityCommand.constant(0.1), opt)
+    sim = Simulation(hs.scene, walker, q=q0, base_pose=pose)
+    sim.run(0.01)
+    leg = walker._legs[0]
+    p0 = leg.target.copy()
+    leg.arc = (p0, p0 + np.array([0.04, 0.0, 0.0]), 0.02, 0.0)
+    leg.mode, leg.search_from, leg.raises = 2, 0.0, 0
+    j = walker.fast.q_index[0, 1:]
+    q = walker._qD.copy()
+    q[j] -= 0.1 * opt.search_load / opt.kp[1]  # a servo error far below the load: still searching
+    assert not walker._blocked(0, 0.01, q) and leg.mode == 2 and walker.counts["step_overs"] == 0
+    q[j] = walker._qD[j] - 0.8 * opt.search_load / opt.kp[1]  # |(e, e)| = 0.8 √2 search_load / kp
+    assert walker._blocked(0, 0.01, q) and walker.counts["step_overs"] == 1 and leg.raises == 1
+    assert leg.search_from > 0.01 and leg.arc[1][0] > leg.arc[0][0] + 0.9 * opt.step_over  # over, forward
+
+
 def test_tour_start_speed_change_turn_stop_and_replay(tmp_path) -> None:
     """One run: start, speed change, turn while walking, stop (VelocityCommand.tour); it ends at rest, turned by
     the commanded yaw; its log replays with MuJoCo alone and carries the body pose and stance set per step."""
