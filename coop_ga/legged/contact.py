@@ -13,8 +13,12 @@ and :class:`~coop_ga.legged.walk.WalkResult` reports it (``rolling``) — the er
 contact as fixed, a few mm per stance for the hexapod.
 
 **Leg capsules.**  The capsules of every leg link are those :func:`coop_ga.collision.fit_capsules` fits
-to the URDF's geometry (the ones :func:`coop_ga.sim.build_scene` uses by default), with one change:
-the fitted tibia capsule (radius 24.7 mm around the knee's servo horn and the tibia bracket) reaches
+to the URDF's geometry (the ones :func:`coop_ga.sim.build_scene` uses by default), with two changes.  The
+coxa and femur capsules are fitted along their links (from the joint toward the next joint,
+:func:`coop_ga.collision.fit_capsule` with ``axis``): the principal-axis fit follows the vertices of the
+finely tessellated servo horn across the link, and gave the femur a capsule along its pitch axis of radius 42.6
+mm around a 40 × 32 mm servo box (26.9 mm along the link), which reached back past the femur joint and met
+the body.  And the fitted tibia capsule (radius 24.7 mm around the knee's servo horn and the tibia bracket) reaches
 15.7 mm short of the foot centre, so its end cap hangs below the 9 mm ball whenever the tibia is not
 vertical (by 1.7 mm at the stand pose's 27°, 3.3 mm at 38°): the tibia, not the ball, would touch the
 ground.  :func:`leg_capsules` shortens it (the **shin**) so that its end cap stays above the ball's
@@ -83,16 +87,45 @@ def shin_capsule(legs: LegModel) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def _leg_caps(lm: LegModel) -> tuple[Any, tuple[Capsule, Capsule, Capsule]]:
-    """The fitted (coxa, femur, tibia) capsules of the first leg (all legs are alike), cached per system."""
+    """The fitted (coxa, femur, tibia) capsules of the first leg (all legs are alike), cached per system: the
+    coxa and femur along their links (:func:`_along_link`), the tibia as :func:`coop_ga.collision.fit_capsules`
+    fits it (already along the tibia)."""
     hit = _CAPS.get(id(lm.system))
     if hit is None or hit[0] is not lm.system:
         from ..collision import fit_capsules
 
         leg = lm.legs[0]
         caps = {c.frame: c for c in fit_capsules(lm.system, links=[f"{leg}_{k}" for k in LINKS])}
-        hit = (lm.system, tuple(caps[f"{leg}_{k}"] for k in LINKS))
+        hit = (lm.system, tuple(_along_link(lm, caps[f"{leg}_{k}"], lm.system) for k in LINKS))
         _CAPS[id(lm.system)] = hit
     return hit
+
+
+def _along_link(lm: LegModel, cap: Capsule, system: Any) -> Capsule:
+    """``cap`` (fitted to a leg link of ``system``) refitted along its link — the coxa from the coxa axis to the
+    femur joint, the femur from the femur joint to the tibia joint — enclosing the same vertices (module
+    docstring, "Leg capsules"); other capsules unchanged."""
+    from ..collision import Capsule, fit_capsule
+    from ..collision.capsules import link_meshes
+
+    leg = next((x for x in lm.legs if cap.frame in (f"{x}_coxa", f"{x}_femur")), None)
+    if leg is None:
+        return cap
+    i = lm.legs.index(leg)
+    x, z = lm.femur_joint[i] if cap.frame == f"{leg}_coxa" else lm.femur_link[i]
+    a, b, r = fit_capsule(_link_vertices(system, link_meshes)[cap.frame], axis=(x, 0.0, z))
+    return Capsule(cap.frame, a, b, r, cap.chain, cap.link)
+
+
+_VERTICES: dict[int, tuple[Any, dict[str, np.ndarray]]] = {}
+
+
+def _link_vertices(system: Any, link_meshes: Any) -> dict[str, np.ndarray]:
+    """``link_meshes(system)`` read once per system."""
+    hit = _VERTICES.get(id(system))
+    if hit is None or hit[0] is not system:
+        hit = _VERTICES[id(system)] = (system, link_meshes(system))
+    return hit[1]
 
 
 def leg_capsules(legs: LegModel, system: Any = None) -> tuple[Capsule, ...]:
@@ -109,7 +142,8 @@ def leg_capsules(legs: LegModel, system: Any = None) -> tuple[Capsule, ...]:
     a, b, rho = shin_capsule(lm)
     a, b = _snap(a), _snap(b)
     out = []
-    for c in fit_capsules(sysm):
+    for c0 in fit_capsules(sysm):
+        c = _along_link(lm, c0, sysm)
         leg = next((x for x in lm.legs if c.frame == f"{x}_tibia"), None)
         if leg is None:
             out.append(Capsule(c.frame, _snap(c.a), _snap(c.b), c.radius, c.chain, c.link))

@@ -19,16 +19,21 @@ source of both the planner's leg–terrain clearance and this scene's contacts:
 * **shins**: the tibia capsule fitted to the URDF's geometry (radius 24.7 mm), shortened so that its end cap stays
   above the ball's lowest point for tibia tilts up to 60° (:func:`~coop_ga.legged.contact.shin_capsule`): a
   shin–terrain contact is a real shin collision (a riser, a tile edge), never the foot;
-* **coxas, femurs**: the fitted capsules of their servo boxes;
+* **coxas, femurs**: capsules fitted along their links (joint to joint) around their servo boxes and horns
+  (radius 31.3 and 26.9 mm);
 * **body**: the URDF's body box, 0.24 × 0.16 × 0.04 m (the fitted body capsule, radius 82 mm, would hang 27 mm
   above the ground at the ride height; the planner does not use it).
 
-Every robot geom touches the terrain; contacts between the legs' links are off (the legs of these gaits do not
-meet; a self-collision check would cost more than the rest of a step), but the body box is not excluded from
-them: a femur lifted high with its coxa turned toward the body meets it (at coxa 0.4 rad from ~1.2 rad of femur
-lift) — as the real servo brackets would meet the body plate.  Contacts between the terrain and anything but a
-foot ball are counted by :meth:`HexapodScene.terrain_contacts` (the walking metrics' "shin contacts"), and the
-robot's contacts with itself (a femur on the body box) as ``self``.
+The URDF has no ``<collision>`` geometry: its only body geometry is that box, its ``<visual>`` and the box of
+its inertia (its README: a plate/electronics box with the six coxa servos at the corners of the hexagon of the
+leg mounts), so the scene's body box is the robot description's body exactly.  Every robot geom touches the
+terrain; contacts between the legs' links are off (the legs of these gaits do not meet; a self-collision check
+would cost more than the rest of a step), but the body box is not excluded from them.  Within the joint limits
+no femur reaches it (closest 0.2 mm, with the coxa at its limit toward the body and the femur at +90°;
+``tests/sim/test_hexapod.py`` scans the range) — the femur capsule fitted across the link, along its servo
+horn (radius 42.6 mm around a 40 × 32 mm servo), met it from ~1.2 rad of lift.  Contacts between the terrain and
+anything but a foot ball are counted by :meth:`HexapodScene.terrain_contacts` (the walking metrics' "shin
+contacts"), and the robot's contacts with itself (a femur on the body box) as ``self``.
 
 Terrain (:func:`terrain_geoms`)
 -------------------------------
@@ -56,6 +61,19 @@ Friction
 MuJoCo's contacts are soft, and with its default pyramidal friction cone a loaded foot creeps: the robot
 standing on the 5.7° slope slid downhill at 4.4 mm/s.  The scene uses elliptic cones with ``impratio`` = 100
 (frictional constraints 100× stiffer than normal ones, MuJoCo's remedy): 0.02 mm/s.
+
+Contact stiffness
+-----------------
+Every contact of the scene has MuJoCo's soft-constraint time constant ``HexapodGeometry.contact_timeconst``
+(``solref`` = (τ, 1)), by default MuJoCo's own 0.02 s.  At that value a loaded foot ball (5–6 N on a tripod
+foot) sinks 1.0–1.6 mm into the ground (a rubber tip would by ~0.3 mm, Hertz with E = 5 MPa), and a stance
+foot whose tibia turns as the body passes over it slides instead of rolling: the contact point moves as if the
+ball turned in place (tripod, flat ground: the centre stays within 0.8 mm while the contact slides 3.3 mm over
+a 1.2 s stance, the tangential force at 0.1–0.15 of the normal one, far inside the friction cone).  The slide is
+proportional to τ — the fast tripod rows' worst slip per stance, τ = 20 / 10 / 5 ms: flat 3.32 / 1.54 / 0.72 mm,
+random tiles 5.44 / 2.72 / 1.20 mm (map), 6.63 / 3.51 / 3.15 mm (blind) — and does not change with ``impratio``
+(1000) or MuJoCo's no-slip solver.  The default stays MuJoCo's: at 10 ms the short blind wave walk on random
+tiles rests a shin on a tile edge and loses a foot (walked 79 %), a failure the softer contact hid.
 
 Sensors (MuJoCo's, read by :class:`~coop_ga.sim.Simulation` controllers through ``sensors.sensor(name)`` or the
 addresses in :class:`HexapodScene`)
@@ -113,12 +131,14 @@ _BOX_DEPTH = 0.1
 class HexapodGeometry:
     """Physical options of the scene (module docstring): ``body_box`` edge lengths [m]; ``friction``: MuJoCo's
     (sliding, torsional, rolling) coefficients of every robot geom, or one number; ``servo_damping``: give
-    every joint the back-EMF damping of its servo ("Servos").  The legs' capsules and the foot radius are the
-    planner's (:func:`coop_ga.legged.contact.leg_capsules`)."""
+    every joint the back-EMF damping of its servo ("Servos"); ``contact_timeconst``: MuJoCo's soft-contact time
+    constant [s] of every contact ("Contact stiffness"; ≥ 2 physics steps).  The legs' capsules and the foot
+    radius are the planner's (:func:`coop_ga.legged.contact.leg_capsules`)."""
 
     body_box: tuple[float, float, float] = BODY_BOX
     friction: Any = 1.0
     servo_damping: bool = True
+    contact_timeconst: float = 0.02
 
     def __post_init__(self) -> None:
         box = validation.vector(self.body_box, 3, "HexapodGeometry.body_box")
@@ -127,6 +147,9 @@ class HexapodGeometry:
         object.__setattr__(self, "body_box", tuple(float(x) for x in box))
         if not isinstance(self.servo_damping, (bool, np.bool_)):
             raise InvalidInputError(f"HexapodGeometry.servo_damping must be True or False, got {self.servo_damping!r}")
+        object.__setattr__(
+            self, "contact_timeconst", validation.positive(self.contact_timeconst, "HexapodGeometry.contact_timeconst")
+        )
 
 
 def hexapod_capsules(system: Any) -> tuple[Any, ...]:
@@ -403,7 +426,8 @@ def hexapod_scene(
         :class:`HexapodScene`.
 
     Raises:
-        InvalidInputError: a terrain that is not a ``Terrain`` or a grid of tilted cells, a bad region.
+        InvalidInputError: a terrain that is not a ``Terrain`` or a grid of tilted cells, a bad region, a
+            ``contact_timeconst`` below two physics steps.
     """
     from .. import systems
     from ..legged.terrain import Terrain
@@ -433,6 +457,7 @@ def hexapod_scene(
     _add_body_box(base.spec, base.base_body, g)
     _add_terrain(base.spec, geoms)
     _add_sensors(base.spec, base.base_body, base.system)
+    _set_contact_timeconst(base.spec, g.contact_timeconst, timestep)
     base.spec.option.cone = mj().mjtCone.mjCONE_ELLIPTIC
     base.spec.option.impratio = validation.positive(impratio, "impratio")
     return HexapodScene(base.recompile(), terrain, reg, g)
@@ -458,6 +483,19 @@ def _add_body_box(spec: Any, base_body: str | None, g: HexapodGeometry) -> None:
         friction=friction(g.friction, "HexapodGeometry.friction"),
         rgba=[0.3, 0.6, 0.9, 0.4],
     )
+
+
+def _set_contact_timeconst(spec: Any, tau: float, timestep: float) -> None:
+    """Every colliding geom's ``solref`` = (τ, 1) (module docstring, "Contact stiffness"): its contacts then have
+    that time constant whatever they touch (MuJoCo mixes the two geoms' solref)."""
+    if tau < 2.0 * timestep:
+        raise InvalidInputError(
+            f"HexapodGeometry.contact_timeconst ({tau} s) must be at least two physics steps ({2.0 * timestep} s): "
+            "MuJoCo's soft contacts are unstable below that; raise it or lower the timestep"
+        )
+    for geom in spec.geoms:
+        if geom.contype or geom.conaffinity:
+            geom.solref = [tau, 1.0]
 
 
 def _add_terrain(spec: Any, geoms: Sequence[dict[str, Any]]) -> None:

@@ -243,7 +243,9 @@ class WalkingOptions:
         of touching down against it (the shin would then lean on the edge); search_speed [m/s], search_depth [m]:
         how a late foot looks for the ground — down, and forward along its swing by ``search_forward`` × the
         depth (at most ``search_forward_max`` [m]): a foot that finds no ground where it expected it has crossed
-        a down-step's edge, and moving away from that edge keeps its shin off it.  load_ramp: [s] feed-forward
+        a down-step's edge, and moving away from that edge keeps its shin off it; search_load [N m]: a searching
+        leg whose femur and tibia servos push harder than this without foot contact rests on its shin and steps
+        over instead.  load_ramp: [s] feed-forward
         load ramp after touchdown / before lift-off.  joint_speed: the joint targets move at most this fraction
         of the URDF's joint speed (the servos' no-load speed; at 0.8 its back-EMF takes 0.8 of the stall torque);
         a faster plan is followed at that speed (counted as ``speed_limited_plans``).
@@ -281,6 +283,7 @@ class WalkingOptions:
     search_forward: float = 1.0
     search_forward_max: float = 0.02
     search_depth: float = 0.05
+    search_load: float = 0.3
     load_ramp: float = 0.05
     joint_speed: float = 0.8
 
@@ -292,6 +295,7 @@ class WalkingOptions:
             "control_rate",
             "touch_threshold",
             "search_speed",
+            "search_load",
             "step_over_time",
             "joint_speed",
         ):
@@ -838,12 +842,22 @@ class HexapodWalker:
             now = math.floor(self._tau_g / T - tab.offsets[i])
             support = sum(1 for j, o in enumerate(self._legs) if j != i and o.mode == 0)
             if leg.mode == 0 and now > before and cmd is not None and t - leg.touchdown > 0.5 * sigma * T:
-                if late or support < 3:  # never lift a leg off a support of fewer than three feet: wait
+                # never lift a leg off a support of fewer than three feet, nor off a foot whose load is still
+                # ramping in (a late foot that lands as its partners lift takes its share at once and slides)
+                if late or support < 3 or self._loading(i, t):
                     self.counts["held_lift_offs"] += 1
                     return False
                 self._lift_off(i, (now + tab.offsets[i]) * T, t, data)
         self._tau_prev = self._tau_g
         return True
+
+    def _loading(self, i: int, t: float) -> bool:
+        """Whether a stance foot other than leg i touched down less than ``load_ramp`` ago (with feedback: its
+        feed-forward load is still ramping in, :meth:`_weights`)."""
+        ramp = self.options.load_ramp
+        return self.options.feedback and any(
+            j != i and o.mode == 0 and t - o.touchdown < ramp for j, o in enumerate(self._legs)
+        )
 
     def _lift_off(self, i: int, tau_lo: float, t: float, data: Any) -> None:
         from ..legged.gait import swing_arc
@@ -980,6 +994,8 @@ class HexapodWalker:
             return
         opt = self.options
         depth = opt.search_speed * (t - leg.search_from)
+        if leg.raises < 2 and self._blocked(i, t, q):
+            return
         if depth > opt.search_depth:
             leg.mode, leg.anchor, leg.touchdown = 0, leg.target.copy(), t  # no ground found: stand on the target
             self._roll_reference(i)
@@ -990,6 +1006,23 @@ class HexapodWalker:
         nh = float(np.hypot(h[0], h[1]))
         fwd = min(opt.search_forward * depth, opt.search_forward_max) / nh if nh > 1e-9 else 0.0
         leg.target = p1 + np.array([fwd * h[0], fwd * h[1], -depth])
+
+    def _blocked(self, i: int, t: float, q: np.ndarray) -> bool:
+        """A searching foot without contact whose leg nevertheless bears load — its servos' position error pushes
+        with more than ``search_load`` (femur and tibia) — rests on something else: its shin on the edge of a
+        tile or step it crossed.  It steps over it along its swing (:meth:`_step_over`) instead of pressing on
+        (the leg would lift the body off its shin).  Returns whether it did."""
+        leg = self._legs[i]
+        assert leg.arc is not None
+        j = self.fast.q_index[i, 1:]
+        load = float(np.linalg.norm(self._kp[j] * (self._qD[j] - q[j])))
+        h = (leg.arc[1] - leg.arc[0])[:2]
+        nh = float(np.hypot(h[0], h[1]))
+        if load <= self.options.search_load or nh < 1e-9:
+            return False
+        self._faces[i] = h / nh
+        self._step_over(i, t, q)
+        return True
 
     def _face_directions(self, data: Any, touch: np.ndarray, R_M: np.ndarray) -> dict[int, np.ndarray]:
         """{leg: unit horizontal direction (2,) into the face, in W_o} for the touching feet whose contact normal is

@@ -47,6 +47,27 @@ def test_fit_capsule_of_a_ball_like_cloud_degenerates_to_a_ball():
     assert np.linalg.norm(b - a) < 0.02 and r < 0.2 * 1.05
 
 
+def test_fit_capsule_along_a_given_axis():
+    """A 65 × 40 × 32 mm box along x with a tessellated cylinder across it (a servo and its horn, the hexapod's
+    femur): PCA follows the cylinder's vertices across the box; ``axis`` keeps the capsule along the box, thinner,
+    and both enclose every vertex."""
+    bx = np.array([[x, y, z] for x in (0.0, 0.065) for y in (-0.02, 0.02) for z in (-0.016, 0.016)])
+    ang = np.linspace(0.0, 2 * np.pi, 100, endpoint=False)
+    ring = np.column_stack([0.014 * np.cos(ang), np.zeros_like(ang), 0.014 * np.sin(ang)])
+    P = np.vstack([bx, ring + [0, -0.023, 0], ring + [0, 0.023, 0]])
+    a0, b0, r0 = fit_capsule(P)
+    a, b, r = fit_capsule(P, axis=(2.0, 0.0, 0.0))
+    assert abs((b0 - a0)[1]) > 0.9 * np.linalg.norm(b0 - a0)  # PCA: across the box, along the horn
+    assert np.allclose((b - a)[1:], 0.0) and (b - a)[0] > 0.05  # along x, as asked
+    assert r < 0.7 * r0 and r == pytest.approx(np.hypot(0.023, 0.014), abs=1e-6)
+    for cap in (Capsule("f", a0, b0, r0), Capsule("f", a, b, r)):
+        assert cap.contains(P).all()
+    with pytest.raises(CoopGAError, match="axis"):
+        fit_capsule(P, axis=(0.0, 0.0, 0.0))
+    with pytest.raises(CoopGAError, match="axis"):
+        fit_capsule(P, axis=(1.0, 0.0))
+
+
 @pytest.mark.parametrize("source", ["collision", "visual"])
 def test_capsules_enclose_every_link_vertex(franka, source):
     caps = fit_capsules(franka, source)

@@ -66,6 +66,27 @@ def test_link_frames_and_capsules_against_pinocchio():
             assert ball.radius == 0.009 and np.all(ball.a == 0) and np.all(ball.b == 0)
 
 
+def test_coxa_and_femur_capsules_lie_along_their_links_and_enclose_them():
+    """The coxa and femur capsules run from the joint along the link (not across it, along the servo horn, as the
+    PCA fit put them) and enclose every vertex of the link's URDF geometry; the femur's radius is 26.9 mm, not
+    42.6 mm."""
+    from coop_ga.collision import fit_capsules
+    from coop_ga.collision.capsules import link_meshes
+
+    system = cg.systems.load("hexapod")
+    meshes = link_meshes(system)
+    caps = {c.frame: c for c in leg_capsules(L, system)}
+    pca = {c.frame: c for c in fit_capsules(system, links=["lf_coxa", "lf_femur"])}
+    for leg in L.legs:
+        for link in ("coxa", "femur"):
+            c = caps[f"{leg}_{link}"]
+            assert np.allclose(c.a, 0.0, atol=1e-12) and abs(c.b[1]) < 1e-12 and abs(c.b[2]) < 1e-12 and c.b[0] > 0.04
+            assert c.contains(meshes[c.frame], tol=1e-12).all()
+    assert caps["lf_femur"].radius == pytest.approx(np.hypot(0.023, 0.014), abs=1e-6)
+    assert pca["lf_femur"].radius > 0.042 and caps["lf_femur"].radius < 0.65 * pca["lf_femur"].radius
+    assert caps["lf_coxa"].radius < pca["lf_coxa"].radius
+
+
 def test_the_shin_stays_above_the_ball_the_fitted_capsule_did_not():
     """The fitted tibia capsule hangs below the 9 mm ball at any tilt (1.7 mm at the stand pose's 27°): physics would
     touch the ground with the tibia.  The shin's end cap stays above the ball's lowest point up to SHIN_TILT."""

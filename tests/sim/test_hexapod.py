@@ -88,6 +88,46 @@ def test_collision_geometry_is_the_planners_and_the_body_box() -> None:
     assert np.allclose(hs.model.dof_damping[hs.scene.qvel_index], lim.effort / lim.velocity)
 
 
+def test_no_femur_reaches_the_body_box_within_the_joint_limits() -> None:
+    """Over the joint range (coxa ±70°, femur up to +90°, a grid), no femur capsule touches the body box: the
+    robot cannot touch itself in the scene (the PCA-fitted femur, radius 42.6 mm, met it from ~1.2 rad of lift)."""
+    hs = scene()
+    m = hs.model
+    d = mujoco.MjData(m)
+    a, qi = hs.scene.base_qpos, hs.scene.qpos_index
+    assert a is not None
+    lim = hs.scene.system.limits
+    closest = math.inf
+    for leg in range(6):
+        for c in np.linspace(lim.lower[3 * leg], lim.upper[3 * leg], 9):
+            for f in np.linspace(0.0, lim.upper[3 * leg + 1], 17):
+                q = np.tile([0.0, 0.3, -1.4], 6)
+                q[3 * leg : 3 * leg + 2] = (c, f)
+                d.qpos[:] = 0.0
+                d.qpos[a : a + 4] = (0.0, 0.0, 0.5, 1.0)
+                d.qpos[qi] = q
+                mujoco.mj_forward(m, d)
+                closest = min(closest, mujoco.mj_geomDistance(m, d, hs.femur_geoms[leg], hs.body_geom, 0.05, None))
+                assert hs.terrain_contacts(d)["self"] == 0
+    assert 0.0 < closest < 0.005  # it comes close at the corners of the range, never into the box
+
+
+def test_contact_time_constant() -> None:
+    """MuJoCo's default (0.02 s) unless asked; then on every colliding geom (feet, legs, body, terrain), so that every
+    contact has it; below two physics steps it is refused."""
+    hs = scene("random")
+    collide = (hs.model.geom_contype > 0) | (hs.model.geom_conaffinity > 0)
+    assert np.all(hs.model.geom_solref[collide] == (0.02, 1.0))
+    stiff = hexapod_scene(Terrain.random(seed=0), geometry=HexapodGeometry(contact_timeconst=0.005), visuals=False)
+    m = stiff.model
+    ids = [*stiff.foot_geoms, *stiff.tibia_geoms, *stiff.femur_geoms, stiff.body_geom, *stiff.terrain_geom_ids]
+    assert np.all(m.geom_solref[ids] == (0.005, 1.0))
+    with pytest.raises(InvalidInputError, match="two physics steps"):
+        hexapod_scene(geometry=HexapodGeometry(contact_timeconst=0.0015), visuals=False)
+    with pytest.raises(InvalidInputError, match="contact_timeconst"):
+        HexapodGeometry(contact_timeconst=0.0)
+
+
 def test_sensors_of_a_robot_standing_still() -> None:
     """Standing on its six feet: the touch sensors carry the weight, the IMU reads R_WB, zero rate and +g."""
     from coop_ga.sim import Simulation

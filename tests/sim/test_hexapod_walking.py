@@ -5,6 +5,7 @@ command, the log's replay, and bad input."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -129,6 +130,52 @@ def test_open_loop_replay_is_a_function_of_time() -> None:
     qa, qb = a.walker.records_arrays()["q_plan"], b.walker.records_arrays()["q_plan"]
     assert np.array_equal(qa, qb)
     assert np.abs(a.base[0] - b.base[0]).max() > 1e-3  # the robot itself was pushed
+
+
+def test_no_lift_off_while_a_support_foot_takes_its_load() -> None:
+    """The blind tripod on random tiles (the short walk): a foot that lands late, after a search, lands before its
+    partners' lift-off is allowed — every lift-off comes at least load_ramp after the last touchdown of the feet
+    that stay down (it had come in the same plan, and that foot slid 10.7 mm)."""
+    from coop_ga.sim.walking_experiments import row_terrain, straight_command
+
+    cmd, opt, duration = straight_command("tripod", 0.0, fast=True)
+    run = simulate_walk(row_terrain("random", 0, fast=True), cmd, replace(opt, blind=True), duration=duration)
+    rec = run.records()
+    t, mode = rec["t"], rec["mode"]
+    touchdown = np.full(6, -np.inf)
+    lift_offs = 0
+    for k in range(1, len(t)):
+        down = (mode[k - 1] != 0) & (mode[k] == 0)
+        touchdown[down] = t[k]
+        for i in np.flatnonzero((mode[k - 1] == 0) & (mode[k] == 1)):
+            lift_offs += 1
+            support = [j for j in range(6) if j != i and mode[k, j] == 0]
+            assert t[k] - touchdown[support].max() >= opt.load_ramp - 1e-9, (t[k], i, touchdown)
+    m = run.metrics()
+    assert lift_offs >= 6 and m["events"]["searches"] >= 1 and m["events"]["held_lift_offs"] >= 1
+    assert m["max_slip_m"] < 0.0075 and m["self_contact_steps"] == 0
+
+
+def test_a_searching_leg_that_bears_load_without_contact_steps_over() -> None:
+    """A searching foot whose femur and tibia servos push with more than search_load (its shin on an edge) steps
+    over along its swing; one that follows its target keeps searching."""
+    hs = hexapod_scene(Terrain.flat(), visuals=False)
+    opt = WalkingOptions(blind=True)
+    q0, pose = standing_start(hs, opt)
+    walker = HexapodWalker(hs, VelocityCommand.constant(0.1), opt)
+    sim = Simulation(hs.scene, walker, q=q0, base_pose=pose)
+    sim.run(0.01)
+    leg = walker._legs[0]
+    p0 = leg.target.copy()
+    leg.arc = (p0, p0 + np.array([0.04, 0.0, 0.0]), 0.02, 0.0)
+    leg.mode, leg.search_from, leg.raises = 2, 0.0, 0
+    j = walker.fast.q_index[0, 1:]
+    q = walker._qD.copy()
+    q[j] -= 0.1 * opt.search_load / opt.kp[1]  # a servo error far below the load: still searching
+    assert not walker._blocked(0, 0.01, q) and leg.mode == 2 and walker.counts["step_overs"] == 0
+    q[j] = walker._qD[j] - 0.8 * opt.search_load / opt.kp[1]  # |(e, e)| = 0.8 √2 search_load / kp
+    assert walker._blocked(0, 0.01, q) and walker.counts["step_overs"] == 1 and leg.raises == 1
+    assert leg.search_from > 0.01 and leg.arc[1][0] > leg.arc[0][0] + 0.9 * opt.step_over  # over, forward
 
 
 def test_tour_start_speed_change_turn_stop_and_replay(tmp_path) -> None:
