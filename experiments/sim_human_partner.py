@@ -218,7 +218,7 @@ def _robustness(grid: list[Any], fast: bool) -> dict[str, Any]:
     return {
         "gain_scales": list(GAIN_SCALES),
         "hands": [{"name": n, "period_s": T, "phase_rad": ph} for n, T, ph in HANDS],
-        "subset": "the gallery's: the gains at the nominal hand, the hands at the nominal gains" if fast else "all",
+        "subset": "the gains at the nominal hand and the hands at the nominal gains" if fast else "all",
         "feed_forward": True,
         "bounds": BOUNDS,
         "runs_count": len(cells),
@@ -248,7 +248,9 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
         f"{ff['direction_error_max_rad']:.4f} rad and |ℓ − ℓ_c| within {1e3 * ff['length_error_max_m']:.1f} mm, "
         f"feedback only {fb['direction_error_max_rad']:.4f} rad and {1e3 * fb['length_error_max_m']:.1f} mm; squeeze "
         f"{ff['squeeze_min_N']:.1f}–{ff['squeeze_max_N']:.1f} N for {ff['squeeze_set_N']:g} N (ℓ* {1e3 * ff['length_compression_m']:.1f} mm "
-        f"below the contact length); slip ≤ {1e3 * max(ff['slip_pad_max_m'], ff['slip_palm_max_m']):.1f} mm at both ends. "
+        f"below the contact length); slip ≤ {1e3 * max(ff['slip_pad_max_m'], ff['slip_palm_max_m']):.1f} mm at both ends "
+        f"(the pad's: rolling ≤ {1e3 * ff['slip_pad_rolling_max_m']:.1f} mm, sliding ≤ "
+        f"{1e3 * ff['slip_pad_sliding_max_m']:.1f} mm). "
         f"Over the runs with a 15 N squeeze: dropped {sum(r['dropped'] for r in held)}, worst slip "
         f"{1e3 * max(max(r['slip_pad_max_m'], r['slip_palm_max_m']) for r in held):.1f} mm, worst direction error "
         f"{max(r['direction_error_max_rad'] for r in held):.4f} rad, robot contacts with anything but the bar in "
@@ -256,7 +258,7 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
         f"{sum(r['saturated_updates'] for r in m['runs'])}, joint limits left by "
         f"{max(r['max_limit_violation'] for r in m['runs']):.3g} rad. Failures: {fails}. "
         f"The squeeze loop: {regulation}. Robustness (feed-forward; gains × {', '.join(f'{k:g}' for k in rb['gain_scales'])}; "
-        f"hands {', '.join(h['name'] for h in rb['hands'])}; {rb['subset']} subset): {rb['success_count']} of "
+        f"hands {', '.join(h['name'] for h in rb['hands'])}; cells run: {rb['subset']}): {rb['success_count']} of "
         f"{rb['runs_count']} succeed, dropped {rb['dropped_count']}, squeeze {rb['squeeze_min_N']:.1f}–"
         f"{rb['squeeze_max_N']:.1f} N."
     )
