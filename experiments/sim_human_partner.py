@@ -44,7 +44,7 @@ squeeze ≥ 25 % of its set-point, no other contact, no limit left, no torque cl
 Writes to ``--out``: ``model.xml`` and ``log.npz`` (the feed-forward run at the nominal hand, with the mocap
 target's pose per step: ``coop_ga.sim.replay`` re-simulates it with MuJoCo alone), ``metrics.json`` (every
 run's metrics under ``runs``, the ``gallery`` block), ``partner.png`` (direction error, length error and
-squeeze over time, every run), ``partner.gif`` (MuJoCo offscreen: the pair's line in orange, the squeeze at
+squeeze over time, every run; the squeeze with the loop off dashed), ``partner.gif`` (MuJoCo offscreen: the pair's line in orange, the squeeze at
 both ends in blue), ``timing.json``.
 
     python experiments/sim_human_partner.py [--fast] [--no-render] --out DIR
@@ -151,7 +151,7 @@ def run(exp: Experiment, fast: bool, render: bool) -> int:
         grid.insert(1, runs[0])
     shown = runs[0]
     shown.log.save(exp.out)  # model.xml, log.npz (with the mocap target's pose per step)
-    figures = [_plot(exp, runs)]
+    figures = [_plot(exp, runs, fixed)]
     if render:
         t = time.perf_counter()
         figures.append(_render(exp, shown, fast))
@@ -284,7 +284,7 @@ def _gallery(m: dict[str, Any], figures: list[str]) -> dict[str, Any]:
     }
 
 
-def _plot(exp: Experiment, runs: list[Any]) -> str:
+def _plot(exp: Experiment, runs: list[Any], fixed: list[Any]) -> str:
     plt = exp.pyplot()
     from coop_ga.sim.partner import BOUNDS, HOLD_S, _series
 
@@ -297,19 +297,21 @@ def _plot(exp: Experiment, runs: list[Any]) -> str:
         axes[0].plot(t, s["direction"], lw=lw, label=label)
         axes[1].plot(t, 1e3 * s["length"], lw=lw, label=label)
         axes[2].plot(t, tr["squeeze"], lw=lw, label=label)
+    for r in fixed:  # the before: the squeeze with the fixed dilation alone
+        axes[2].plot(r.trace["time"], r.trace["squeeze"], color="0.45", ls="--", lw=0.9, label=r.setup.case.name)
     st = runs[0].setup
     axes[0].axhline(BOUNDS["direction_rad"], color="0.4", ls=":", lw=1.0)
     axes[0].set(xlabel="t [s]", ylabel="direction error [rad]", yscale="log", ylim=(1e-5, 0.2))
     axes[1].axhspan(-1e3 * BOUNDS["length_m"], 1e3 * BOUNDS["length_m"], color="0.92", zorder=0)
     axes[1].set(xlabel="t [s]", ylabel="ℓ − ℓ_c (pair length − contact length) [mm]")
-    axes[2].axhline(st.case.gains.squeeze, color="k", ls="--", lw=1.0, label="set-point")
+    axes[2].axhline(st.case.gains.squeeze, color="k", ls=":", lw=1.0, label="set-point")
     axes[2].set(xlabel="t [s]", ylabel="squeeze: pad force along the pair [N]")
     axes[2].legend(fontsize=7)
     for ax in axes:
         ax.axvline(st.move_start, color="0.8", lw=0.8, zorder=0)
         ax.axvline(HOLD_S, color="0.8", lw=0.8, zorder=0)
     fig.suptitle(
-        "G1 + human hand carry a bar by the squeeze: lift at the first grey line, figure-eight after the second"
+        "G1 + human hand carry a bar by the regulated squeeze: lift at the first grey line, figure-eight after the second"
     )
     fig.tight_layout()
     exp.save(fig, "partner.png")
