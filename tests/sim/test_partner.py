@@ -33,6 +33,7 @@ from coop_ga.sim.partner import (
     HandRecording,
     PartnerCase,
     _rolling,
+    _series,
     figure_eight,
     partner_setup,
     run_partner,
@@ -170,6 +171,41 @@ def test_the_rolling_part_is_the_pads_turn_times_its_radius():
     # the same turn with the bar turning along: no relative rotation, no rolling; rows before i0 do not count
     np.testing.assert_allclose(_rolling(Ry, Ry, 0), 0.0, atol=1e-15)
     np.testing.assert_allclose(_rolling(R_bar, Ry, 50)[-1], [0.0, PAD_RADIUS * 0.05], atol=1e-9)
+
+
+def test_the_sliding_part_is_the_material_points_relative_motion_measured_in_mujoco(short):
+    # independent of the rolling formula: MuJoCo's pad–bar contact point c, its material point on the pad and on
+    # the bar carried to the next control update with each body's pose; their difference summed (bar frame)
+    import mujoco
+
+    run, _ = short
+    st, log, tr = run.setup, run.log, run.trace
+    m, d = st.scene.model, mujoco.MjData(st.scene.model)
+    bar, pad = st.scene.object_ids["bar"], st.scene.end_bodies[0]
+    i0 = int(np.searchsorted(tr["time"], HOLD_S))
+    rows = np.rint(tr["time"] / m.opt.timestep).astype(int)
+    prev, slide, ours = None, np.zeros(3), []
+    for k in rows[i0:]:
+        d.qpos[:] = log.qpos[k]
+        d.mocap_pos[:] = log.mocap_pos[k]
+        mujoco.mj_forward(m, d)
+        con = d.contact[: d.ncon]
+        (i,) = [j for j in range(d.ncon) if {m.geom_bodyid[con.geom1[j]], m.geom_bodyid[con.geom2[j]]} == {bar, pad}]
+        now = (
+            con.pos[i].copy(),
+            *(d.xmat[b].reshape(3, 3).copy() for b in (pad, bar)),
+            d.xpos[pad].copy(),
+            d.xpos[bar].copy(),
+        )
+        if prev is not None:
+            c0, Rp0, Rb0, pp0, pb0 = prev
+            _, Rp, Rb, pp, pb = now
+            slide += Rb.T @ ((pp + Rp @ (Rp0.T @ (c0 - pp0))) - (pb + Rb @ (Rb0.T @ (c0 - pb0))))
+        prev = now
+        ours.append(np.linalg.norm(slide[1:]))
+    split = _series(run)["slip_pad_sliding"][i0:]
+    np.testing.assert_allclose(ours, split, atol=2e-4)  # 0.2 mm over the run
+    assert max(ours) > 5e-4  # something slid: the comparison is not 0 = 0
 
 
 def test_a_phase_starts_the_figure_eight_elsewhere_from_the_same_point():
