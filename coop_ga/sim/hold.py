@@ -72,6 +72,7 @@ __all__ = [
     "PlanPoint",
     "circle_target",
     "min_jerk",
+    "squeeze_admittance",
 ]
 
 _ROTOR_INDEX = [SIMILARITY_BLADES.index(b) for b in ROTOR_BLADES]
@@ -82,6 +83,15 @@ def min_jerk(x: float) -> float:
     """Minimum-jerk profile 10x³ − 15x⁴ + 6x⁵ on x clipped to [0, 1]."""
     x = min(max(x, 0.0), 1.0)
     return x * x * x * (10.0 + x * (-15.0 + 6.0 * x))
+
+
+def squeeze_admittance(offset: float, s: float, s_d: float, dt: float, k: float, v_max: float, dr_max: float) -> float:
+    """One step of the squeeze's admittance loop on a dilation target (module docstring): the ``offset`` [m]
+    advanced by ``dt`` [s] at the rate ``k (s − s_d)`` [m/s] (s the measured squeeze, s_d its set-point [N], k
+    [m/(N s)]) clipped to ±``v_max`` [m/s], the offset clipped to ±``dr_max`` [m].  Pressing harder than s_d
+    opens the target (positive offset), pressing less closes it."""
+    v = min(max(k * (s - s_d), -v_max), v_max)
+    return min(max(offset + dt * v, -dr_max), dr_max)
 
 
 #: the phases of a :class:`CarryPlan`, in order
@@ -470,8 +480,7 @@ class HoldController:
             if not self._squeeze_started:
                 self._squeeze_started = True
                 self.q_post = self._q.copy()
-            v = min(max(g.admittance * (s - ref.squeeze), -g.v_max), g.v_max)
-            self.dr = min(max(self.dr + dt * v, -g.dr_max), g.dr_max)
+            self.dr = squeeze_admittance(self.dr, s, ref.squeeze, dt, g.admittance, g.v_max, g.dr_max)
         if ref.estimate:
             self.w_est += (dt / g.weight_tau) * (w_obj - self.w_est)
         else:

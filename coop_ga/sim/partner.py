@@ -39,7 +39,11 @@ Jacobian J_e (4, nq) with the hand held; the torque is a Jacobian-transpose impe
 across the pair back onto the line h + ℓ d*, K∥ [N/m] along it.  ℓ* is commanded ``s_d / K∥`` below ℓ_c
 (the **dilation of the pair**): the bar blocks the pad, so the pad presses the bar into the palm with
 about s_d — the squeeze whose friction carries the bar's weight.  ℓ* ramps from the start length to that
-value while the hand is still (minimum jerk).  The hand's motion enters
+value while the hand is still (minimum jerk).  From the lift on, the squeeze is **regulated**: the admittance
+loop of :class:`~coop_ga.sim.HoldController`'s e0∞ squeeze (:func:`~coop_ga.sim.hold.squeeze_admittance`)
+moves ℓ* by δ, ``δ̇ = k (s − s_d)`` clipped (s the measured squeeze, the pad's contact force along d) —
+without it the hand's motion along the bar, which the pad follows with a lag, swung the fixed spring's
+squeeze between ~9 and 17 N at a 2.5 s period and to 0 at the doubled, faster hand.  The hand's motion enters
 
 * as a disturbance (feedback only): ``ė = J_e q̇`` — the robot damps its own motion and lags the hand;
 * fed forward: ``ė = J_e q̇ + (∂e/∂h) ḣ`` with ḣ the palm's measured velocity — the damping acts on the relative
@@ -68,7 +72,7 @@ import numpy as np
 from .. import validation
 from ..errors import InvalidInputError, NonFiniteError, UnreachableError
 from ._mujoco import mj as _mj
-from .hold import min_jerk
+from .hold import min_jerk, squeeze_admittance
 from .objects import Box
 from .scene import Scene, build_scene
 from .simulation import Simulation, SimulationLog
@@ -173,18 +177,21 @@ class HandRecording:
 
 
 def figure_eight(
-    h0: Any, *, period: float = 4.0, periods: float = 1.0, scale: float = 1.0, rate: float = RATE
+    h0: Any, *, period: float = 4.0, periods: float = 1.0, scale: float = 1.0, phase: float = 0.0, rate: float = RATE
 ) -> HandRecording:
     """The synthetic recording (module docstring) starting at ``h0`` (3,) [m]: still for ``HOLD_S``, a lift of
     ``LIFT_M`` over ``LIFT_S`` (minimum jerk), then ``periods`` of example 12's figure-eight (±4 cm in x, ±3 cm in
     y, rising 4 cm in z, times ``scale``) of ``period`` [s], then still for 0.5 s; sampled at ``rate`` [Hz].
 
     The figure-eight's clock speeds up from rest over ``RAMP_S`` and slows down to rest over the last ``RAMP_S``
-    (minimum-jerk rate; the motion lasts ``periods × period + RAMP_S``): a hand does not start at full speed."""
+    (minimum-jerk rate; the motion lasts ``periods × period + RAMP_S``): a hand does not start at full speed.
+    ``phase`` [rad] starts the figure-eight further along its curve (shifted so that it still starts at the lifted
+    point): another hand path of the same size and speed."""
     h0 = validation.vector(h0, 3, "h0")
     T = validation.positive(period, "period")
     n_per = validation.positive(periods, "periods")
     a = validation.nonnegative(scale, "scale")
+    ph = validation.scalar(phase, "phase")
     dt = 1.0 / validation.positive(rate, "rate")
     move = n_per * T + RAMP_S
     t = np.arange(0.0, HOLD_S + LIFT_S + move + 0.5, dt)
@@ -193,11 +200,12 @@ def figure_eight(
     x = t - HOLD_S - LIFT_S
     rate_ = np.array([min_jerk(u / RAMP_S) * min_jerk((move - u) / RAMP_S) for u in x])
     tm = np.concatenate([[0.0], np.cumsum(0.5 * (rate_[1:] + rate_[:-1]) * dt)])  # the figure-eight's clock
+    u = w * tm + ph
     P = np.stack(
         [
-            h0[0] + a * 0.04 * np.sin(w * tm),
-            h0[1] + a * 0.03 * np.sin(2 * w * tm),
-            h0[2] + lift + a * 0.02 * (1 - np.cos(w * tm)),
+            h0[0] + a * 0.04 * (np.sin(u) - math.sin(ph)),
+            h0[1] + a * 0.03 * (np.sin(2 * u) - math.sin(2 * ph)),
+            h0[2] + lift + a * 0.02 * (math.cos(ph) - np.cos(u)),
         ],
         axis=1,
     )
@@ -247,7 +255,9 @@ class PartnerGains:
     K_perp, D_perp: [N/m], [N s/m] across the pair; K_par, D_par: along it.  squeeze: s_d [N] (ℓ* = ℓ_c −
     s_d / K_par).  K_axis, D_axis: [N m/rad], [N m s/rad] the tool's pointing along the bar (the pad is a sphere:
     a turning hand rolls it on the bar's end).  K_post, D_null: null-space posture [1/s², 1/s] (scaled by M).  weight_tau: [s] the weight
-    estimator's time constant (0: no weight feed-forward).
+    estimator's time constant (0: no weight feed-forward).  admittance: k [m/(N s)] of the squeeze loop on ℓ*
+    (:func:`~coop_ga.sim.hold.squeeze_admittance`; 0: the fixed dilation s_d / K∥ alone), v_max [m/s] its speed
+    limit, dr_max [m] its range.
     """
 
     K_perp: float = 800.0
@@ -260,11 +270,15 @@ class PartnerGains:
     K_post: float = 60.0
     D_null: float = 15.0
     weight_tau: float = 0.2
+    admittance: float = 0.03
+    v_max: float = 0.1
+    dr_max: float = 0.01
 
     def __post_init__(self) -> None:
         for name in ("K_perp", "K_par", "squeeze"):
             validation.positive(getattr(self, name), name)
-        for name in ("D_perp", "D_par", "K_axis", "D_axis", "K_post", "D_null", "weight_tau"):
+        for name in ("D_perp", "D_par", "K_axis", "D_axis", "K_post", "D_null", "weight_tau", "admittance", "v_max",
+                     "dr_max"):  # fmt: skip
             validation.nonnegative(getattr(self, name), name)
 
     def scaled(self, k: float) -> PartnerGains:
@@ -272,14 +286,14 @@ class PartnerGains:
         r = math.sqrt(k)
         return PartnerGains(
             self.K_perp * k, self.D_perp * r, self.K_par * k, self.D_par * r, self.squeeze, self.K_axis,
-            self.D_axis, self.K_post, self.D_null, self.weight_tau,
+            self.D_axis, self.K_post, self.D_null, self.weight_tau, self.admittance, self.v_max, self.dr_max,
         )  # fmt: skip
 
 
 @dataclass(frozen=True)
 class PartnerCase:
     """One run: ``name``; ``feed_forward`` (the hand's measured velocity) or feedback only; the hand's
-    ``period`` [s], ``periods`` and ``scale`` (:func:`figure_eight`); the gains; the bar's ``bar_length`` [m],
+    ``period`` [s], ``periods``, ``scale`` and ``phase`` [rad] (:func:`figure_eight`); the gains; the bar's ``bar_length`` [m],
     ``bar_mass`` [kg] and ``friction``."""
 
     name: str
@@ -288,6 +302,7 @@ class PartnerCase:
     periods: float = 1.0
     scale: float = 1.0
     gains: PartnerGains = field(default_factory=PartnerGains)
+    phase: float = 0.0
     bar_length: float = 0.40
     bar_mass: float = 0.4
     friction: float = 1.0
@@ -301,9 +316,11 @@ class PartnerCase:
             "period_s": self.period,
             "periods": self.periods,
             "scale": self.scale,
+            "phase_rad": self.phase,
             "K_perp_N_per_m": g.K_perp,
             "K_par_N_per_m": g.K_par,
             "squeeze_set_N": g.squeeze,
+            "admittance_m_per_N_s": g.admittance,
             "bar_length_m": self.bar_length,
             "bar_mass_kg": self.bar_mass,
             "friction": self.friction,
@@ -351,6 +368,7 @@ TRACE_FIELDS = (
     "palm_force",
     "weight_estimate",
     "other_contacts",
+    "pad_rotation",
 )
 
 
@@ -408,14 +426,16 @@ class PartnerController:
         self.reset()
 
     def reset(self) -> None:
-        """Clear the weight estimate and the trace."""
+        """Clear the weight estimate, the squeeze loop's offset and the trace."""
         self.w_est = np.zeros(3)
+        self.dr = 0.0
         self._last_t: float | None = None
         self._rows: list[tuple[Any, ...]] = []
 
     def length_target(self, t: float) -> float:
-        """ℓ*(t) [m]: the start length ramped to ℓ_c − s_d / K∥ (the squeeze's dilation)."""
-        return self.l_start + (self.l_final - self.l_start) * min_jerk(t / self.ramp)
+        """ℓ*(t) [m]: the start length ramped to ℓ_c − s_d / K∥ (the squeeze's dilation), plus the squeeze loop's
+        offset (0 until ``estimate_from``)."""
+        return self.l_start + (self.l_final - self.l_start) * min_jerk(t / self.ramp) + self.dr
 
     def _other_contacts(self, data: Any) -> int:
         """Touching contacts (distance ≤ 0) between the robot and anything but the bar (the floor, the post, the
@@ -457,33 +477,36 @@ class PartnerController:
         pin, g, task = self._pin, self.gains, self.task
         h, hd = sensors.object_pose("palm")[0], sensors.object_velocity("palm")[0]
         task.set_partner(h, hd if self.feed_forward else None)
-        task.length = self.length_target(t)
         self.cfg.update(q, qd)
+        d, ell, Jp = task.state(self.cfg)
+        data = sensors.data
+        pts = np.stack([self.cfg.kinematics().points[0], h])
+        wr = body_wrenches(self.scene.model, data, self._bodies, pts)  # on the pad's body and on the palm
+        Fc = wr[0, :3]
+        s = float(d @ Fc)  # the squeeze: the pad's contact force along the pair
+        dt = 0.0 if self._last_t is None else t - self._last_t
+        self._last_t = t
+        if t >= self.estimate_from:  # the squeeze is built: regulate it, estimate the weight
+            self.dr = squeeze_admittance(self.dr, s, g.squeeze, dt, g.admittance, g.v_max, g.dr_max)
+            if g.weight_tau > 0:
+                perp = Fc - d * s  # the bar's weight share (and friction) across the pair
+                self.w_est += (dt / g.weight_tau) * (-perp - self.w_est)
+        task.length = self.length_target(t)
         e = task.error(self.cfg)
         Je = task.jacobian(self.cfg)
-        d, ell, Jp = task.state(self.cfg)
         edot = Je @ qd
         if self.feed_forward:
             edot = edot + task.partner_jacobian(self.cfg) @ hd
         l2 = ell * ell
         f = -np.array([g.K_perp * l2] * 3 + [g.K_par]) * e - np.array([g.D_perp * l2] * 3 + [g.D_par]) * edot
-        data = sensors.data
-        pts = np.stack([self.cfg.kinematics().points[0], h])
-        wr = body_wrenches(self.scene.model, data, self._bodies, pts)  # on the pad's body and on the palm
-        Fc = wr[0, :3]
-        dt = 0.0 if self._last_t is None else t - self._last_t
-        self._last_t = t
-        if g.weight_tau > 0 and t >= self.estimate_from:
-            perp = Fc - d * float(d @ Fc)  # the bar's weight share (and friction) across the pair
-            self.w_est += (dt / g.weight_tau) * (-perp - self.w_est)
         M = pin.crba(self._pm, self._pd, q)
         M[self._iu[1], self._iu[0]] = M[self._iu]
         nle = pin.nonLinearEffects(self._pm, self._pd, q, qd)
         Jw, moment = self._pointing(q, qd)
         tau = nle + Je.T @ f + Jp.T @ self.w_est + Jw.T @ moment + self._posture(q, qd, M, np.vstack([Jp, Jw]))
         self._rows.append(
-            (t, h, pts[0], d, ell, task.length, e, float(d @ Fc), Fc, wr[1, :3], self.w_est.copy(),
-             self._other_contacts(data))
+            (t, h, pts[0], d, ell, task.length, e, s, Fc, wr[1, :3], self.w_est.copy(), self._other_contacts(data),
+             self._pd.oMf[self._tool].rotation.copy())
         )  # fmt: skip
         return tau
 
@@ -492,7 +515,8 @@ class PartnerController:
         centre p), ``direction`` (T, 3) d, ``length`` and ``length_target`` [m] ℓ and ℓ*, ``error`` (T, 4) e,
         ``squeeze`` [N] (the pad's contact force along d), ``pad_force`` and ``palm_force`` (T, 3) [N] (on the
         robot's hand body and on the palm, by what they touch), ``weight_estimate`` (T, 3) [N] ŵ,
-        ``other_contacts`` (T,) the robot's touching contacts with anything but the bar."""
+        ``other_contacts`` (T,) the robot's touching contacts with anything but the bar, ``pad_rotation``
+        (T, 3, 3) the tool frame's rotation (world frame; the pad turns with it)."""
         return {name: np.array([r[i] for r in self._rows]) for i, name in enumerate(TRACE_FIELDS)}
 
 
@@ -514,7 +538,9 @@ def partner_setup(case: PartnerCase, recording: HandRecording | None = None) -> 
     system, model = _tool_system(), _pair_model()
     L = validation.positive(case.bar_length, "bar_length")
     if recording is None:
-        recording = figure_eight(HAND_START, period=case.period, periods=case.periods, scale=case.scale)
+        recording = figure_eight(
+            HAND_START, period=case.period, periods=case.periods, scale=case.scale, phase=case.phase
+        )
     ax = np.asarray(BAR_AXIS)
     lc = L + PAD_RADIUS + 0.5 * PALM_SIZE[0]  # ℓ_c: the palm's centre to the pad's centre, touching
     h0 = recording.at(0.0)[0]
@@ -596,9 +622,25 @@ def bar_pose(run: PartnerRun, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return q[:, :3], R.reshape(-1, 3, 3)
 
 
+def _rolling(R_bar: np.ndarray, R_pad: np.ndarray, i0: int) -> np.ndarray:
+    """The pad centre's displacement across the bar's end face that the pad's rolling explains (T, 2) [m] (bar frame,
+    its y and z; 0 up to row ``i0``): the sum of ``Δθ × (−r x̂)`` over the control updates, Δθ the pad's rotation
+    relative to the bar between two updates (bar frame; ``R_bar``, ``R_pad`` (T, 3, 3)) and −r x̂ the contact
+    point to the centre (the pad presses the bar's −x end).  A sphere rolling without sliding on a plane moves its
+    centre by exactly this; what the centre moved beyond it is sliding.  The spin about x̂ moves nothing."""
+    Rrel = np.einsum("kji,kjl->kil", R_bar, R_pad)  # R_barᵀ R_pad
+    dR = np.einsum("kij,klj->kil", Rrel[1:], Rrel[:-1])  # R_rel(k+1) R_rel(k)ᵀ
+    theta = 0.5 * np.stack([dR[:, 2, 1] - dR[:, 1, 2], dR[:, 0, 2] - dR[:, 2, 0], dR[:, 1, 0] - dR[:, 0, 1]], axis=1)
+    step = np.cross(theta, np.array([-PAD_RADIUS, 0.0, 0.0]))[:, 1:]  # at 500 Hz the steps are small: vee ≈ log
+    step[:i0] = 0.0
+    return np.concatenate([np.zeros((1, 2)), np.cumsum(step, axis=0)])
+
+
 def _series(run: PartnerRun) -> dict[str, np.ndarray]:
     """Per control update: the bar's offset from where the pair holds it [m], each end's slip on the bar [m] (pad,
-    palm; across the bar's axis, in its frame, from the lift start), the direction error [rad] and ℓ − ℓ_c [m]."""
+    palm; across the bar's axis, in its frame, from the lift start), the pad's slip split into rolling and sliding
+    (:func:`_rolling`; the palm is flat on the flat end: its slip is sliding), the direction error [rad] and
+    ℓ − ℓ_c [m]."""
     st, tr = run.setup, run.trace
     t = tr["time"]
     rows = np.rint(t / float(st.scene.model.opt.timestep)).astype(int)
@@ -606,15 +648,16 @@ def _series(run: PartnerRun) -> dict[str, np.ndarray]:
     d, p, h = tr["direction"], tr["pad"], tr["hand"]
     expect = p - (PAD_RADIUS + 0.5 * st.case.bar_length) * d
     i0 = int(np.searchsorted(t, HOLD_S))
-    slip = []
-    for x in (p, h):
-        local = np.einsum("kji,kj->ki", R, x - c)[:, 1:]  # across the bar's axis (its x), bar frame
-        slip.append(np.linalg.norm(local - local[i0], axis=1))
+    moved = [np.einsum("kji,kj->ki", R, x - c)[:, 1:] for x in (p, h)]  # across the bar's axis (its x), bar frame
+    moved = [x - x[i0] for x in moved]
+    roll = _rolling(R, tr["pad_rotation"], i0)
     dd = np.linalg.norm(d - st.controller.task.direction, axis=1)
     return {
         "offset": np.linalg.norm(c - expect, axis=1),
-        "slip_pad": slip[0],
-        "slip_palm": slip[1],
+        "slip_pad": np.linalg.norm(moved[0], axis=1),
+        "slip_pad_rolling": np.linalg.norm(roll, axis=1),
+        "slip_pad_sliding": np.linalg.norm(moved[0] - roll, axis=1),
+        "slip_palm": np.linalg.norm(moved[1], axis=1),
         "direction": 2 * np.arcsin(np.minimum(1.0, 0.5 * dd)),
         "length": tr["length"] - st.contact_length,
         "after_lift": t >= HOLD_S,
@@ -635,7 +678,8 @@ def partner_metrics(run: PartnerRun) -> dict[str, Any]:
     * ``dropped``: the bar's centre ever more than 2 cm from where the pair holds it (p − (r + L/2) d) after the
       lift start; ``bar_offset_max_m``;
     * ``slip_pad_max_m``, ``slip_palm_max_m``: each end's largest displacement across the bar's axis on the bar
-      (bar frame, from the lift start);
+      (bar frame, from the lift start); ``slip_pad_rolling_max_m`` / ``slip_pad_sliding_max_m``: the pad's split
+      into the part its rolling explains and the rest (sliding);
     * ``direction_error_max_rad`` / ``_rms_rad`` and ``length_error_max_m`` (|ℓ − ℓ_c|, ℓ_c the contact length)
       while the hand moves; ``length_compression_m``: ℓ_c − ℓ* (the dilation that makes the squeeze);
     * ``squeeze_min_N`` / ``_mean_N`` / ``_max_N`` while the hand moves (the pad's contact force along d);
@@ -656,6 +700,8 @@ def partner_metrics(run: PartnerRun) -> dict[str, Any]:
         "dropped": bool(np.max(s["offset"][after]) > BOUNDS["dropped_m"]),
         "bar_offset_max_m": float(np.max(s["offset"][after])),
         "slip_pad_max_m": float(np.max(s["slip_pad"][after])),
+        "slip_pad_rolling_max_m": float(np.max(s["slip_pad_rolling"][after])),
+        "slip_pad_sliding_max_m": float(np.max(s["slip_pad_sliding"][after])),
         "slip_palm_max_m": float(np.max(s["slip_palm"][after])),
         "direction_error_max_rad": float(np.max(s["direction"][mov])),
         "direction_error_rms_rad": float(np.sqrt(np.mean(s["direction"][mov] ** 2))),

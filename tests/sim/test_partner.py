@@ -11,6 +11,7 @@ returning NaN) raises a CoopGAError naming the problem.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -20,15 +21,19 @@ pytest.importorskip("mujoco")
 
 from coop_ga.errors import CoopGAError, InvalidInputError, NonFiniteError, UnreachableError
 from coop_ga.sim import Box, Simulation, replay
+from coop_ga.sim.hold import squeeze_admittance
 from coop_ga.sim.partner import (
     BOUNDS,
     HAND_START,
     HOLD_S,
     LIFT_M,
     LIFT_S,
+    PAD_RADIUS,
     RAMP_S,
     HandRecording,
     PartnerCase,
+    _rolling,
+    _series,
     figure_eight,
     partner_setup,
     run_partner,
@@ -101,9 +106,14 @@ def test_the_short_run_holds_the_bar(short):
     assert m["slip_pad_max_m"] < BOUNDS["slip_m"] and m["slip_palm_max_m"] < BOUNDS["slip_m"]
     assert m["direction_error_max_rad"] < 0.01  # with the feed-forward (example 12: feedback alone ~1e-2)
     assert m["length_error_max_m"] < BOUNDS["length_m"]
-    # the squeeze: ℓ* is 15 N / 800 N/m = 18.75 mm below the contact length; the pad presses 10–16 N
+    # the squeeze: ℓ* starts 15 N / 800 N/m = 18.75 mm below the contact length; the admittance loop then holds
+    # the pad's force within 10 % of 15 N while the hand moves (the fixed dilation alone: ~13–14 N, next test)
     assert m["length_compression_m"] == pytest.approx(0.01875, abs=1e-12)
-    assert 10.0 < m["squeeze_min_N"] <= m["squeeze_max_N"] < 16.0
+    assert 13.5 < m["squeeze_min_N"] <= m["squeeze_max_N"] < 16.5
+    assert m["squeeze_mean_N"] == pytest.approx(15.0, abs=0.3)
+    # the slip's split: the pad's rolling and sliding each at most the total plus the other
+    assert m["slip_pad_rolling_max_m"] < BOUNDS["slip_m"] and m["slip_pad_sliding_max_m"] < BOUNDS["slip_m"]
+    assert m["slip_pad_max_m"] <= m["slip_pad_rolling_max_m"] + m["slip_pad_sliding_max_m"] + 1e-12
     assert m["other_contact_updates"] == 0 and m["saturated_updates"] == 0
     assert m["max_limit_violation"] == 0.0 and m["max_velocity_violation"] == 0.0
     # the bar rose with the hand (off its post: 5 cm lift + 4 cm at half the figure-eight): held, not resting
@@ -118,6 +128,92 @@ def test_the_short_run_holds_the_bar(short):
     p = run.setup.scene.object_qpos["palm"]
     lag = np.max(np.linalg.norm(run.log.qpos[:, p : p + 3] - run.log.mocap_pos[:, 0], axis=1))
     assert lag < 0.005 and m["palm_lag_max_m"] == lag
+
+
+def test_the_squeeze_loop_moves_the_length_target_and_without_it_the_squeeze_sits_below_its_set_point(short):
+    run, _ = short
+    tr, ctl = run.trace, run.setup.controller
+    after = tr["time"] >= HOLD_S + LIFT_S
+    # regulated: ℓ* left the fixed dilation ℓ_c − s_d / K∥ (the soft contacts' penetration asks it shorter)
+    shift = tr["length_target"][after] - ctl.l_final
+    assert np.all(np.abs(shift) <= ctl.gains.dr_max + 1e-15) and np.min(shift) < -1e-3
+    # the same short run with the loop off: ℓ* is the ramp alone and the squeeze stays ~1.5 N below 15 N
+    fixed = run_partner(
+        dataclasses.replace(CASE, name="short fixed", gains=dataclasses.replace(CASE.gains, admittance=0.0))
+    )
+    tf = fixed.trace
+    np.testing.assert_allclose(tf["length_target"], [fixed.setup.controller.length_target(t) for t in tf["time"]])
+    assert tf["length_target"][-1] == pytest.approx(fixed.setup.controller.l_final, abs=1e-15)
+    m, mf = run.metrics, fixed.metrics
+    assert mf["squeeze_mean_N"] < 14.2 < m["squeeze_mean_N"]
+    assert abs(m["squeeze_mean_N"] - 15.0) < abs(mf["squeeze_mean_N"] - 15.0) / 3
+
+
+def test_the_admittance_step_is_the_hold_controllers():
+    # one function for both controllers: rate k (s − s_d) clipped to ±v_max, offset clipped to ±dr_max
+    assert squeeze_admittance(0.0, 17.0, 15.0, 0.002, 0.03, 0.1, 0.01) == pytest.approx(0.002 * 0.03 * 2.0, abs=1e-18)
+    assert squeeze_admittance(0.0, 0.0, 15.0, 0.002, 1.0, 0.1, 0.01) == pytest.approx(-0.002 * 0.1, abs=1e-18)
+    assert squeeze_admittance(0.0099, 100.0, 15.0, 0.01, 1.0, 1.0, 0.01) == 0.01
+    assert squeeze_admittance(0.003, 99.0, 15.0, 0.002, 0.0, 0.1, 0.01) == 0.003  # k = 0: the fixed dilation
+
+
+def test_the_rolling_part_is_the_pads_turn_times_its_radius():
+    # a pad turning by 0.1 rad about the bar's y axis (in 100 steps) rolls its centre r × 0.1 along the bar's z;
+    # a spin about the bar's axis x (the pad's normal) rolls nothing
+    T = 101
+    R_bar = np.tile(np.eye(3), (T, 1, 1))
+    a = np.linspace(0.0, 0.1, T)
+    Ry = np.array([[[math.cos(x), 0, math.sin(x)], [0, 1, 0], [-math.sin(x), 0, math.cos(x)]] for x in a])
+    roll = _rolling(R_bar, Ry, 0)
+    np.testing.assert_allclose(roll[-1], [0.0, PAD_RADIUS * 0.1], atol=1e-9)
+    Rx = np.array([[[1, 0, 0], [0, math.cos(x), -math.sin(x)], [0, math.sin(x), math.cos(x)]] for x in a])
+    np.testing.assert_allclose(_rolling(R_bar, Rx, 0), 0.0, atol=1e-15)
+    # the same turn with the bar turning along: no relative rotation, no rolling; rows before i0 do not count
+    np.testing.assert_allclose(_rolling(Ry, Ry, 0), 0.0, atol=1e-15)
+    np.testing.assert_allclose(_rolling(R_bar, Ry, 50)[-1], [0.0, PAD_RADIUS * 0.05], atol=1e-9)
+
+
+def test_the_sliding_part_is_the_material_points_relative_motion_measured_in_mujoco(short):
+    # independent of the rolling formula: MuJoCo's pad–bar contact point c, its material point on the pad and on
+    # the bar carried to the next control update with each body's pose; their difference summed (bar frame)
+    import mujoco
+
+    run, _ = short
+    st, log, tr = run.setup, run.log, run.trace
+    m, d = st.scene.model, mujoco.MjData(st.scene.model)
+    bar, pad = st.scene.object_ids["bar"], st.scene.end_bodies[0]
+    i0 = int(np.searchsorted(tr["time"], HOLD_S))
+    rows = np.rint(tr["time"] / m.opt.timestep).astype(int)
+    prev, slide, ours = None, np.zeros(3), []
+    for k in rows[i0:]:
+        d.qpos[:] = log.qpos[k]
+        d.mocap_pos[:] = log.mocap_pos[k]
+        mujoco.mj_forward(m, d)
+        con = d.contact[: d.ncon]
+        (i,) = [j for j in range(d.ncon) if {m.geom_bodyid[con.geom1[j]], m.geom_bodyid[con.geom2[j]]} == {bar, pad}]
+        now = (
+            con.pos[i].copy(),
+            *(d.xmat[b].reshape(3, 3).copy() for b in (pad, bar)),
+            d.xpos[pad].copy(),
+            d.xpos[bar].copy(),
+        )
+        if prev is not None:
+            c0, Rp0, Rb0, pp0, pb0 = prev
+            _, Rp, Rb, pp, pb = now
+            slide += Rb.T @ ((pp + Rp @ (Rp0.T @ (c0 - pp0))) - (pb + Rb @ (Rb0.T @ (c0 - pb0))))
+        prev = now
+        ours.append(np.linalg.norm(slide[1:]))
+    split = _series(run)["slip_pad_sliding"][i0:]
+    np.testing.assert_allclose(ours, split, atol=2e-4)  # 0.2 mm over the run
+    assert max(ours) > 5e-4  # something slid: the comparison is not 0 = 0
+
+
+def test_a_phase_starts_the_figure_eight_elsewhere_from_the_same_point():
+    a, b = figure_eight(HAND_START, period=3.0, phase=0.0), figure_eight(HAND_START, period=3.0, phase=2.1)
+    np.testing.assert_allclose(b.position[0], HAND_START, atol=1e-15)  # still at the start, then lifted
+    np.testing.assert_allclose(b.position[-1], a.position[-1], atol=1e-12)  # one period: back at the lifted start
+    assert np.max(np.linalg.norm(b.position - a.position, axis=1)) > 0.03  # another path
+    assert np.ptp(b.position[:, 0]) == pytest.approx(np.ptp(a.position[:, 0]), abs=1e-3)  # the same size
 
 
 def test_the_log_replays_with_mujoco_alone_and_needs_the_mocap_poses(short, tmp_path):
