@@ -197,22 +197,50 @@ def test_projection_of_a_degenerate_start_is_a_failure_not_nan(load_system):
     assert not p.converged and "collinear" in p.message and np.all(np.isfinite(p.q))
 
 
-def test_planning_refuses_a_free_flyer():
-    """The planner's state space and the region residuals treat q as a vector: a floating G1 (nq = 24, nv = 23) is
-    refused with an UnsupportedJointError naming the function and what works, before anything runs."""
+def test_projection_on_a_free_flyer():
+    """The floating G1 (nq = 24, nv = 23): the region and rigid-grasp residuals' Jacobians have nv columns along
+    q ⊕ v (central differences through pinocchio.integrate); project() moves the pelvis by integrate to put the
+    hands' midpoint into a box 0.5 m ahead, holding their distance (Pinocchio FK), the quaternion unit, the
+    joints inside their limits.  plan() (OMPL's R^nq state space) still refuses."""
+    import pinocchio as pin
+
     from coop_ga.errors import UnsupportedJointError
     from coop_ga.plan.ompl import PlanningProblem, plan
     from coop_ga.systems import load
 
     s = load("g1_arms", free_flyer=True)
+    task = cooperative_task(s, "point_pair")
+    q0 = s.q0
+    c0 = readout(task, q0).centre
+    lo, hi = c0 + np.array([0.5, -0.05, 0.1]), c0 + np.array([0.6, 0.05, 0.2])
+    region, grasp = Region(task, lo, hi), RigidGrasp(task, q0)
+    stack = Stack([region, grasp])
+    q1 = s.integrate(q0, 0.1 * np.random.default_rng(0).normal(size=s.nv))
+    J = stack.evaluate(q1)[1]
+    assert J.shape == (stack.dim, 23)
+    assert np.abs(J - finite_difference_jacobian(stack, q1, central=True, system=s)).max() < 1e-6
+    with pytest.raises(InvalidInputError, match="system="):
+        finite_difference_jacobian(stack, q1)
+    p = project(stack, s, q0)
+    assert p.converged and p.error < 1e-8, p.message
+    assert abs(np.linalg.norm(p.q[3:7]) - 1.0) < 1e-12 and np.linalg.norm(p.q[:3] - q0[:3]) > 0.3
+    assert s.limits.position_violation(s.limit_coordinates(p.q)) == 0.0
+    d = s.model.createData()
+
+    def hands(q):
+        pin.framesForwardKinematics(s.model, d, q)
+        return np.array([d.oMf[s.model.getFrameId(f)].translation for f in s.end_frames])
+
+    h0, h1 = hands(q0), hands(p.q)
+    mid = h1.mean(axis=0)
+    assert np.all(mid >= lo - 1e-8) and np.all(mid <= hi + 1e-8)
+    assert abs(np.linalg.norm(h1[0] - h1[1]) - np.linalg.norm(h0[0] - h0[1])) < 1e-8
 
     class Residual:
-        nq, dim = s.nq, 1
+        nq, nv, dim = s.nq, s.nv, 1
 
         def evaluate(self, q):
             raise AssertionError("not reached")
 
-    with pytest.raises(UnsupportedJointError, match=r"plan.project .*nq = 24, nv = 23.*gauss_newton_ik"):
-        project(Residual(), s, s.q0)
     with pytest.raises(UnsupportedJointError, match=r"plan \(OMPL.*nq = 24, nv = 23.*diff_ik_reach"):
         plan(PlanningProblem(s, s.q0, Residual(), None))
