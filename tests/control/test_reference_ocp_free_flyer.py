@@ -90,6 +90,17 @@ def test_floating_reach_solved_by_ipopt(system, terminal) -> None:
     assert np.abs(r.qd[1:]).max(axis=0)[:6].max() <= 2.0 + 1e-9  # the pelvis' own speed bound (2 m/s, rad/s)
 
 
+def test_fatrop_solves_the_floating_reach_with_the_terminal_constraint(system) -> None:
+    task = cg.cooperative_task(system, "point_pair")
+    ocp = TangentReachingOCP(task, system.q0, displaced_target(task, system.q0, **MOVE), horizon=30, dt=0.05)
+    r = solve_reference(ocp, solver="fatrop", terminal="constraint")
+    ref = solve_reference(ocp, solver="ipopt", terminal="constraint")
+    assert r.success and ref.success, (r.status, ref.status)
+    assert r.terminal_error <= 1e-9 and r.max_violation == 0.0 and r.defect <= 1e-9
+    assert np.abs(np.linalg.norm(r.q[:, 3:7], axis=1) - 1.0).max() <= 1e-12
+    assert abs(r.cost - ref.cost) <= 1e-7 * ref.cost and np.abs(r.q - ref.q).max() <= 1e-5  # the same optimum
+
+
 def test_a_reaching_ocp_on_a_free_flyer_is_refused(system) -> None:
     task = cg.cooperative_task(system, "point_pair")
     Vd = displaced_target(task, system.q0, translation=(0.05, 0.0, 0.0))
