@@ -65,7 +65,7 @@ from .nullspace import (
     point_reaching_velocity,
 )
 from .qp import LinearConstraint, solve_qp
-from .reference_ocp import ReferenceProblem, solve_reference
+from .reference_ocp import ReferenceProblem, TangentReachingOCP, solve_reference
 from .registry import SOLVERS, SolverEntry, get_solver, register_solver
 from .solve import IKRun, RunHooks, StepSolution, run_ik, solve_step
 from .tasks import (
@@ -121,6 +121,7 @@ __all__ = [
     "SolverEntry",
     "SolverResult",
     "StepSolution",
+    "TangentReachingOCP",
     "Task",
     "TaskDynamics",
     "Teleoperator",

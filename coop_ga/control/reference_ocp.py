@@ -19,6 +19,20 @@ joint by joint, infinite bounds left out (the initial state is data, not constra
 (the objective is then ``Σ u_kᵀ R u_k + q̇_nᵀ Q_v q̇_n``) — the problem the iLQR solves with
 ``terminal="constraint"``.
 
+Free flyers (nq ≠ nv).  A system with a floating base is posed as a :class:`TangentReachingOCP`:
+the state is ``x_k = [q_k (nq); v_k (nv)]``, ``u_k`` (nv), and the double integrator runs on
+the configuration manifold,
+
+    q_{k+1} = q_k ⊕ (Δt v_k + ½Δt² u_k),      v_{k+1} = v_k + Δt u_k,
+
+``⊕`` being ``pinocchio.integrate`` written in CasADi exactly
+(:func:`~coop_ga.kinematics.chains.integrate_symbolic`: the SE(3) exponential of the flyer's LOCAL
+velocity, a Taylor series near ω = 0), so the quaternions of the knots stay unit through the
+gap-closing equalities and no norm constraint is needed.  The position bounds are on the joints'
+coordinates only (a velocity row's q index; the flyer has none), the velocity and acceleration
+bounds on v and u.  A :class:`~coop_ga.control.ilqr.ReachingOCP` of such a system is refused
+(its q̇ has nq entries).  With nq = nv nothing changes (the same expressions, bit for bit).
+
 Transcription (multiple shooting, :class:`casadi.Opti`)
 -------------------------------------------------------
 Decision variables ``X_k`` (2·nq, k = 0 … n) and ``U_k`` (nq, k = 0 … n−1), declared in
@@ -79,9 +93,12 @@ from typing import Any
 import numpy as np
 
 from .. import validation
-from ..errors import InvalidInputError
-from ..kinematics.chains import require_nq_equals_nv
+from ..errors import InvalidInputError, UnsupportedJointError
+from ..geometry.groups import SimilarityLike
+from ..kinematics.chains import integrate_symbolic
 from ..systems.limits import JointLimits
+from .base import check_problem, check_v
+from .ilqr.problem import DEFAULT_Q, DEFAULT_QV, DEFAULT_R
 
 __all__ = [
     "ACTIVE_TOL",
@@ -89,6 +106,7 @@ __all__ = [
     "SOLVERS",
     "ReferenceProblem",
     "ReferenceSolution",
+    "TangentReachingOCP",
     "check_trajectory",
     "solve_reference",
 ]
@@ -111,8 +129,8 @@ class ReferenceSolution:
     Attributes:
         solver: ``"ipopt"`` or ``"fatrop"``.  terminal: ``"soft"`` or ``"constraint"``.
         success: the solver reported success.  status: its return status (string).
-        u: (n, nq) controls [rad/s²]; q: (n+1, nq) [rad] and qd: (n+1, nq) [rad/s] the states
-            X_k of the NLP (not re-integrated); t: (n+1,) knot times [s].
+        u: (n, nv) controls [rad/s²]; q: (n+1, nq) [rad] and qd: (n+1, nv) [rad/s] the states
+            X_k of the NLP (not re-integrated); t: (n+1,) knot times [s] (nv = nq without a free flyer).
         cost: the NLP objective at the solution (soft: ``Σ uᵀRu + eᵀQe + q̇_nᵀQ_v q̇_n``;
             constraint: ``Σ uᵀRu + q̇_nᵀQ_v q̇_n``).
         cost_rollout: ``ocp.cost(u)`` — the soft cost of Eq 53 of the controls, re-integrated
@@ -160,12 +178,87 @@ def _bound_rows(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     return np.flatnonzero(flo & fhi), np.flatnonzero(flo & ~fhi), np.flatnonzero(~flo & fhi)
 
 
+class TangentReachingOCP:
+    """The reaching OCP of Eq 53–57 for a task whose system has a free flyer (nq ≠ nv): state ``(q_k, v_k)``.
+
+    Args:
+        task: a :class:`coop_ga.CooperativeTask` on a system with a free flyer (any system works).
+        q_init: (nq,) initial configuration (a free flyer's [p [m]; unit quaternion x y z w], then the joints).
+        target: V_Sd, a :class:`~coop_ga.Similarity` of the task's kind.
+        qd_init: (nv,) initial velocity (a free flyer's LOCAL [v; ω], then the joint speeds; default 0).
+        horizon, dt, Q, limit_mode: as in :class:`~coop_ga.control.ilqr.ReachingOCP`.
+        R: control weight (scalar, (nv,) or (nv, nv); positive definite).  Qv: terminal velocity weight (nv).
+
+    The dynamics are the double integrator on the configuration manifold, exact zero-order hold::
+
+        q_{k+1} = q_k ⊕ (Δt v_k + ½Δt² u_k),      v_{k+1} = v_k + Δt u_k,
+
+    ``⊕`` being :meth:`System.integrate` (``pinocchio.integrate``: a free flyer's velocity is LOCAL, its
+    quaternion stays unit); u_k (nv) [m/s², rad/s²].  The cost is that of ``ReachingOCP`` with nv-sized R, Q_v.
+    It carries what :class:`ReferenceProblem` reads (the iLQR does not take it).
+    """
+
+    def __init__(
+        self,
+        task: Any,
+        q_init: Any,
+        target: SimilarityLike,
+        *,
+        qd_init: Any = None,
+        horizon: int = 50,
+        dt: float = 0.02,
+        R: Any = DEFAULT_R,
+        Q: Any = DEFAULT_Q,
+        Qv: Any = DEFAULT_QV,
+        limit_mode: str = "enforce",
+    ):
+        self.task = task
+        self.system = task.system
+        self.nq, self.nv = int(task.nq), int(task.system.nv)
+        self.q_init, self.target = check_problem(task, q_init, target, "q_init")
+        self.system._check_quaternions(self.q_init, "q_init")
+        self.qd_init = np.zeros(self.nv) if qd_init is None else check_v(task, qd_init, "qd_init")
+        self.horizon = validation.integer(horizon, "horizon", minimum=2)
+        self.dt = validation.positive(dt, "dt")
+        self.h = 0.5 * self.dt * self.dt
+        self.R = validation.weight(R, self.nv, "R", definite=True)
+        self.Q = validation.weight(Q, 7, "Q", definite=False)
+        self.Qv = validation.weight(Qv, self.nv, "Qv", definite=False)
+        self.limit_mode = validation.choice(limit_mode, ("enforce", "none"), "limit_mode")
+
+    @property
+    def times(self) -> np.ndarray:
+        """(n+1,) knot times [s]."""
+        return self.dt * np.arange(self.horizon + 1)
+
+    def check_controls(self, u: Any) -> np.ndarray:
+        """Controls (n, nv) as a checked float array."""
+        return validation.array(u, "controls", shape=(self.horizon, self.nv))
+
+    def rollout(self, u: Any) -> tuple[np.ndarray, np.ndarray]:
+        """``u`` (n, nv) → ``q`` (n+1, nq), ``v`` (n+1, nv) by the dynamics above (``System.integrate``)."""
+        u = self.check_controls(u)
+        v = self.qd_init + np.vstack([np.zeros(self.nv), np.cumsum(self.dt * u, axis=0)])
+        q = np.empty((self.horizon + 1, self.nq))
+        q[0] = self.q_init
+        for k in range(self.horizon):
+            q[k + 1] = self.system.integrate(q[k], self.dt * v[k] + self.h * u[k])
+        return q, v
+
+    def cost(self, u: Any) -> float:
+        """``Σ u_kᵀ R u_k + e(q_n)ᵀ Q e(q_n) + v_nᵀ Q_v v_n`` of the roll-out of u (n, nv)."""
+        u = self.check_controls(u)
+        q, v = self.rollout(u)
+        e = self.task.error(q[-1], self.target)
+        return float(np.einsum("ki,ij,kj->", u, self.R, u) + e @ self.Q @ e + v[-1] @ self.Qv @ v[-1])
+
+
 class ReferenceProblem:
     """The constrained reaching OCP transcribed in :class:`casadi.Opti` (module docstring).
 
     Args:
         ocp: the :class:`~coop_ga.control.ilqr.ReachingOCP` (task, q_init, q̇_init, target,
-            horizon n, Δt, R, Q, Q_v).
+            horizon n, Δt, R, Q, Q_v), or a :class:`TangentReachingOCP` (a free flyer).
         limits: the bounds, a :class:`~coop_ga.systems.limits.JointLimits` of the OCP's joints, or None
             (default): ``ocp.task.system.limits``.
         limit_mode: ``"enforce"`` (those bounds), ``"none"`` (no bounds: the unconstrained OCP) or None
@@ -185,23 +278,23 @@ class ReferenceProblem:
         self.ocp = ocp
         self.terminal = validation.choice(terminal, ("soft", "constraint"), "terminal")
         self.limits: JointLimits | None = _resolve_limits(ocp, limits, limit_mode)
-        n, N, dt = ocp.nq, ocp.horizon, ocp.dt
-        h = 0.5 * dt * dt
+        n, N, nv = ocp.nq, ocp.horizon, _nv(ocp)
         opti = ca.Opti()
         X: list[Any] = []
         U: list[Any] = []
         for _ in range(N):  # stage order x_0, u_0, x_1, u_1, …, x_N (FATROP)
-            X.append(opti.variable(2 * n))
-            U.append(opti.variable(n))
-        X.append(opti.variable(2 * n))
+            X.append(opti.variable(n + nv))
+            U.append(opti.variable(nv))
+        X.append(opti.variable(n + nv))
         x0 = np.concatenate([ocp.q_init, ocp.qd_init])
         # The bound values are Opti parameters (set per solve: FATROP gets them pre-tightened, see solve()).
         self._bounds: list[tuple[Any, np.ndarray, float]] = []  # (parameter, nominal value, sign: +1 upper / −1 lower)
         state_bounds, control_bounds = self._path_constraints(opti, n)
+        step = _step_function(ocp)
         for k in range(N):
             xk, uk = X[k], U[k]
             # gap-closing dynamics (Eq 54, exact ZOH), then the path constraints of stage k
-            opti.subject_to(X[k + 1] == ca.vertcat(xk[:n] + dt * xk[n:] + h * uk, xk[n:] + dt * uk))
+            opti.subject_to(X[k + 1] == step(xk, uk))
             if k == 0:
                 opti.subject_to(X[0] == x0)
             else:
@@ -234,6 +327,9 @@ class ReferenceProblem:
             return par
 
         both, lo_only, hi_only = _bound_rows(lim.lower, lim.upper)
+        # a bound on velocity row i is one on q[qi[i]] (the identity when nq = nv; −1 for a free flyer's rows)
+        qi = _limit_q_index(self.ocp)
+        _check_flyer_unbounded(qi, lim)
         v_rows = np.flatnonzero(np.isfinite(lim.velocity))
         a_rows = np.flatnonzero(np.isfinite(lim.acceleration))
         p_lo, p_hi = param(lim.lower[both], -1.0), param(lim.upper[both], 1.0)
@@ -243,11 +339,11 @@ class ReferenceProblem:
         def state_bounds(x: Any) -> None:
             q, qd = x[:n], x[n:]
             if both.size:
-                opti.subject_to(opti.bounded(p_lo, q[both.tolist()], p_hi))
+                opti.subject_to(opti.bounded(p_lo, q[qi[both].tolist()], p_hi))
             if lo_only.size:
-                opti.subject_to(q[lo_only.tolist()] >= p_lo1)
+                opti.subject_to(q[qi[lo_only].tolist()] >= p_lo1)
             if hi_only.size:
-                opti.subject_to(q[hi_only.tolist()] <= p_hi1)
+                opti.subject_to(q[qi[hi_only].tolist()] <= p_hi1)
             if v_rows.size:
                 opti.subject_to(opti.bounded(-p_v, qd[v_rows.tolist()], p_v))
 
@@ -269,7 +365,7 @@ class ReferenceProblem:
         solver_options: dict[str, Any] | None = None,
         verbose: bool = False,
     ) -> ReferenceSolution:
-        """Solve with ``solver`` (``"ipopt"`` or ``"fatrop"``) from ``u_init`` (n, nq) [rad/s²] (default 0).
+        """Solve with ``solver`` (``"ipopt"`` or ``"fatrop"``) from ``u_init`` (n, nv) [rad/s²] (default 0).
 
         ``tol``: the solver's convergence tolerance (scaled KKT error, both solvers);
         ``constr_viol_tol``: IPOPT's and FATROP's tolerance on the unscaled constraint
@@ -287,8 +383,8 @@ class ReferenceProblem:
         if not ca.has_nlpsol(solver):
             raise InvalidInputError(f"this CasADi ({getattr(ca, '__version__', '?')}) has no '{solver}' plugin")
         ocp, opti = self.ocp, self.opti
-        n, N = ocp.nq, ocp.horizon
-        u0 = np.zeros((N, n)) if u_init is None else ocp.check_controls(u_init)
+        N = ocp.horizon
+        u0 = np.zeros((N, _nv(ocp))) if u_init is None else ocp.check_controls(u_init)
         q0, qd0 = ocp.rollout(u0)
         opti.set_initial(self._Xall, np.vstack([q0.T, qd0.T]))
         opti.set_initial(self._Uall, u0.T)
@@ -335,14 +431,14 @@ class ReferenceProblem:
     def _solution(self, solver: str, sol: Any, ok: bool, wall: float) -> ReferenceSolution:
         """The :class:`ReferenceSolution` of a finished solve (``sol``: the Opti solution or its debug view)."""
         ocp, opti = self.ocp, self.opti
-        n, N = ocp.nq, ocp.horizon
+        n, N, nv = ocp.nq, ocp.horizon, _nv(ocp)
         raw = opti.stats()
         stats = {k: v for k, v in raw.items() if isinstance(v, (bool, int, float, str))}
         for k, v in raw.get("fatrop", {}).items() if isinstance(raw.get("fatrop"), dict) else ():
             if isinstance(v, (bool, int, float, str)):
                 stats[f"fatrop.{k}"] = v  # FATROP's own breakdown (compute_sd_time, eval_hess_time, …)
-        Xv = np.array(sol.value(self._Xall), dtype=float).reshape(2 * n, N + 1)
-        Uv = np.array(sol.value(self._Uall), dtype=float).reshape(n, N)
+        Xv = np.array(sol.value(self._Xall), dtype=float).reshape(n + nv, N + 1)
+        Uv = np.array(sol.value(self._Uall), dtype=float).reshape(nv, N)
         q, qd, u = Xv[:n].T.copy(), Xv[n:].T.copy(), Uv.T.copy()
         e = np.array(sol.value(self.e), dtype=float).reshape(-1)
         cost = float(sol.value(self.J))
@@ -370,6 +466,48 @@ class ReferenceProblem:
         )
 
 
+def _nv(ocp: Any) -> int:
+    """The OCP's number of velocities (controls): ``ocp.nv`` (a :class:`TangentReachingOCP`) or ``ocp.nq``."""
+    return int(getattr(ocp, "nv", ocp.nq))
+
+
+def _step_function(ocp: Any) -> Callable[[Any, Any], Any]:
+    """``x_{k+1}(x_k, u_k)`` (CasADi): Eq 54 when nq = nv, else ``q ⊕ (Δt v + ½Δt² u)`` by the exact symbolic
+    ``pinocchio.integrate`` (:func:`~coop_ga.kinematics.chains.integrate_symbolic`) and ``v + Δt u``."""
+    import casadi as ca
+
+    n, nv, dt = ocp.nq, _nv(ocp), ocp.dt
+    h = 0.5 * dt * dt
+    if nv == n:
+        return lambda xk, uk: ca.vertcat(xk[:n] + dt * xk[n:] + h * uk, xk[n:] + dt * uk)
+    qs, vs = ca.SX.sym("q", n), ca.SX.sym("v", nv)
+    model = ocp.task.system.model
+    integrate = ca.Function("integrate", [qs, vs], [integrate_symbolic(model, qs, vs)])
+    return lambda xk, uk: ca.vertcat(integrate(xk[:n], dt * xk[n:] + h * uk), xk[n:] + dt * uk)
+
+
+def _limit_q_index(ocp: Any) -> np.ndarray:
+    """For each velocity row of the limits, the q index of its 1-DOF joint's coordinate (−1: a free flyer's)."""
+    model = ocp.task.system.model
+    if model.nq == model.nv:
+        return np.arange(ocp.nq)
+    idx = np.full(model.nv, -1)
+    for j in range(1, model.njoints):
+        if model.nqs[j] == 1 and model.nvs[j] == 1:
+            idx[model.idx_vs[j]] = model.idx_qs[j]
+    return idx
+
+
+def _check_flyer_unbounded(qi: np.ndarray, lim: JointLimits) -> None:
+    """Refuse position bounds on a free flyer's rows: its coordinates are not a box (limits bound joints only)."""
+    rows = np.flatnonzero((qi < 0) & (np.isfinite(lim.lower) | np.isfinite(lim.upper)))
+    if rows.size:
+        raise InvalidInputError(
+            f"limits bound the free flyer's velocity rows {rows.tolist()} in position; a floating base has no box "
+            "on its coordinates: make those lower/upper entries infinite (velocity and acceleration bounds stay)"
+        )
+
+
 def _resolve_limits(ocp: Any, limits: JointLimits | None, limit_mode: str | None) -> JointLimits | None:
     """The bounds of the problem (None: none): ``limits`` (None: the system's) checked against the OCP's joints,
     unless the limit mode (None: the OCP's) is ``"none"``."""
@@ -381,10 +519,10 @@ def _resolve_limits(ocp: Any, limits: JointLimits | None, limit_mode: str | None
         return ocp.task.system.limits
     if isinstance(limits, JointLimits):
         own = tuple(ocp.task.system.limits.joint_names)
-        if limits.nq != ocp.nq or tuple(limits.joint_names) != own:
+        if limits.nq != _nv(ocp) or tuple(limits.joint_names) != own:
             raise InvalidInputError(
                 f"limits are for the joints {list(limits.joint_names)[:3]}… ({limits.nq}), "
-                f"the OCP's task has {list(own)[:3]}… ({ocp.nq}): they must match in order"
+                f"the OCP's task has {list(own)[:3]}… ({_nv(ocp)}): they must match in order"
             )
         return limits
     raise InvalidInputError(
@@ -395,15 +533,21 @@ def _resolve_limits(ocp: Any, limits: JointLimits | None, limit_mode: str | None
 def check_trajectory(ocp: Any, lim: JointLimits | None, q: np.ndarray, qd: np.ndarray, u: np.ndarray) -> dict[str, Any]:
     """Bound violations, active-bound counts and the dynamics defect of any trajectory of ``ocp``.
 
-    q, qd: (n+1, nq) knot states [rad, rad/s]; u: (n, nq) controls [rad/s²]; lim: the bounds
+    q, qd: (n+1, nq), (n+1, nv) knot states [rad, rad/s]; u: (n, nv) controls [rad/s²]; lim: the bounds
     (None: none).  Bounds are checked where the problem imposes them (q, q̇ at k = 1 … n, u at
     k = 0 … n−1).  Returns ``{"violations": {"position", "velocity", "acceleration"},
     "max_violation", "defect", "active": {…}}`` as in :class:`ReferenceSolution` (``defect``:
-    largest residual of Eq 54 and of the initial state).  Used for the iLQR rows of
+    largest residual of Eq 54 and of the initial state; with a free flyer the step's residual is
+    ``difference(q_k ⊕ (Δt v_k + ½Δt² u_k), q_{k+1})`` and the position bounds are checked on
+    ``System.limit_coordinates``).  Used for the iLQR rows of
     ``benchmarks/ocp.py`` as well.
     """
     dt, h = ocp.dt, 0.5 * ocp.dt * ocp.dt
-    dq = q[1:] - (q[:-1] + dt * qd[:-1] + h * u)
+    if _nv(ocp) == ocp.nq:
+        dq = q[1:] - (q[:-1] + dt * qd[:-1] + h * u)
+    else:  # on the manifold: the velocity that closes each step's gap (0 when q_{k+1} = q_k ⊕ …)
+        s = ocp.task.system
+        dq = np.array([s.difference(s.integrate(q[k], dt * qd[k] + h * u[k]), q[k + 1]) for k in range(len(u))])
     dv = qd[1:] - (qd[:-1] + dt * u)
     x0 = np.concatenate([q[0] - ocp.q_init, qd[0] - ocp.qd_init])
     defect = float(max(np.max(np.abs(dq)), np.max(np.abs(dv)), np.max(np.abs(x0))))
@@ -412,6 +556,8 @@ def check_trajectory(ocp: Any, lim: JointLimits | None, q: np.ndarray, qd: np.nd
         active = {"position": 0, "velocity": 0, "acceleration": 0}
     else:
         qk, vk = q[1:], qd[1:]
+        if _nv(ocp) != ocp.nq:  # the bounds are on the joints' coordinates, in q̇ order
+            qk = ocp.task.system.limit_coordinates(qk)
         viol = {
             "position": lim.position_violation(qk),
             "velocity": lim.velocity_violation(vk),
@@ -445,12 +591,14 @@ def solve_reference(
     """Solve the constrained reaching OCP (module docstring) with IPOPT or FATROP through CasADi Opti.
 
     Args:
-        ocp: a :class:`~coop_ga.control.ilqr.ReachingOCP` (the problem data, Eq 53–57).
+        ocp: a :class:`~coop_ga.control.ilqr.ReachingOCP` (the problem data, Eq 53–57), or a
+            :class:`TangentReachingOCP` for a system with a free flyer (a ReachingOCP of one is refused:
+            :class:`UnsupportedJointError`).
         limits: a :class:`~coop_ga.systems.limits.JointLimits`, or None (default: ``ocp.task.system.limits``).
         limit_mode: ``"enforce"``, ``"none"`` (no bounds) or None (default: the OCP's ``limit_mode``).
         solver: ``"ipopt"`` or ``"fatrop"``.
         terminal: ``"soft"`` (Eq 57, the OCP's cost) or ``"constraint"`` (``e(q_n) = 0``).
-        u_init: (n, nq) initial control guess [rad/s²] (default 0); the initial states are its roll-out.
+        u_init: (n, nv) initial control guess [rad/s²] (default 0); the initial states are its roll-out.
         tol: see :meth:`ReferenceProblem.solve`.
         constr_viol_tol: see :meth:`ReferenceProblem.solve`.
         max_iter: see :meth:`ReferenceProblem.solve`.
@@ -461,12 +609,12 @@ def solve_reference(
         :class:`ReferenceSolution` (trajectories, cost, terminal error, bound violations,
         iterations, times, status).
     """
-    require_nq_equals_nv(
-        ocp.task.system.model,
-        "solve_reference (the IPOPT reference OCP)",
-        "diff_ik_reach or gauss_newton_ik",
-        f"task '{ocp.task.name}'",
-    )
+    if ocp.task.system.nv != ocp.nq and not isinstance(ocp, TangentReachingOCP):
+        raise UnsupportedJointError(
+            f"solve_reference: task '{ocp.task.name}' has a free flyer (nq = {ocp.nq}, nv = {ocp.task.system.nv}) "
+            "and a ReachingOCP's double integrator adds q̇ to q; build the problem as TangentReachingOCP(task, q_init, "
+            "target, ...) (state (q, v), q_{k+1} = q_k ⊕ (Δt v_k + ½Δt² u_k))"
+        )
     problem = ReferenceProblem(ocp, limits, limit_mode=limit_mode, terminal=terminal)
     return problem.solve(
         solver,

@@ -67,6 +67,7 @@ __all__ = [
     "KinematicTree",
     "at_zero_velocity",
     "free_flyer_motor",
+    "integrate_symbolic",
     "integrate_to_second_order",
     "motor_from_se3",
     "require_nq_equals_nv",
@@ -304,6 +305,71 @@ def integrate_to_second_order(model: Any, q: Any, v: Any) -> Any:
             raise UnsupportedJointError(
                 f"joint '{model.names[jid]}' has type {model.joints[jid].shortname()}: only 1-DOF joints and "
                 "free flyers move by integrate_to_second_order; lock it (pinocchio.buildReducedModel)"
+            )
+    return ca.vertcat(*out)
+
+
+#: Below this |ω|² [rad²] the free flyer's exponential uses its Taylor series (to θ⁶; error < 1e-16 there), above
+#: it the closed form (whose cancellation in θ − sin θ costs ~1e-14 at the switch): no 0/0 in value or derivatives.
+EXP_TAYLOR_THETA2 = 1e-2
+
+
+def _free_flyer_exp(qf: Any, v: Any) -> list[Any]:
+    """A free flyer's 7 coordinates moved by its LOCAL velocity ``v = [ν; ω]`` (6) for 1 s, exactly (CasADi SX):
+    ``M exp6(v)``, ``exp6(v) = (exp(ω), V(ω) ν)`` with ``V ν = ν + a ω × ν + b ω × (ω × ν)``,
+    ``a = (1 − cos θ)/θ² = 2 s²``, ``b = (θ − sin θ)/θ³``, and the quaternion ``(s ω, cos(θ/2))``,
+    ``s = sin(θ/2)/θ`` (θ = |ω|) — ``pinocchio.integrate``'s SE(3) exponential."""
+    import casadi as ca
+
+    px, py, pz, x, y, z, w = (qf[i] for i in range(7))
+    nu, om = [v[i] for i in range(3)], [v[3 + i] for i in range(3)]
+    t2 = om[0] * om[0] + om[1] * om[1] + om[2] * om[2]
+    small = t2 < EXP_TAYLOR_THETA2
+    th = ca.sqrt(ca.if_else(small, 1.0, t2))  # never 0 in the closed-form branch (its derivatives stay finite)
+    s = ca.if_else(small, 0.5 - t2 / 48 + t2 * t2 / 3840 - t2 * t2 * t2 / 645120, ca.sin(0.5 * th) / th)
+    b = ca.if_else(small, 1 / 6 - t2 / 120 + t2 * t2 / 5040 - t2 * t2 * t2 / 362880, (th - ca.sin(th)) / (th * th * th))
+    c = ca.if_else(small, 1 - t2 / 8 + t2 * t2 / 384 - t2 * t2 * t2 / 46080, ca.cos(0.5 * ca.sqrt(t2)))
+    a = 2 * s * s
+
+    def cross(p: list[Any], q: list[Any]) -> list[Any]:
+        return [p[1] * q[2] - p[2] * q[1], p[2] * q[0] - p[0] * q[2], p[0] * q[1] - p[1] * q[0]]
+
+    wn = cross(om, nu)
+    wwn = cross(om, wn)
+    t = [nu[i] + a * wn[i] + b * wwn[i] for i in range(3)]
+    R = (
+        (1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)),
+        (2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)),
+        (2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)),
+    )
+    p = [o + R[i][0] * t[0] + R[i][1] * t[1] + R[i][2] * t[2] for i, o in enumerate((px, py, pz))]
+    ex, ey, ez, ew = s * om[0], s * om[1], s * om[2], c
+    quat = [  # Hamilton product (x, y, z, w) ⊗ (ex, ey, ez, ew): the rotation R exp(ω)
+        w * ex + ew * x + y * ez - z * ey,
+        w * ey + ew * y + z * ex - x * ez,
+        w * ez + ew * z + x * ey - y * ex,
+        w * ew - x * ex - y * ey - z * ez,
+    ]
+    return p + quat
+
+
+def integrate_symbolic(model: Any, q: Any, v: Any) -> Any:
+    """``pinocchio.integrate(model, q, v)`` as a CasADi SX expression (nq) of q (nq) and v (nv), exact: q + v for
+    1-DOF joints, ``M exp6(v)`` for a free flyer (:func:`_free_flyer_exp`; a unit quaternion stays unit).
+    Raises :class:`UnsupportedJointError` for a joint that is neither 1-DOF nor a free flyer."""
+    import casadi as ca
+
+    out: list[Any] = []
+    for jid in range(1, model.njoints):
+        iq, iv, nqj, nvj = (int(a[jid]) for a in (model.idx_qs, model.idx_vs, model.nqs, model.nvs))
+        if nqj == nvj:
+            out += [q[iq + k] + v[iv + k] for k in range(nqj)]
+        elif model.joints[jid].shortname() == "JointModelFreeFlyer":
+            out += _free_flyer_exp([q[iq + k] for k in range(7)], [v[iv + k] for k in range(6)])
+        else:
+            raise UnsupportedJointError(
+                f"joint '{model.names[jid]}' has type {model.joints[jid].shortname()}: only 1-DOF joints and "
+                "free flyers move by integrate_symbolic; lock it (pinocchio.buildReducedModel)"
             )
     return ca.vertcat(*out)
 

@@ -27,6 +27,13 @@ never NaN and never an exception thrown through OMPL.  The returned path is inte
 collision-check resolution) and re-checked: ``max_violation`` is the worst residual along it and
 ``valid`` says every waypoint passed :class:`Validity`.
 
+**A free flyer** (nq ≠ nv): OMPL's constrained spaces wrap a real-vector space only, so the quaternion is
+embedded in the ambient R^nq and kept unit by one more equality row ``|quat|² − 1`` of the constraint
+(:class:`_EmbeddedResidual`, its ambient Jacobian through ``pin.tangentMap``); the box of the ambient space is the
+joints' limits, the flyer's position within ``window`` (at least 1 m) of the start and goals and [−1, 1] for the
+quaternion; the kinematics, validity and the returned path see the quaternion normalised (OMPL keeps it unit
+only to the constraint tolerance).  ``length`` then mixes metres and quaternion units.
+
 OMPL's random generator is seeded once per process (``ompl.util.RNG.setSeed`` before its first use); the goal
 samples come from a numpy generator seeded per plan.
 """
@@ -189,13 +196,17 @@ class Validity:
         self.problem = problem
         lim = problem.system.limits
         self.lower, self.upper = lim.lower, lim.upper
+        s = problem.system
+        # the limits bound the joints' coordinates (in q̇ order): q itself when nq = nv
+        self.coordinates = (lambda q: q) if s.nq == s.nv else s.limit_coordinates
         self.grasp = _points_source(problem)
         self.checks = 0
 
     def reason(self, q: np.ndarray) -> str:
         """Empty if q is valid, else what fails (the first failing check)."""
         p = self.problem
-        if np.any(q < self.lower) or np.any(q > self.upper):
+        x = self.coordinates(q)
+        if np.any(x < self.lower) or np.any(x > self.upper):
             return "outside the joint limits"
         try:  # the cheap checks first: the path region and the box take microseconds, the arms' capsules ~0.5 ms
             if p.path_region is not None and not p.path_region.contains(q, 1e-9):
@@ -259,6 +270,80 @@ def _constraint_class(ob: Any, exact: bool) -> Any:
     return _Exact
 
 
+def _quaternion_slices(system: Any) -> list[slice]:
+    """The q slices of every free flyer's quaternion (x y z w); empty when nq = nv."""
+    m = system.model
+    return [
+        slice(int(m.idx_qs[j]) + 3, int(m.idx_qs[j]) + 7)
+        for j in range(1, m.njoints)
+        if m.joints[j].shortname() == "JointModelFreeFlyer"
+    ]
+
+
+def _unit(system: Any, q: np.ndarray) -> np.ndarray:
+    """q with its free flyers' quaternions normalised (OMPL's projection keeps them unit only to its tolerance,
+    and the kinematics refuse a norm off by 1e-6); q itself when nq = nv."""
+    quats = _quaternion_slices(system)
+    if not quats:
+        return q
+    out = np.array(q, dtype=float)
+    for sl in quats:
+        n = float(np.linalg.norm(out[sl]))
+        if n > 0.0:
+            out[sl] /= n
+    return out
+
+
+class _EmbeddedResidual:
+    """A free flyer's path constraint in OMPL's ambient R^nq (its constrained spaces wrap a real-vector space
+    only): the residual at the normalised q, then one row ``|quat|² − 1`` per free flyer, which makes the
+    quaternion unit on the manifold.  Ambient Jacobian: ``J_v · pinv(pin.tangentMap(model, q))`` (the residual's
+    nv columns along q ⊕ v mapped to coordinate changes; a radial change of a quaternion moves nothing) and
+    ``2 quatᵀ`` for the norm rows."""
+
+    def __init__(self, residual: Any, system: Any) -> None:
+        self.residual, self.system = residual, system
+        self.quats = _quaternion_slices(system)
+        self.nq = int(system.nq)
+        self.dim = int(residual.dim) + len(self.quats)
+
+    def _norms(self, q: np.ndarray) -> np.ndarray:
+        return np.array([float(q[sl] @ q[sl]) - 1.0 for sl in self.quats])
+
+    def value(self, q: np.ndarray) -> np.ndarray:
+        return np.concatenate([_value(self.residual, _unit(self.system, q)), self._norms(q)])
+
+    def evaluate(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        import pinocchio as pin
+
+        qu = _unit(self.system, q)
+        r, Jv = self.residual.evaluate(qu)
+        J = np.zeros((self.dim, self.nq))
+        J[: len(r)] = Jv @ np.linalg.pinv(pin.tangentMap(self.system.model, qu))
+        for k, sl in enumerate(self.quats):
+            J[len(r) + k, sl] = 2.0 * q[sl]
+        return np.concatenate([r, self._norms(q)]), J
+
+
+def _ambient_bounds(system: Any, Q: np.ndarray, window: float) -> tuple[np.ndarray, np.ndarray]:
+    """OMPL's box on q (nq,) for a free flyer: a joint's limits within ``window`` of the configurations Q, the
+    flyer's position within ``window`` [m] of them (at least 1 m: its range is unbounded), its quaternion in
+    [−1, 1]."""
+    lim = system.limits
+    lo, hi = np.full(system.nq, -1.0), np.full(system.nq, 1.0)
+    m = system.model
+    for j in range(1, m.njoints):
+        iq, iv = int(m.idx_qs[j]), int(m.idx_vs[j])
+        if m.nqs[j] == 1 and m.nvs[j] == 1:
+            lo[iq] = max(lim.lower[iv], Q[:, iq].min() - window)
+            hi[iq] = min(lim.upper[iv], Q[:, iq].max() + window)
+        elif m.joints[j].shortname() == "JointModelFreeFlyer":
+            w = min(max(window, 1.0), 1e3)
+            lo[iq : iq + 3] = Q[:, iq : iq + 3].min(axis=0) - w
+            hi[iq : iq + 3] = Q[:, iq : iq + 3].max(axis=0) + w
+    return lo, hi
+
+
 def _state_array(state: Any, nq: int) -> np.ndarray:
     return np.fromiter((state[i] for i in range(nq)), dtype=float, count=nq)
 
@@ -269,15 +354,20 @@ def _space(ob: Any, problem: PlanningProblem, o: PlannerOptions, configs: list) 
     nq = int(problem.system.model.nq)
     lim = problem.system.limits
     Q = np.array(configs)
-    lo = np.maximum(lim.lower, Q.min(axis=0) - o.window)
-    hi = np.minimum(lim.upper, Q.max(axis=0) + o.window)
+    residual = problem.path_constraint
+    if problem.system.nq == problem.system.nv:
+        lo = np.maximum(lim.lower, Q.min(axis=0) - o.window)
+        hi = np.minimum(lim.upper, Q.max(axis=0) + o.window)
+    else:  # a free flyer: the quaternion embedded in R^nq, kept unit by the constraint (_EmbeddedResidual)
+        lo, hi = _ambient_bounds(problem.system, Q, o.window)
+        residual = _EmbeddedResidual(residual, problem.system)
     rv = ob.RealVectorStateSpace(nq)
     b = ob.RealVectorBounds(nq)
     for i in range(nq):
         b.setLow(i, float(lo[i]))
         b.setHigh(i, float(hi[i]))
     rv.setBounds(b)
-    con = _constraint_class(ob, o.jacobian == "exact")(problem.path_constraint, o.tolerance)
+    con = _constraint_class(ob, o.jacobian == "exact")(residual, o.tolerance)
     css = ob.ProjectedStateSpace(rv, con) if o.space == "projected" else ob.AtlasStateSpace(rv, con)
     css.setDelta(o.delta)
     csi = ob.ConstrainedSpaceInformation(css)
@@ -307,14 +397,13 @@ def plan(problem: PlanningProblem, options: PlannerOptions | None = None, **over
 
     Raises:
         InvalidInputError: the start is invalid or off the path constraint (the message says which check).
-        UnsupportedJointError: the system has a free flyer (nq ≠ nv).
+
+    A free flyer (nq ≠ nv) is planned in OMPL's ambient R^nq with its quaternion kept unit by an extra equality
+    row of the constraint (:class:`_EmbeddedResidual`); the path returned has unit quaternions (normalised from
+    OMPL's states, which are unit to the constraint tolerance).
     """
     import dataclasses
 
-    # OMPL's state space here is R^nq with box bounds, interpolated linearly: not a quaternion
-    problem.system.require_nq_equals_nv(
-        "plan (OMPL's real-vector state space on q)", "gauss_newton_ik or diff_ik_reach (they move q by integrate)"
-    )
     o = dataclasses.replace(options or PlannerOptions(), **overrides)
     ob, og, _ = _ompl()
     seed_ompl(o.seed)
@@ -333,7 +422,7 @@ def plan(problem: PlanningProblem, options: PlannerOptions | None = None, **over
                           time=goal_time, goal_time=goal_time)  # fmt: skip
     con, css, csi = _space(ob, problem, o, [q0, *goals])
     ss = og.SimpleSetup(csi)
-    ss.setStateValidityChecker(lambda s: valid(_state_array(s, nq)))
+    ss.setStateValidityChecker(lambda s: valid(_unit(problem.system, _state_array(s, nq))))
     start = css.allocState()
     start.copy(q0.tolist())
     ss.setStartState(start)
@@ -392,9 +481,10 @@ def _finish(ss: Any, status: Any, problem: PlanningProblem, o: PlannerOptions, v
         ss.simplifySolution(_simplify_condition(o.simplify_time))
     simplify_time = time.perf_counter() - t1
     path = ss.getSolutionPath()
-    waypoints = np.array([_state_array(path.getState(i), nq) for i in range(path.getStateCount())])
+    s = problem.system
+    waypoints = np.array([_unit(s, _state_array(path.getState(i), nq)) for i in range(path.getStateCount())])
     path.interpolate()
-    Q = np.array([_state_array(path.getState(i), nq) for i in range(path.getStateCount())])
+    Q = np.array([_unit(s, _state_array(path.getState(i), nq)) for i in range(path.getStateCount())])
     length = float(np.sum(np.linalg.norm(np.diff(Q, axis=0), axis=1)))
     viol = max(float(np.max(np.abs(_value(problem.path_constraint, q)))) for q in Q)
     ok = all(valid(q) for q in Q)

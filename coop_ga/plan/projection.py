@@ -23,7 +23,7 @@ import numpy as np
 from .. import validation
 from ..control.gauss_newton import GaussNewtonOptions, gauss_newton_ik
 from ..diagnostics import collect_warnings
-from ..errors import DegeneratePrimitiveError
+from ..errors import DegeneratePrimitiveError, InvalidInputError
 from ..geometry.groups import Similarity
 
 __all__ = ["PROJECTION_OPTIONS", "Projection", "project"]
@@ -58,6 +58,8 @@ class _ResidualTask:
     def __init__(self, residual: Any, system: Any) -> None:
         self.residual, self.system = residual, system
         self.nq = int(residual.nq)
+        # with a free flyer (nv < nq) the residual's Jacobian is along q ⊕ v and the solver steps by integrate
+        self.nv = int(getattr(residual, "nv", self.nq))
         self.name = f"{getattr(system, 'name', 'system')} region residual"
 
     def check_target(self, target: Any) -> Any:
@@ -88,17 +90,23 @@ def project(
         A :class:`Projection`; ``converged=False`` (never NaN) when the start is degenerate or the solver
         stops above ``tol``.
 
+    With a free flyer (nq ≠ nv) the residual's Jacobian has nv columns along ``q ⊕ v`` and the Gauss–Newton
+    steps move q by ``system.integrate`` (the quaternion stays unit); the limits bound the joints only.
+
     Raises:
-        UnsupportedJointError: the system has a free flyer (nq ≠ nv).
+        InvalidInputError: the residual's nq/nv are not the system's.
     """
-    # the residuals of coop_ga.plan.regions differentiate in q with nq columns, one per coordinate
-    system.require_nq_equals_nv("plan.project (region residuals on q)", "gauss_newton_ik on a cooperative task")
     q0 = validation.configuration(q_init, int(residual.nq), "q_init")
+    if (int(residual.nq), int(getattr(residual, "nv", residual.nq))) != (system.nq, system.nv):
+        raise InvalidInputError(
+            f"the residual has nq = {residual.nq}, nv = {getattr(residual, 'nv', residual.nq)}; system "
+            f"'{getattr(system, 'name', '?')}' has nq = {system.nq}, nv = {system.nv}: build it from that system's task"
+        )
     opts = options if options is not None else PROJECTION_OPTIONS
     task = _ResidualTask(residual, system)
     try:
         with collect_warnings(silent=True):
             res = gauss_newton_ik(task, q0, _UNUSED_TARGET, opts, **overrides)
     except DegeneratePrimitiveError as exc:
-        return Projection(False, system.limits.clip(q0), float("inf"), 0, f"degenerate primitive: {exc}")
+        return Projection(False, system.clip(q0), float("inf"), 0, f"degenerate primitive: {exc}")
     return Projection(bool(res.converged), np.asarray(res.q, float), float(res.error), int(res.iterations), res.message)

@@ -45,7 +45,9 @@ Residuals
   J^G).  End-point Jacobians come from Pinocchio (``LOCAL_WORLD_ALIGNED``).
 * :class:`Stack`: residuals stacked (a path constraint and a goal target projected together).
 
-Every residual has ``dim`` rows and ``evaluate(q) → (r (dim,), J (dim, nq))``.  Degenerate end points raise
+Every residual has ``dim`` rows and ``evaluate(q) → (r (dim,), J (dim, nv))``: q has nq entries and J one
+column per velocity, nv (= nq without a free flyer; with one, J^G and Pinocchio's Jacobians are along
+Pinocchio's LOCAL base velocity, i.e. along ``q ⊕ v``, :meth:`~coop_ga.systems.System.integrate`).  Degenerate end points raise
 the task's :class:`~coop_ga.errors.DegeneratePrimitiveError` (never NaN).
 """
 
@@ -76,13 +78,13 @@ __all__ = [
 
 
 class Residual(Protocol):
-    """A vector function of q with its Jacobian: ``dim`` rows, ``nq`` columns."""
+    """A vector function of q (nq,) with its Jacobian along ``q ⊕ v``: ``dim`` rows, ``nv`` columns."""
 
     dim: int
     nq: int
 
     def evaluate(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``(r (dim,), ∂r/∂q (dim, nq))`` at q (nq,)."""
+        """``(r (dim,), ∂r/∂v (dim, nv))`` at q (nq,) (∂r/∂q when nq = nv)."""
         ...
 
 
@@ -199,7 +201,7 @@ class Region:
         frame: Any = None,
     ) -> None:
         self.task = task
-        self.nq = int(task.nq)
+        self.nq, self.nv = int(task.nq), int(task.system.nv)
         spec = task.spec
         self.R, self.p = _frame(frame)
         self.lower, self.upper = _interval(centre_lower, centre_upper, 3, "centre bounds [m]")
@@ -258,7 +260,7 @@ class Region:
         Jacobian (dim, nq) (rows of the coordinates inside their bounds are zero)."""
         ro, x, dx = self.coordinates(q)
         r = np.zeros(self.dim)
-        J = np.zeros((self.dim, self.nq))
+        J = np.zeros((self.dim, self.nv))
         xc = np.clip(x, self.lower, self.upper)
         r[:3] = x - xc
         out = x != xc
@@ -332,7 +334,7 @@ class RegionTarget:
     ``o_F`` the axis in the region frame, three rows of rank 2)."""
 
     def __init__(self, region: Region, sample: RegionSample) -> None:
-        self.region, self.sample, self.nq = region, sample, region.nq
+        self.region, self.sample, self.nq, self.nv = region, sample, region.nq, region.nv
         self.use_axis = region.cone_axis is not None and sample.axis is not None
         self.use_beta = region.beta is not None and sample.log_scale is not None
         self.dim = 3 + 3 * self.use_axis + self.use_beta
@@ -395,7 +397,7 @@ class RigidGrasp:
     """
 
     def __init__(self, task: Any, q_ref: Any, mode: str = "distances") -> None:
-        self.task, self.nq = task, int(task.nq)
+        self.task, self.nq, self.nv = task, int(task.nq), int(task.system.nv)
         self.mode = validation.choice(mode, ("distances", "scale"), "mode")
         q0 = validation.configuration(q_ref, self.nq, "q_ref")
         self.end_points = EndPoints(task.system, task.end_frames)
@@ -418,7 +420,7 @@ class RigidGrasp:
     def _distances(self, q: np.ndarray, jacobian: bool = False) -> tuple[np.ndarray, np.ndarray]:
         P, Js = self.points(q, jacobian)
         d = np.empty(len(self.pairs))
-        J = np.zeros((len(self.pairs), self.nq))
+        J = np.zeros((len(self.pairs), self.nv))
         for k, (i, j) in enumerate(self.pairs):
             v = P[i] - P[j]
             d[k] = float(np.linalg.norm(v))
@@ -454,7 +456,8 @@ class Stack:
             raise InvalidInputError("Stack needs at least one residual")
         self.parts = tuple(parts)
         self.nq = int(self.parts[0].nq)
-        if any(int(p.nq) != self.nq for p in self.parts):
+        self.nv = int(getattr(self.parts[0], "nv", self.nq))
+        if any(int(p.nq) != self.nq or int(getattr(p, "nv", p.nq)) != self.nv for p in self.parts):
             raise InvalidInputError(f"Stack: residuals of different nq {[p.nq for p in self.parts]}")
         self.dim = sum(int(p.dim) for p in self.parts)
 
@@ -468,10 +471,28 @@ class Stack:
         return np.concatenate([r for r, _ in out]), np.vstack([J for _, J in out])
 
 
-def finite_difference_jacobian(residual: Any, q: Any, h: float = 1e-6, central: bool = False) -> np.ndarray:
+def finite_difference_jacobian(
+    residual: Any, q: Any, h: float = 1e-6, central: bool = False, system: Any = None
+) -> np.ndarray:
     """∂r/∂q (dim, nq) by forward (or central) differences of ``residual.evaluate`` — the reference and the
-    ablation of the exact Jacobian (``nq`` or ``2 nq`` extra evaluations)."""
+    ablation of the exact Jacobian (``nq`` or ``2 nq`` extra evaluations).  A residual of a free flyer
+    (``nv ≠ nq``) needs its ``system``: the differences are then along ``q ⊕ (±h e_i)`` (nv columns)."""
     qv = validation.configuration(q, residual.nq, "q")
+    nv = int(getattr(residual, "nv", residual.nq))
+    if nv != residual.nq:
+        if system is None or int(system.nv) != nv:
+            raise InvalidInputError(
+                f"the residual has nq = {residual.nq}, nv = {nv} (a free flyer): pass its system= so that the "
+                "differences move q by system.integrate"
+            )
+        r0 = residual.evaluate(qv)[0]
+        step = [system.integrate(qv, h * e) for e in np.eye(nv)]
+        if central:
+            back = [system.integrate(qv, -h * e) for e in np.eye(nv)]
+            return np.array(
+                [(residual.evaluate(a)[0] - residual.evaluate(b)[0]) / (2 * h) for a, b in zip(step, back)]
+            ).T
+        return np.array([(residual.evaluate(a)[0] - r0) / h for a in step]).T
     r0 = residual.evaluate(qv)[0]
     J = np.empty((len(r0), len(qv)))
     for i in range(len(qv)):

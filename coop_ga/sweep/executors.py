@@ -93,7 +93,7 @@ def _setup_jobs(items: Sequence[Item]) -> list[dict[str, Any]]:
     """One job per distinct (task, controller): what a worker initialiser needs to build and warm up."""
     seen: dict[str, dict[str, Any]] = {}
     for _, j in items:
-        k = repr((j["system"], j["kind"], j["points"], j["controller"]))
+        k = repr((j["system"], j.get("free_flyer", False), j["kind"], j["points"], j["controller"]))
         seen.setdefault(k, j)
     return list(seen.values())
 

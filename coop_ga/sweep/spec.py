@@ -10,11 +10,17 @@ A **job** is a plain dict (or a :class:`Job`, converted with :meth:`Job.to_dict`
      "target": {"translation": [0.05, 0, 0], "angle": 0.2, "axis": [0, 0, 1], "scale": 1.1},
      "start": None,                      # optional: {"spread": rad, "qd_max": rad/s} random start about q0
      "certify": False,                   # certify the target (bounded least squares) before solving
+     "free_flyer": False,                # True: the registry's free-flyer variant, load(system, free_flyer=True)
      "seed": 3,                          # an int, or {"entropy": int, "spawn_key": [int, ...]}
      "tags": {}}                         # free fields copied into the record (for grouping)
 
 ``system`` as a recipe: ``{"urdf": path, "end_frames": [...], "locked_joints": [...], "name": ...,
 "q0": [...]}`` (:func:`coop_ga.systems.from_urdf`).
+
+``free_flyer: True`` puts the base on a free flyer (nq ≠ nv): with a registry name, the system is
+``coop_ga.systems.load(name, free_flyer=True)`` (a name without a variant fails as a job, naming those that
+have one); with a recipe it becomes the recipe's own ``"free_flyer": True`` (``from_urdf(..., free_flyer=True)``).
+``False`` (the default) is dropped from the normalized job, so jobs without it keep their hash.
 
 ``target`` is relative to the system's ``q0``, one of:
 
@@ -122,7 +128,19 @@ MAX_SPEC_BYTES = 8 * 2**20  # a spec file's size limit [bytes]
 MAX_YAML_ALIASES = 100  # YAML aliases (``*name``) allowed in one spec
 MAX_SPEC_NODES = 10**6  # values in a spec once its YAML aliases are expanded
 MAX_SPEC_DEPTH = 64  # nesting depth of a spec or a job
-JOB_FIELDS = ("system", "kind", "points", "controller", "options", "target", "start", "certify", "seed", "tags")
+JOB_FIELDS = (
+    "system",
+    "kind",
+    "points",
+    "controller",
+    "options",
+    "target",
+    "start",
+    "certify",
+    "free_flyer",
+    "seed",
+    "tags",
+)
 _TARGET_KEYS = {"translation", "axis", "angle", "scale"}
 _SAMPLER_KEYS = {"sampler", "level", "translation", "angle_deg", "scale", "qd_max"}
 _START_KEYS = {"spread", "qd_max", "q"}
@@ -143,6 +161,7 @@ RESERVED_RECORD_FIELDS = frozenset(
         "system",
         "kind",
         "controller",
+        "free_flyer",
     }
 )
 
@@ -159,6 +178,7 @@ class Job:
     points: Sequence[int] | None = None
     start: Mapping[str, Any] | None = None
     certify: bool = False
+    free_flyer: bool = False
     seed: Any = 0
     tags: Mapping[str, Any] = field(default_factory=dict)
 
@@ -318,6 +338,7 @@ def normalize_job(job: Mapping[str, Any] | Job) -> dict[str, Any]:
     _check_start(j["start"])
     if not isinstance(j["certify"], bool):
         raise InvalidJobError(f"job.certify must be True or False, got {j['certify']!r}")
+    _fold_free_flyer(j)
     try:
         seed_sequence(j["seed"])
     except (InvalidInputError, TypeError, ValueError, OverflowError) as exc:
@@ -326,6 +347,17 @@ def normalize_job(job: Mapping[str, Any] | Job) -> dict[str, Any]:
     if bad:
         raise InvalidJobError(f"tags: name(s) {sorted(bad)} are record fields; rename them")
     return j
+
+
+def _fold_free_flyer(j: dict[str, Any]) -> None:
+    """Normalize ``free_flyer`` (module docstring): dropped when False, moved into a recipe, kept for a name."""
+    ff = j.pop("free_flyer", False)
+    if not isinstance(ff, bool):
+        raise InvalidJobError(f"job.free_flyer must be True or False, got {ff!r}")
+    if ff and isinstance(j["system"], dict):
+        j["system"] = {**j["system"], "free_flyer": True}
+    elif ff:
+        j["free_flyer"] = True
 
 
 def _canonical(x: Any) -> str:
@@ -592,7 +624,7 @@ def _grid_jobs(base: dict[str, Any], grid: dict[str, Any]) -> list[tuple[dict[st
                 job[parts[0]] = sub
             else:
                 raise InvalidJobError(f"grid key {k!r}: a job field, options.X, target.X, start.X or sample")
-            if parts[-1] not in ("system", "kind", "controller"):
+            if parts[-1] not in ("system", "kind", "controller", "free_flyer"):
                 tags[parts[-1]] = v
         raw.append((job, tags))
     return raw

@@ -213,37 +213,61 @@ def _finite(x: Any) -> float | None:
     return v if math.isfinite(v) else None
 
 
+def _tangent_chart(system: Any, q_init: np.ndarray) -> tuple[Any, Any, np.ndarray, np.ndarray]:
+    """A free flyer's configurations as ``q(δ) = q_init ⊕ δ``, δ (nv,) [rad, m]: ``(to_q, dq_ddelta, lo, hi)``.
+
+    ``dq_ddelta(δ)`` (nv, nv) is ``pinocchio.dIntegrate(…, ARG1)``: a velocity at q(δ) per unit δ, so
+    ``J_e(q(δ)) dq_ddelta(δ)`` is ∂e/∂δ.  A 1-DOF joint's coordinate is ``q_init_j + δ_j`` exactly, so its position
+    limits are the box ``[lower − q_init_j, upper − q_init_j]`` on δ; the flyer's rows are unbounded."""
+    import pinocchio as pin
+
+    lim = system.limits
+    x = system.limit_coordinates(q_init)
+    free = system._limit_index < 0
+    lo = np.where(free, -np.inf, np.asarray(lim.lower, dtype=float) - x)
+    hi = np.where(free, np.inf, np.asarray(lim.upper, dtype=float) - x)
+    return (
+        lambda d: system.integrate(q_init, d),
+        lambda d: pin.dIntegrate(system.model, q_init, d, pin.ARG1),
+        lo,
+        hi,
+    )
+
+
 def certify(task: Any, q_init: np.ndarray, target: SimilarityLike) -> dict[str, Any]:
     """Independent bounded least-squares solve of e(q) = 0 inside the position limits.
 
     ``scipy.optimize.least_squares(e, q_init, jac=J_e, bounds=(lower, upper), method="trf")`` from q_init (nq,) [rad];
     certified iff the final ‖e‖ < :data:`CERT_TOL` and the final q is within the limits.  Returns
     ``{certified, error, violation, nfev, status, reason, time_s}`` (the same as ``benchmarks/robustness.py``).
+    With a free flyer (nq ≠ nv) the unknown is δ (nv,) in ``q = q_init ⊕ δ`` (:func:`_tangent_chart`; one chart
+    about q_init, not a box on a quaternion), the bounds are the joints' limits and the violation is measured on
+    ``System.limit_coordinates``.
 
     Raises:
         InvalidInputError: ``task`` is not a cooperative task, ``q_init`` not a finite (nq,) vector.
-        UnsupportedJointError: the task's system has a free flyer (nq ≠ nv).
     """
     from scipy.optimize import least_squares
 
     if not (hasattr(task, "error_and_jacobian") and hasattr(task, "system") and hasattr(task, "nq")):
         raise InvalidInputError(f"task must be a coop_ga cooperative task, got {type(task).__name__}")
     q_init = validation.configuration(q_init, int(task.nq), "q_init")
-    # scipy's bounded least squares moves q as a vector (q + Δq) inside a box: not a quaternion
-    task.system.require_nq_equals_nv(
-        "sweep certify (scipy least_squares on q)", "gauss_newton_ik, which moves q by the system's integrate"
-    )
-
-    lim = task.system.limits
-    lo, hi = np.asarray(lim.lower, dtype=float), np.asarray(lim.upper, dtype=float)
-    x0 = np.clip(np.asarray(q_init, dtype=float), lo, hi)  # trf needs a feasible start
+    system = task.system
+    lim = system.limits
     cache: dict[str, Any] = {}
+    if system.nq == system.nv:
+        lo, hi = np.asarray(lim.lower, dtype=float), np.asarray(lim.upper, dtype=float)
+        x0 = np.clip(np.asarray(q_init, dtype=float), lo, hi)  # trf needs a feasible start
+        to_q, chain = (lambda q: q), None
+    else:
+        to_q, chain, lo, hi = _tangent_chart(system, q_init)
+        x0 = np.clip(np.zeros(system.nv), lo, hi)
 
-    def both(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        # least_squares asks for e and J_e at the same q: one compiled call for both
-        if cache.get("q") is None or not np.array_equal(cache["q"], q):
-            e, J = task.error_and_jacobian(q, target)
-            cache.update(q=q.copy(), e=e, J=J)
+    def both(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        # least_squares asks for e and J_e at the same point: one compiled call for both
+        if cache.get("q") is None or not np.array_equal(cache["q"], x):
+            e, J = task.error_and_jacobian(to_q(x), target)
+            cache.update(q=x.copy(), e=e, J=J if chain is None else J @ chain(x))
         return cache["e"], cache["J"]
 
     t0 = time.perf_counter()
@@ -270,8 +294,9 @@ def certify(task: Any, q_init: np.ndarray, target: SimilarityLike) -> dict[str, 
                 gtol=1e-12,
                 max_nfev=CERT_MAX_NFEV,
             )
-            err = float(np.linalg.norm(task.error(sol.x, target)))
-        viol = lim.position_violation(sol.x)
+            q_sol = to_q(sol.x)
+            err = float(np.linalg.norm(task.error(q_sol, target)))
+        viol = lim.position_violation(system.limit_coordinates(q_sol))
         out.update(error=_finite(err), violation=_finite(viol), nfev=int(sol.nfev), status=int(sol.status))
         if not (math.isfinite(err) and err < CERT_TOL):
             out["reason"] = f"bounded solve ended at ‖e‖ = {err:.3g} ≥ {CERT_TOL:g} (status {sol.status})"

@@ -91,13 +91,20 @@ def _key(x: Any) -> str:
     return json.dumps(x, sort_keys=True, separators=(",", ":"))
 
 
+def _system_spec(job: Mapping[str, Any]) -> Any:
+    """The job's system as :func:`_system` takes it: the name or recipe, or ``[name, "free_flyer"]``."""
+    return [job["system"], "free_flyer"] if job.get("free_flyer") else job["system"]
+
+
 def _system(spec: Any) -> Any:
     from .. import systems
 
     k = _key(spec)
     s = _CTX.systems.get(k)
     if s is None:
-        if isinstance(spec, str):
+        if isinstance(spec, list):  # a registry name's free-flyer variant
+            s = systems.load(spec[0], free_flyer=True)
+        elif isinstance(spec, str):
             s = systems.load(spec)
         else:
             r = dict(spec)
@@ -112,7 +119,7 @@ def _system(spec: Any) -> Any:
 
 
 def _task_key(job: Mapping[str, Any]) -> str:
-    return _key([job["system"], job["kind"], job.get("points")])
+    return _key([_system_spec(job), job["kind"], job.get("points")])
 
 
 def _task(job: Mapping[str, Any]) -> Any:
@@ -121,7 +128,7 @@ def _task(job: Mapping[str, Any]) -> Any:
     k = _task_key(job)
     t = _CTX.tasks.get(k)
     if t is None:
-        t = _CTX.tasks[k] = cooperative_task(_system(job["system"]), job["kind"], job.get("points"))
+        t = _CTX.tasks[k] = cooperative_task(_system(_system_spec(job)), job["kind"], job.get("points"))
     return t
 
 
@@ -139,7 +146,7 @@ def _case_problem(job: Mapping[str, Any]) -> str | None:
     if k in _CTX.cases:
         return _CTX.cases[k]
     reason: str | None = None
-    sysobj = _system(job["system"])
+    sysobj = _system(_system_spec(job))
     need = N_POINTS.get(job["kind"])
     have = len(job["points"]) if job.get("points") is not None else len(sysobj.end_frames)
     if need is not None and have < need:
@@ -378,6 +385,8 @@ def base_record(index: int, job: Mapping[str, Any]) -> dict[str, Any]:
         "kind": job["kind"],
         "controller": job["controller"],
     }
+    if job.get("free_flyer"):
+        rec["free_flyer"] = True
     rec.update(job.get("tags") or {})
     rec.update(
         {

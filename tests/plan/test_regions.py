@@ -197,22 +197,85 @@ def test_projection_of_a_degenerate_start_is_a_failure_not_nan(load_system):
     assert not p.converged and "collinear" in p.message and np.all(np.isfinite(p.q))
 
 
-def test_planning_refuses_a_free_flyer():
-    """The planner's state space and the region residuals treat q as a vector: a floating G1 (nq = 24, nv = 23) is
-    refused with an UnsupportedJointError naming the function and what works, before anything runs."""
-    from coop_ga.errors import UnsupportedJointError
-    from coop_ga.plan.ompl import PlanningProblem, plan
+def test_projection_on_a_free_flyer():
+    """The floating G1 (nq = 24, nv = 23): the region and rigid-grasp residuals' Jacobians have nv columns along
+    q ⊕ v (central differences through pinocchio.integrate); project() moves the pelvis by integrate to put the
+    hands' midpoint into a box 0.5 m ahead, holding their distance (Pinocchio FK), the quaternion unit, the
+    joints inside their limits."""
+    import pinocchio as pin
+
     from coop_ga.systems import load
 
     s = load("g1_arms", free_flyer=True)
+    task = cooperative_task(s, "point_pair")
+    q0 = s.q0
+    c0 = readout(task, q0).centre
+    lo, hi = c0 + np.array([0.5, -0.05, 0.1]), c0 + np.array([0.6, 0.05, 0.2])
+    region, grasp = Region(task, lo, hi), RigidGrasp(task, q0)
+    stack = Stack([region, grasp])
+    q1 = s.integrate(q0, 0.1 * np.random.default_rng(0).normal(size=s.nv))
+    J = stack.evaluate(q1)[1]
+    assert J.shape == (stack.dim, 23)
+    assert np.abs(J - finite_difference_jacobian(stack, q1, central=True, system=s)).max() < 1e-6
+    with pytest.raises(InvalidInputError, match="system="):
+        finite_difference_jacobian(stack, q1)
+    p = project(stack, s, q0)
+    assert p.converged and p.error < 1e-8, p.message
+    assert abs(np.linalg.norm(p.q[3:7]) - 1.0) < 1e-12 and np.linalg.norm(p.q[:3] - q0[:3]) > 0.3
+    assert s.limits.position_violation(s.limit_coordinates(p.q)) == 0.0
+    d = s.model.createData()
 
-    class Residual:
-        nq, dim = s.nq, 1
+    def hands(q):
+        pin.framesForwardKinematics(s.model, d, q)
+        return np.array([d.oMf[s.model.getFrameId(f)].translation for f in s.end_frames])
 
-        def evaluate(self, q):
-            raise AssertionError("not reached")
+    h0, h1 = hands(q0), hands(p.q)
+    mid = h1.mean(axis=0)
+    assert np.all(mid >= lo - 1e-8) and np.all(mid <= hi + 1e-8)
+    assert abs(np.linalg.norm(h1[0] - h1[1]) - np.linalg.norm(h0[0] - h0[1])) < 1e-8
 
-    with pytest.raises(UnsupportedJointError, match=r"plan.project .*nq = 24, nv = 23.*gauss_newton_ik"):
-        project(Residual(), s, s.q0)
-    with pytest.raises(UnsupportedJointError, match=r"plan \(OMPL.*nq = 24, nv = 23.*diff_ik_reach"):
-        plan(PlanningProblem(s, s.q0, Residual(), None))
+
+def _g1_hands(s, q):
+    import pinocchio as pin
+
+    d = s.model.createData()
+    pin.framesForwardKinematics(s.model, d, q)
+    return np.array([d.oMf[s.model.getFrameId(f)].translation for f in s.end_frames])
+
+
+def test_ompl_plans_a_free_flyer_with_the_quaternion_embedded():
+    """The floating G1 in OMPL's ambient R^24 with the quaternion kept unit by an extra constraint row: the
+    ambient Jacobian equals central differences of the constraint function; RRTConnect carries the hands (their
+    distance held) into a box 0.3 m ahead; along the interpolated path the quaternion is unit, the grasp holds
+    (Pinocchio FK), the joints stay inside their limits and each step is at most delta along the manifold."""
+    pytest.importorskip("ompl")
+    from coop_ga.plan.ompl import PlannerOptions, PlanningProblem, _EmbeddedResidual, plan
+    from coop_ga.systems import load
+
+    s = load("g1_arms", free_flyer=True)
+    task = cooperative_task(s, "point_pair")
+    q0 = s.q0
+    grasp = RigidGrasp(task, q0)
+    emb = _EmbeddedResidual(grasp, s)
+    q1 = s.integrate(q0, 0.1 * np.random.default_rng(1).normal(size=s.nv))
+    r, J = emb.evaluate(q1)
+    assert r.shape == (2,) and J.shape == (2, 24) and abs(r[1]) < 1e-14
+    h = 1e-6
+    fd = np.array([(emb.value(q1 + h * e) - emb.value(q1 - h * e)) / (2 * h) for e in np.eye(24)]).T
+    assert np.abs(J - fd).max() < 1e-6
+    c0 = readout(task, q0).centre
+    lo, hi = c0 + np.array([0.3, -0.05, 0.1]), c0 + np.array([0.4, 0.05, 0.2])
+    opts = PlannerOptions(time_limit=30.0, window=0.5, seed=0)
+    res = plan(PlanningProblem(s, q0, grasp, Region(task, lo, hi)), opts)
+    assert res.success and res.valid, res.message
+    Q = res.path
+    assert Q.shape[1] == 24 and np.abs(np.linalg.norm(Q[:, 3:7], axis=1) - 1.0).max() < 1e-12
+    assert res.max_violation <= 10 * opts.tolerance
+    d0 = np.linalg.norm(np.subtract(*_g1_hands(s, q0)))
+    dev = max(abs(np.linalg.norm(np.subtract(*_g1_hands(s, q))) - d0) for q in Q)
+    assert dev <= 10 * opts.tolerance
+    mid = _g1_hands(s, Q[-1]).mean(axis=0)
+    assert np.all(mid >= lo - 1e-6) and np.all(mid <= hi + 1e-6)
+    assert s.limits.position_violation(s.limit_coordinates(Q)) == 0.0
+    assert max(np.linalg.norm(s.difference(Q[k], Q[k + 1])) for k in range(len(Q) - 1)) <= 1.1 * opts.delta
+    assert np.linalg.norm(Q[-1, :3] - q0[:3]) > 0.1  # the pelvis moved

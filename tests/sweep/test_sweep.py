@@ -442,7 +442,7 @@ def test_benchmark_ci_mode(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
 def test_free_flyer_recipe_job() -> None:
     """The hexapod body on a free flyer (from_urdf(free_flyer=True), nq = 25, nv = 24): the start spread is a
     velocity applied by integrate, the limit measures compare the joints (not the quaternion) with the limits,
-    and certify — scipy's bounded least squares on q — refuses it with an UnsupportedJointError record."""
+    and certify — scipy's bounded least squares on δ in q = q0 ⊕ δ — certifies the target inside the joint limits."""
     from coop_ga.systems import ROBOTS_DIR
 
     recipe = {
@@ -464,5 +464,35 @@ def test_free_flyer_recipe_job() -> None:
     assert gn["violation"] == 0.0
     assert diffik["status"] == "ok" and diffik["converged"] and diffik["error"] < 1e-4
     assert diffik["violation"] == 0.0 and diffik["speed_violation"] == 0.0 and diffik["max_speed"] > 0.1
-    assert cert["status"] == "failed" and cert["exception_type"] == "UnsupportedJointError"
-    assert "certify: sweep certify" in cert["exception"] and "nq = 25, nv = 24" in cert["exception"]
+    assert cert["status"] == "ok" and cert["certified"] is True and cert["converged"], cert.get("exception")
+
+
+MOVE = {"translation": [0.6, 0.2, 0.3], "axis": [0.0, 0.0, 1.0], "angle": 0.4}
+
+
+def test_free_flyer_job_field_loads_the_registry_variant() -> None:
+    """``free_flyer: True`` with a registry name is load(name, free_flyer=True) (the floating G1, nq = 24): a target
+    0.6 m away is certified and reached with the floating pelvis and not certified with the fixed one; False is
+    dropped from the normalized job (its hash unchanged); a name without a variant fails as a job."""
+    from coop_ga.sweep.targets import CERT_TOL
+
+    job = {"system": "g1_arms", "kind": "point_pair", "controller": "gauss_newton", "target": MOVE, "certify": True}
+    assert sw.normalize_job({**job, "free_flyer": False}) == sw.normalize_job(job)
+    assert sw.job_hash(sw.normalize_job({**job, "free_flyer": False})) == sw.job_hash(sw.normalize_job(job))
+    with pytest.raises(CoopGAError, match="free_flyer must be True or False"):
+        sw.normalize_job({**job, "free_flyer": 1})
+    floating, fixed, none = sw.run(
+        [{**job, "free_flyer": True}, job, {**job, "system": "three_franka", "free_flyer": True}]
+    )
+    assert floating["nq"] == 24 and floating["free_flyer"] is True and "free_flyer" not in fixed
+    assert floating["status"] == "ok" and floating["certified"] is True, floating.get("exception")
+    assert floating["converged"] and floating["error"] < 1e-9 and floating["violation"] == 0.0
+    assert fixed["certified"] is False and fixed["nq"] == 17
+    assert none["status"] == "failed" and none["exception_type"] == "UnsupportedJointError"
+    assert "has no free-flyer variant" in none["exception"]
+    task = sw.worker._task({**job, "free_flyer": True})
+    from coop_ga.control import displaced_target
+
+    Vd = displaced_target(task, task.system.q0, **MOVE)
+    c = sw.targets.certify(task, task.system.q0, Vd)
+    assert c["certified"] and c["error"] < CERT_TOL and c["violation"] == 0.0
