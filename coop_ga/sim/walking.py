@@ -237,7 +237,10 @@ class WalkingOptions:
         touches something before mid-swing goes on this far [m] above the higher of where it is and its
         foothold; face_tilt: [rad] a contact whose normal (the foot's force sensor,
         :meth:`~coop_ga.sim.hexapod.HexapodScene.foot_normals`) is tilted more than this from vertical is a face
-        (a riser, a tile's side), not a foothold; step_over: [m] a swing foot that meets a face from mid-swing on
+        (a riser, a tile's side), not a foothold (30°: a ball resting on an edge with its centre more than
+        r sin 30° = 4.5 mm short of it is on a face; at 45° a blind tripod front foot stood on a riser's edge, its
+        centre 6 mm short of it, normal tilted 37°, and its shin touched the edge); step_over: [m] a swing foot that
+        meets a face from mid-swing on (blind with ``probe_guard``: from the first tenth of the swing on)
         steps over it — its foothold moves this far past where it touched, into the face's direction, on a path
         ``stumble_lift`` high (at most up to ``foot_drop`` below the body) lasting ``step_over_time`` [s] — instead
         of touching down against it (the shin would then lean on the edge); search_speed [m/s], search_depth [m]:
@@ -247,6 +250,12 @@ class WalkingOptions:
         load ramp after touchdown / before lift-off.  joint_speed: the joint targets move at most this fraction
         of the URDF's joint speed (the servos' no-load speed; at 0.8 its back-EMF takes 0.8 of the stall torque);
         a faster plan is followed at that speed (counted as ``speed_limited_plans``).
+    probe_guard, probe_height, probe_margin: blind, every swing ends with a probe
+        (:mod:`coop_ga.sim.walking_blind`): it reaches past its foothold as far as the leg's capsules would reach
+        toward a riser ``probe_guard`` [m] high during the stance (:func:`~coop_ga.sim.walking_blind.shin_reach`,
+        + ``probe_margin`` [m], − the ball's radius) with the ball's bottom ``probe_height`` [m] above the
+        expected ground, then comes back and descends: a riser there is touched (a face: stepped over) before
+        the foot stands where its shin would lean on it.  ``probe_guard = 0``: no probe.
     """
 
     gait: str = "tripod"
@@ -273,7 +282,7 @@ class WalkingOptions:
     touch_threshold: float = 0.5
     touchdown_depth: float = 0.005
     stumble_lift: float = 0.03
-    face_tilt: float = math.radians(45.0)
+    face_tilt: float = math.radians(30.0)
     step_over: float = 0.03
     step_over_time: float = 0.45
     contact_hold: float = 0.05
@@ -283,6 +292,9 @@ class WalkingOptions:
     search_depth: float = 0.05
     load_ramp: float = 0.05
     joint_speed: float = 0.8
+    probe_guard: float = 0.035
+    probe_height: float = 0.006
+    probe_margin: float = 0.003
 
     def __post_init__(self) -> None:
         validation.choice(self.gait, GAIT_NAMES, "gait")
@@ -313,6 +325,9 @@ class WalkingOptions:
             "stumble_lift",
             "step_over",
             "contact_hold",
+            "probe_guard",
+            "probe_height",
+            "probe_margin",
         ):
             validation.nonnegative(getattr(self, name), name)
         if self.cycle_time is not None:
@@ -702,6 +717,7 @@ class HexapodWalker:
         self._calls = 0
         self._started = False
         self._faces: dict[int, np.ndarray] = {}
+        self._probe = self._probe_reaches()
         #: [s] how long the gait has waited for late feet while moving: the command is followed at t − lag
         self.lag = 0.0
 
@@ -846,8 +862,6 @@ class HexapodWalker:
         return True
 
     def _lift_off(self, i: int, tau_lo: float, t: float, data: Any) -> None:
-        from ..legged.gait import swing_arc
-
         leg = self._legs[i]
         opt = self.options
         tab = self.table
@@ -872,8 +886,34 @@ class HexapodWalker:
         if opt.feedback:  # aim below the expected ground: the contact, not the end of the arc, ends the swing
             p1 = p1 - np.array([0.0, 0.0, opt.touchdown_depth])
         leg.arc = (p0, p1, lift, tau_lo)
-        leg.path = swing_arc(p0, p1, lift, _ARC_S)[0]  # sampled once; interpolated at each plan
+        leg.path = self._swing_path(i, p0, p1, lift)  # sampled once; interpolated at each plan
         leg.mode, leg.s0, leg.raises = 1, 0.0, 0
+
+    def _probe_reaches(self) -> np.ndarray:
+        """(6,) [m] how far each leg's blind swing probes past its foothold: its shin reach toward a
+        ``probe_guard`` riser (:func:`~coop_ga.sim.walking_blind.shin_reach`) − the ball's radius +
+        ``probe_margin``; zeros unless blind with feedback and ``probe_guard`` > 0."""
+        opt = self.options
+        if not (opt.blind and opt.feedback and opt.probe_guard > 0):
+            return np.zeros(6)
+        from .walking_blind import shin_reach
+
+        reach = shin_reach(self.legs, opt, guard=opt.probe_guard)
+        return np.maximum(reach - self.hs.foot_radius, 0.0) + opt.probe_margin
+
+    def _swing_path(self, i: int, p_from: np.ndarray, p1: np.ndarray, lift: float) -> np.ndarray:
+        """Leg i's swing path from ``p_from`` to ``p1`` sampled at ``_ARC_S``: the arc, or blind the probing arc
+        (:func:`~coop_ga.sim.walking_blind.probe_path`) along the swing's direction from its lift-off point."""
+        from ..legged.gait import swing_arc
+
+        reach = float(self._probe[i])
+        if reach <= 0.0:
+            return swing_arc(p_from, p1, lift, _ARC_S)[0]
+        from .walking_blind import probe_path
+
+        arc = self._legs[i].arc
+        h = self.options.probe_height + self.options.touchdown_depth  # p1 is aimed touchdown_depth below
+        return probe_path(p_from, p1, lift, reach, h, _ARC_S, direction=p1 - (p_from if arc is None else arc[0]))
 
     def _predict(self, t: float, horizon: float) -> np.ndarray:
         """The reference pose (x, y, yaw) ``horizon`` [s] ahead: the command schedule through the acceleration
@@ -924,14 +964,15 @@ class HexapodWalker:
         """Leg i's swing at progress s: touchdown at contact from mid-swing on; a contact before mid-swing (the foot
         stubbed a riser or a tile edge) raises the rest of the arc by ``stumble_lift`` (at most twice);
         the end of the arc without contact starts the search (feedback) or is the touchdown (open loop)."""
-        from ..legged.gait import swing_arc
-
         leg = self._legs[i]
         assert leg.arc is not None
         _p0, p1, _lift, tau_lo = leg.arc
         s = min(max((self._tau_g - tau_lo) / T_sw, 0.0), 1.0)
         fb = self.options.feedback
-        if fb and touch[i] and s >= 0.5:
+        # blind, a face met before mid-swing is stepped over too: raising the arc (a stumble) twice in a row
+        # against a riser's face left a tripod foot standing on its edge (measured on the 1 m steps walk)
+        face_first = self._probe[i] > 0 and i in self._faces and leg.raises < 2 and s > 0.1
+        if fb and touch[i] and (s >= 0.5 or face_first):
             if i in self._faces and leg.raises < 2:
                 self._step_over(i, t, q)
             else:
@@ -939,7 +980,7 @@ class HexapodWalker:
             return
         if fb and touch[i] and leg.raises < 2 and s > 0.1:
             top = max(leg.target[2], p1[2]) + self.options.stumble_lift
-            leg.path = swing_arc(leg.target, p1, top - max(leg.target[2], p1[2]), _ARC_S)[0]
+            leg.path = self._swing_path(i, leg.target, p1, top - max(leg.target[2], p1[2]))
             leg.s0, leg.raises = s, leg.raises + 1
             self.counts["stumbles"] += 1
         x = (s - leg.s0) / (1.0 - leg.s0) * (len(_ARC_S) - 1)
