@@ -237,10 +237,7 @@ class WalkingOptions:
         touches something before mid-swing goes on this far [m] above the higher of where it is and its
         foothold; face_tilt: [rad] a contact whose normal (the foot's force sensor,
         :meth:`~coop_ga.sim.hexapod.HexapodScene.foot_normals`) is tilted more than this from vertical is a face
-        (a riser, a tile's side), not a foothold (30°: a ball resting on an edge with its centre more than
-        r sin 30° = 4.5 mm short of it is on a face; at 45° a blind tripod front foot stood on a riser's edge, its
-        centre 6 mm short of it, normal tilted 37°, and its shin touched the edge); step_over: [m] a swing foot that
-        meets a face from mid-swing on (blind with ``probe_guard``: from the first tenth of the swing on)
+        (a riser, a tile's side), not a foothold; step_over: [m] a swing foot that meets a face from mid-swing on
         steps over it — its foothold moves this far past where it touched, into the face's direction, on a path
         ``stumble_lift`` high (at most up to ``foot_drop`` below the body) lasting ``step_over_time`` [s] — instead
         of touching down against it (the shin would then lean on the edge); search_speed [m/s], search_depth [m]:
@@ -282,7 +279,7 @@ class WalkingOptions:
     touch_threshold: float = 0.5
     touchdown_depth: float = 0.005
     stumble_lift: float = 0.03
-    face_tilt: float = math.radians(30.0)
+    face_tilt: float = math.radians(45.0)
     step_over: float = 0.03
     step_over_time: float = 0.45
     contact_hold: float = 0.05
@@ -813,6 +810,7 @@ class HexapodWalker:
         airborne = any(leg.mode != 0 for leg in self._legs)
         advanced = not waiting and (moving or airborne)
         saved = (self._tau_g, self._ref.copy(), self._vel.copy())
+        swinging = {i: leg.target.copy() for i, leg in enumerate(self._legs) if leg.mode == 1}
         if advanced:
             self._tau_g += self.dt
             self._vel = _limited(self._vel, cmd, self._accel, self.dt)
@@ -821,6 +819,11 @@ class HexapodWalker:
             self._ref += self.dt * np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
         if (advanced or waiting) and not self._gait_events(t, q, data, touch, cmd if moving else None):
             self._tau_g, self._ref, self._vel = saved  # the clock waits for the support
+            # and so do the swings: a target moved on at the clock just set back would step back at the next plan
+            # (at the servos' speed limit, a reversal that clipped the torque: measured on the 1 m steps walks)
+            for i, target in swinging.items():
+                if self._legs[i].mode == 1:
+                    self._legs[i].target = target
             return True
         return waiting
 
@@ -969,10 +972,7 @@ class HexapodWalker:
         _p0, p1, _lift, tau_lo = leg.arc
         s = min(max((self._tau_g - tau_lo) / T_sw, 0.0), 1.0)
         fb = self.options.feedback
-        # blind, a face met before mid-swing is stepped over too: raising the arc (a stumble) twice in a row
-        # against a riser's face left a tripod foot standing on its edge (measured on the 1 m steps walk)
-        face_first = self._probe[i] > 0 and i in self._faces and leg.raises < 2 and s > 0.1
-        if fb and touch[i] and (s >= 0.5 or face_first):
+        if fb and touch[i] and s >= 0.5:
             if i in self._faces and leg.raises < 2:
                 self._step_over(i, t, q)
             else:
@@ -1071,8 +1071,12 @@ class HexapodWalker:
         self.counts["step_overs"] += 1
 
     def _touchdown(self, i: int, t: float, q: np.ndarray, early: bool) -> None:
-        """The foot stops where it is commanded now: its anchor is its current target (continuous q_D)."""
+        """The foot stops where it is commanded now: its anchor is where the joint targets q_D put it (continuous
+        q_D) — its swing target when q_D follows it, else (the servos' speed limit) the point q_D has reached:
+        a target run ahead at touchdown kept q_D moving at the speed limit into the ground, and the torque clipped
+        (measured: the short blind tripod walk on steps, a front foot landing on a tread during a probe)."""
         leg = self._legs[i]
+        leg.target = self._pD + self._RD @ self.fast.fk(self._qD)[i]
         leg.anchor = leg.target.copy()
         leg.mode, leg.touchdown = 0, t
         self._roll_reference(i)

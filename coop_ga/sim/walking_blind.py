@@ -20,8 +20,12 @@ direction) a riser of height ``guard`` [m] must stand for every leg capsule (cox
 :func:`coop_ga.legged.contact.leg_segments`) to clear it at every body pose of a stance — the nominal stance
 (:func:`~coop_ga.sim.walking.nominal_feet`) with the body moved over the stroke along x and raised by up to
 ``rise`` (a body standing higher over this foot, e.g. when the other feet are on a higher tread).  For the
-registered hexapod (3 cm riser, 0.08 m stroke): 21 mm for the front legs, 30 mm for the middle, 49 mm for the rear
-legs (whose knees stand ahead of their feet).
+registered hexapod (0.08 m stroke, 1.5 cm rise) toward a 3 cm riser: 18.9 mm for the front legs, 25.9 mm for the
+middle, 39.4 mm for the rear legs (whose knees stand ahead of their feet); toward the walker's default guard of
+3.5 cm: 21.0, 27.4 and 42.1 mm, so that the probes reach 15, 21 and 36 mm past the foothold.
+
+Cost: the probing arc covers the stroke plus the probe, and the way back the probe again, in the same swing time
+(the joint targets then hit the servos' speed limit more often: ``speed_limited_plans``).
 """
 
 from __future__ import annotations
