@@ -640,6 +640,7 @@ class HexapodWalker:
         "held_lift_offs",
         "unsupported_plans",
         "speed_limited_plans",
+        "short_probes",
     )
 
     def __init__(
@@ -889,7 +890,7 @@ class HexapodWalker:
         if opt.feedback:  # aim below the expected ground: the contact, not the end of the arc, ends the swing
             p1 = p1 - np.array([0.0, 0.0, opt.touchdown_depth])
         leg.arc = (p0, p1, lift, tau_lo)
-        leg.path = self._swing_path(i, p0, p1, lift)  # sampled once; interpolated at each plan
+        leg.path = self._swing_path(i, p0, p1, lift, t)  # sampled once; interpolated at each plan
         leg.mode, leg.s0, leg.raises = 1, 0.0, 0
 
     def _probe_reaches(self) -> np.ndarray:
@@ -904,19 +905,45 @@ class HexapodWalker:
         reach = shin_reach(self.legs, opt, guard=opt.probe_guard)
         return np.maximum(reach - self.hs.foot_radius, 0.0) + opt.probe_margin
 
-    def _swing_path(self, i: int, p_from: np.ndarray, p1: np.ndarray, lift: float) -> np.ndarray:
+    def _swing_path(self, i: int, p_from: np.ndarray, p1: np.ndarray, lift: float, t: float) -> np.ndarray:
         """Leg i's swing path from ``p_from`` to ``p1`` sampled at ``_ARC_S``: the arc, or blind the probing arc
-        (:func:`~coop_ga.sim.walking_blind.probe_path`) along the swing's direction from its lift-off point."""
+        (:func:`~coop_ga.sim.walking_blind.probe_path`) along the swing's direction from its lift-off point, its
+        probe shortened (:meth:`_probe_fit`) where its far end would be out of the leg's reach."""
         from ..legged.gait import swing_arc
 
         reach = float(self._probe[i])
+        arc = self._legs[i].arc
+        d = p1 - (p_from if arc is None else arc[0])
+        if reach > 0.0:
+            reach = self._probe_fit(i, p1, d, reach, t)
         if reach <= 0.0:
             return swing_arc(p_from, p1, lift, _ARC_S)[0]
         from .walking_blind import probe_path
 
-        arc = self._legs[i].arc
         h = self.options.probe_height + self.options.touchdown_depth  # p1 is aimed touchdown_depth below
-        return probe_path(p_from, p1, lift, reach, h, _ARC_S, direction=p1 - (p_from if arc is None else arc[0]))
+        return probe_path(p_from, p1, lift, reach, h, _ARC_S, direction=d)
+
+    def _probe_fit(self, i: int, p1: np.ndarray, d: np.ndarray, reach: float, t: float, margin: float = 0.01) -> float:
+        """The longest probe ≤ ``reach`` [m] whose far point (``p1`` + probe along ``d``) keeps ``margin`` [m] of leg
+        i's workspace from the body predicted at the end of the swing (D moved as the reference; halved down to a
+        quarter, else 0): a front leg stretched out over a late body reached past its workspace (the straightened
+        leg then dropped the foot, and a step-over from there laid the shin on the edge; 1 m ripple steps walk)."""
+        nd = float(np.hypot(d[0], d[1]))
+        if nd < 1e-9:
+            return 0.0
+        tab = self.table
+        ahead = self._predict(t, tab.swing_fraction * tab.period) - self._ref
+        body = self._pD + np.array([ahead[0], ahead[1], 0.0])
+        R = self._RD @ _rot_z(ahead[2])
+        feet = (np.array([leg.target for leg in self._legs]) - body) @ R
+        u = np.array([d[0] / nd, d[1] / nd, 0.0])
+        for k in (1.0, 0.5, 0.25):
+            feet[i] = R.T @ (p1 + k * reach * u - body)
+            _, m = self.fast.ik(feet)
+            if m[i] >= margin:
+                return k * reach
+        self.counts["short_probes"] += 1
+        return 0.0
 
     def _predict(self, t: float, horizon: float) -> np.ndarray:
         """The reference pose (x, y, yaw) ``horizon`` [s] ahead: the command schedule through the acceleration
@@ -980,7 +1007,7 @@ class HexapodWalker:
             return
         if fb and touch[i] and leg.raises < 2 and s > 0.1:
             top = max(leg.target[2], p1[2]) + self.options.stumble_lift
-            leg.path = self._swing_path(i, leg.target, p1, top - max(leg.target[2], p1[2]))
+            leg.path = self._swing_path(i, leg.target, p1, top - max(leg.target[2], p1[2]), t)
             leg.s0, leg.raises = s, leg.raises + 1
             self.counts["stumbles"] += 1
         x = (s - leg.s0) / (1.0 - leg.s0) * (len(_ARC_S) - 1)
@@ -1058,7 +1085,7 @@ class HexapodWalker:
         assert leg.arc is not None
         h = np.array([*self._faces[i], 0.0])
         p0 = self._pD + self._RD @ self.fast.fk(q)[i]  # where the encoders put it (its target is in the face)
-        p1 = p0 + opt.step_over * h
+        p1 = p0 + self._step_over_reach(i, p0, h) * h
         lift = max(min(opt.stumble_lift, self._pD[2] - opt.foot_drop - p0[2]), 0.01)  # as _lift_off's apex
         up = np.array([0.0, 0.0, lift])
         # up (backing off the face by the ball's radius), over, down: a box, not an arc that grazes the edge
@@ -1069,6 +1096,23 @@ class HexapodWalker:
         leg.mode, leg.over_from, leg.search_from = 2, t, t + opt.step_over_time
         leg.raises += 1
         self.counts["step_overs"] += 1
+
+    def _step_over_reach(self, i: int, p0: np.ndarray, h: np.ndarray, margin: float = 0.01) -> float:
+        """How far [m] past the face touched at ``p0`` leg i steps: ``step_over``, or with the feet of the blind
+        probe (``probe_guard`` > 0) less — down to the ball's radius + ``probe_margin`` — where the leg, seen from
+        D, would keep less than ``margin`` [m] of its workspace (a front foot stepping 3 cm past a face from
+        a body waiting 0.33 m behind it laid its tibia 65–79° over and its shin on the riser's edge: 1 m ripple
+        steps walk, blind)."""
+        opt = self.options
+        if self._probe[i] <= 0.0:
+            return opt.step_over
+        shortest = min(self.hs.foot_radius + opt.probe_margin, opt.step_over)
+        feet = (np.array([leg.target for leg in self._legs]) - self._pD) @ self._RD
+        for dist in (opt.step_over, 0.5 * (opt.step_over + shortest)):
+            feet[i] = self._RD.T @ (p0 + dist * h - self._pD)
+            if self.fast.ik(feet)[1][i] >= margin:
+                return dist
+        return shortest
 
     def _touchdown(self, i: int, t: float, q: np.ndarray, early: bool) -> None:
         """The foot stops where it is commanded now: its anchor is where the joint targets q_D put it (continuous

@@ -25,10 +25,13 @@ DEFAULT_GIFS = ("tripod_flat_map", "ripple_steps_blind", "wave_random_map")
 #: a subset of the 24 gait × terrain × (map | blind) rows in the test budget (the experiment, ``--all``, runs every
 #: row; the script test below adds tripod_flat_map, the ablation's test the blind tripod on an unknown step and
 #: slope): the experiment's short walks (ramped in and out over half a cycle; the staircase starts at x = 0.05 m,
-#: so that the middle and front feet climb a riser).  The wave gait's short walk takes 4.3 simulated s: left to
-#: the experiment.
+#: so that the middle and front feet climb a riser).  ripple/steps/blind: the right front foot's swing ends 1 mm
+#: short of the second riser; its probe (coop_ga.sim.walking_blind) finds the riser first — without it
+#: (``probe_guard=0``) the shin leans on the riser's edge for 1796 physics steps.  The wave gait's short walk takes
+#: 4.3 simulated s: left to the experiment.
 ROWS = [
     ("tripod", "steps", True),
+    ("ripple", "steps", True),
     ("ripple", "random", True),
 ]
 
