@@ -18,7 +18,10 @@ known initial pose) and the 18 joint targets q_D — and the stance feet's ancho
    out from the coxa axis, ``ride_height`` below the body) at the reference body pose of mid-stance.  The
    foothold's height: with the map, the terrain under it (+ the foot radius: the ball's centre); blind, the
    plane of the current stance anchors extrapolated to it.  Apex: ``lift_height`` above the highest terrain
-   under the swing (map) or ``blind_lift`` above the higher end (blind).
+   under the swing (map) or ``blind_lift`` above the higher end (blind).  Blind, the swing ends with a *probe*
+   (:mod:`coop_ga.sim.walking_blind`): past the foothold as far as the leg's shin would reach toward a riser
+   during the stance, just above the expected ground, back, and down — a riser there is felt (a face: stepped
+   over) before the foot stands where its shin would lean on the riser's edge.
 2. **Touchdown from the touch sensors** (the stance set follows the contacts): from mid-swing on, a swing foot
    whose touch sensor reads more than ``touch_threshold`` stops — it is in stance, its anchor is where it is
    commanded at that instant (q_D stays continuous).  Unless the contact is a *face*: the foot's contact normal
@@ -788,10 +791,14 @@ class HexapodWalker:
         self._RD = self._RD @ _expm_so3(u[3:] * self.dt)
         q_new = self._targets()
         # the servos' speed: a target faster than joint_speed × the URDF's no-load speed needs more torque than
-        # the back-EMF leaves (τ = τ_stall (u − q̇/ω₀)); the target follows at that speed instead (counted)
-        dq = np.clip(q_new - self._qD, -self._dq_max, self._dq_max)
-        if not np.array_equal(dq, q_new - self._qD):
+        # the back-EMF leaves (τ = τ_stall (u − q̇/ω₀)); the target follows at that speed instead (counted), each
+        # leg's three joints slowed together: clipped one by one they left the foot's path (a probing front foot
+        # dipped 2 cm onto the tread 12 mm short of a riser; 1 m tripod steps walk, blind)
+        dq = q_new - self._qD
+        scale = np.min(self._dq_max[self.fast.q_index] / np.maximum(np.abs(dq[self.fast.q_index]), 1e-300), axis=1)
+        if np.any(scale < 1.0):
             self.counts["speed_limited_plans"] += 1
+            dq[self.fast.q_index] *= np.minimum(scale, 1.0)[:, None]
             q_new = self._qD + dq
         self._qdD = (q_new - self._qD) / self.dt
         self._qD = q_new
@@ -908,42 +915,41 @@ class HexapodWalker:
     def _swing_path(self, i: int, p_from: np.ndarray, p1: np.ndarray, lift: float, t: float) -> np.ndarray:
         """Leg i's swing path from ``p_from`` to ``p1`` sampled at ``_ARC_S``: the arc, or blind the probing arc
         (:func:`~coop_ga.sim.walking_blind.probe_path`) along the swing's direction from its lift-off point, its
-        probe shortened (:meth:`_probe_fit`) where its far end would be out of the leg's reach."""
+        probe halved (down to a quarter, else none) while the path leaves the leg's workspace
+        (:meth:`_reachable`)."""
         from ..legged.gait import swing_arc
 
-        reach = float(self._probe[i])
         arc = self._legs[i].arc
         d = p1 - (p_from if arc is None else arc[0])
+        reach = float(self._probe[i])
         if reach > 0.0:
-            reach = self._probe_fit(i, p1, d, reach, t)
-        if reach <= 0.0:
-            return swing_arc(p_from, p1, lift, _ARC_S)[0]
-        from .walking_blind import probe_path
+            from .walking_blind import probe_path
 
-        h = self.options.probe_height + self.options.touchdown_depth  # p1 is aimed touchdown_depth below
-        return probe_path(p_from, p1, lift, reach, h, _ARC_S, direction=d)
+            h = self.options.probe_height + self.options.touchdown_depth  # p1 is aimed touchdown_depth below
+            for k in (1.0, 0.5, 0.25):
+                path = probe_path(p_from, p1, lift, k * reach, h, _ARC_S, direction=d)
+                if self._reachable(i, path, t):
+                    return path
+            self.counts["short_probes"] += 1
+        return swing_arc(p_from, p1, lift, _ARC_S)[0]
 
-    def _probe_fit(self, i: int, p1: np.ndarray, d: np.ndarray, reach: float, t: float, margin: float = 0.01) -> float:
-        """The longest probe ≤ ``reach`` [m] whose far point (``p1`` + probe along ``d``) keeps ``margin`` [m] of leg
-        i's workspace from the body predicted at the end of the swing (D moved as the reference; halved down to a
-        quarter, else 0): a front leg stretched out over a late body reached past its workspace (the straightened
-        leg then dropped the foot, and a step-over from there laid the shin on the edge; 1 m ripple steps walk)."""
-        nd = float(np.hypot(d[0], d[1]))
-        if nd < 1e-9:
-            return 0.0
+    def _reachable(self, i: int, path: np.ndarray, t: float, margin: float = 0.01) -> bool:
+        """Whether leg i keeps ``margin`` [m] of its workspace along ``path`` (sampled at ``_ARC_S``, W_o) from D
+        moved as the reference over the swing (sampled at a tenth of the swing): a front foot probing past its
+        foothold while the body lagged reached beyond its workspace — the straightened leg dropped the foot 2 cm
+        onto the tread 12 mm short of a riser, and its shin leaned on the edge (1 m tripod steps walk, blind)."""
         tab = self.table
-        ahead = self._predict(t, tab.swing_fraction * tab.period) - self._ref
-        body = self._pD + np.array([ahead[0], ahead[1], 0.0])
-        R = self._RD @ _rot_z(ahead[2])
-        feet = (np.array([leg.target for leg in self._legs]) - body) @ R
-        u = np.array([d[0] / nd, d[1] / nd, 0.0])
-        for k in (1.0, 0.5, 0.25):
-            feet[i] = R.T @ (p1 + k * reach * u - body)
-            _, m = self.fast.ik(feet)
-            if m[i] >= margin:
-                return k * reach
-        self.counts["short_probes"] += 1
-        return 0.0
+        T_sw = tab.swing_fraction * tab.period
+        ahead = self._predict(t, T_sw) - self._ref
+        feet = (np.array([leg.target for leg in self._legs]) - self._pD) @ self._RD
+        for k in range(20, len(_ARC_S), 20):
+            f = float(_ARC_S[k])
+            body = self._pD + f * np.array([ahead[0], ahead[1], 0.0])
+            R = self._RD @ _rot_z(f * ahead[2])
+            feet[i] = R.T @ (path[k] - body)
+            if self.fast.ik(feet)[1][i] < margin:
+                return False
+        return True
 
     def _predict(self, t: float, horizon: float) -> np.ndarray:
         """The reference pose (x, y, yaw) ``horizon`` [s] ahead: the command schedule through the acceleration

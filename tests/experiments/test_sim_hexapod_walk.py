@@ -48,9 +48,10 @@ def test_short_walk_meets_the_bar(gait: str, terrain: str, blind: bool) -> None:
     assert m["shin_contact_steps"] == 0, m
     assert m["passed"]
     if (gait, terrain, blind) == ("tripod", "steps", True):
-        # blind, both front feet meet the second riser's face: they step over it (no touchdown against it, where
-        # the shin would lean on its edge); the schedule waited for them and the run walked it to its end
-        assert m["events"]["step_overs"] >= 2 and m["schedule_lag_s"] > 0.0, m
+        # blind, both front feet meet the second riser's face — before mid-swing (their probing arcs reach past the
+        # foothold: a stumble raises the arc onto the tread) or after it (stepped over) — and none touches down
+        # against it, where the shin would lean on its edge
+        assert m["events"]["stumbles"] + m["events"]["step_overs"] >= 2, m
 
 
 def test_script_writes_the_run_files_and_the_table(tmp_path) -> None:
