@@ -18,7 +18,10 @@ known initial pose) and the 18 joint targets q_D — and the stance feet's ancho
    out from the coxa axis, ``ride_height`` below the body) at the reference body pose of mid-stance.  The
    foothold's height: with the map, the terrain under it (+ the foot radius: the ball's centre); blind, the
    plane of the current stance anchors extrapolated to it.  Apex: ``lift_height`` above the highest terrain
-   under the swing (map) or ``blind_lift`` above the higher end (blind).
+   under the swing (map) or ``blind_lift`` above the higher end (blind).  Blind, the swing ends with a *probe*
+   (:mod:`coop_ga.sim.walking_blind`): past the foothold as far as the leg's shin would reach toward a riser
+   during the stance, just above the expected ground, back, and down — a riser there is felt (a face: stepped
+   over) before the foot stands where its shin would lean on the riser's edge.
 2. **Touchdown from the touch sensors** (the stance set follows the contacts): from mid-swing on, a swing foot
    whose touch sensor reads more than ``touch_threshold`` stops — it is in stance, its anchor is where it is
    commanded at that instant (q_D stays continuous).  Unless the contact is a *face*: the foot's contact normal
@@ -249,6 +252,12 @@ class WalkingOptions:
         load ramp after touchdown / before lift-off.  joint_speed: the joint targets move at most this fraction
         of the URDF's joint speed (the servos' no-load speed; at 0.8 its back-EMF takes 0.8 of the stall torque);
         a faster plan is followed at that speed (counted as ``speed_limited_plans``).
+    probe_guard, probe_height, probe_margin: blind, every swing ends with a probe
+        (:mod:`coop_ga.sim.walking_blind`): it reaches past its foothold as far as the leg's capsules would reach
+        toward a riser ``probe_guard`` [m] high during the stance (:func:`~coop_ga.sim.walking_blind.shin_reach`,
+        + ``probe_margin`` [m], − the ball's radius) with the ball's bottom ``probe_height`` [m] above the
+        expected ground, then comes back and descends: a riser there is touched (a face: stepped over) before
+        the foot stands where its shin would lean on it.  ``probe_guard = 0``: no probe.
     """
 
     gait: str = "tripod"
@@ -286,6 +295,9 @@ class WalkingOptions:
     search_load: float = 0.3
     load_ramp: float = 0.05
     joint_speed: float = 0.8
+    probe_guard: float = 0.035
+    probe_height: float = 0.006
+    probe_margin: float = 0.003
 
     def __post_init__(self) -> None:
         validation.choice(self.gait, GAIT_NAMES, "gait")
@@ -317,6 +329,9 @@ class WalkingOptions:
             "stumble_lift",
             "step_over",
             "contact_hold",
+            "probe_guard",
+            "probe_height",
+            "probe_margin",
         ):
             validation.nonnegative(getattr(self, name), name)
         if self.cycle_time is not None:
@@ -632,6 +647,7 @@ class HexapodWalker:
         "held_lift_offs",
         "unsupported_plans",
         "speed_limited_plans",
+        "short_probes",
     )
 
     def __init__(
@@ -706,6 +722,7 @@ class HexapodWalker:
         self._calls = 0
         self._started = False
         self._faces: dict[int, np.ndarray] = {}
+        self._probe = self._probe_reaches()
         #: [s] how long the gait has waited for late feet while moving: the command is followed at t − lag
         self.lag = 0.0
 
@@ -778,10 +795,14 @@ class HexapodWalker:
         self._RD = self._RD @ _expm_so3(u[3:] * self.dt)
         q_new = self._targets()
         # the servos' speed: a target faster than joint_speed × the URDF's no-load speed needs more torque than
-        # the back-EMF leaves (τ = τ_stall (u − q̇/ω₀)); the target follows at that speed instead (counted)
-        dq = np.clip(q_new - self._qD, -self._dq_max, self._dq_max)
-        if not np.array_equal(dq, q_new - self._qD):
+        # the back-EMF leaves (τ = τ_stall (u − q̇/ω₀)); the target follows at that speed instead (counted), each
+        # leg's three joints slowed together: clipped one by one they left the foot's path (a probing front foot
+        # dipped 2 cm onto the tread 12 mm short of a riser; 1 m tripod steps walk, blind)
+        dq = q_new - self._qD
+        scale = np.min(self._dq_max[self.fast.q_index] / np.maximum(np.abs(dq[self.fast.q_index]), 1e-300), axis=1)
+        if np.any(scale < 1.0):
             self.counts["speed_limited_plans"] += 1
+            dq[self.fast.q_index] *= np.minimum(scale, 1.0)[:, None]
             q_new = self._qD + dq
         self._qdD = (q_new - self._qD) / self.dt
         self._qD = q_new
@@ -801,6 +822,7 @@ class HexapodWalker:
         airborne = any(leg.mode != 0 for leg in self._legs)
         advanced = not waiting and (moving or airborne)
         saved = (self._tau_g, self._ref.copy(), self._vel.copy())
+        swinging = {i: leg.target.copy() for i, leg in enumerate(self._legs) if leg.mode == 1}
         if advanced:
             self._tau_g += self.dt
             self._vel = _limited(self._vel, cmd, self._accel, self.dt)
@@ -809,6 +831,11 @@ class HexapodWalker:
             self._ref += self.dt * np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
         if (advanced or waiting) and not self._gait_events(t, q, data, touch, cmd if moving else None):
             self._tau_g, self._ref, self._vel = saved  # the clock waits for the support
+            # and so do the swings: a target moved on at the clock just set back would step back at the next plan
+            # (at the servos' speed limit, a reversal that clipped the torque: measured on the 1 m steps walks)
+            for i, target in swinging.items():
+                if self._legs[i].mode == 1:
+                    self._legs[i].target = target
             return True
         return waiting
 
@@ -860,8 +887,6 @@ class HexapodWalker:
         )
 
     def _lift_off(self, i: int, tau_lo: float, t: float, data: Any) -> None:
-        from ..legged.gait import swing_arc
-
         leg = self._legs[i]
         opt = self.options
         tab = self.table
@@ -886,8 +911,59 @@ class HexapodWalker:
         if opt.feedback:  # aim below the expected ground: the contact, not the end of the arc, ends the swing
             p1 = p1 - np.array([0.0, 0.0, opt.touchdown_depth])
         leg.arc = (p0, p1, lift, tau_lo)
-        leg.path = swing_arc(p0, p1, lift, _ARC_S)[0]  # sampled once; interpolated at each plan
+        leg.path = self._swing_path(i, p0, p1, lift, t)  # sampled once; interpolated at each plan
         leg.mode, leg.s0, leg.raises = 1, 0.0, 0
+
+    def _probe_reaches(self) -> np.ndarray:
+        """(6,) [m] how far each leg's blind swing probes past its foothold: its shin reach toward a
+        ``probe_guard`` riser (:func:`~coop_ga.sim.walking_blind.shin_reach`) − the ball's radius +
+        ``probe_margin``; zeros unless blind with feedback and ``probe_guard`` > 0."""
+        opt = self.options
+        if not (opt.blind and opt.feedback and opt.probe_guard > 0):
+            return np.zeros(6)
+        from .walking_blind import shin_reach
+
+        reach = shin_reach(self.legs, opt, guard=opt.probe_guard)
+        return np.maximum(reach - self.hs.foot_radius, 0.0) + opt.probe_margin
+
+    def _swing_path(self, i: int, p_from: np.ndarray, p1: np.ndarray, lift: float, t: float) -> np.ndarray:
+        """Leg i's swing path from ``p_from`` to ``p1`` sampled at ``_ARC_S``: the arc, or blind the probing arc
+        (:func:`~coop_ga.sim.walking_blind.probe_path`) along the swing's direction from its lift-off point, its
+        probe halved (down to a quarter, else none) while the path leaves the leg's workspace
+        (:meth:`_reachable`)."""
+        from ..legged.gait import swing_arc
+
+        arc = self._legs[i].arc
+        d = p1 - (p_from if arc is None else arc[0])
+        reach = float(self._probe[i])
+        if reach > 0.0:
+            from .walking_blind import probe_path
+
+            h = self.options.probe_height + self.options.touchdown_depth  # p1 is aimed touchdown_depth below
+            for k in (1.0, 0.5, 0.25):
+                path = probe_path(p_from, p1, lift, k * reach, h, _ARC_S, direction=d)
+                if self._reachable(i, path, t):
+                    return path
+            self.counts["short_probes"] += 1
+        return swing_arc(p_from, p1, lift, _ARC_S)[0]
+
+    def _reachable(self, i: int, path: np.ndarray, t: float, margin: float = 0.01) -> bool:
+        """Whether leg i keeps ``margin`` [m] of its workspace along ``path`` (sampled at ``_ARC_S``, W_o) from D
+        moved as the reference over the swing (sampled at a tenth of the swing): a front foot probing past its
+        foothold while the body lagged reached beyond its workspace — the straightened leg dropped the foot 2 cm
+        onto the tread 12 mm short of a riser, and its shin leaned on the edge (1 m tripod steps walk, blind)."""
+        tab = self.table
+        T_sw = tab.swing_fraction * tab.period
+        ahead = self._predict(t, T_sw) - self._ref
+        feet = (np.array([leg.target for leg in self._legs]) - self._pD) @ self._RD
+        for k in range(20, len(_ARC_S), 20):
+            f = float(_ARC_S[k])
+            body = self._pD + f * np.array([ahead[0], ahead[1], 0.0])
+            R = self._RD @ _rot_z(f * ahead[2])
+            feet[i] = R.T @ (path[k] - body)
+            if self.fast.ik(feet)[1][i] < margin:
+                return False
+        return True
 
     def _predict(self, t: float, horizon: float) -> np.ndarray:
         """The reference pose (x, y, yaw) ``horizon`` [s] ahead: the command schedule through the acceleration
@@ -938,8 +1014,6 @@ class HexapodWalker:
         """Leg i's swing at progress s: touchdown at contact from mid-swing on; a contact before mid-swing (the foot
         stubbed a riser or a tile edge) raises the rest of the arc by ``stumble_lift`` (at most twice);
         the end of the arc without contact starts the search (feedback) or is the touchdown (open loop)."""
-        from ..legged.gait import swing_arc
-
         leg = self._legs[i]
         assert leg.arc is not None
         _p0, p1, _lift, tau_lo = leg.arc
@@ -953,7 +1027,7 @@ class HexapodWalker:
             return
         if fb and touch[i] and leg.raises < 2 and s > 0.1:
             top = max(leg.target[2], p1[2]) + self.options.stumble_lift
-            leg.path = swing_arc(leg.target, p1, top - max(leg.target[2], p1[2]), _ARC_S)[0]
+            leg.path = self._swing_path(i, leg.target, p1, top - max(leg.target[2], p1[2]), t)
             leg.s0, leg.raises = s, leg.raises + 1
             self.counts["stumbles"] += 1
         x = (s - leg.s0) / (1.0 - leg.s0) * (len(_ARC_S) - 1)
@@ -1050,7 +1124,7 @@ class HexapodWalker:
         assert leg.arc is not None
         h = np.array([*self._faces[i], 0.0])
         p0 = self._pD + self._RD @ self.fast.fk(q)[i]  # where the encoders put it (its target is in the face)
-        p1 = p0 + opt.step_over * h
+        p1 = p0 + self._step_over_reach(i, p0, h) * h
         lift = max(min(opt.stumble_lift, self._pD[2] - opt.foot_drop - p0[2]), 0.01)  # as _lift_off's apex
         up = np.array([0.0, 0.0, lift])
         # up (backing off the face by the ball's radius), over, down: a box, not an arc that grazes the edge
@@ -1062,9 +1136,30 @@ class HexapodWalker:
         leg.raises += 1
         self.counts["step_overs"] += 1
 
+    def _step_over_reach(self, i: int, p0: np.ndarray, h: np.ndarray, margin: float = 0.01) -> float:
+        """How far [m] past the face touched at ``p0`` leg i steps: ``step_over``, or with the feet of the blind
+        probe (``probe_guard`` > 0) less — down to the ball's radius + ``probe_margin`` — where the leg, seen from
+        D, would keep less than ``margin`` [m] of its workspace (a front foot stepping 3 cm past a face from
+        a body waiting 0.33 m behind it laid its tibia 65–79° over and its shin on the riser's edge: 1 m ripple
+        steps walk, blind)."""
+        opt = self.options
+        if self._probe[i] <= 0.0:
+            return opt.step_over
+        shortest = min(self.hs.foot_radius + opt.probe_margin, opt.step_over)
+        feet = (np.array([leg.target for leg in self._legs]) - self._pD) @ self._RD
+        for dist in (opt.step_over, 0.5 * (opt.step_over + shortest)):
+            feet[i] = self._RD.T @ (p0 + dist * h - self._pD)
+            if self.fast.ik(feet)[1][i] >= margin:
+                return dist
+        return shortest
+
     def _touchdown(self, i: int, t: float, q: np.ndarray, early: bool) -> None:
-        """The foot stops where it is commanded now: its anchor is its current target (continuous q_D)."""
+        """The foot stops where it is commanded now: its anchor is where the joint targets q_D put it (continuous
+        q_D) — its swing target when q_D follows it, else (the servos' speed limit) the point q_D has reached:
+        a target run ahead at touchdown kept q_D moving at the speed limit into the ground, and the torque clipped
+        (measured: the short blind tripod walk on steps, a front foot landing on a tread during a probe)."""
         leg = self._legs[i]
+        leg.target = self._pD + self._RD @ self.fast.fk(self._qD)[i]
         leg.anchor = leg.target.copy()
         leg.mode, leg.touchdown = 0, t
         self._roll_reference(i)

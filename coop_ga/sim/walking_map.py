@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MAX_EXTRA_LIFT", "SHIFTS", "MapFootholds"]
+__all__ = ["MAX_EXTRA_LIFT", "RISE", "SHIFTS", "MapFootholds"]
 
 #: foothold shifts (dx, dy) [m] in the world tried when a leg capsule would touch the terrain, nearest first
 SHIFTS: tuple[tuple[float, float], ...] = tuple(
@@ -40,6 +40,10 @@ SHIFTS: tuple[tuple[float, float], ...] = tuple(
 )[1:]
 #: [m] the most a swing apex is raised to clear the leg's capsules
 MAX_EXTRA_LIFT = 0.05
+#: [m] how far above its predicted height the body may stand at a foot's lift-off: the prediction stands the six
+#: feet on their nominal footholds, the real ones lead them by up to half a stroke (on the 1 m wave walk up the
+#: steps the body stood up to 14 mm above it, and a rear shin met the riser ahead of its foot at the end of stance)
+RISE = 0.015
 #: swing progress samples checked for clearance
 _SWING_S = np.linspace(0.15, 0.85, 6)
 
@@ -120,6 +124,10 @@ class MapFootholds:
         keeps its capsules ``clearance_margin`` off the terrain at the horizontal ``stance_poses`` (module
         docstring)."""
         poses = [self.body(p) for p in stance_poses]
+        # the body may stand up to RISE above the predicted height at lift-off (the real feet lead the nominal
+        # ones onto the next tread): its capsules must clear the terrain from there too
+        p_lo, R_lo = poses[-1]
+        poses.append((p_lo + np.array([0.0, 0.0, RISE]), R_lo))
         c0 = self.centre(xy)
         best, best_c = c0, self.clearance(i, np.repeat(c0[None], len(poses), axis=0), poses)
         if best_c >= self.margin:

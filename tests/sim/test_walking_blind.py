@@ -1,0 +1,78 @@
+"""The blind walker's riser handling (coop_ga.sim.walking_blind): the legs' shin reach toward a riser against the
+terrain's own capsule clearance, and the probing swing's shape."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from coop_ga.legged import Terrain
+from coop_ga.legged.contact import leg_segments
+from coop_ga.legged.gait import swing_arc
+from coop_ga.legged.legs import hexapod_legs
+from coop_ga.sim.walking import WalkingOptions, nominal_feet
+from coop_ga.sim.walking_blind import PROBE_DESCENT, probe_path, riser_distance, shin_reach
+from coop_ga.sim.walking_kin import FastLegs
+
+
+def test_riser_distance_of_simple_capsules() -> None:
+    """A vertical capsule standing on the guard height needs the riser one radius away; one higher than guard +
+    radius cannot reach it; a tilted one is limited by its lowest end's cap."""
+    up = riser_distance(np.array([0.0, 0.0, 0.03]), np.array([0.0, 0.0, 0.1]), 0.02, 0.03)
+    assert up == pytest.approx(0.02, abs=1e-12)
+    assert riser_distance(np.array([0.0, 0.0, 0.06]), np.array([0.0, 0.0, 0.1]), 0.02, 0.03) == -math.inf
+    # lowest point 1 cm above the guard, 5 mm ahead: √(0.02² − 0.01²) beyond it
+    tilted = riser_distance(np.array([0.005, 0.0, 0.04]), np.array([-0.05, 0.0, 0.09]), 0.02, 0.03)
+    assert tilted == pytest.approx(0.005 + math.sqrt(0.02**2 - 0.01**2), abs=1e-12)
+
+
+def test_shin_reach_agrees_with_the_terrains_capsule_clearance() -> None:
+    """Per leg, a 3 cm riser at the computed reach (+ 1 mm) clears every capsule of that leg at every stance pose
+    the reach was computed over (Terrain.capsule_clearance ≥ −0.5 mm: its own sampling bound), and one 3 mm
+    closer does not at some pose.  Front legs 18.9 mm, middle 25.9 mm, rear 39.4 mm (the rear knee stands ahead of
+    its foot)."""
+    lm = hexapod_legs()
+    opt = WalkingOptions()
+    reach = shin_reach(lm, opt, guard=0.03)
+    assert reach[[0, 3]] == pytest.approx(0.0189, abs=5e-4)
+    assert reach[[1, 4]] == pytest.approx(0.0259, abs=5e-4)
+    assert reach[[2, 5]] == pytest.approx(0.0394, abs=5e-4)
+    fl = FastLegs(lm)
+    feet = nominal_feet(lm, opt) + np.array([0.0, 0.0, opt.ride_height + lm.foot_radius])
+    for i in range(6):
+        worst = {}
+        for e in (reach[i] + 0.001, reach[i] - 0.003):
+            riser = Terrain.steps(step_height=0.03, step_length=10.0, start_x=float(feet[i, 0] + e), n_steps=1)
+            clear = math.inf
+            for dx in np.linspace(-0.04, 0.04, 5):
+                for dz in (0.0, 0.0075, 0.015):
+                    body = np.array([dx, 0.0, opt.ride_height + lm.foot_radius + dz])
+                    q, _ = fl.ik(feet - body)
+                    a, b, rho = leg_segments(lm, body, np.eye(3), q)
+                    c = min(float(riser.capsule_clearance(a[i, k], b[i, k], rho[k], 0.001)) for k in range(3))
+                    clear = min(clear, c)
+            worst[e] = clear
+        assert worst[reach[i] + 0.001] >= -5e-4, (i, worst)
+        assert worst[reach[i] - 0.003] < -1e-3, (i, worst)
+
+
+def test_probe_path_goes_past_the_foothold_and_back_down() -> None:
+    """From lift-off to 15 mm past the foothold at 11 mm above it, back over it, then straight down onto it; the arc
+    and the way back share the swing so that their horizontal speeds peak alike."""
+    p0, p1 = np.array([0.0, 0.0, 0.01]), np.array([0.08, 0.0, 0.01])
+    s = np.linspace(0.0, 1.0, 2001)
+    path = probe_path(p0, p1, 0.04, 0.015, 0.011, s)
+    assert np.allclose(path[0], p0) and np.allclose(path[-1], p1)
+    f1 = (1.0 - PROBE_DESCENT) * 0.095 / (0.08 + 1.6 * 0.015)
+    k = int(np.argmin(np.abs(s - f1)))
+    assert np.allclose(path[k], [0.095, 0.0, 0.021], atol=1e-5)  # the far point, 15 mm past, 11 mm above p1
+    assert path[:, 0].max() == pytest.approx(0.095, abs=1e-12)
+    back = path[k:]
+    assert np.all(np.diff(back[:, 0]) <= 1e-12) and np.all(np.diff(back[:, 2]) <= 1e-12)  # back, then down
+    assert np.allclose(path[s >= 1.0 - PROBE_DESCENT, 0], 0.08)  # the descent is vertical, over the foothold
+    vx = np.abs(np.diff(path[:, 0])) / np.diff(s)
+    assert vx[s[1:] > f1].max() == pytest.approx(vx[s[1:] <= f1].max(), rel=0.02)
+    plain = probe_path(p0, p0 + np.array([0.002, 0.0, 0.0]), 0.04, 0.015, 0.011, s)  # no direction: the plain arc
+    assert np.allclose(plain, swing_arc(p0, p0 + np.array([0.002, 0.0, 0.0]), 0.04, s)[0])
