@@ -113,11 +113,11 @@ def test_no_femur_reaches_the_body_box_within_the_joint_limits() -> None:
 
 
 def test_contact_time_constant() -> None:
-    """MuJoCo's default (0.02 s) unless asked; then on every colliding geom (feet, legs, body, terrain), so that every
+    """0.01 s by default (MuJoCo's own is 0.02 s; module docstring), or as asked, on every colliding geom (feet, legs, body, terrain), so that every
     contact has it; below two physics steps it is refused."""
     hs = scene("random")
     collide = (hs.model.geom_contype > 0) | (hs.model.geom_conaffinity > 0)
-    assert np.all(hs.model.geom_solref[collide] == (0.02, 1.0))
+    assert np.all(hs.model.geom_solref[collide] == (0.01, 1.0))
     stiff = hexapod_scene(Terrain.random(seed=0), geometry=HexapodGeometry(contact_timeconst=0.005), visuals=False)
     m = stiff.model
     ids = [*stiff.foot_geoms, *stiff.tibia_geoms, *stiff.femur_geoms, stiff.body_geom, *stiff.terrain_geom_ids]
