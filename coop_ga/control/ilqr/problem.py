@@ -176,6 +176,16 @@ class ReachingOCP:
             return float(batch(q[1:]))
         return float(sum(self.clearance.value(qk) for qk in q[1:]))
 
+    def min_clearance(self, q: np.ndarray) -> float:
+        """The smallest clearance [m] of the collision model over the knots q (K, nq) (``inf`` without a clearance
+        cost): one batched evaluation where the cost has one (``trajectory_min``), else knot by knot."""
+        if self.clearance is None:
+            return float(np.inf)
+        batch = getattr(self.clearance, "trajectory_min", None)
+        if callable(batch):
+            return float(batch(q))
+        return float(min(self.clearance.evaluate(qk, hessian=False)[3] for qk in q))
+
     def clearance_rows(self, q: np.ndarray, lookahead: float = 0.0) -> ClearanceRows | None:
         """The rows of the clearance cost within ``lookahead`` [m] of activation at the knots 1 … n of q (n+1, nq)
         (:class:`ClearanceRows`), or None when the clearance cost cannot list them (then :meth:`clearance_terms`
