@@ -185,6 +185,9 @@ class CollisionModel:
         self._joints_used = sorted(set(int(j) for j in self._joint))
         self._jpos = np.array([self._joints_used.index(int(j)) for j in self._joint], int)
         self._pin = pin
+        # the last broad-phase result (Q, cutoff, pairs, geometry): a solver asks for the close pairs of the trajectory
+        # it just evaluated again, with their Jacobians (:meth:`_close`)
+        self._last_close: tuple[np.ndarray, float, np.ndarray, np.ndarray, tuple[np.ndarray, ...]] | None = None
 
         # ---- obstacle rows
         labels: list[str] = []
@@ -523,9 +526,15 @@ class CollisionModel:
         Q = Q if hot else validation.array(Q, "Q")
         if Q.ndim != 2 or Q.shape[1] != self.nq:
             raise InvalidInputError(f"Q must be a (K, {self.nq}) array of configurations, got shape {Q.shape}")
-        A, B = self.trajectory_ends(Q)
-        kk, rows = np.nonzero(self._candidates(A, B, cutoff))
-        g = self._geometry(A, B, kk, rows)
+        last = self._last_close
+        if last is not None and cutoff <= last[1] and last[0].shape == Q.shape and np.array_equal(last[0], Q):
+            # the same trajectory with a cutoff no larger: the pairs below it are among the last ones (exact)
+            kk, rows, g = last[2], last[3], last[4]
+        else:
+            A, B = self.trajectory_ends(Q)
+            kk, rows = np.nonzero(self._candidates(A, B, cutoff))
+            g = self._geometry(A, B, kk, rows)
+            self._last_close = (Q.copy(), float(cutoff), kk, rows, g)
         keep = g[0] < cutoff
         return kk[keep], rows[keep], tuple(x[keep] for x in g)
 

@@ -167,13 +167,15 @@ class ReachingOCP:
         q, qd = self.rollout(u)
         return self.running_cost(u) + self.terminal(q[-1], qd[-1])[0] + self.clearance_cost(q)
 
-    def clearance_cost(self, q: np.ndarray) -> float:
-        """``Σ_{k=1}^{n} c(q_k)`` of the clearance cost (0 without one); q (n+1, nq)."""
+    def clearance_cost(self, q: np.ndarray, lookahead: float = 0.0) -> float:
+        """``Σ_{k=1}^{n} c(q_k)`` of the clearance cost (0 without one); q (n+1, nq).  ``lookahead`` [m]: passed to
+        a batched cost (``trajectory_value``: it then keeps the rows within that distance of activation for a
+        following :meth:`clearance_rows` of the same q; the value is the same)."""
         if self.clearance is None:
             return 0.0
         batch = getattr(self.clearance, "trajectory_value", None)
         if callable(batch):
-            return float(batch(q[1:]))
+            return float(batch(q[1:], lookahead) if lookahead > 0 else batch(q[1:]))
         return float(sum(self.clearance.value(qk) for qk in q[1:]))
 
     def min_clearance(self, q: np.ndarray) -> float:
