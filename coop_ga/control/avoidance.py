@@ -495,14 +495,19 @@ class ClearanceCost:
         viol = np.maximum(self.activation - d, 0.0)
         return 0.5 * self.weight * float(viol @ viol)
 
-    def trajectory_min(self, Q: np.ndarray) -> float:
+    def trajectory_min(self, Q: np.ndarray, cutoff: float = np.inf) -> float:
         """The smallest clearance [m] over the configurations Q (K, nq) and every pair (``inf`` without pairs): a
         batched evaluation where the model has one (:meth:`~coop_ga.collision.model.CollisionModel.close_pairs`
-        with no cutoff), else :meth:`evaluate` at every configuration."""
+        with no cutoff), else :meth:`evaluate` at every configuration.  A finite ``cutoff`` [m]: the smallest
+        clearance below it, or ``inf`` if none is (the pairs below the cutoff only: e.g. 0 asks whether any pair
+        penetrates)."""
         Q = np.asarray(Q, float)
         close = getattr(self.model, "close_pairs", None)
         if not callable(close):
-            return float(min((self.evaluate(q, hessian=False)[3] for q in Q), default=np.inf))
+            d_min = float(min((self.evaluate(q, hessian=False)[3] for q in Q), default=np.inf))
+            return d_min if d_min < cutoff else float(np.inf)
+        if cutoff < np.inf:
+            return float(np.min(close(Q, cutoff)[2], initial=np.inf))
         # growing cutoffs: the broad phase returns every pair below the cutoff, so the smallest distance it returns
         # is the minimum over all pairs (exact), at the cost of the near pairs only
         for cutoff in (self.activation, 4.0 * self.activation, np.inf):

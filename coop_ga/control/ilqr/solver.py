@@ -292,6 +292,7 @@ class _Solve:
         self.lm = 0.0  # LM damping of the terminal model (adapted by the step quality)
         self.prev_violation = np.inf
         self.blocked = False  # the stall test held (_blocked): the solve ends
+        self.start_clearance: float | None = None  # min clearance at q_init (with a clearance cost; once)
 
     # ------------------------------------------------------------------ tests on an evaluation
     def _reached(self, ev: Evaluation) -> bool:
@@ -302,7 +303,17 @@ class _Solve:
         done = float(np.linalg.norm(ev.e)) < self.o.tol and ev.violation <= self.o.al_violation
         # the clearance cost is a penalty: a trajectory through an obstacle (e.g. the restart's guess, which the IK
         # planned without obstacles) is not done even at ‖e‖ < tol; iterate on (finish() would refuse it anyway)
-        return done and not (self.ocp.clearance is not None and self.ocp.min_clearance(ev.q) < 0.0)
+        return done and not self._penetrates(ev)
+
+    def _penetrates(self, ev: Evaluation) -> bool:
+        """Whether the trajectory has a negative clearance at a knot (False without a clearance cost): the pairs below
+        0 of the knots 1 … n (the merit's pair list of the same trajectory, reused) and of the start."""
+        ocp = self.ocp
+        if ocp.clearance is None:
+            return False
+        if self.start_clearance is None:
+            self.start_clearance = ocp.min_clearance(ev.q[:1])
+        return self.start_clearance < 0.0 or ocp.min_clearance(ev.q[1:], 0.0) < 0.0
 
     # ------------------------------------------------------------------ outer loop
     def run(self, warning_counts: dict[str, int], describe: bool = True) -> ILQRResult:
