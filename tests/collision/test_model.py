@@ -246,3 +246,20 @@ def test_close_pairs_reuse_the_last_pair_list_exactly(franka, cm):
     kk, rows, d = cm.close_pairs(Q, 0.05)
     np.testing.assert_allclose(d[kk == 3], D3[rows[kk == 3]], atol=1e-12)
     assert sorted(rows[kk == 3].tolist()) == np.flatnonzero(D3 < 0.05).tolist()
+
+
+def test_close_pairs_are_recomputed_when_the_obstacles_move(franka):
+    """A receding horizon moves the obstacles by assigning a new tuple (or changes the margin): the kept pair list is
+    not reused then."""
+    Q = _trajectory(franka)
+    cm_a = CollisionModel(franka, obstacles=[Sphere([0.3, 0.0, 0.5], 0.05)], self_collision=False)
+    near = cm_a.close_pairs(Q, 0.3)
+    assert len(near[0]) > 0
+    cm_a.obstacles = (Sphere([0.0, 0.0, 3.0], 0.05),)
+    assert len(cm_a.close_pairs(Q, 0.3)[0]) == 0
+    cm_a.obstacles = (Sphere([0.3, 0.0, 0.5], 0.05),)
+    np.testing.assert_array_equal(cm_a.close_pairs(Q, 0.3)[2], near[2])
+    cm_a.margin = 0.01
+    fresh = CollisionModel(franka, obstacles=[Sphere([0.3, 0.0, 0.5], 0.05)], self_collision=False, margin=0.01)
+    np.testing.assert_array_equal(cm_a.close_pairs(Q, 0.3)[2], fresh.close_pairs(Q, 0.3)[2])
+    assert not np.array_equal(fresh.close_pairs(Q, 0.3)[2], near[2])
