@@ -492,7 +492,7 @@ class ClearanceCost:
         if not callable(close):
             return float(sum(self.value(q) for q in Q))
         _, _, d = close(np.asarray(Q, float), self.activation + lookahead)
-        viol = np.maximum(self.activation - d, 0.0)
+        viol = self.activation - d[d < self.activation]  # the active rows only: the same sum as without lookahead
         return 0.5 * self.weight * float(viol @ viol)
 
     def trajectory_min(self, Q: np.ndarray, cutoff: float = np.inf) -> float:
