@@ -185,6 +185,10 @@ class CollisionModel:
         self._joints_used = sorted(set(int(j) for j in self._joint))
         self._jpos = np.array([self._joints_used.index(int(j)) for j in self._joint], int)
         self._pin = pin
+        # the last broad-phase result (obstacles, margin, Q, cutoff, pairs, geometry): a solver asks for the close pairs
+        # of the trajectory it just evaluated again, with their Jacobians (:meth:`_close`); the obstacles are part of
+        # the key (a receding horizon moves them by assigning a new tuple, which the kept reference keeps distinct)
+        self._last_close: tuple[Any, ...] | None = None
 
         # ---- obstacle rows
         labels: list[str] = []
@@ -523,9 +527,22 @@ class CollisionModel:
         Q = Q if hot else validation.array(Q, "Q")
         if Q.ndim != 2 or Q.shape[1] != self.nq:
             raise InvalidInputError(f"Q must be a (K, {self.nq}) array of configurations, got shape {Q.shape}")
-        A, B = self.trajectory_ends(Q)
-        kk, rows = np.nonzero(self._candidates(A, B, cutoff))
-        g = self._geometry(A, B, kk, rows)
+        last = self._last_close
+        if (
+            last is not None
+            and last[0] is self.obstacles
+            and last[1] == self.margin
+            and cutoff <= last[3]
+            and last[2].shape == Q.shape
+            and np.array_equal(last[2], Q)
+        ):
+            # the same trajectory and scene with a cutoff no larger: the pairs below it are among the last ones (exact)
+            kk, rows, g = last[4], last[5], last[6]
+        else:
+            A, B = self.trajectory_ends(Q)
+            kk, rows = np.nonzero(self._candidates(A, B, cutoff))
+            g = self._geometry(A, B, kk, rows)
+            self._last_close = (self.obstacles, self.margin, Q.copy(), float(cutoff), kk, rows, g)
         keep = g[0] < cutoff
         return kk[keep], rows[keep], tuple(x[keep] for x in g)
 

@@ -482,26 +482,39 @@ class ClearanceCost:
             H = self.weight * (JA.T @ JA)
         return c, g, H, float(d.min(initial=np.inf))
 
-    def trajectory_value(self, Q: np.ndarray) -> float:
+    def trajectory_value(self, Q: np.ndarray, lookahead: float = 0.0) -> float:
         """``Σ_k c(q_k)`` over the configurations Q (K, nq): with a model that has a broad phase
         (:meth:`~coop_ga.collision.model.CollisionModel.close_pairs`), one batched kinematics call and the exact
-        distances of the pairs whose bounding spheres come within the activation distance only."""
+        distances of the pairs whose bounding spheres come within the activation distance only.  ``lookahead``
+        [m]: compute the pairs within ``activation + lookahead`` (the model keeps its last pair list, so a
+        :meth:`trajectory_rows` call on the same Q with that lookahead reuses it instead of recomputing it)."""
         close = getattr(self.model, "close_pairs", None)
         if not callable(close):
             return float(sum(self.value(q) for q in Q))
-        _, _, d = close(np.asarray(Q, float), self.activation)
-        viol = self.activation - d
+        _, _, d = close(np.asarray(Q, float), self.activation + lookahead)
+        viol = self.activation - d[d < self.activation]  # the active rows only: the same sum as without lookahead
         return 0.5 * self.weight * float(viol @ viol)
 
-    def trajectory_min(self, Q: np.ndarray) -> float:
-        """The smallest clearance [m] over the configurations Q (K, nq) and every pair (``inf`` without pairs): one
+    def trajectory_min(self, Q: np.ndarray, cutoff: float = np.inf) -> float:
+        """The smallest clearance [m] over the configurations Q (K, nq) and every pair (``inf`` without pairs): a
         batched evaluation where the model has one (:meth:`~coop_ga.collision.model.CollisionModel.close_pairs`
-        with no cutoff), else :meth:`evaluate` at every configuration."""
+        with no cutoff), else :meth:`evaluate` at every configuration.  A finite ``cutoff`` [m]: the smallest
+        clearance below it, or ``inf`` if none is (the pairs below the cutoff only: e.g. 0 asks whether any pair
+        penetrates)."""
         Q = np.asarray(Q, float)
         close = getattr(self.model, "close_pairs", None)
         if not callable(close):
-            return float(min((self.evaluate(q, hessian=False)[3] for q in Q), default=np.inf))
-        return float(np.min(close(Q, np.inf)[2], initial=np.inf))
+            d_min = float(min((self.evaluate(q, hessian=False)[3] for q in Q), default=np.inf))
+            return d_min if d_min < cutoff else float(np.inf)
+        if cutoff < np.inf:
+            return float(np.min(close(Q, cutoff)[2], initial=np.inf))
+        # growing cutoffs: the broad phase returns every pair below the cutoff, so the smallest distance it returns
+        # is the minimum over all pairs (exact), at the cost of the near pairs only
+        for cutoff in (self.activation, 4.0 * self.activation, np.inf):
+            d = close(Q, cutoff)[2]
+            if d.size:
+                return float(np.min(d))
+        return float(np.inf)
 
     def trajectory_rows(self, Q: np.ndarray, lookahead: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The rows of the hinge within ``lookahead`` [m] of activation along Q (K, nq) (d_i < d_a + lookahead):

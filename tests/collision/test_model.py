@@ -226,3 +226,40 @@ def test_close_pairs_jacobian_rows_match_the_full_jacobian_and_differences(frank
     d2, J2 = cm.rows_and_jacobian(Q[kk[0]], rows[kk == kk[0]])
     np.testing.assert_allclose(d2, d[kk == kk[0]], atol=1e-12)
     np.testing.assert_allclose(J2, J[kk == kk[0]], atol=1e-12)
+
+
+def test_close_pairs_reuse_the_last_pair_list_exactly(franka, cm):
+    """The model keeps its last broad phase: the same trajectory with a smaller cutoff is served from it, and gives
+    what a fresh evaluation gives; a changed trajectory (even changed in place) is recomputed."""
+    Q = _trajectory(franka)
+    D = np.array([cm.distances(q) for q in Q])
+    cm.close_pairs(Q, 0.2)
+    for cutoff in (0.2, 0.05, 0.0):
+        kk, rows, d = cm.close_pairs(Q, cutoff)
+        assert sorted(zip(kk.tolist(), rows.tolist())) == sorted(map(tuple, np.argwhere(D < cutoff).tolist()))
+        np.testing.assert_allclose(d, D[kk, rows], atol=1e-12)
+    kj, rj, _, J = cm.close_pairs_and_jacobian(Q, 0.05)  # served from the list of cutoff 0.2
+    np.testing.assert_array_equal(kj, cm.close_pairs(Q.copy(), 0.05)[0])
+    np.testing.assert_allclose(J[0], cm.distances_and_jacobian(Q[kj[0]])[1][rj[0]], atol=1e-12)
+    Q[3] += 0.3  # in place: the stored copy no longer matches
+    D3 = cm.distances(Q[3])
+    kk, rows, d = cm.close_pairs(Q, 0.05)
+    np.testing.assert_allclose(d[kk == 3], D3[rows[kk == 3]], atol=1e-12)
+    assert sorted(rows[kk == 3].tolist()) == np.flatnonzero(D3 < 0.05).tolist()
+
+
+def test_close_pairs_are_recomputed_when_the_obstacles_move(franka):
+    """A receding horizon moves the obstacles by assigning a new tuple (or changes the margin): the kept pair list is
+    not reused then."""
+    Q = _trajectory(franka)
+    cm_a = CollisionModel(franka, obstacles=[Sphere([0.3, 0.0, 0.5], 0.05)], self_collision=False)
+    near = cm_a.close_pairs(Q, 0.3)
+    assert len(near[0]) > 0
+    cm_a.obstacles = (Sphere([0.0, 0.0, 3.0], 0.05),)
+    assert len(cm_a.close_pairs(Q, 0.3)[0]) == 0
+    cm_a.obstacles = (Sphere([0.3, 0.0, 0.5], 0.05),)
+    np.testing.assert_array_equal(cm_a.close_pairs(Q, 0.3)[2], near[2])
+    cm_a.margin = 0.01
+    fresh = CollisionModel(franka, obstacles=[Sphere([0.3, 0.0, 0.5], 0.05)], self_collision=False, margin=0.01)
+    np.testing.assert_array_equal(cm_a.close_pairs(Q, 0.3)[2], fresh.close_pairs(Q, 0.3)[2])
+    assert not np.array_equal(fresh.close_pairs(Q, 0.3)[2], near[2])

@@ -264,3 +264,55 @@ def test_feasible_fraction_of_the_fallback_step():
         if a < 1.0:
             z = min(1.0, a * (1 + 1e-6) + 1e-12) * x
             assert np.any(z < lb) or np.any(z > ub) or np.any(G @ z > h)
+
+
+def test_ilqr_restart_never_reports_a_path_through_the_obstacle(scene):
+    """The restart (bounded Gauss–Newton IK, which knows no obstacle) starts from the minimum-energy controls to the
+    IK's configuration: a guess within tol whose path crosses the sphere by 3.5 cm.  It used to be returned at once
+    as converged (min clearance −3.5 cm); now the solve iterates on until the path is clear.  A first solve cut
+    after 3 iterations (still through the sphere, ‖e‖ 0.11) stands in for a stalled one."""
+    import dataclasses
+
+    from coop_ga.control.gauss_newton import gauss_newton_ik
+    from coop_ga.control.ilqr.lq import controls_to
+    from coop_ga.control.ilqr.solver import _problem, _restart, _Solve
+
+    _, task, q0, Vd, cm = scene
+    o = ILQROptions(clearance=ClearanceCost(cm, weight=1e4, activation=0.05), **ILQR)
+    ocp = _problem(task, q0, Vd, None, o)
+    first = _Solve(ocp, dataclasses.replace(o, max_iter=3), None).run({})
+    assert not first.converged and first.min_clearance < 0.0
+    ik = gauss_newton_ik(task, q0, Vd)
+    guess = controls_to(ocp, ik.q)
+    q_guess = ocp.rollout(guess)[0]
+    assert np.linalg.norm(task.error(q_guess[-1], Vd)) < o.tol
+    assert min(cm.min_clearance(q) for q in q_guess) < -0.03
+    res = _restart(ocp, o, first, {})
+    assert "restarted" in res.message
+    assert res.converged and res.error < o.tol, res.message
+    assert res.min_clearance > 0.03, res.min_clearance
+    assert res.min_clearance == pytest.approx(min(cm.min_clearance(q) for q in res.trajectory))
+
+
+def test_ilqr_result_through_the_obstacle_is_not_converged(scene):
+    """The final check (results.finish): the minimum-energy controls to the obstacle-blind IK configuration reach
+    the target (‖e‖ < tol, inside the limits) through the sphere — not converged, and the message says by how much."""
+    import time
+
+    from coop_ga.control.gauss_newton import gauss_newton_ik
+    from coop_ga.control.ilqr.feasibility import reference_controls
+    from coop_ga.control.ilqr.lq import controls_to
+    from coop_ga.control.ilqr.results import Progress, finish
+    from coop_ga.control.ilqr.solver import _problem
+
+    _, task, q0, Vd, cm = scene
+    o = ILQROptions(clearance=ClearanceCost(cm, weight=1e4, activation=0.05), **ILQR)
+    ocp = _problem(task, q0, Vd, None, o)
+    u = controls_to(ocp, gauss_newton_ik(task, q0, Vd).q)
+    res = finish(ocp, o, u, reference_controls(ocp), Progress(t_start=time.perf_counter()), {})
+    assert res.error < o.tol and res.joint_limit_violation == 0.0 and res.velocity_violation == 0.0
+    assert res.min_clearance < -0.03
+    assert not res.converged and "penetrates the collision model by 0.035" in res.message, res.message
+    # without the clearance cost the same controls are a converged reach (the check is the clearance's only)
+    plain = _problem(task, q0, Vd, None, ILQROptions(**ILQR))
+    assert finish(plain, ILQROptions(**ILQR), u, reference_controls(plain), Progress(t_start=0.0), {}).converged

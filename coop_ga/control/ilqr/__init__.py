@@ -75,7 +75,11 @@ k = 1 … n, ``w Σ_i ½ max(0, d_a − d_i(q_k))²`` over the collision model's
 d_i (link–obstacle and link–link, [m]): a squared hinge (C¹), zero while every pair is farther
 than d_a.  It is a penalty, not a constraint: it increases the clearance (measured in
 ``tests/control/test_avoidance.py``) but does not guarantee a bound on it;
-``ILQRResult.min_clearance`` reports the smallest clearance of the returned trajectory.
+``ILQRResult.min_clearance`` reports the smallest clearance of the returned trajectory (at the knots).  Since
+it is a penalty, a solve with a clearance cost is never *done* while the trajectory has a negative clearance (it
+iterates on, e.g. from the restart's guess, which the obstacle-blind IK planned), the restart is rejected when its
+trajectory crosses an obstacle that the first solve's did not, and a result with ``min_clearance < 0`` is never
+``converged`` (its message says by how much it penetrates).
 
 * **Evaluation, once per roll-out, all knots at once.**  The capsule ends of every knot come from one call of
   generated C (the collision model's motor kinematics mapped over the horizon,

@@ -91,6 +91,7 @@ class Merit:
         T, n = ocp.horizon, ocp.nq
         self.lam = np.zeros((T, 4, n))
         self.mu = mu
+        self.lookahead = CLEARANCE_LOOKAHEAD * float(getattr(ocp.clearance, "activation", 0.0))
 
     def evaluate(self, u: np.ndarray) -> Evaluation | None:
         """Everything at u: trajectory, e, J_e, cost, merit, AL terms; None if degenerate."""
@@ -101,7 +102,9 @@ class Merit:
                 e, Je = ocp.task.error_and_jacobian(q[-1], ocp.target)
         except DegeneratePrimitiveError:
             return None
-        run = ocp.running_cost(u) + ocp.clearance_cost(q)  # the clearance cost is a running (state) cost
+        # the clearance cost is a running (state) cost; its pairs within the LQ model's look-ahead are computed now,
+        # so that the next iteration's rows at an accepted point reuse them (state_terms)
+        run = ocp.running_cost(u) + ocp.clearance_cost(q, self.lookahead)
         es = e + self.shift
         lf = float(es @ ocp.Q @ es + qd[-1] @ ocp.Qv @ qd[-1])
         cost = run + float(e @ ocp.Q @ e + qd[-1] @ ocp.Qv @ qd[-1])
@@ -144,7 +147,7 @@ class Merit:
             lxx[1:, n:] = self.mu * (active[:, 2] | active[:, 3])
         if ocp.clearance is None:
             return StateTerms(lx, lxx, al_active, al_active)
-        rows = ocp.clearance_rows(ev.q, CLEARANCE_LOOKAHEAD * float(getattr(ocp.clearance, "activation", 0.0)))
+        rows = ocp.clearance_rows(ev.q, self.lookahead)
         if rows is not None:
             g, H, c_active = rows.gradient(T, n), rows.hessians(T, n), bool(rows.knots.size)  # active or near
         else:

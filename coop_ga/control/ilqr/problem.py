@@ -167,14 +167,28 @@ class ReachingOCP:
         q, qd = self.rollout(u)
         return self.running_cost(u) + self.terminal(q[-1], qd[-1])[0] + self.clearance_cost(q)
 
-    def clearance_cost(self, q: np.ndarray) -> float:
-        """``Σ_{k=1}^{n} c(q_k)`` of the clearance cost (0 without one); q (n+1, nq)."""
+    def clearance_cost(self, q: np.ndarray, lookahead: float = 0.0) -> float:
+        """``Σ_{k=1}^{n} c(q_k)`` of the clearance cost (0 without one); q (n+1, nq).  ``lookahead`` [m]: passed to
+        a batched cost (``trajectory_value``: it then keeps the rows within that distance of activation for a
+        following :meth:`clearance_rows` of the same q; the value is the same)."""
         if self.clearance is None:
             return 0.0
         batch = getattr(self.clearance, "trajectory_value", None)
         if callable(batch):
-            return float(batch(q[1:]))
+            return float(batch(q[1:], lookahead) if lookahead > 0 else batch(q[1:]))
         return float(sum(self.clearance.value(qk) for qk in q[1:]))
+
+    def min_clearance(self, q: np.ndarray, cutoff: float = np.inf) -> float:
+        """The smallest clearance [m] of the collision model over the configurations q (K, nq) (``inf`` without a
+        clearance cost): one batched evaluation where the cost has one (``trajectory_min``), else knot by knot.
+        A finite ``cutoff`` [m]: the smallest clearance below it, or ``inf`` (only the pairs below it computed)."""
+        if self.clearance is None:
+            return float(np.inf)
+        batch = getattr(self.clearance, "trajectory_min", None)
+        if callable(batch):
+            return float(batch(q) if cutoff == np.inf else batch(q, cutoff))
+        d_min = float(min(self.clearance.evaluate(qk, hessian=False)[3] for qk in q))
+        return d_min if d_min < cutoff else float(np.inf)
 
     def clearance_rows(self, q: np.ndarray, lookahead: float = 0.0) -> ClearanceRows | None:
         """The rows of the clearance cost within ``lookahead`` [m] of activation at the knots 1 … n of q (n+1, nq)

@@ -59,7 +59,8 @@ class ILQRResult(SolverResult):
 
     q: (nq,) the terminal configuration q_n;  error: ‖e(q_n)‖, ``e = log(Ṽ_Sc(q_n) V_Sd)``
         (Eq 44; plain 7-vector norm, mixed units rad / log-scale / body length);
-        converged: ``error < tol`` and the bounds hold and the last step was accepted.
+        converged: ``error < tol`` and the bounds hold and the last step was accepted, and (with a clearance
+            cost) ``min_clearance ≥ 0`` (a trajectory through an obstacle is never reported as converged).
     trajectory: (n+1, nq) joint positions [rad] at the knots; qd: (n+1, nq) velocities [rad/s].
     u: (n, nq) joint accelerations [rad/s²] (piecewise constant over each Δt).
     t: (n+1,) knot times [s].
@@ -162,12 +163,7 @@ def finish(
     lf, e, _ = ocp.terminal(q[-1], qd[-1])
     c_cost = ocp.clearance_cost(q)
     cost = ocp.running_cost(u) + lf + c_cost
-    min_clear = np.inf
-    if ocp.clearance is not None:
-        batch = getattr(ocp.clearance, "trajectory_min", None)
-        min_clear = (
-            float(batch(q)) if callable(batch) else float(min(ocp.clearance.evaluate(qk, hessian=False)[3] for qk in q))
-        )
+    min_clear = ocp.min_clearance(q)
     # the last iterate's entries re-evaluated (an early exit has no history yet: its only entry)
     costs = [*progress.costs[:-1], cost]
     errs = [*progress.errs[:-1], float(np.linalg.norm(e))]
@@ -182,8 +178,15 @@ def finish(
             key=task.name,
         )
     feasible = o.limit_mode == "none" or (pviol <= 1e-9 and vviol <= 1e-9 and aviol <= 1e-9)
-    # every iterate is the result of a step accepted on the true merit (or the initial guess)
-    converged = bool(errs[-1] < o.tol and feasible)
+    # every iterate is the result of a step accepted on the true merit (or the initial guess); the clearance cost is
+    # a penalty, so a trajectory that ends up through an obstacle (a restart, a low weight) is checked here
+    penetration = ocp.clearance is not None and min_clear < 0.0
+    if penetration:
+        message = ("terminal error below tol" if progress.message == "" else message) + (
+            f"; but the trajectory penetrates the collision model by {-min_clear:.3g} m (min clearance {min_clear:.3g} m "
+            "< 0 at a knot; the clearance cost is a penalty: raise its weight or activation distance)"
+        )
+    converged = bool(errs[-1] < o.tol and feasible and not penetration)
     active = active_constraints(ocp, q, qd, u, tol=1e-3) if o.limit_mode == "enforce" and describe else ()
     return ILQRResult(
         converged=converged,

@@ -129,7 +129,8 @@ def _restart(ocp: ReachingOCP, o: ILQROptions, res: ILQRResult, warning_counts: 
     A failed solve usually stalls on a local minimum of the bounded terminal problem (joints pressed on their limits,
     ‖e‖ ~ 1e-2).  The bounded Gauss–Newton IK reaches the target inside the limits more often from q_init; restart
     from the minimum-energy controls to its answer (rest-to-rest they are cubics, monotone between the bounds) and
-    keep the better result (both solves in its statistics and histories).
+    keep the better result (both solves in its statistics and histories).  The IK ignores the clearance cost: a
+    restart whose trajectory has a negative clearance is rejected unless the first solve's had one too.
     """
     from ..gauss_newton import gauss_newton_ik
 
@@ -144,7 +145,10 @@ def _restart(ocp: ReachingOCP, o: ILQROptions, res: ILQRResult, warning_counts: 
             u_guess = blended[0]
     o2 = dataclasses.replace(o, max_iter=max(o.max_iter - res.iterations, 1))
     res2 = _Solve(ocp, o2, u_guess).run(warning_counts)
-    if not (res2.converged or res2.error < res.error):
+    # the IK knows no obstacle: a restart that ends through one (where the first solve did not) is not better,
+    # however small its error (finish() already refuses to call it converged)
+    through = res2.min_clearance < 0.0 <= res.min_clearance
+    if through or not (res2.converged or res2.error < res.error):
         return res
     return dataclasses.replace(
         res2,
@@ -288,6 +292,7 @@ class _Solve:
         self.lm = 0.0  # LM damping of the terminal model (adapted by the step quality)
         self.prev_violation = np.inf
         self.blocked = False  # the stall test held (_blocked): the solve ends
+        self.start_clearance: float | None = None  # min clearance at q_init (with a clearance cost; once)
 
     # ------------------------------------------------------------------ tests on an evaluation
     def _reached(self, ev: Evaluation) -> bool:
@@ -295,7 +300,20 @@ class _Solve:
 
     def _done(self, ev: Evaluation) -> bool:
         # a violation ≤ al_violation is removed exactly by the final blend with the feasible reference
-        return float(np.linalg.norm(ev.e)) < self.o.tol and ev.violation <= self.o.al_violation
+        done = float(np.linalg.norm(ev.e)) < self.o.tol and ev.violation <= self.o.al_violation
+        # the clearance cost is a penalty: a trajectory through an obstacle (e.g. the restart's guess, which the IK
+        # planned without obstacles) is not done even at ‖e‖ < tol; iterate on (finish() would refuse it anyway)
+        return done and not self._penetrates(ev)
+
+    def _penetrates(self, ev: Evaluation) -> bool:
+        """Whether the trajectory has a negative clearance at a knot (False without a clearance cost): the pairs below
+        0 of the knots 1 … n (the merit's pair list of the same trajectory, reused) and of the start."""
+        ocp = self.ocp
+        if ocp.clearance is None:
+            return False
+        if self.start_clearance is None:
+            self.start_clearance = ocp.min_clearance(ev.q[:1])
+        return self.start_clearance < 0.0 or ocp.min_clearance(ev.q[1:], 0.0) < 0.0
 
     # ------------------------------------------------------------------ outer loop
     def run(self, warning_counts: dict[str, int], describe: bool = True) -> ILQRResult:
