@@ -284,14 +284,9 @@ def _free_flyer_step(qf: Any, v: Any) -> list[Any]:
     return p + quat
 
 
-def integrate_to_second_order(model: Any, q: Any, v: Any) -> Any:
-    """``q ⊕ v`` (nq CasADi SX) as a polynomial in the velocity v (nv), equal to ``pinocchio.integrate(model,
-    q, v)`` up to O(|v|³): q + v for 1-DOF joints, ``M exp6(v)`` to second order for a free flyer.
-
-    Its first and second derivatives in v at v = 0 are those through ``pinocchio.integrate``, so
-    ``f(integrate_to_second_order(model, q, v))`` differentiated by AD at v = 0 gives a function's
-    derivatives along the tangent space (nv columns) — exactly, without the 0/0 of ``sin|ω|/|ω|``.
-    Raises :class:`UnsupportedJointError` for a joint that is neither 1-DOF nor a free flyer."""
+def _integrate_joints(model: Any, q: Any, v: Any, free_flyer: Any, name: str) -> Any:
+    """``q ⊕ v`` joint by joint (CasADi SX): q + v for 1-DOF joints, ``free_flyer(q_joint, v_joint)`` for a free
+    flyer; :class:`UnsupportedJointError` naming ``name`` for any other joint."""
     import casadi as ca
 
     out: list[Any] = []
@@ -300,13 +295,24 @@ def integrate_to_second_order(model: Any, q: Any, v: Any) -> Any:
         if nqj == nvj:
             out += [q[iq + k] + v[iv + k] for k in range(nqj)]
         elif model.joints[jid].shortname() == "JointModelFreeFlyer":
-            out += _free_flyer_step([q[iq + k] for k in range(7)], [v[iv + k] for k in range(6)])
+            out += free_flyer([q[iq + k] for k in range(7)], [v[iv + k] for k in range(6)])
         else:
             raise UnsupportedJointError(
                 f"joint '{model.names[jid]}' has type {model.joints[jid].shortname()}: only 1-DOF joints and "
-                "free flyers move by integrate_to_second_order; lock it (pinocchio.buildReducedModel)"
+                f"free flyers move by {name}; lock it (pinocchio.buildReducedModel)"
             )
     return ca.vertcat(*out)
+
+
+def integrate_to_second_order(model: Any, q: Any, v: Any) -> Any:
+    """``q ⊕ v`` (nq CasADi SX) as a polynomial in the velocity v (nv), equal to ``pinocchio.integrate(model,
+    q, v)`` up to O(|v|³): q + v for 1-DOF joints, ``M exp6(v)`` to second order for a free flyer.
+
+    Its first and second derivatives in v at v = 0 are those through ``pinocchio.integrate``, so
+    ``f(integrate_to_second_order(model, q, v))`` differentiated by AD at v = 0 gives a function's
+    derivatives along the tangent space (nv columns) — exactly, without the 0/0 of ``sin|ω|/|ω|``.
+    Raises :class:`UnsupportedJointError` for a joint that is neither 1-DOF nor a free flyer."""
+    return _integrate_joints(model, q, v, _free_flyer_step, "integrate_to_second_order")
 
 
 #: Below this |ω|² [rad²] the free flyer's exponential uses its Taylor series (to θ⁶; error < 1e-16 there), above
@@ -357,21 +363,7 @@ def integrate_symbolic(model: Any, q: Any, v: Any) -> Any:
     """``pinocchio.integrate(model, q, v)`` as a CasADi SX expression (nq) of q (nq) and v (nv), exact: q + v for
     1-DOF joints, ``M exp6(v)`` for a free flyer (:func:`_free_flyer_exp`; a unit quaternion stays unit).
     Raises :class:`UnsupportedJointError` for a joint that is neither 1-DOF nor a free flyer."""
-    import casadi as ca
-
-    out: list[Any] = []
-    for jid in range(1, model.njoints):
-        iq, iv, nqj, nvj = (int(a[jid]) for a in (model.idx_qs, model.idx_vs, model.nqs, model.nvs))
-        if nqj == nvj:
-            out += [q[iq + k] + v[iv + k] for k in range(nqj)]
-        elif model.joints[jid].shortname() == "JointModelFreeFlyer":
-            out += _free_flyer_exp([q[iq + k] for k in range(7)], [v[iv + k] for k in range(6)])
-        else:
-            raise UnsupportedJointError(
-                f"joint '{model.names[jid]}' has type {model.joints[jid].shortname()}: only 1-DOF joints and "
-                "free flyers move by integrate_symbolic; lock it (pinocchio.buildReducedModel)"
-            )
-    return ca.vertcat(*out)
+    return _integrate_joints(model, q, v, _free_flyer_exp, "integrate_symbolic")
 
 
 def at_zero_velocity(model: Any, build: Any, q: Any, *extra: Any) -> Any:
