@@ -689,7 +689,7 @@ def partner_metrics(run: PartnerRun) -> dict[str, Any]:
     * ``success``: none dropped, slip ≤ 5 mm at both ends, direction error ≤ 0.05 rad, |ℓ − ℓ_c| ≤ 5 mm, the
       squeeze ≥ 25 % of its set-point, no other contact, no joint limit left, no torque clipped; ``failures``.
     """
-    from .carry import _limits
+    from .carry import limit_excursions
 
     st, tr, log = run.setup, run.trace, run.log
     s = _series(run)
@@ -719,7 +719,7 @@ def partner_metrics(run: PartnerRun) -> dict[str, Any]:
         "saturated_updates": int(log.saturated_updates),
         "control_updates": int(log.control_updates),
         "effort_ratio": float(log.effort_ratio),
-        **_limits(run),  # type: ignore[arg-type]
+        **limit_excursions(run),  # type: ignore[arg-type]
     }
     m["failures"] = _failures(m)
     m["success"] = not m["failures"]
