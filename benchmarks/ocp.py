@@ -65,7 +65,9 @@ docs/performance.md ("The constrained reaching OCP") for the numbers of the last
 (load 11): velocity problem, the iLQR within 1e-6 of IPOPT's cost after 0.244× IPOPT's solve time (0.138×
 FATROP's), to its own end 1.23×; the clearance reach 11.2× the reach without the cost (200 ms, 12 iterations,
 against 18 ms, 5); at load 2 (clearance part alone, ``--repeat 7``) 13.4–13.6× (78–79 ms against 6 ms), 8–22×
-under load 7–9 (the plain reach's 6–24 ms decides it) — the target of 5× is not met.
+under load 7–9 (the plain reach's 6–24 ms decides it).  With the acceleration box inside the closed-form step
+(14 iterations, all closed-form, J 0.02282, 50.0 mm clear): 9.8×, 11.5×, 12.4× under load 6–7 (104–148 ms),
+alternated with the code before at 13.1×, 13.2×, 20.3× (126–178 ms) — the target of 5× is not met.
 
 Columns: iterations; solve time [ms] (wall) and CPU [ms]; the cost J of Eq 53 of the
 returned controls (re-integrated); ΔJ relative to the best feasible row; terminal ‖e‖;

@@ -62,7 +62,7 @@ def test_rows_solve_is_the_dense_lq_minimiser(problem):
     cond = Condensation.of(ocp)
     rows = ocp.clearance_rows(ev.q, 0.02)
     act = rows.v > 0
-    du = _rows_solve(ocp, cond, u, Vxx, vx, rows, act)
+    du, _ = _rows_solve(ocp, cond, u, Vxx, vx, rows, act)
     T, n, dt = ocp.horizon, ocp.nq, ocp.dt
     # G: δu (T·n) → [δq_n; δq̇_n; y_A]
     Gx = np.zeros((2 * n, T * n))
@@ -85,6 +85,29 @@ def test_rows_solve_is_the_dense_lq_minimiser(problem):
     print(f"condition {np.linalg.cond(H):.1e}, f {f(du.ravel()):.10e} (Woodbury) {f(x):.10e} (dense)")
     assert f(du.ravel()) == pytest.approx(f(x), rel=1e-9)
     assert np.linalg.norm(du.ravel() - x) < 1e-3 * np.linalg.norm(x)
+
+    # with controls held at a bound (the acceleration box in the active set): the Woodbury correction of the
+    # clamped columns equals the dense minimiser over the free controls
+    rng = np.random.default_rng(3)
+    hi = rng.random(u.shape) < 0.05
+    lo = (rng.random(u.shape) < 0.05) & ~hi
+    bounds = (u - 1.0 - rng.random(u.shape), u + 1.0 + rng.random(u.shape))  # the new controls' box
+    du_c, GTm = _rows_solve(ocp, cond, u, Vxx, vx, rows, act, (hi, lo), bounds)
+    fixed = (hi | lo).ravel()
+    d_fixed = (np.where(hi, bounds[1], bounds[0]) - u).ravel()[fixed]
+    x_c = np.zeros(T * n)
+    x_c[fixed] = d_fixed
+    free = ~fixed
+    x_c[free] = -np.linalg.solve(H[np.ix_(free, free)], g[free] + H[np.ix_(free, fixed)] @ d_fixed)
+    assert hi.sum() + lo.sum() > 10
+    np.testing.assert_array_equal(du_c.ravel()[fixed], d_fixed)  # held exactly
+    assert f(du_c.ravel()) == pytest.approx(f(x_c), rel=1e-9)
+    assert f(du_c.ravel()) > f(x)  # the clamps cost something
+    assert np.linalg.norm(du_c.ravel() - x_c) < 1e-3 * np.linalg.norm(x_c)
+    # the returned Gᵀm makes 2R(u + δu) + Gᵀm the model's gradient, zero on the free controls
+    grad = (u + du_c) * np.diag(ocp.R2) + GTm
+    np.testing.assert_allclose(grad.ravel(), H @ du_c.ravel() + g, rtol=1e-6, atol=1e-6 * np.abs(g).max())
+    assert np.abs(grad.ravel()[free]).max() < 1e-6 * np.abs(g).max()
 
 
 def test_condensed_rows_step_is_a_descent_step_with_the_exact_slope(problem):
@@ -135,3 +158,26 @@ def test_clearance_reach_result_is_clear_of_the_sphere_by_an_independent_check(p
             )
             best = min(best, d)
     assert best == pytest.approx(d_ours, abs=1e-6)
+
+
+def test_condensed_rows_step_keeps_the_acceleration_box_in_its_active_set(problem):
+    """When the rows' step leaves the acceleration box, the box joins the active set: the step returned stays inside
+    |u| ≤ a_max with controls at the bound, and it is a descent step with the exact slope d1 and a model decrease."""
+    ocp, cost, u = problem
+    ev, vx, Vxx = _model(ocp, u)
+    rows = ocp.clearance_rows(ev.q, 0.02)
+    cond = Condensation.of(ocp)
+    du0, d10, d20 = condensed_rows_step(ocp, cond, u, Vxx, vx, rows)
+    a_max = 0.5 * (np.abs(u).max() + np.abs(u + du0).max())  # between the controls now and the free step's
+    assert np.abs(u).max() < a_max < np.abs(u + du0).max()
+    s = ocp.task.system.with_limits(acceleration=a_max)
+    task = cg.cooperative_task(s, "circle")
+    bounded = ReachingOCP(task, ocp.q_init, ocp.target, horizon=ocp.horizon, dt=ocp.dt, clearance=cost)
+    assert bounded.u_bounded
+    du, d1, d2 = condensed_rows_step(bounded, Condensation.of(bounded), u, Vxx, vx, rows)
+    assert np.abs(u + du).max() <= a_max + 1e-12
+    assert np.isclose(np.abs(u + du).max(), a_max)  # some control at the bound
+    slope = float(np.sum(bounded.gradient(u) * du))
+    assert d1 == pytest.approx(slope, rel=1e-8)
+    assert d1 < 0 and d1 + d2 < 0 and d10 + d20 < 0
+    assert not np.allclose(du, du0)

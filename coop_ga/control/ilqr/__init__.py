@@ -94,9 +94,11 @@ trajectory crosses an obstacle that the first solve's did not, and a result with
   (2nq + m)-dimensional solve with the Gramian of those observations (closed form for the double integrator);
   the active set is updated from the rows the step leaves within d_a (a semi-smooth Newton iteration, ≤ 8
   sets, the best model value kept).  Rows not active now thus enter the model when a step reaches them, instead
-  of being discovered by the line search.  The step is used when its trajectory is inside every bound at the
-  line search's largest α; else (or with an AL term active) the Riccati pass with the rows' Gauss–Newton Hessians
-  as full state-cost blocks.  The terminal model is Gauss–Newton while a row is near (the multiplier estimate of
+  of being discovered by the line search.  When that step leaves the acceleration box at the line search's
+  largest α, the box joins the active set (R diagonal: the clamped controls' columns leave the Woodbury
+  system, one more iteration of ≤ 8 sets on rows and box together).  The step is used when its trajectory is
+  inside every bound at the line search's largest α; else (or with an AL term active) the Riccati pass with the
+  rows' Gauss–Newton Hessians as full state-cost blocks.  The terminal model is Gauss–Newton while a row is near (the multiplier estimate of
   the Newton model knows no clearance cost).  The line search evaluates the exact cost.
 * Measured on the obstacle scene of ``benchmarks/ocp.py`` (100 knots): before, 20 iterations and ~8000 knot-by-
   knot collision evaluations (87 % of the time) made the reach 357–457× the reach without the cost; now about

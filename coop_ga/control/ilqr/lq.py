@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,8 +93,11 @@ def condensed_rows_step(
     active-set iteration, starting from the rows active now), at most ``max_sets`` times; the step with the
     smallest model value is returned.  Rows not active now enter when the step brings them within d_a, so the
     line search is not left to discover them — unless the first step moves a joint by more than ``max_travel``
-    (the line search's trust region): the linearised rows say nothing about where such a step ends.  Returns ``(δu, d1, d2)`` — d1 the exact directional derivative at
-    δu = 0, ``d1 + d2`` the model change of the full step — or None (not convex).
+    (the line search's trust region): the linearised rows say nothing about where such a step ends.  If the step
+    leaves the acceleration box at the largest α the line search tries, the box joins the active set
+    (:func:`_box_sets`) and the best step inside it is returned (else the step as it is: :func:`lq_step` then takes
+    the Riccati pass).  Returns ``(δu, d1, d2)`` — d1 the exact directional derivative at δu = 0, ``d1 + d2`` the
+    model change of the full step — or None (not convex).
     """
     try:
         np.linalg.cholesky(cond.Winv + Vxx)  # the rows add a PSD term: the model is convex when this holds
@@ -101,7 +105,6 @@ def condensed_rows_step(
         return None
     C = cond.C
     assert C is not None  # built for a problem with a clearance cost
-    Ck = C[rows.knots]
     Ru = u @ ocp.R
     v0 = np.maximum(rows.v, 0.0)
     base = 0.5 * rows.w * float(v0 @ v0)
@@ -111,27 +114,117 @@ def condensed_rows_step(
         run = float(np.sum((2.0 * Ru + du @ ocp.R) * du))
         return run + float(vx @ dx) + 0.5 * float(dx @ Vxx @ dx) + 0.5 * rows.w * float(hinge @ hinge) - base
 
-    act = rows.v > 0
-    best: tuple[float, np.ndarray, np.ndarray, np.ndarray] | None = None
+    try:
+        f, du, dx, y, act, _ = _active_sets(ocp, cond, u, Vxx, vx, rows, model, rows.v > 0, max_sets, max_travel)
+    except np.linalg.LinAlgError:
+        return None
+    boxed = _box_sets(ocp, cond, u, Vxx, vx, rows, model, act, du, max_sets, max_travel)
+    if boxed is not None:
+        f, du, dx, y = boxed
+    d1 = 2.0 * float(np.sum(Ru * du)) + float(vx @ dx) - rows.w * float(v0 @ y)
+    return du, d1, f - d1
+
+
+def _box_sets(
+    ocp: ReachingOCP,
+    cond: Condensation,
+    u: np.ndarray,
+    Vxx: np.ndarray,
+    vx: np.ndarray,
+    rows: ClearanceRows,
+    model: Callable[[np.ndarray, np.ndarray, np.ndarray], float],
+    act: np.ndarray,
+    du: np.ndarray,
+    max_sets: int,
+    max_travel: float,
+) -> tuple[float, np.ndarray, np.ndarray, np.ndarray] | None:
+    """The step of :func:`condensed_rows_step` with the acceleration box in the active set, when the rows' step ``du``
+    leaves the box at the largest α the line search tries (``a = min(1, max_travel / travel)``, as in
+    :func:`lq_step`), else None (also when R is not diagonal or no step inside the box is found).
+
+    The box is put on the full step so that ``u + a δu`` stays inside ``|u| ≤ a_max``; the rows and the box then
+    share one active-set iteration (:func:`_active_sets`), from the rows of ``du`` and the controls it puts past a
+    bound.  ``(f, δu, δx_n, y)``.
+    """
+    C = cond.C
+    assert C is not None
+    if not ocp.u_bounded or np.any(ocp.R2 - np.diag(np.diag(ocp.R2))):
+        return None
+    travel = float(np.max(np.abs(C @ du)))
+    a = min(1.0, max_travel / travel) if travel > 0 else 1.0
+    a_max = np.broadcast_to(ocp.a_max, u.shape)
+    if not np.max(np.abs(u + a * du) - a_max) > 1e-12:
+        return None
+    bounds = (u - (a_max + u) / a, u + (a_max - u) / a)
+    x = u + du
+    try:
+        out = _active_sets(
+            ocp, cond, u, Vxx, vx, rows, model, act, max_sets, np.inf, (x > bounds[1], x < bounds[0]), bounds
+        )
+    except np.linalg.LinAlgError:
+        return None
+
+    return out[:4] if out[5] else None
+
+
+def _active_sets(
+    ocp: ReachingOCP,
+    cond: Condensation,
+    u: np.ndarray,
+    Vxx: np.ndarray,
+    vx: np.ndarray,
+    rows: ClearanceRows,
+    model: Callable[[np.ndarray, np.ndarray, np.ndarray], float],
+    act: np.ndarray,
+    max_sets: int,
+    max_travel: float,
+    clamped: tuple[np.ndarray, np.ndarray] | None = None,
+    bounds: tuple[np.ndarray, np.ndarray] | None = None,
+) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
+    """The active-set iteration of :func:`condensed_rows_step` from the rows ``act``: ``(f, δu, δx_n, y, act, flag)``
+    of the step with the smallest model value.  Without ``clamped``: the rows only, ``flag`` = the first step went
+    beyond ``max_travel`` (then it is the only one).  With ``clamped = (hi, lo)``: the acceleration box too (a
+    primal-dual active set on ``bounds = (lo, hi)`` of the new controls x = u + δu: clamp the controls past a bound,
+    release the clamped ones whose gradient ``2R x + Gᵀm`` points into the box; no trust-region stop), the steps
+    inside the box first, ``flag`` = the returned step is inside the box."""
+    C = cond.C
+    assert C is not None
+    Ck = C[rows.knots]
+    r2 = np.diag(ocp.R2)
+    best: tuple[bool, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+    flag = False
     for it in range(max_sets):
-        du = _rows_solve(ocp, cond, u, Vxx, vx, rows, act)
-        if du is None:
-            return None
+        solved = _rows_solve(ocp, cond, u, Vxx, vx, rows, act, clamped, bounds)
+        if solved is None:
+            raise np.linalg.LinAlgError("singular active-set system")
+        du, GTm = solved
         dx = np.concatenate([cond.ck @ du, ocp.dt * du.sum(axis=0)])
         y = np.einsum("ri,ri->r", rows.J, Ck @ du)
         f = model(du, dx, y)
-        if best is None or f < best[0]:
-            best = (f, du, dx, y)
-        if it == 0 and float(np.max(np.abs(C @ du))) > max_travel:
+        x = u + du
+        outside = bounds is not None and bool(np.any((x - bounds[1] > 1e-12) | (x - bounds[0] < -1e-12)))
+        if best is None or (outside, f) < (best[0], best[1]):
+            best = (outside, f, du, dx, y, act)
+        if clamped is None and it == 0 and float(np.max(np.abs(C @ du))) > max_travel:
+            flag = True
             break  # a step beyond the trust region: its linearised rows say nothing about where it ends
         new = rows.v - y > 0
-        if np.array_equal(new, act):
-            break
+        if clamped is None:
+            if np.array_equal(new, act):
+                break
+        else:
+            hi, lo = clamped
+            grad = x * r2 + GTm
+            assert bounds is not None
+            box = (x - bounds[1] > 1e-12) | (hi & (grad <= 0)), (x - bounds[0] < -1e-12) | (lo & (grad >= 0))
+            if np.array_equal(new, act) and np.array_equal(box[0], hi) and np.array_equal(box[1], lo):
+                break
+            clamped = box
         act = new
     assert best is not None
-    f, du, dx, y = best
-    d1 = 2.0 * float(np.sum(Ru * du)) + float(vx @ dx) - rows.w * float(v0 @ y)
-    return du, d1, f - d1
+    if clamped is not None:
+        flag = not best[0]
+    return best[1], best[2], best[3], best[4], best[5], flag
 
 
 def _rows_solve(
@@ -142,15 +235,19 @@ def _rows_solve(
     vx: np.ndarray,
     rows: ClearanceRows,
     act: np.ndarray,
-) -> np.ndarray | None:
-    """The minimiser δu (n, nq) of the quadratic model with the rows ``act`` active, by Woodbury.
+    clamped: tuple[np.ndarray, np.ndarray] | None = None,
+    bounds: tuple[np.ndarray, np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The minimiser δu (n, nq) of the quadratic model with the rows ``act`` active, by Woodbury, and ``Gᵀm`` (n, nq).
 
     Every term other than ``Σ u_kᵀRu_k`` is a function of the observations ``z = [δx_n; y_A]``, linear in δu:
     ``z = G δu``.  With the model ``bᵀz + ½ zᵀ H_z z`` (``H_z = diag(V_xx, w I)``, ``b = [v_x; −w v_A]``)
     stationarity gives ``δu = −u − (2R)⁻¹ Gᵀ m`` with ``(I + H_z M) m = b − H_z s``, ``s = G u`` and
     ``M = G (2R)⁻¹ Gᵀ`` — the Gramian of the observations, in closed form for the double integrator
     (``Cov(q_k, q_l) = Γ_kl (2R)⁻¹``, :class:`Condensation`): one (2nq + |A|)-dimensional solve instead of the
-    Riccati pass over the n knots.
+    Riccati pass over the n knots.  ``clamped = (hi, lo)`` (n, nq masks; R diagonal): those controls are held at
+    ``±a_max`` — with ``x = u + δu`` the free part is ``−(2R)⁻¹(Gᵀm)_f``, so M loses the clamped columns' terms
+    ``G_c (2R)⁻¹_c G_cᵀ`` and the right-hand side gains ``H_z G_c x_c``.
     """
     n, dt, T = ocp.nq, ocp.dt, ocp.horizon
     C, Gam = cond.C, cond.Gamma
@@ -171,12 +268,54 @@ def _rows_solve(
     sx = np.concatenate([cond.ck @ u, dt * u.sum(axis=0)])
     sy = np.einsum("ri,ri->r", J, Ck @ u)
     rhs = np.concatenate([vx - Vxx @ sx, -w * rows.v[act] - w * sy])
+    if clamped is not None:
+        assert bounds is not None
+        xc = _clamp_correction(ocp, cond, k, J, M, HzM, rhs, Vxx, w, clamped, bounds)
     try:
         mv = np.linalg.solve(np.eye(2 * n + m) + HzM, rhs)
     except np.linalg.LinAlgError:
         return None
     GTm = np.outer(cond.ck, mv[:n]) + dt * mv[n : 2 * n][None, :] + Ck.T @ (J * mv[2 * n :, None])
-    return -u - GTm @ R2inv
+    du = -u - GTm @ R2inv
+    if clamped is not None:
+        mask = clamped[0] | clamped[1]
+        du[mask] = xc[mask] - u[mask]
+    return du, GTm
+
+
+def _clamp_correction(
+    ocp: ReachingOCP,
+    cond: Condensation,
+    k: np.ndarray,
+    J: np.ndarray,
+    M: np.ndarray,
+    HzM: np.ndarray,
+    rhs: np.ndarray,
+    Vxx: np.ndarray,
+    w: float,
+    clamped: tuple[np.ndarray, np.ndarray],
+    bounds: tuple[np.ndarray, np.ndarray],
+) -> np.ndarray:
+    """In place for :func:`_rows_solve`: M, ``H_z M`` and the right-hand side with the controls of ``clamped = (hi,
+    lo)`` held at ``±a_max``; returns those controls' values (n, nq; zero elsewhere)."""
+    n, dt = ocp.nq, ocp.dt
+    C = cond.C
+    assert C is not None
+    hi, lo = clamped
+    xc = np.where(hi, bounds[1], np.where(lo, bounds[0], 0.0))
+    kc, ic = np.nonzero(hi | lo)
+    Gc = np.zeros((M.shape[0], kc.size))  # the observations' columns of the clamped controls
+    cols = np.arange(kc.size)
+    Gc[ic, cols] = cond.ck[kc]
+    Gc[n + ic, cols] = dt
+    Gc[2 * n :] = J[:, ic] * C[np.ix_(k, kc)]
+    M -= (Gc * np.diag(cond.R2inv)[ic]) @ Gc.T
+    HzM[: 2 * n] = Vxx @ M[: 2 * n]
+    HzM[2 * n :] = w * M[2 * n :]
+    z = Gc @ xc[kc, ic]
+    rhs[: 2 * n] += Vxx @ z[: 2 * n]
+    rhs[2 * n :] += w * z[2 * n :]
+    return xc
 
 
 def box_qp(
@@ -579,7 +718,7 @@ def lq_step(
 
     ``Vxx, vx``: the terminal model; ``lx, lxx``: the state terms at the knots (:func:`backward_box`).
     With ``condensed`` (no AL term active, ``backward="auto"``) and clearance ``rows``: :func:`condensed_rows_step`
-    when its trajectory is inside every bound at the largest α the line search tries (``max_travel`` / the
+    (the acceleration box in its active set when the step leaves it) when its trajectory is inside every bound at the largest α the line search tries (``max_travel`` / the
     step's joint travel, or 1).  With ``condensed`` and no rows: :func:`condensed_box_step` when the full step's
     trajectory is inside every bound (then every α ∈ [0, 1] is: the bounds are linear in u), or
     :func:`control_box_step` when only the acceleration bounds are in the way; else (or when those fail the bounds)
