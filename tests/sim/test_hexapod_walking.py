@@ -168,7 +168,7 @@ def test_blind_probing_swings_stay_within_the_servos_torque(monkeypatch) -> None
     cmd, opt, duration = straight_command("ripple", 0.2)
     opt = replace(opt, blind=True)
     good = simulate_walk(Terrain.flat(), cmd, opt, duration=duration).metrics()
-    assert good["events"]["speed_limited_plans"] >= 300 and good["events"]["torque_limited_plans"] >= 1, good
+    assert good["events"]["speed_limited_plans"] >= 200 and good["events"]["torque_limited_plans"] >= 1, good
     assert good["saturated_updates"] == 0 and good["effort_ratio"] <= walking.TORQUE_BUDGET + 0.01, good
     assert good["walked_fraction"] >= 0.95 and good["shin_contact_steps"] == 0 and good["passed"], good
     monkeypatch.setattr(walking, "TORQUE_BUDGET", math.inf)  # no torque limit on the targets
