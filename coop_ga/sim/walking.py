@@ -53,7 +53,10 @@ known initial pose) and the 18 joint targets q_D — and the stance feet's ancho
    and −Jᵀ F for vertical foot forces F that carry the robot's weight with no moment about its centre of mass
    (weighted least norm, loads ramped in after touchdown and out before lift-off), from the measured state.
    The command is rounded to :data:`TORQUE_QUANTUM` (a servo's duty cycle has a finite resolution; the logged
-   ``ctrl`` is then exact in float32); the simulation clips at the URDF effort (1.5 N m) and counts it.
+   ``ctrl`` is then exact in float32); the simulation clips at the URDF effort (1.5 N m) and counts it.  The
+   targets q_D follow the plan at most at ``joint_speed`` × the servos' no-load speed, and a swinging leg's
+   step is shortened where the servo law would ask more than :data:`TORQUE_BUDGET` of the effort at the plan's
+   start (``HexapodWalker._servo_limited``).
 
 ``feedback=False`` is the ablation's **open-loop replay of the kinematic plan**: the same gait, footholds and
 swing arcs, but touchdown on schedule (no touch sensors), the stance set from the phase table, no posture
@@ -112,6 +115,9 @@ TORQUE_QUANTUM = 2.0**-14
 _TORQUE_STEPS = 2.0**14
 #: swing progress samples of an arc (linear interpolation between them is within 1e-5 m of swing_arc)
 _ARC_S = np.linspace(0.0, 1.0, 201)
+#: the fraction of the URDF effort a swinging leg's servo law may ask for at a plan's start (the rest: its
+#: tracking error growing over the plan)
+TORQUE_BUDGET = 0.9
 
 
 # ====================================================================== commands
@@ -250,8 +256,11 @@ class WalkingOptions:
         leg whose femur and tibia servos push harder than this without foot contact rests on its shin and steps
         over instead.  load_ramp: [s] feed-forward
         load ramp after touchdown / before lift-off.  joint_speed: the joint targets move at most this fraction
-        of the URDF's joint speed (the servos' no-load speed; at 0.8 its back-EMF takes 0.8 of the stall torque);
-        a faster plan is followed at that speed (counted as ``speed_limited_plans``).
+        of the URDF's joint speed (the servos' no-load speed; at 0.7 its back-EMF takes 0.7 of the stall torque,
+        leaving 0.45 N m for the PD's tracking error and the load); a faster plan is followed at that speed
+        (counted as ``speed_limited_plans``).  At 0.8 the 0.3 N m left was exceeded by a lag of 25 mrad: the 1 m
+        blind walks, whose probing swings run at the limit for most of the swing, clipped 1–29 torque updates
+        each (tripod on flat ground: 29, each at a rear coxa or front tibia entering the probe's way back).
     probe_guard, probe_height, probe_margin: blind, every swing ends with a probe
         (:mod:`coop_ga.sim.walking_blind`): it reaches past its foothold as far as the leg's capsules would reach
         toward a riser ``probe_guard`` [m] high during the stance (:func:`~coop_ga.sim.walking_blind.shin_reach`,
@@ -294,7 +303,7 @@ class WalkingOptions:
     search_depth: float = 0.05
     search_load: float = 0.3
     load_ramp: float = 0.05
-    joint_speed: float = 0.8
+    joint_speed: float = 0.7
     probe_guard: float = 0.035
     probe_height: float = 0.006
     probe_margin: float = 0.003
@@ -647,6 +656,7 @@ class HexapodWalker:
         "held_lift_offs",
         "unsupported_plans",
         "speed_limited_plans",
+        "torque_limited_plans",
         "short_probes",
     )
 
@@ -710,6 +720,7 @@ class HexapodWalker:
             self._kd[qi[:, j]] = opt.kd[j]
         # the servos' back-EMF damping (hexapod module docstring, "Servos"): τ must also supply b q̇_D
         self._b = np.asarray(hs.model.dof_damping, float)[hs.scene.qvel_index].copy()
+        self._effort = np.asarray(system.limits.effort, float).copy()  # (18,) [N m], the q order
         self._dq_max = np.empty(18)
         self._dq_max[self.fast.q_index] = opt.joint_speed * self.dt * np.asarray(self.legs.velocity_limit, float)
         self._tasks: dict[tuple[str, ...], Any] = {}
@@ -793,17 +804,7 @@ class HexapodWalker:
                 self.counts["unsupported_plans"] += 1
         self._pD = self._pD + self._RD @ u[:3] * self.dt
         self._RD = self._RD @ _expm_so3(u[3:] * self.dt)
-        q_new = self._targets()
-        # the servos' speed: a target faster than joint_speed × the URDF's no-load speed needs more torque than
-        # the back-EMF leaves (τ = τ_stall (u − q̇/ω₀)); the target follows at that speed instead (counted), each
-        # leg's three joints slowed together: clipped one by one they left the foot's path (a probing front foot
-        # dipped 2 cm onto the tread 12 mm short of a riser; 1 m tripod steps walk, blind)
-        dq = q_new - self._qD
-        scale = np.min(self._dq_max[self.fast.q_index] / np.maximum(np.abs(dq[self.fast.q_index]), 1e-300), axis=1)
-        if np.any(scale < 1.0):
-            self.counts["speed_limited_plans"] += 1
-            dq[self.fast.q_index] *= np.minimum(scale, 1.0)[:, None]
-            q_new = self._qD + dq
+        q_new = self._servo_limited(q, qd, self._targets())
         self._qdD = (q_new - self._qD) / self.dt
         self._qD = q_new
         self._t_plan = t
@@ -813,6 +814,35 @@ class HexapodWalker:
         else:  # the plan's own torques (open loop)
             self._tau_ff = self._feedforward(t, q_new, *self.fast.fk_jac(q_new), self._RD, stance)
         self._record(t, stance, touch, err, u, waiting)
+
+    def _servo_limited(self, q: np.ndarray, qd: np.ndarray, q_new: np.ndarray) -> np.ndarray:
+        """The plan's joint targets ``q_new`` (18,) [rad] within what the servos can follow from the measured
+        ``q``, ``qd`` (18,): each leg's step toward them scaled (its three joints together: scaled one by one they
+        left the foot's path — a probing front foot dipped 2 cm onto the tread 12 mm short of a riser, 1 m tripod
+        steps walk, blind) to at most ``joint_speed`` × the URDF's no-load speed (``speed_limited_plans``) and, for
+        a leg off the ground, so that the servo law's torque at the plan's start stays within
+        :data:`TORQUE_BUDGET` of the effort (``torque_limited_plans``)."""
+        qi = self.fast.q_index
+        dq = q_new - self._qD
+        # the servos' speed: a target faster than joint_speed × the URDF's no-load speed needs more torque than
+        # the back-EMF leaves (τ = τ_stall (u − q̇/ω₀)); the target follows at that speed instead
+        scale = np.minimum(np.min(self._dq_max[qi] / np.maximum(np.abs(dq[qi]), 1e-300), axis=1), 1.0)
+        if np.any(scale < 1.0):
+            self.counts["speed_limited_plans"] += 1
+        # the servos' torque: a target whose velocity jumps (a speed-limited target turning toward a path that
+        # went on without it) asks for b q̇_D + kd (q̇_D − q̇) at once: a front tibia at rest, sent to 4.3 rad/s,
+        # needed 1.56 N m (1 m ripple walk, blind).  τ(s) = C + s B with the step s dq; stance legs keep theirs
+        tau0 = self._tau_ff + self._kp * (self._qD - q) - self._kd * qd
+        slope = (self._kp + (self._kd + self._b) / self.dt) * dq
+        bound = TORQUE_BUDGET * self._effort
+        with np.errstate(divide="ignore", invalid="ignore"):
+            room = np.where(slope > 0, (bound - tau0) / slope, np.where(slope < 0, (-bound - tau0) / slope, np.inf))
+        free = np.array([leg.mode != 0 for leg in self._legs])
+        torque = np.where(free, np.clip(np.min(room[qi], axis=1), 0.0, 1.0), 1.0)
+        if np.any(torque < scale):
+            self.counts["torque_limited_plans"] += 1
+        dq[qi] *= np.minimum(scale, torque)[:, None]
+        return self._qD + dq
 
     def _clock(self, t: float, q: np.ndarray, data: Any, touch: np.ndarray, cmd: np.ndarray) -> bool:
         """Advance the gait clock and the reference path (not while a foot is late, nor while standing still)

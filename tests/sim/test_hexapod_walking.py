@@ -156,6 +156,27 @@ def test_no_lift_off_while_a_support_foot_takes_its_load() -> None:
     assert m["max_slip_m"] < 0.0075 and m["self_contact_steps"] == 0
 
 
+def test_blind_probing_swings_stay_within_the_servos_torque(monkeypatch) -> None:
+    """A blind ripple walk on flat ground (0.2 m): its probing swings run at the joint speed limit, and at the
+    arc's apex a front tibia's speed-limited target turns from −0.5 to +4.3 rad/s in one plan — the servo law then
+    asks 1.56 N m of the 1.5 N m (clipped, and counted).  The walker scales such a swinging leg's step so that
+    the torque at the plan's start stays within TORQUE_BUDGET of the effort: nothing is clipped, and the walk
+    still meets the bar."""
+    from coop_ga.sim import walking
+    from coop_ga.sim.walking_experiments import straight_command
+
+    cmd, opt, duration = straight_command("ripple", 0.2)
+    opt = replace(opt, blind=True)
+    good = simulate_walk(Terrain.flat(), cmd, opt, duration=duration).metrics()
+    assert good["events"]["speed_limited_plans"] >= 200 and good["events"]["torque_limited_plans"] >= 1, good
+    assert good["saturated_updates"] == 0 and good["effort_ratio"] <= walking.TORQUE_BUDGET + 0.01, good
+    assert good["walked_fraction"] >= 0.95 and good["shin_contact_steps"] == 0 and good["passed"], good
+    monkeypatch.setattr(walking, "TORQUE_BUDGET", math.inf)  # no torque limit on the targets
+    bad = simulate_walk(Terrain.flat(), cmd, opt, duration=duration).metrics()
+    assert bad["events"]["torque_limited_plans"] == 0 and bad["saturated_updates"] >= 1, bad
+    assert bad["effort_ratio"] > 1.0, bad
+
+
 def test_a_searching_leg_that_bears_load_without_contact_steps_over() -> None:
     """A searching foot whose femur and tibia servos push with more than search_load (its shin on an edge) steps
     over along its swing; one that follows its target keeps searching."""
