@@ -146,6 +146,12 @@ def _metrics(rows: list[dict[str, Any]], fast: bool) -> dict[str, Any]:
             for d, c in comp.items()
         )
         + "."
+        + (
+            f" Tilt and height error not both lower with feedback under: "
+            f"{', '.join(d for d in DISTURBANCES if d not in helps)}."
+            if len(helps) < len(DISTURBANCES)
+            else ""
+        )
         + (f" Slip is not lower with feedback under: {', '.join(worse)}." if worse else "")
         + (" Fast mode: 0.25 m walks." if fast else "")
     )
