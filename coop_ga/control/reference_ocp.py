@@ -186,7 +186,10 @@ class TangentReachingOCP:
         q_init: (nq,) initial configuration (a free flyer's [p [m]; unit quaternion x y z w], then the joints).
         target: V_Sd, a :class:`~coop_ga.Similarity` of the task's kind.
         qd_init: (nv,) initial velocity (a free flyer's LOCAL [v; ω], then the joint speeds; default 0).
-        horizon, dt, Q, limit_mode: as in :class:`~coop_ga.control.ilqr.ReachingOCP`.
+        horizon: number of knots (as in :class:`~coop_ga.control.ilqr.ReachingOCP`).
+        dt: knot spacing [s] (as there).
+        Q: terminal error weight (as there).
+        limit_mode: how the limits enter (as there).
         R: control weight (scalar, (nv,) or (nv, nv); positive definite).  Qv: terminal velocity weight (nv).
 
     The dynamics are the double integrator on the configuration manifold, exact zero-order hold::
