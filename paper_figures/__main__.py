@@ -16,7 +16,11 @@ leaves the folder exactly as it was (the failed run's files stay in
 
 Deterministic: every script draws from its own fixed seed (``--seed`` overrides all of
 them), metrics are rounded to 6 significant digits and NPZ files carry no timestamps, so
-a re-run without code changes leaves the committed files unchanged.
+a re-run without code changes leaves the committed files unchanged.  Each figure runs in a
+fresh process (a spawned worker that runs one figure and exits): a library's process-wide
+state — OMPL's random generator is seeded once per process and every planner draws its seed
+from that one sequence — would otherwise make a figure depend on which figures its worker ran
+before it.  Only ``--verbose`` runs the figures in this process, one after the other.
 
 A figure fails if its script raises or returns non-zero, if a figure its gallery block
 lists is missing, or if a published trajectory leaves the joint limits
@@ -280,9 +284,13 @@ def _parser() -> Any:
         "--jobs",
         type=positive_int,
         default=None,
-        help="figures run in parallel processes (default: the CPU count, at most 4; 1 with --verbose)",
+        help="figures run in parallel, each in its own process (default: the CPU count, at most 4)",
     )
-    p.add_argument("--verbose", action="store_true", help="show each script's own output (only with --jobs 1)")
+    p.add_argument(
+        "--verbose",
+        action="store_true",
+        help="run the figures in this process, one after the other, showing each script's own output (not with --jobs > 1)",
+    )
     p.add_argument("--list", action="store_true", help="list the figures and their scripts, then exit")
     return p
 
@@ -296,7 +304,8 @@ def _list_figures() -> None:
 
 
 def _run_figures(figs: list[Figure], out: Path, extra: list[str], args: Any, say: Any) -> dict[str, dict[str, Any]]:
-    """Run ``figs`` in this process (``--jobs 1``) or in a pool of spawned processes; reports each as it ends."""
+    """Run ``figs`` in this process (``--verbose``) or each in its own spawned process, ``args.jobs`` at a time;
+    reports each as it ends."""
     results: dict[str, dict[str, Any]] = {}
 
     def report(i: int, r: dict[str, Any]) -> None:
@@ -306,7 +315,7 @@ def _run_figures(figs: list[Figure], out: Path, extra: list[str], args: Any, say
         for prob in r["problems"]:
             say("    " + prob.replace("\n", "\n    "))
 
-    if args.jobs == 1:
+    if args.verbose:
         from coop_ga.harness import use_backend
 
         use_backend()
@@ -321,7 +330,9 @@ def _run_figures(figs: list[Figure], out: Path, extra: list[str], args: Any, say
         # by its importable name: under `python -m paper_figures` this module is __main__, which a spawned
         # worker cannot unpickle a function from
         worker = importlib.import_module("paper_figures.__main__")._worker
-        with ProcessPoolExecutor(max_workers=args.jobs, mp_context=mp.get_context("spawn")) as pool:
+        # one figure per process (module docstring): a figure's numbers must not depend on its worker's history
+        ctx = mp.get_context("spawn")
+        with ProcessPoolExecutor(max_workers=args.jobs, mp_context=ctx, max_tasks_per_child=1) as pool:
             futures = [pool.submit(worker, (f, str(out), extra)) for f in figs]
             for i, fut in enumerate(as_completed(futures), 1):
                 r = fut.result()
@@ -335,6 +346,8 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.jobs is None:
         args.jobs = 1 if args.verbose else min(os.cpu_count() or 1, 4)
+    if args.verbose and args.jobs > 1:
+        p.error("--verbose runs the figures in this process, one after the other: use --jobs 1 or drop --jobs")
     if args.list:
         _list_figures()
         return 0

@@ -266,3 +266,40 @@ def test_the_command_runs_figures_in_parallel_processes(tmp_path):
     assert r.returncode == 0, r.stderr[-2000:]
     assert (tmp_path / "table01_controllable_spaces" / "table1.md").exists()
     assert (tmp_path / "fig07_line_g1_arms" / "metrics.json").exists()
+
+
+COUNTING_SCRIPT = """
+import json, sys
+from pathlib import Path
+
+def main(argv):
+    # process-wide state, as OMPL's random generator is: a figure must not see what an earlier figure left
+    sys.coop_ga_figure_count = getattr(sys, "coop_ga_figure_count", 0) + 1
+    out = Path(argv[argv.index("--out") + 1])
+    out.mkdir(parents=True, exist_ok=True)
+    gallery = {"title": "t", "claim": "c", "evidence": "e", "agrees": True, "figures": []}
+    (out / "metrics.json").write_text(json.dumps({"count": sys.coop_ga_figure_count, "gallery": gallery}))
+    return 0
+"""
+
+
+@pytest.mark.parametrize("jobs", ["1", "2"])
+def test_each_figure_runs_in_a_fresh_process(tmp_path, monkeypatch, jobs):
+    """Old: figures ran one after the other in one process (``--jobs 1``) or in reused workers, so the planning
+    execution's plans depended on the figures its worker had run before (OMPL seeds once per process): the full
+    gallery gave 1 of 3 box lifts in the goal, the figure run alone 2 of 3."""
+    script = tmp_path / "counting.py"
+    script.write_text(COUNTING_SCRIPT)
+    figs = [paper_figures.Figure(f"count{i}", f"count{i}", str(script)) for i in range(3)]
+    monkeypatch.setattr(paper_figures.__main__, "FIGURES", tuple(figs))
+    monkeypatch.setattr(paper_figures.__main__, "select", lambda names: figs)
+    assert main(["--out", str(tmp_path / "out"), "--quiet", "--jobs", jobs]) == 0
+    counts = [json.loads((tmp_path / "out" / f.folder / "metrics.json").read_text())["count"] for f in figs]
+    assert counts == [1, 1, 1]
+
+
+def test_verbose_refuses_parallel_jobs(capsys):
+    with pytest.raises(SystemExit) as ex:
+        main(["--verbose", "--jobs", "2", "--only", "table01"])
+    assert ex.value.code == 2
+    assert "--verbose runs the figures in this process" in capsys.readouterr().err

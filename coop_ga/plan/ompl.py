@@ -34,8 +34,10 @@ joints' limits, the flyer's position within ``window`` (at least 1 m) of the sta
 quaternion; the kinematics, validity and the returned path see the quaternion normalised (OMPL keeps it unit
 only to the constraint tolerance).  ``length`` then mixes metres and quaternion units.
 
-OMPL's random generator is seeded once per process (``ompl.util.RNG.setSeed`` before its first use); the goal
-samples come from a numpy generator seeded per plan.
+OMPL's random generator is seeded once per process (``ompl.util.RNG.setSeed`` before its first use), and every
+planner draws its own seed from that one sequence: a plan is reproducible given the plans made before it in the
+process (OMPL cannot be re-seeded later), which is why ``python -m paper_figures`` runs each figure in its own
+process.  The goal samples come from a numpy generator seeded per plan.
 """
 
 from __future__ import annotations
