@@ -63,3 +63,30 @@ def wall_clock_keys(obj: object, path: str = "") -> list[str]:
     if isinstance(obj, list):
         return [x for i, v in enumerate(obj) for x in wall_clock_keys(v, f"{path}[{i}]")]
     return []
+
+
+def assert_same_mujoco_xml(actual: str, expected: str, rtol: float = 1e-9, atol: float = 1e-12) -> None:
+    """Two MJCF texts name the same model: the same elements and attributes in the same order, equal strings, and
+    numbers equal to ``rtol``/``atol``.  Not byte equality: the scene's fitted capsules and inertias come from
+    LAPACK (numpy, MuJoCo's compiler), whose last bits depend on the CPU's vector units (seen: a capsule's
+    half-length 0.10125000000000001 on one machine, 0.10125000000000006 on another)."""
+    import xml.etree.ElementTree as ET
+
+    def walk(a: ET.Element, b: ET.Element, where: str) -> None:
+        here = f"{where}/{a.tag}[{a.get('name', '')}]"
+        assert a.tag == b.tag, f"{here}: element {a.tag} vs {b.tag}"
+        assert list(a.attrib) == list(b.attrib), f"{here}: attributes {list(a.attrib)} vs {list(b.attrib)}"
+        for key, va in a.attrib.items():
+            ta, tb = va.split(), b.attrib[key].split()
+            try:
+                xa, xb = np.array(ta, dtype=float), np.array(tb, dtype=float)
+            except ValueError:
+                assert va == b.attrib[key], f"{here}@{key}: {va!r} vs {b.attrib[key]!r}"
+                continue
+            assert xa.shape == xb.shape, f"{here}@{key}: {va!r} vs {b.attrib[key]!r}"
+            np.testing.assert_allclose(xa, xb, rtol=rtol, atol=atol, err_msg=f"{here}@{key}")
+        assert len(a) == len(b), f"{here}: {len(a)} vs {len(b)} children"
+        for ca, cb in zip(a, b, strict=True):
+            walk(ca, cb, here)
+
+    walk(ET.fromstring(actual), ET.fromstring(expected), "")
