@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -10,7 +12,14 @@ from coop_ga.collision.distance import Sphere
 from coop_ga.collision.model import CollisionModel
 from coop_ga.control.avoidance import ClearanceCost
 from coop_ga.control.ilqr import ReachingOCP, displaced_target, ilqr_reach
-from coop_ga.control.ilqr.lq import Condensation, _rows_solve, condensed_rows_step
+from coop_ga.control.ilqr.lq import (
+    Condensation,
+    _rows_newton,
+    _rows_solve,
+    _RowsSystem,
+    _segment_minimiser,
+    condensed_rows_step,
+)
 from coop_ga.control.ilqr.merit import Merit, gauss_newton_hessian, terminal_model
 
 CENTER, RADIUS = np.array([0.014, -0.346, 0.478]), 0.04  # the sphere of tests/control/test_avoidance.py
@@ -110,6 +119,86 @@ def test_rows_solve_is_the_dense_lq_minimiser(problem):
     assert np.abs(grad.ravel()[free]).max() < 1e-6 * np.abs(g).max()
 
 
+def _dense_model(ocp: ReachingOCP, cond: Condensation, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, rows):
+    """The rows step's model over the whole control sequence, formed densely: ``½xᵀH₀x + g₀ᵀx + ½w Σ max(0, v_r −
+    a_rᵀx)²`` (x = δu flattened), as ``(f, ∇f)`` functions."""
+    T, n, dt = ocp.horizon, ocp.nq, ocp.dt
+    Gx = np.zeros((2 * n, T * n))
+    for j in range(T):
+        Gx[:n, j * n : (j + 1) * n] = cond.ck[j] * np.eye(n)
+        Gx[n:, j * n : (j + 1) * n] = dt * np.eye(n)
+    a = np.zeros((rows.v.size, T * n))
+    for r in range(rows.v.size):
+        for j in range(T):
+            a[r, j * n : (j + 1) * n] = cond.C[rows.knots[r], j] * rows.J[r]
+    H0 = np.kron(np.eye(T), ocp.R2) + Gx.T @ Vxx @ Gx
+    g0 = (u @ ocp.R2.T).ravel() + Gx.T @ vx
+
+    def f(x: np.ndarray) -> float:
+        h = np.maximum(rows.v - a @ x, 0.0)
+        return float(0.5 * x @ H0 @ x + g0 @ x + 0.5 * rows.w * h @ h)
+
+    def grad(x: np.ndarray) -> np.ndarray:
+        return H0 @ x + g0 - rows.w * a.T @ np.maximum(rows.v - a @ x, 0.0)
+
+    return f, grad, g0
+
+
+def test_rows_newton_reaches_the_minimiser_of_the_piecewise_quadratic_model(problem):
+    """The semi-smooth Newton iteration ends at a stationary point of the model (C¹ and convex: the minimiser),
+    checked by the dense gradient; its rows are those active there; with fewer solves its model value is never
+    above the one-solve step's (the iteration decreases the model), and the system built once per step solves
+    each active set as _rows_solve does."""
+    ocp, _, u = problem
+    ev, vx, Vxx = _model(ocp, u)
+    cond = Condensation.of(ocp)
+    rows = ocp.clearance_rows(ev.q, 0.02)
+    act0 = rows.v > 0
+    np.testing.assert_allclose(
+        _RowsSystem(ocp, cond, u, Vxx, vx, rows).solve(act0),
+        _rows_solve(ocp, cond, u, Vxx, vx, rows, act0)[0],
+        rtol=1e-9,
+        atol=1e-12,
+    )
+    f, grad, g0 = _dense_model(ocp, cond, u, Vxx, vx, rows)
+    du, _, y, act = _rows_newton(ocp, cond, u, Vxx, vx, rows, 50, np.inf)
+    x = du.ravel()
+    print(
+        f"rows {rows.v.size}, active at start {act0.sum()}, at the end {act.sum()}; |grad| {np.linalg.norm(grad(x)):.2e}"
+    )
+    assert np.linalg.norm(grad(x)) < 1e-6 * np.linalg.norm(g0)
+    assert not np.array_equal(act, act0)  # the step moved rows in or out of activation: the test is not trivial
+    np.testing.assert_array_equal(act, rows.v - y > 0)
+    values = [f(_rows_newton(ocp, cond, u, Vxx, vx, rows, k, np.inf)[0].ravel()) for k in (1, 2, 3, 50)]
+    assert all(b <= a + 1e-9 * abs(a) for a, b in itertools.pairwise(values))
+    assert values[-1] < values[0]
+
+
+def test_segment_minimiser_equals_a_dense_search():
+    """The exact minimiser on [0, 1] of the convex piecewise quadratic along a segment equals the best of a dense
+    grid refined by a golden-section search (independent of the breakpoint bracketing)."""
+    rng = np.random.default_rng(5)
+    for trial in range(200):
+        m = int(rng.integers(1, 30))
+        r, s = rng.normal(size=m), rng.normal(size=m)
+        w, a2 = 10.0 ** rng.uniform(-1, 3), 10.0 ** rng.uniform(-3, 1)
+        b = -abs(rng.normal()) * 10.0 ** rng.uniform(-1, 2)
+
+        def phi(t: float) -> float:
+            return b * t + 0.5 * a2 * t * t + 0.5 * w * float(np.sum(np.maximum(r - t * s, 0.0) ** 2))
+
+        t = _segment_minimiser(b, a2, w, r, s)
+        grid = np.linspace(0.0, 1.0, 2001)
+        k = int(np.argmin([phi(g) for g in grid]))
+        lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, 2000)]
+        for _ in range(100):  # golden section on the bracket (φ convex)
+            c, d = hi - 0.618 * (hi - lo), lo + 0.618 * (hi - lo)
+            lo, hi = (lo, d) if phi(c) < phi(d) else (c, hi)
+        assert 0.0 <= t <= 1.0
+        assert phi(t) <= phi(0.5 * (lo + hi)) + 1e-10 * (1.0 + abs(phi(0.0))), trial
+        assert abs(t - 0.5 * (lo + hi)) < 1e-6 or phi(t) == pytest.approx(phi(0.5 * (lo + hi)), rel=1e-12)
+
+
 def test_condensed_rows_step_is_a_descent_step_with_the_exact_slope(problem):
     """d1 is the exact directional derivative of J at u along the step (the adjoint gradient of ReachingOCP,
     terminal and clearance parts), negative; the active set ends with the rows the step leaves within d_a."""
@@ -167,14 +256,16 @@ def test_condensed_rows_step_keeps_the_acceleration_box_in_its_active_set(proble
     ev, vx, Vxx = _model(ocp, u)
     rows = ocp.clearance_rows(ev.q, 0.02)
     cond = Condensation.of(ocp)
-    du0, d10, d20 = condensed_rows_step(ocp, cond, u, Vxx, vx, rows)
+    # the rows' iteration run to its end (its default of 8 solves stops short on this stiff model, where a box
+    # between u and an unconverged step need not bind at the minimiser)
+    du0, d10, d20 = condensed_rows_step(ocp, cond, u, Vxx, vx, rows, max_sets=50)
     a_max = 0.5 * (np.abs(u).max() + np.abs(u + du0).max())  # between the controls now and the free step's
     assert np.abs(u).max() < a_max < np.abs(u + du0).max()
     s = ocp.task.system.with_limits(acceleration=a_max)
     task = cg.cooperative_task(s, "circle")
     bounded = ReachingOCP(task, ocp.q_init, ocp.target, horizon=ocp.horizon, dt=ocp.dt, clearance=cost)
     assert bounded.u_bounded
-    du, d1, d2 = condensed_rows_step(bounded, Condensation.of(bounded), u, Vxx, vx, rows)
+    du, d1, d2 = condensed_rows_step(bounded, Condensation.of(bounded), u, Vxx, vx, rows, max_sets=50)
     assert np.abs(u + du).max() <= a_max + 1e-12
     assert np.isclose(np.abs(u + du).max(), a_max)  # some control at the bound
     slope = float(np.sum(bounded.gradient(u) * du))
