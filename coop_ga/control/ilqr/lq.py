@@ -238,8 +238,9 @@ def _segment_minimiser(b: float, a2: float, w: float, r: np.ndarray, s: np.ndarr
 
 
 class _RowsSystem:
-    """:func:`_rows_solve` (without clamped controls) for many active sets of the same rows: the Gramian of the
-    observations of every row and the right-hand side built once, each active set then a sub-matrix and one solve."""
+    """:func:`_rows_solve` (without clamped controls) for many active sets of the same rows: what does not depend on
+    the active set (the rows' Gramian factors, the right-hand side) computed once, each active set then its block
+    of the observations' Gramian and one solve."""
 
     def __init__(
         self, ocp: ReachingOCP, cond: Condensation, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, rows: ClearanceRows
@@ -247,39 +248,36 @@ class _RowsSystem:
         n, dt, T = ocp.nq, ocp.dt, ocp.horizon
         C, Gam = cond.C, cond.Gamma
         assert C is not None and Gam is not None
-        k, J, R2inv, w = rows.knots, rows.J, cond.R2inv, rows.w
-        m = k.size
+        k, J, w = rows.knots, rows.J, rows.w
         Ck = C[k]
-        JR = J @ R2inv
-        M = np.empty((2 * n + m, 2 * n + m))
-        M[: 2 * n, : 2 * n] = np.kron(cond.G2, R2inv)
-        M[2 * n :, :n] = Gam[k, T][:, None] * JR
-        M[2 * n :, n : 2 * n] = (dt * Ck.sum(axis=1))[:, None] * JR
-        M[: 2 * n, 2 * n :] = M[2 * n :, : 2 * n].T
-        M[2 * n :, 2 * n :] = Gam[np.ix_(k, k)] * (JR @ J.T)
+        self.JR = J @ cond.R2inv
+        self.Mx = np.kron(cond.G2, cond.R2inv)
+        # the rows' block against δx_n: rows r and columns [δq_n; δq̇_n]
+        self.Mrx = np.hstack([Gam[k, T][:, None] * self.JR, (dt * Ck.sum(axis=1))[:, None] * self.JR])
         sx = np.concatenate([cond.ck @ u, dt * u.sum(axis=0)])
         sy = np.einsum("ri,ri->r", J, Ck @ u)
-        self.rhs = np.concatenate([vx - Vxx @ sx, -w * rows.v - w * sy])
-        self.M, self.Vxx, self.w, self.n, self.dt = M, Vxx, w, n, dt
-        self.u, self.ck, self.Ck, self.J, self.R2inv = u, cond.ck, Ck, J, R2inv
+        self.rhs_x, self.rhs_y = vx - Vxx @ sx, -w * rows.v - w * sy
+        self.Gam, self.k, self.Vxx, self.w, self.n, self.dt = Gam, k, Vxx, w, n, dt
+        self.u, self.ck, self.Ck, self.J, self.R2inv = u, cond.ck, Ck, J, cond.R2inv
 
     def solve(self, act: np.ndarray) -> np.ndarray:
         """The minimiser δu (n, nq) of the quadratic model with the rows ``act`` (m,) active."""
         n = self.n
-        idx = np.concatenate([np.arange(2 * n), 2 * n + np.flatnonzero(act)])
-        M = self.M[np.ix_(idx, idx)]
+        a = np.flatnonzero(act)
+        k, J, JR = self.k[a], self.J[a], self.JR[a]
+        M = np.empty((2 * n + a.size, 2 * n + a.size))
+        M[: 2 * n, : 2 * n] = self.Mx
+        M[2 * n :, : 2 * n] = self.Mrx[a]
+        M[: 2 * n, 2 * n :] = M[2 * n :, : 2 * n].T
+        M[2 * n :, 2 * n :] = self.Gam[np.ix_(k, k)] * (JR @ J.T)
         HzM = np.empty_like(M)
         HzM[: 2 * n] = self.Vxx @ M[: 2 * n]
         HzM[2 * n :] = self.w * M[2 * n :]
         try:
-            mv = np.linalg.solve(np.eye(idx.size) + HzM, self.rhs[idx])
+            mv = np.linalg.solve(np.eye(M.shape[0]) + HzM, np.concatenate([self.rhs_x, self.rhs_y[a]]))
         except np.linalg.LinAlgError as err:
             raise np.linalg.LinAlgError("singular active-set system") from err
-        GTm = (
-            np.outer(self.ck, mv[:n])
-            + self.dt * mv[n : 2 * n][None, :]
-            + self.Ck[act].T @ (self.J[act] * mv[2 * n :, None])
-        )
+        GTm = np.outer(self.ck, mv[:n]) + self.dt * mv[n : 2 * n][None, :] + self.Ck[a].T @ (J * mv[2 * n :, None])
         return -self.u - GTm @ self.R2inv
 
 

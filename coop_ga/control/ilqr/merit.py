@@ -38,7 +38,7 @@ class Evaluation:
     es = e + s the shifted one; Je (7, nq) = ∂e/∂q at q_n (Eq 47); cost: J(u) (Eq 53, plus the clearance cost);
     merit: the augmented merit (running + shifted terminal + AL terms); c (n, 4, nq) the inequalities c ≤ 0 at the
     knots 1 … n (:meth:`ReachingOCP.constraint_values`); z (n, 4, nq) = max(0, λ + μc); violation: the largest
-    c, or 0.
+    c, or 0; clearance: the clearance cost's part of cost (0 without one).
     """
 
     u: np.ndarray
@@ -52,6 +52,7 @@ class Evaluation:
     c: np.ndarray
     z: np.ndarray
     violation: float
+    clearance: float = 0.0
 
     @property
     def error(self) -> float:
@@ -106,7 +107,8 @@ class Merit:
             return None
         # the clearance cost is a running (state) cost; its pairs within the LQ model's look-ahead are computed now,
         # so that the next iteration's rows at an accepted point reuse them (state_terms)
-        run = ocp.running_cost(u) + ocp.clearance_cost(q, self.lookahead)
+        clearance = ocp.clearance_cost(q, self.lookahead)
+        run = ocp.running_cost(u) + clearance
         es = e + self.shift
         lf = float(es @ ocp.Q @ es + qd[-1] @ ocp.Qv @ qd[-1])
         cost = run + float(e @ ocp.Q @ e + qd[-1] @ ocp.Qv @ qd[-1])
@@ -129,6 +131,7 @@ class Merit:
             c=c,
             z=z,
             violation=float(max(np.max(c, initial=0.0), 0.0)),
+            clearance=clearance,
         )
 
     def rows_with_pairs(self, q: np.ndarray, lookahead: float) -> tuple[ClearanceRows | None, np.ndarray | None]:
