@@ -272,3 +272,25 @@ def test_condensed_rows_step_keeps_the_acceleration_box_in_its_active_set(proble
     assert d1 == pytest.approx(slope, rel=1e-8)
     assert d1 < 0 and d1 + d2 < 0 and d10 + d20 < 0
     assert not np.allclose(du, du0)
+
+
+def test_obstacle_reach_takes_its_late_steps_whole():
+    """The obstacle scene of benchmarks/ocp.py (100 knots × 0.03 s): once ‖e‖ < 1e-2 the pairs sit at the activation
+    distance and the steps are small, so the quadratic model holds and every step is taken whole (α = 1): the
+    Newton terminal model while no row is active, and the second-order correction of a step whose rows or
+    terminal error moved off their linearisation.  (With Gauss–Newton near the rows and no correction of the rows,
+    three of the six late steps were cut to α = 1/4 … 1/8 and the reach took 14 iterations.)  The result is
+    converged and clear of the sphere (checked independently by coal in benchmarks/ocp.py and, on a shorter reach,
+    by test_clearance_reach_result_is_clear_of_the_sphere_by_an_independent_check)."""
+    s = cg.systems.load("three_franka")
+    task = cg.cooperative_task(s, "circle")
+    q0 = np.array(s.q0, float)
+    Vd = displaced_target(task, q0, translation=(0.0, 0.30, 0.0))
+    cm = CollisionModel(s, obstacles=[Sphere(CENTER, RADIUS)], self_collision=True)
+    res = ilqr_reach(task, q0, Vd, horizon=100, dt=0.03, clearance=ClearanceCost(cm, weight=1e4, activation=0.05))
+    late = [it for it, e in zip(res.stats, res.error_history[:-1]) if e < 1e-2]
+    print([(round(it.alpha, 4), it.line_search_trials, it.model) for it in res.stats])
+    assert res.converged and res.min_clearance >= 0.0, res.message
+    assert len(late) >= 2
+    assert all(it.alpha == 1.0 for it in late), [it.alpha for it in late]
+    assert res.iterations <= 12
