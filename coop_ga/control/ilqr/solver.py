@@ -503,15 +503,8 @@ class _Solve:
             if ev_t is not None and ev_t.merit <= ev.merit + o.armijo * min(expected, 0.0):
                 return _Accepted(alpha, ev_t, expected, trials, travel)
             # the rows' correction where the clearance cost grew along the step (else the terminal one alone)
-            rows_soc = rows_model is not None and ev_t is not None and ev_t.clearance > ev.clearance
-            if (
-                b == 0
-                and o.soc
-                and ev_t is not None
-                and step.kind == "condensed"
-                and rows_model is not None
-                and rows_soc
-            ):
+            first = b == 0 and o.soc and step.kind == "condensed"
+            if first and rows_model is not None and ev_t is not None and ev_t.clearance > ev.clearance:
                 trials += 1
                 ev_c = self._rows_corrected(ev_t, alpha, expected, *rows_model)
                 if ev_c is not None:
