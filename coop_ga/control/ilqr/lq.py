@@ -238,7 +238,7 @@ def _segment_minimiser(b: float, a2: float, w: float, r: np.ndarray, s: np.ndarr
 
 
 class _RowsSystem:
-    """:func:`_rows_solve` (without clamped controls) for many active sets of the same rows: what does not depend on
+    """The closed-form system of :func:`_rows_solve` for many active sets of the same rows: what does not depend on
     the active set (the rows' Gramian factors, the right-hand side) computed once, each active set then its block
     of the observations' Gramian and one solve."""
 
@@ -260,8 +260,9 @@ class _RowsSystem:
         self.Gam, self.k, self.Vxx, self.w, self.n, self.dt = Gam, k, Vxx, w, n, dt
         self.u, self.ck, self.Ck, self.J, self.R2inv = u, cond.ck, Ck, J, cond.R2inv
 
-    def solve(self, act: np.ndarray) -> np.ndarray:
-        """The minimiser δu (n, nq) of the quadratic model with the rows ``act`` (m,) active."""
+    def blocks(self, act: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(a, M, H_z M, rhs)`` of the rows ``act`` (m,): their indices, the observations' Gramian, its product
+        with ``H_z`` and the right-hand side ``b − H_z s`` (:func:`_rows_solve`)."""
         n = self.n
         a = np.flatnonzero(act)
         k, J, JR = self.k[a], self.J[a], self.JR[a]
@@ -273,12 +274,26 @@ class _RowsSystem:
         HzM = np.empty_like(M)
         HzM[: 2 * n] = self.Vxx @ M[: 2 * n]
         HzM[2 * n :] = self.w * M[2 * n :]
+        return a, M, HzM, np.concatenate([self.rhs_x, self.rhs_y[a]])
+
+    def step(self, a: np.ndarray, mv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(δu, Gᵀm)`` (n, nq) from the solution m of the rows ``a``'s system."""
+        n = self.n
+        GTm = (
+            np.outer(self.ck, mv[:n])
+            + self.dt * mv[n : 2 * n][None, :]
+            + self.Ck[a].T @ (self.J[a] * mv[2 * n :, None])
+        )
+        return -self.u - GTm @ self.R2inv, GTm
+
+    def solve(self, act: np.ndarray) -> np.ndarray:
+        """The minimiser δu (n, nq) of the quadratic model with the rows ``act`` (m,) active."""
+        a, _, HzM, rhs = self.blocks(act)
         try:
-            mv = np.linalg.solve(np.eye(M.shape[0]) + HzM, np.concatenate([self.rhs_x, self.rhs_y[a]]))
+            mv = np.linalg.solve(np.eye(HzM.shape[0]) + HzM, rhs)
         except np.linalg.LinAlgError as err:
             raise np.linalg.LinAlgError("singular active-set system") from err
-        GTm = np.outer(self.ck, mv[:n]) + self.dt * mv[n : 2 * n][None, :] + self.Ck[a].T @ (J * mv[2 * n :, None])
-        return -self.u - GTm @ self.R2inv
+        return self.step(a, mv)[0]
 
 
 def _active_sets(
@@ -350,34 +365,16 @@ def _rows_solve(
     ``±a_max`` — with ``x = u + δu`` the free part is ``−(2R)⁻¹(Gᵀm)_f``, so M loses the clamped columns' terms
     ``G_c (2R)⁻¹_c G_cᵀ`` and the right-hand side gains ``H_z G_c x_c``.
     """
-    n, dt, T = ocp.nq, ocp.dt, ocp.horizon
-    C, Gam = cond.C, cond.Gamma
-    assert C is not None and Gam is not None
-    k, J, R2inv, w = rows.knots[act], rows.J[act], cond.R2inv, rows.w
-    m = k.size
-    Ck = C[k]
-    JR = J @ R2inv
-    M = np.empty((2 * n + m, 2 * n + m))
-    M[: 2 * n, : 2 * n] = np.kron(cond.G2, R2inv)
-    M[2 * n :, :n] = Gam[k, T][:, None] * JR
-    M[2 * n :, n : 2 * n] = (dt * Ck.sum(axis=1))[:, None] * JR
-    M[: 2 * n, 2 * n :] = M[2 * n :, : 2 * n].T
-    M[2 * n :, 2 * n :] = Gam[np.ix_(k, k)] * (JR @ J.T)
-    HzM = np.empty_like(M)
-    HzM[: 2 * n] = Vxx @ M[: 2 * n]
-    HzM[2 * n :] = w * M[2 * n :]
-    sx = np.concatenate([cond.ck @ u, dt * u.sum(axis=0)])
-    sy = np.einsum("ri,ri->r", J, Ck @ u)
-    rhs = np.concatenate([vx - Vxx @ sx, -w * rows.v[act] - w * sy])
+    system = _RowsSystem(ocp, cond, u, Vxx, vx, rows)
+    a, M, HzM, rhs = system.blocks(act)
     if clamped is not None:
         assert bounds is not None
-        xc = _clamp_correction(ocp, cond, k, J, M, HzM, rhs, Vxx, w, clamped, bounds)
+        xc = _clamp_correction(ocp, cond, rows.knots[a], rows.J[a], M, HzM, rhs, Vxx, rows.w, clamped, bounds)
     try:
-        mv = np.linalg.solve(np.eye(2 * n + m) + HzM, rhs)
+        mv = np.linalg.solve(np.eye(M.shape[0]) + HzM, rhs)
     except np.linalg.LinAlgError:
         return None
-    GTm = np.outer(cond.ck, mv[:n]) + dt * mv[n : 2 * n][None, :] + Ck.T @ (J * mv[2 * n :, None])
-    du = -u - GTm @ R2inv
+    du, GTm = system.step(a, mv)
     if clamped is not None:
         mask = clamped[0] | clamped[1]
         du[mask] = xc[mask] - u[mask]
