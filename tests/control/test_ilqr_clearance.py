@@ -71,19 +71,10 @@ def test_rows_solve_is_the_dense_lq_minimiser(problem):
     rows = ocp.clearance_rows(ev.q, 0.02)
     act = rows.v > 0
     du, _ = _rows_solve(ocp, cond, u, Vxx, vx, rows, act)
-    T, n, dt = ocp.horizon, ocp.nq, ocp.dt
-    # G: δu (T·n) → [δq_n; δq̇_n; y_A]
-    Gx = np.zeros((2 * n, T * n))
-    for j in range(T):
-        Gx[:n, j * n : (j + 1) * n] = cond.ck[j] * np.eye(n)
-        Gx[n:, j * n : (j + 1) * n] = dt * np.eye(n)
-    k, J = rows.knots[act], rows.J[act]
-    Gy = np.zeros((k.size, T * n))
-    for r in range(k.size):
-        for j in range(T):
-            Gy[r, j * n : (j + 1) * n] = cond.C[k[r], j] * J[r]
-    H = np.kron(np.eye(T), ocp.R2) + Gx.T @ Vxx @ Gx + rows.w * Gy.T @ Gy
-    g = (u @ ocp.R2.T).ravel() + Gx.T @ vx - rows.w * Gy.T @ rows.v[act]
+    T, n = ocp.horizon, ocp.nq
+    H0, g0, Gy = _dense_terms(ocp, cond, u, Vxx, vx, rows)
+    H = H0 + rows.w * Gy[act].T @ Gy[act]
+    g = g0 - rows.w * Gy[act].T @ rows.v[act]
     x = -np.linalg.solve(H, g)
 
     def f(v: np.ndarray) -> float:
@@ -118,9 +109,10 @@ def test_rows_solve_is_the_dense_lq_minimiser(problem):
     assert np.abs(grad.ravel()[free]).max() < 1e-6 * np.abs(g).max()
 
 
-def _dense_model(ocp: ReachingOCP, cond: Condensation, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, rows):
-    """The rows step's model over the whole control sequence, formed densely: ``½xᵀH₀x + g₀ᵀx + ½w Σ max(0, v_r −
-    a_rᵀx)²`` (x = δu flattened), as ``(f, ∇f)`` functions."""
+def _dense_terms(ocp: ReachingOCP, cond: Condensation, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, rows):
+    """The rows step's model over the whole control sequence x = δu (T·nq), formed densely: the smooth part
+    ``½xᵀH₀x + g₀ᵀx`` (controls and terminal model through G: x → [δq_n; δq̇_n]) and the rows' observations
+    ``a_rᵀx = y_r`` (m, T·nq), as ``(H₀, g₀, a)``."""
     T, n, dt = ocp.horizon, ocp.nq, ocp.dt
     Gx = np.zeros((2 * n, T * n))
     for j in range(T):
@@ -132,6 +124,13 @@ def _dense_model(ocp: ReachingOCP, cond: Condensation, u: np.ndarray, Vxx: np.nd
             a[r, j * n : (j + 1) * n] = cond.C[rows.knots[r], j] * rows.J[r]
     H0 = np.kron(np.eye(T), ocp.R2) + Gx.T @ Vxx @ Gx
     g0 = (u @ ocp.R2.T).ravel() + Gx.T @ vx
+    return H0, g0, a
+
+
+def _dense_model(ocp: ReachingOCP, cond: Condensation, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, rows):
+    """The rows step's piecewise-quadratic model ``½xᵀH₀x + g₀ᵀx + ½w Σ max(0, v_r − a_rᵀx)²`` (:func:`_dense_terms`)
+    as ``(f, ∇f, g₀)``."""
+    H0, g0, a = _dense_terms(ocp, cond, u, Vxx, vx, rows)
 
     def f(x: np.ndarray) -> float:
         h = np.maximum(rows.v - a @ x, 0.0)
