@@ -67,7 +67,12 @@ FATROP's), to its own end 1.23×; the clearance reach 11.2× the reach without t
 against 18 ms, 5); at load 2 (clearance part alone, ``--repeat 7``) 13.4–13.6× (78–79 ms against 6 ms), 8–22×
 under load 7–9 (the plain reach's 6–24 ms decides it).  With the acceleration box inside the closed-form step
 (14 iterations, all closed-form, J 0.02282, 50.0 mm clear): 9.8×, 11.5×, 12.4× under load 6–7 (104–148 ms),
-alternated with the code before at 13.1×, 13.2×, 20.3× (126–178 ms) — the target of 5× is not met.
+alternated with the code before at 13.1×, 13.2×, 20.3× (126–178 ms).  With the Newton terminal model near
+the rows, the rows' second-order correction and the semi-smooth Newton rows step (10 iterations, J 0.02027,
+50.1 mm clear), ``--problems flagship --no-ipopt --no-fatrop --no-crocoddyl --repeat 7`` on one core under load
+2.0–2.7: 9.3×, 9.3×, 7.4× (121–152 ms), alternated with the code before at 12.7×, 12.6×, 17.1× (189–209 ms); the
+CI-size run (``--problems velocity --horizon 50 --dt 0.05 --repeat 1``, load 2.7–2.9) printed 7.7× and 9.3× — the
+target of 5× is not met.
 
 Columns: iterations; solve time [ms] (wall) and CPU [ms]; the cost J of Eq 53 of the
 returned controls (re-integrated); ΔJ relative to the best feasible row; terminal ‖e‖;

@@ -88,11 +88,10 @@ def condensed_rows_step(
 
     The model is ``Σ (u+δu)ᵀR(u+δu) + v_xᵀδx_n + ½δx_nᵀV_xxδx_n + Σ_r ½w max(0, v_r − y_r)²`` with
     ``y_r = J_r δq_{k_r}`` (the Gauss–Newton model of the hinge, :class:`ClearanceRows`): convex and piecewise
-    quadratic.  For a fixed active set A of rows it is quadratic and :func:`_rows_solve` minimises it in closed
-    form; the active set is then updated to the rows with ``v_r − y_r > 0`` (a semi-smooth Newton / primal-dual
-    active-set iteration, starting from the rows active now), at most ``max_sets`` times; the step with the
-    smallest model value is returned.  Rows not active now enter when the step brings them within d_a, so the
-    line search is not left to discover them — unless the first step moves a joint by more than ``max_travel``
+    quadratic.  For a fixed active set A of rows it is quadratic and minimised in closed form (:class:`_RowsSystem`);
+    :func:`_rows_newton` minimises the model by a semi-smooth Newton iteration over the active sets with an exact
+    line search, at most ``max_sets`` solves.  Rows not active now enter when the step brings them within d_a, so
+    the line search is not left to discover them — unless the first step moves a joint by more than ``max_travel``
     (the line search's trust region): the linearised rows say nothing about where such a step ends.  If the step
     leaves the acceleration box at the largest α the line search tries, the box joins the active set
     (:func:`_box_sets`) and the best step inside it is returned (else the step as it is: :func:`lq_step` then takes
@@ -115,9 +114,10 @@ def condensed_rows_step(
         return run + float(vx @ dx) + 0.5 * float(dx @ Vxx @ dx) + 0.5 * rows.w * float(hinge @ hinge) - base
 
     try:
-        f, du, dx, y, act, _ = _active_sets(ocp, cond, u, Vxx, vx, rows, model, rows.v > 0, max_sets, max_travel)
+        du, dx, y, act = _rows_newton(ocp, cond, u, Vxx, vx, rows, max_sets, max_travel)
     except np.linalg.LinAlgError:
         return None
+    f = model(du, dx, y)
     boxed = _box_sets(ocp, cond, u, Vxx, vx, rows, model, act, du, max_sets, max_travel)
     if boxed is not None:
         f, du, dx, y = boxed
@@ -158,13 +158,142 @@ def _box_sets(
     bounds = (u - (a_max + u) / a, u + (a_max - u) / a)
     x = u + du
     try:
-        out = _active_sets(
-            ocp, cond, u, Vxx, vx, rows, model, act, max_sets, np.inf, (x > bounds[1], x < bounds[0]), bounds
-        )
+        out = _active_sets(ocp, cond, u, Vxx, vx, rows, model, act, max_sets, (x > bounds[1], x < bounds[0]), bounds)
     except np.linalg.LinAlgError:
         return None
 
     return out[:4] if out[5] else None
+
+
+def _rows_newton(
+    ocp: ReachingOCP,
+    cond: Condensation,
+    u: np.ndarray,
+    Vxx: np.ndarray,
+    vx: np.ndarray,
+    rows: ClearanceRows,
+    max_sets: int,
+    max_travel: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The minimiser of :func:`condensed_rows_step`'s model (rows only): ``(δu, δx_n, y, act)``, by a semi-smooth
+    Newton iteration with an exact line search (the finite Newton method for a convex piecewise-quadratic function).
+
+    From δu = 0 and the rows active there, each iteration solves the quadratic of the current active set in closed
+    form (:class:`_RowsSystem`) and moves toward its minimiser by the exact minimiser t ∈ [0, 1] of the model on
+    the segment (:func:`_segment_minimiser`), then takes the rows active at the new point.  The model decreases at
+    every iteration, so the iteration cannot cycle (measured: jumping to each active set's minimiser without the
+    line search did not settle within 8 sets on any step of the obstacle scene of benchmarks/ocp.py, and the
+    returned step then depended on where it stopped).  It stops when a full step keeps the active set, or after
+    ``max_sets`` solves.  A first minimiser that moves a joint by more than ``max_travel`` (the line search's trust
+    region) is returned as it is: the linearised rows say nothing about where it ends.
+    """
+    C = cond.C
+    assert C is not None
+    Ck = C[rows.knots]
+    R, dt, n = ocp.R, ocp.dt, ocp.nq
+    Ru2 = 2.0 * (u @ R)
+    system = _RowsSystem(ocp, cond, u, Vxx, vx, rows)
+    du, dx, y = np.zeros_like(u), np.zeros(2 * n), np.zeros(rows.v.size)
+    act = rows.v > 0
+    for it in range(max_sets):
+        p = system.solve(act) - du
+        dxp = np.concatenate([cond.ck @ p, dt * p.sum(axis=0)])
+        yp = np.einsum("ri,ri->r", rows.J, Ck @ p)
+        if it == 0 and float(np.max(np.abs(C @ p))) > max_travel:
+            return p, dxp, yp, act
+        # the smooth part along du + t p: slope b + a2 t at t
+        pR = p @ R
+        a2 = 2.0 * float(np.sum(pR * p)) + float(dxp @ Vxx @ dxp)
+        b = float(np.sum((Ru2 + 2.0 * (du @ R)) * p)) + float(vx @ dxp) + float(dxp @ Vxx @ dx)
+        t = _segment_minimiser(b, a2, rows.w, rows.v - y, yp)
+        if t == 0.0:
+            break
+        du, dx, y = du + t * p, dx + t * dxp, y + t * yp
+        new = rows.v - y > 0
+        if t == 1.0 and np.array_equal(new, act):
+            break
+        act = new
+    return du, dx, y, act
+
+
+def _segment_minimiser(b: float, a2: float, w: float, r: np.ndarray, s: np.ndarray) -> float:
+    """The minimiser t ∈ [0, 1] of the convex ``φ(t) = b t + ½ a2 t² + ½ w Σ max(0, r_i − t s_i)²`` (up to a
+    constant): its slope ``b + a2 t − w Σ s_i max(0, r_i − t s_i)`` is nondecreasing and affine between the
+    breakpoints ``t = r_i / s_i``; the root is found between the two breakpoints that bracket it, exactly."""
+
+    def slopes(t: np.ndarray) -> np.ndarray:
+        return b + a2 * t - w * (np.maximum(r[None, :] - t[:, None] * s[None, :], 0.0) @ s)
+
+    ends = slopes(np.array([0.0, 1.0]))
+    if ends[1] <= 0.0:
+        return 1.0
+    if ends[0] >= 0.0:
+        return 0.0
+    nz = s != 0.0
+    bp = r[nz] / s[nz]
+    T = np.concatenate([[0.0], np.unique(bp[(bp > 0.0) & (bp < 1.0)]), [1.0]])
+    g = slopes(T)
+    j = int(np.argmax(g > 0.0))  # g[0] < 0 < g[-1]: the first breakpoint past the root
+    return float(T[j - 1] - g[j - 1] * (T[j] - T[j - 1]) / (g[j] - g[j - 1]))
+
+
+class _RowsSystem:
+    """The closed-form system of :func:`_rows_solve` for many active sets of the same rows: what does not depend on
+    the active set (the rows' Gramian factors, the right-hand side) computed once, each active set then its block
+    of the observations' Gramian and one solve."""
+
+    def __init__(
+        self, ocp: ReachingOCP, cond: Condensation, u: np.ndarray, Vxx: np.ndarray, vx: np.ndarray, rows: ClearanceRows
+    ):
+        n, dt, T = ocp.nq, ocp.dt, ocp.horizon
+        C, Gam = cond.C, cond.Gamma
+        assert C is not None and Gam is not None
+        k, J, w = rows.knots, rows.J, rows.w
+        Ck = C[k]
+        self.JR = J @ cond.R2inv
+        self.Mx = np.kron(cond.G2, cond.R2inv)
+        # the rows' block against δx_n: rows r and columns [δq_n; δq̇_n]
+        self.Mrx = np.hstack([Gam[k, T][:, None] * self.JR, (dt * Ck.sum(axis=1))[:, None] * self.JR])
+        sx = np.concatenate([cond.ck @ u, dt * u.sum(axis=0)])
+        sy = np.einsum("ri,ri->r", J, Ck @ u)
+        self.rhs_x, self.rhs_y = vx - Vxx @ sx, -w * rows.v - w * sy
+        self.Gam, self.k, self.Vxx, self.w, self.n, self.dt = Gam, k, Vxx, w, n, dt
+        self.u, self.ck, self.Ck, self.J, self.R2inv = u, cond.ck, Ck, J, cond.R2inv
+
+    def blocks(self, act: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(a, M, H_z M, rhs)`` of the rows ``act`` (m,): their indices, the observations' Gramian, its product
+        with ``H_z`` and the right-hand side ``b − H_z s`` (:func:`_rows_solve`)."""
+        n = self.n
+        a = np.flatnonzero(act)
+        k, J, JR = self.k[a], self.J[a], self.JR[a]
+        M = np.empty((2 * n + a.size, 2 * n + a.size))
+        M[: 2 * n, : 2 * n] = self.Mx
+        M[2 * n :, : 2 * n] = self.Mrx[a]
+        M[: 2 * n, 2 * n :] = M[2 * n :, : 2 * n].T
+        M[2 * n :, 2 * n :] = self.Gam[np.ix_(k, k)] * (JR @ J.T)
+        HzM = np.empty_like(M)
+        HzM[: 2 * n] = self.Vxx @ M[: 2 * n]
+        HzM[2 * n :] = self.w * M[2 * n :]
+        return a, M, HzM, np.concatenate([self.rhs_x, self.rhs_y[a]])
+
+    def step(self, a: np.ndarray, mv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(δu, Gᵀm)`` (n, nq) from the solution m of the rows ``a``'s system."""
+        n = self.n
+        GTm = (
+            np.outer(self.ck, mv[:n])
+            + self.dt * mv[n : 2 * n][None, :]
+            + self.Ck[a].T @ (self.J[a] * mv[2 * n :, None])
+        )
+        return -self.u - GTm @ self.R2inv, GTm
+
+    def solve(self, act: np.ndarray) -> np.ndarray:
+        """The minimiser δu (n, nq) of the quadratic model with the rows ``act`` (m,) active."""
+        a, _, HzM, rhs = self.blocks(act)
+        try:
+            mv = np.linalg.solve(np.eye(HzM.shape[0]) + HzM, rhs)
+        except np.linalg.LinAlgError as err:
+            raise np.linalg.LinAlgError("singular active-set system") from err
+        return self.step(a, mv)[0]
 
 
 def _active_sets(
@@ -177,23 +306,20 @@ def _active_sets(
     model: Callable[[np.ndarray, np.ndarray, np.ndarray], float],
     act: np.ndarray,
     max_sets: int,
-    max_travel: float,
-    clamped: tuple[np.ndarray, np.ndarray] | None = None,
-    bounds: tuple[np.ndarray, np.ndarray] | None = None,
+    clamped: tuple[np.ndarray, np.ndarray],
+    bounds: tuple[np.ndarray, np.ndarray],
 ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool]:
-    """The active-set iteration of :func:`condensed_rows_step` from the rows ``act``: ``(f, δu, δx_n, y, act, flag)``
-    of the step with the smallest model value.  Without ``clamped``: the rows only, ``flag`` = the first step went
-    beyond ``max_travel`` (then it is the only one).  With ``clamped = (hi, lo)``: the acceleration box too (a
-    primal-dual active set on ``bounds = (lo, hi)`` of the new controls x = u + δu: clamp the controls past a bound,
-    release the clamped ones whose gradient ``2R x + Gᵀm`` points into the box; no trust-region stop), the steps
-    inside the box first, ``flag`` = the returned step is inside the box."""
+    """The active-set iteration of :func:`_box_sets` from the rows ``act`` and the controls ``clamped = (hi, lo)``
+    (n, nq masks): ``(f, δu, δx_n, y, act, inside)`` of the step with the smallest model value, the steps inside
+    the box first (``inside``: the returned one is).  A primal-dual active set on the rows and on ``bounds = (lo,
+    hi)`` of the new controls x = u + δu: clamp the controls past a bound, release the clamped ones whose gradient
+    ``2R x + Gᵀm`` points into the box."""
     C = cond.C
     assert C is not None
     Ck = C[rows.knots]
     r2 = np.diag(ocp.R2)
     best: tuple[bool, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
-    flag = False
-    for it in range(max_sets):
+    for _ in range(max_sets):
         solved = _rows_solve(ocp, cond, u, Vxx, vx, rows, act, clamped, bounds)
         if solved is None:
             raise np.linalg.LinAlgError("singular active-set system")
@@ -202,29 +328,19 @@ def _active_sets(
         y = np.einsum("ri,ri->r", rows.J, Ck @ du)
         f = model(du, dx, y)
         x = u + du
-        outside = bounds is not None and bool(np.any((x - bounds[1] > 1e-12) | (x - bounds[0] < -1e-12)))
+        outside = bool(np.any((x - bounds[1] > 1e-12) | (x - bounds[0] < -1e-12)))
         if best is None or (outside, f) < (best[0], best[1]):
             best = (outside, f, du, dx, y, act)
-        if clamped is None and it == 0 and float(np.max(np.abs(C @ du))) > max_travel:
-            flag = True
-            break  # a step beyond the trust region: its linearised rows say nothing about where it ends
         new = rows.v - y > 0
-        if clamped is None:
-            if np.array_equal(new, act):
-                break
-        else:
-            hi, lo = clamped
-            grad = x * r2 + GTm
-            assert bounds is not None
-            box = (x - bounds[1] > 1e-12) | (hi & (grad <= 0)), (x - bounds[0] < -1e-12) | (lo & (grad >= 0))
-            if np.array_equal(new, act) and np.array_equal(box[0], hi) and np.array_equal(box[1], lo):
-                break
-            clamped = box
+        hi, lo = clamped
+        grad = x * r2 + GTm
+        box = (x - bounds[1] > 1e-12) | (hi & (grad <= 0)), (x - bounds[0] < -1e-12) | (lo & (grad >= 0))
+        if np.array_equal(new, act) and np.array_equal(box[0], hi) and np.array_equal(box[1], lo):
+            break
+        clamped = box
         act = new
     assert best is not None
-    if clamped is not None:
-        flag = not best[0]
-    return best[1], best[2], best[3], best[4], best[5], flag
+    return best[1], best[2], best[3], best[4], best[5], not best[0]
 
 
 def _rows_solve(
@@ -249,34 +365,16 @@ def _rows_solve(
     ``±a_max`` — with ``x = u + δu`` the free part is ``−(2R)⁻¹(Gᵀm)_f``, so M loses the clamped columns' terms
     ``G_c (2R)⁻¹_c G_cᵀ`` and the right-hand side gains ``H_z G_c x_c``.
     """
-    n, dt, T = ocp.nq, ocp.dt, ocp.horizon
-    C, Gam = cond.C, cond.Gamma
-    assert C is not None and Gam is not None
-    k, J, R2inv, w = rows.knots[act], rows.J[act], cond.R2inv, rows.w
-    m = k.size
-    Ck = C[k]
-    JR = J @ R2inv
-    M = np.empty((2 * n + m, 2 * n + m))
-    M[: 2 * n, : 2 * n] = np.kron(cond.G2, R2inv)
-    M[2 * n :, :n] = Gam[k, T][:, None] * JR
-    M[2 * n :, n : 2 * n] = (dt * Ck.sum(axis=1))[:, None] * JR
-    M[: 2 * n, 2 * n :] = M[2 * n :, : 2 * n].T
-    M[2 * n :, 2 * n :] = Gam[np.ix_(k, k)] * (JR @ J.T)
-    HzM = np.empty_like(M)
-    HzM[: 2 * n] = Vxx @ M[: 2 * n]
-    HzM[2 * n :] = w * M[2 * n :]
-    sx = np.concatenate([cond.ck @ u, dt * u.sum(axis=0)])
-    sy = np.einsum("ri,ri->r", J, Ck @ u)
-    rhs = np.concatenate([vx - Vxx @ sx, -w * rows.v[act] - w * sy])
+    system = _RowsSystem(ocp, cond, u, Vxx, vx, rows)
+    a, M, HzM, rhs = system.blocks(act)
     if clamped is not None:
         assert bounds is not None
-        xc = _clamp_correction(ocp, cond, k, J, M, HzM, rhs, Vxx, w, clamped, bounds)
+        xc = _clamp_correction(ocp, cond, rows.knots[a], rows.J[a], M, HzM, rhs, Vxx, rows.w, clamped, bounds)
     try:
-        mv = np.linalg.solve(np.eye(2 * n + m) + HzM, rhs)
+        mv = np.linalg.solve(np.eye(M.shape[0]) + HzM, rhs)
     except np.linalg.LinAlgError:
         return None
-    GTm = np.outer(cond.ck, mv[:n]) + dt * mv[n : 2 * n][None, :] + Ck.T @ (J * mv[2 * n :, None])
-    du = -u - GTm @ R2inv
+    du, GTm = system.step(a, mv)
     if clamped is not None:
         mask = clamped[0] | clamped[1]
         du[mask] = xc[mask] - u[mask]

@@ -38,7 +38,7 @@ class Evaluation:
     es = e + s the shifted one; Je (7, nq) = ∂e/∂q at q_n (Eq 47); cost: J(u) (Eq 53, plus the clearance cost);
     merit: the augmented merit (running + shifted terminal + AL terms); c (n, 4, nq) the inequalities c ≤ 0 at the
     knots 1 … n (:meth:`ReachingOCP.constraint_values`); z (n, 4, nq) = max(0, λ + μc); violation: the largest
-    c, or 0.
+    c, or 0; clearance: the clearance cost's part of cost (0 without one).
     """
 
     u: np.ndarray
@@ -52,6 +52,7 @@ class Evaluation:
     c: np.ndarray
     z: np.ndarray
     violation: float
+    clearance: float = 0.0
 
     @property
     def error(self) -> float:
@@ -66,7 +67,8 @@ class StateTerms:
     ``active``: whether any term is nonzero; ``al``: whether an AL term is (then the closed-form step, which
     knows no AL terms, is not used); ``rows``: the clearance cost's active rows (None: none, or a clearance cost
     that cannot list them — then ``active`` alone sends the step to the Riccati pass); ``clearance_gradient``
-    (n+1, nq): the clearance cost's gradient w.r.t. q_k (zero without one)."""
+    (n+1, nq): the clearance cost's gradient w.r.t. q_k (zero without one); ``row_pairs`` (m,): the collision
+    model's pair (row of its labels) of each of ``rows``, where the model can say (:meth:`Merit.rows_with_pairs`)."""
 
     lx: np.ndarray
     lxx: np.ndarray
@@ -74,6 +76,7 @@ class StateTerms:
     al: bool = False
     rows: ClearanceRows | None = None
     clearance_gradient: np.ndarray | None = None
+    row_pairs: np.ndarray | None = None
 
 
 class Merit:
@@ -104,7 +107,8 @@ class Merit:
             return None
         # the clearance cost is a running (state) cost; its pairs within the LQ model's look-ahead are computed now,
         # so that the next iteration's rows at an accepted point reuse them (state_terms)
-        run = ocp.running_cost(u) + ocp.clearance_cost(q, self.lookahead)
+        clearance = ocp.clearance_cost(q, self.lookahead)
+        run = ocp.running_cost(u) + clearance
         es = e + self.shift
         lf = float(es @ ocp.Q @ es + qd[-1] @ ocp.Qv @ qd[-1])
         cost = run + float(e @ ocp.Q @ e + qd[-1] @ ocp.Qv @ qd[-1])
@@ -127,7 +131,22 @@ class Merit:
             c=c,
             z=z,
             violation=float(max(np.max(c, initial=0.0), 0.0)),
+            clearance=clearance,
         )
+
+    def rows_with_pairs(self, q: np.ndarray, lookahead: float) -> tuple[ClearanceRows | None, np.ndarray | None]:
+        """The clearance rows of the trajectory q (n+1, nq) within ``lookahead`` [m] of activation
+        (:meth:`ReachingOCP.clearance_rows`) and the collision model's pair (m,) of each of them (None where the
+        clearance cost cannot list its rows, or its model has no ``close_pairs``: from the pair list that computed
+        the rows, so no distance is computed twice)."""
+        ocp = self.ocp
+        rows = ocp.clearance_rows(q, lookahead)
+        close = getattr(getattr(ocp.clearance, "model", None), "close_pairs", None)
+        if rows is None or not callable(close):
+            return rows, None
+        _, pairs, _ = close(q[1:], float(ocp.clearance.activation) + lookahead)
+        pairs = np.asarray(pairs, int)
+        return rows, pairs if pairs.shape == rows.v.shape else None
 
     def state_terms(self, ev: Evaluation) -> StateTerms:
         """The AL terms at the knots (their diagonal Hessians), plus the clearance cost's (full Hessians) while a pair
@@ -147,7 +166,7 @@ class Merit:
             lxx[1:, n:] = self.mu * (active[:, 2] | active[:, 3])
         if ocp.clearance is None:
             return StateTerms(lx, lxx, al_active, al_active)
-        rows = ocp.clearance_rows(ev.q, self.lookahead)
+        rows, pairs = self.rows_with_pairs(ev.q, self.lookahead)
         if rows is not None:
             g, H, c_active = rows.gradient(T, n), rows.hessians(T, n), bool(rows.knots.size)  # active or near
         else:
@@ -159,7 +178,7 @@ class Merit:
         full[:, idx, idx] = lxx
         full[:, :n, :n] += H
         lx[:, :n] += g
-        return StateTerms(lx, full, True, al_active, rows, g)
+        return StateTerms(lx, full, True, al_active, rows, g, pairs)
 
 
 def multiplier_estimate(ocp: ReachingOCP, ev: Evaluation, ck: np.ndarray) -> np.ndarray:

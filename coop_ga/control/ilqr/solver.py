@@ -235,6 +235,7 @@ class _Model:
     tries: list[tuple[str, float]]
     riccati: bool = False  # a state term that only the Riccati pass knows (AL terms, or unlisted clearance rows)
     rows: ClearanceRows | None = None
+    row_pairs: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -379,10 +380,12 @@ class _Solve:
             e_norm = float(np.linalg.norm(self.ev.e))
             st = self.merit.state_terms(self.ev)
             # the multiplier estimate ignores the clearance cost: neither the Newton model nor the terminal shift
-            # estimated from it while a clearance row is near (measured: the shift then stalls the obstacle scene
-            # of tests/control/test_avoidance.py short of tol)
-            clearance_near = st.clearance_gradient is not None
-            newton = o.hessian == "newton" and e_norm < o.newton_switch and not clearance_near
+            # estimated from it while a clearance row is active (measured: the shift then stalls the obstacle scene
+            # of tests/control/test_avoidance.py short of tol); rows only near activation have no gradient, and
+            # Gauss–Newton there (the terminal error's curvature missing) cut the obstacle scene's late steps
+            g = st.clearance_gradient
+            clearance_active = g is not None and bool(np.any(g))
+            newton = o.hessian == "newton" and e_norm < o.newton_switch and not clearance_active
             w = multiplier_estimate(self.ocp, self.ev, self.cond.ck) if newton else None
             shift_estimated = self._estimate_shift(w, e_norm)
             model = self._model(w, newton, st)
@@ -424,8 +427,10 @@ class _Solve:
         ocp, ev, cond = self.ocp, self.ev, self.cond
         gf, Hf = terminal_model(ocp, ev, w)
         lx, lxx = st.lx, st.lxx
-        if st.active:
-            newton = False  # the multiplier estimate ignores the AL terms: Gauss–Newton while a bound is active
+        if st.al or (st.active and st.rows is None):
+            # the multiplier estimate ignores the AL terms: Gauss–Newton while a bound is active (and while a
+            # clearance cost that cannot list its rows is near: the Riccati pass takes those steps)
+            newton = False
             gf, Hf = terminal_model(ocp, ev, None)
         if st.active and self.rho_x > 0:
             # Levenberg–Marquardt on the states (a trust region on δx at every knot)
@@ -444,7 +449,8 @@ class _Solve:
             tries += [("newton", base + lm), ("newton", base + lm + wmin), ("newton", base + lm + 16.0 * wmin)]
         tries += [("gauss_newton", lm)]
         tries += [("gauss_newton", lm + 10.0**p * hscale) for p in range(-6, 3)]
-        return _Model(newton, vx, Hf_b, hscale, lx, lxx, st.active, tries, st.al or st.rows is None, st.rows)
+        riccati = st.al or st.rows is None
+        return _Model(newton, vx, Hf_b, hscale, lx, lxx, st.active, tries, riccati, st.rows, st.row_pairs)
 
     def _search(self, model: _Model) -> _Accepted | None:
         """The first (model, damping) whose LQ step passes the line search."""
@@ -472,14 +478,16 @@ class _Solve:
             )
             if step is None or not step.d1 < 0:
                 continue
-            acc = self._line_search(step)
+            rows_soc = condensed and ocp.clearance is not None and (rows is None or model.row_pairs is not None)
+            acc = self._line_search(step, (model, Vxx) if rows_soc else None)
             if acc is not None:
                 return dataclasses.replace(acc, backward_passes=n_back, mode=mode, mu=mu, kind=step.kind)
         return None
 
-    def _line_search(self, step: LQStep) -> _Accepted | None:
+    def _line_search(self, step: LQStep, rows_model: tuple[_Model, np.ndarray] | None = None) -> _Accepted | None:
         """Armijo backtracking on the merit from α ≤ max_travel / (the α = 1 step's joint travel), with a
-        second-order correction of a rejected full closed-form step."""
+        second-order correction of a rejected full closed-form step (with a clearance cost and ``rows_model`` = the
+        step's (model, V_xx): first :meth:`_rows_corrected`)."""
         o, ev = self.o, self.ev
         # trust region on joint travel: the α = 1 step's largest joint motion along the trajectory
         u1 = step.trial(1.0)
@@ -494,6 +502,13 @@ class _Solve:
             expected = alpha * step.d1 + alpha * alpha * step.d2
             if ev_t is not None and ev_t.merit <= ev.merit + o.armijo * min(expected, 0.0):
                 return _Accepted(alpha, ev_t, expected, trials, travel)
+            # the rows' correction where the clearance cost grew along the step (else the terminal one alone)
+            first = b == 0 and o.soc and step.kind == "condensed"
+            if first and rows_model is not None and ev_t is not None and ev_t.clearance > ev.clearance:
+                trials += 1
+                ev_c = self._rows_corrected(ev_t, alpha, expected, *rows_model)
+                if ev_c is not None:
+                    return _Accepted(alpha, ev_c, expected, trials, travel)
             if b == 0 and o.soc and ev_t is not None and step.kind == "condensed":
                 trials += 1
                 ev_c = self._corrected(ev_t, expected)
@@ -519,6 +534,61 @@ class _Solve:
         ):
             return ev_c
         return None
+
+    def _rows_corrected(
+        self, ev_t: Evaluation, alpha: float, expected: float, model: _Model, Vxx: np.ndarray
+    ) -> Evaluation | None:
+        """The second-order correction of a rejected trial point ``ev_t`` (step length α) of a closed-form step with
+        a clearance cost, if it passes the Armijo test without more violation.
+
+        The clearance rows and the terminal error are linear in the LQ model, but the distances and e(q_n) change
+        to second order along a step (a 0.3 m link turned by 0.08 rad moves ~1 mm off its tangent, which the
+        hinge's weight 1e4 prices at ~5e-3 per row and knot: measured, these rejected the obstacle scene's late
+        steps, whose predicted decrease was 1e-2 … 1e-4).  The step is solved again from the same point with the
+        model that matches the trial point to first order: every row within the look-ahead at the trial point,
+        linearised there (``v_r + J_r Δq_k`` with Δq the trial's displacement; rows the trial does not list keep
+        their model), and the terminal gradient shifted by the second-order part of e along the step; the new
+        step is tried at the same α.
+        """
+        ocp, ev, merit, o = self.ocp, self.ev, self.merit, self.o
+        rt, pt = merit.rows_with_pairs(ev_t.q, merit.lookahead)
+        if rt is None or pt is None:
+            return None
+        dq = ev_t.q - ev.q
+        k, J, v = rt.knots, rt.J, rt.v + np.einsum("ri,ri->r", rt.J, dq[rt.knots])
+        rows = model.rows if model.state_active else None
+        if rows is not None and model.row_pairs is not None:
+            span = int(max(np.max(pt, initial=0), np.max(model.row_pairs, initial=0))) + 1
+            keep = ~np.isin(rows.knots * span + model.row_pairs, k * span + pt)
+            k, J, v = (
+                np.concatenate([k, rows.knots[keep]]),
+                np.vstack([J, rows.J[keep]]),
+                np.concatenate([v, rows.v[keep]]),
+            )
+        n = ocp.nq
+        de = ev_t.e - ev.e - ev.Je @ dq[-1]
+        vx = model.vx.copy()
+        vx[:n] += 2.0 * ev.Je.T @ (ocp.Q @ de)
+        step = lq_step(
+            ocp,
+            self.cond,
+            self.u,
+            ev.q,
+            ev.qd,
+            Vxx,
+            vx,
+            model.lx,
+            model.lxx,
+            condensed=True,
+            rows=ClearanceRows(k, J, v, rt.w),
+            max_travel=o.max_travel,
+        )
+        if step is None or step.kind != "condensed":
+            return None
+        ev_c = merit.evaluate(step.trial(alpha))
+        if ev_c is None or ev_c.violation > ev.violation or not ev_c.merit <= ev.merit + o.armijo * min(expected, 0.0):
+            return None
+        return ev_c
 
     def _adapt_damping(self, acc: _Accepted, decrease: float, hscale: float) -> None:
         """Levenberg–Marquardt updates from the step quality (actual / predicted decrease, cut steps)."""
