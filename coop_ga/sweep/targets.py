@@ -223,7 +223,7 @@ def _tangent_chart(system: Any, q_init: np.ndarray) -> tuple[Any, Any, np.ndarra
 
     lim = system.limits
     x = system.limit_coordinates(q_init)
-    free = system._limit_index < 0
+    free = system.limit_index < 0
     lo = np.where(free, -np.inf, np.asarray(lim.lower, dtype=float) - x)
     hi = np.where(free, np.inf, np.asarray(lim.upper, dtype=float) - x)
     return (
