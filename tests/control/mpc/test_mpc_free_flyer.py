@@ -11,7 +11,7 @@ import pinocchio as pin
 import pytest
 
 import coop_ga as cg
-from coop_ga.control.mpc import CooperativeMPC, MPCInfeasibleError, MPCOptions
+from coop_ga.control.mpc import CooperativeMPC, MovingSphere, MPCInfeasibleError, MPCOptions
 from coop_ga.cooperative.targets import displaced_target
 from coop_ga.errors import InvalidInputError
 
@@ -95,3 +95,22 @@ def test_bad_state_on_a_free_flyer(floating) -> None:
     q[7] = s.limits.upper[6] + 0.1  # the first joint after the flyer, past its upper limit
     with pytest.raises(MPCInfeasibleError, match=rf"{s.limits.joint_names[6]} \(upper position limit\)"):
         mpc.tick(0.0, q, np.zeros(s.nv))
+
+
+def test_safety_layer_keeps_a_moving_sphere_off_with_the_pelvis(floating) -> None:
+    """A sphere runs at 0.3 m/s into the right hand, which holds its target: the safety layer's clearance rows
+    (nv columns) keep it off by d_safe, and the floating pelvis gives way (it backs off)."""
+    s = floating.system
+    p = _hands(s, s.q0)[0]
+    sphere = MovingSphere(0.05, lambda t: p + np.array([0.35 - 0.3 * t, 0.0, 0.0]))
+    hold = displaced_target(floating, s.q0, translation=(0.0, 0.0, 0.0))  # the start's primitive, held
+    mpc = CooperativeMPC(floating, lambda t: hold, OPTS, obstacles=[sphere], self_collision=False, time_budget=60.0)
+    q, qd, t, d_min = s.q0.copy(), np.zeros(s.nv), 0.0, np.inf
+    for _ in range(40):  # 1.6 s: the sphere passes where the hand was after ~1.2 s
+        mpc.tick(t, q, qd)
+        for _ in range(4):
+            f = mpc.filter(t, q, qd)
+            q, qd, t = s.integrate(q, 0.01 * 0.5 * (qd + f.velocity)), f.velocity, t + 0.01
+            d_min = min(d_min, float(mpc.world.model.distances(q).min()))
+    assert d_min >= OPTS.d_safe - 1e-3 and q[0] < -0.05
+    assert abs(np.linalg.norm(q[3:7]) - 1.0) <= 1e-12
