@@ -10,11 +10,12 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 import pytest
+from scipy.linalg import expm, logm
 
 import coop_ga as cg
 from coop_ga.control import gauss_newton_ik, ilqr_reach
 from coop_ga.control.ilqr import RecedingReach
-from coop_ga.control.ilqr.chart import ChartTask, FlyerChart, flyer_curvature
+from coop_ga.control.ilqr.chart import ChartTask, FlyerChart, flyer_curvature, flyer_jacobian
 from coop_ga.control.reference_ocp import TangentReachingOCP, solve_reference
 from coop_ga.cooperative.targets import displaced_target
 from coop_ga.errors import InvalidInputError
@@ -72,6 +73,27 @@ def test_chart_jacobian_equals_differences_through_integrate(system) -> None:
     np.testing.assert_array_equal(D[6:, 6:], np.eye(system.nv - 6))
     assert np.abs(D[:6, :6] - np.eye(6)).max() > 0.1 and np.array_equal(chart.dq(chart.c), np.eye(system.nv))
     np.testing.assert_allclose(chart.from_q(chart.to_q(x)), x, atol=1e-12)
+    # the flyer's block is Pinocchio's dIntegrate (the SE(3) right Jacobian) at a sizeable angle; near 1e-3 rad
+    # Pinocchio's series lose ~1e-8 (Jexp6) to ~1e-7 (differences of exp6/log6), so the reference there is the
+    # matrix exponential and logarithm of scipy (ours: within 1e-9 of it)
+    np.testing.assert_allclose(D, pin.dIntegrate(system.model, chart.q_ref, x - chart.c, pin.ARG1), atol=1e-12)
+    xi = np.array([0.4, 0.1, 0.2, 3e-4, 5e-4, 8e-4])  # |ω| ≈ 1e-3 rad
+    Ti = np.linalg.inv(expm(_hat(xi)))
+    m = lambda d: _vee(np.real(logm(Ti @ expm(_hat(xi + d)))))  # noqa: E731
+    fd = np.array([(m(1e-6 * e) - m(-1e-6 * e)) / 2e-6 for e in np.eye(6)]).T
+    assert np.abs(flyer_jacobian(xi) - fd).max() <= 1e-9
+
+
+def _hat(v: np.ndarray) -> np.ndarray:
+    """The 4 × 4 matrix of the twist v = [ν; ω] (LOCAL, Pinocchio's order)."""
+    M = np.zeros((4, 4))
+    M[:3, :3] = [[0.0, -v[5], v[4]], [v[5], 0.0, -v[3]], [-v[4], v[3], 0.0]]
+    M[:3, 3] = v[:3]
+    return M
+
+
+def _vee(M: np.ndarray) -> np.ndarray:
+    return np.array([M[0, 3], M[1, 3], M[2, 3], M[2, 1], M[0, 2], M[1, 0]])
 
 
 def test_chart_hessian_equals_differences_of_the_chart_gradient(system) -> None:
@@ -92,6 +114,12 @@ def test_chart_hessian_equals_differences_of_the_chart_gradient(system) -> None:
     C = chart.curvature(x, g)
     assert np.abs(C).max() > 1e-2 * scale and np.abs(C[6:]).max() == 0.0  # the term matters, on the flyer only
     assert np.abs(flyer_curvature(np.zeros(6), g[:6])).max() == 0.0  # none at the chart's centre
+    # near a small rotation too (Taylor branch of the exponential, |ω| = 1e-3 rad)
+    x2 = chart.c.copy()
+    x2[:6] = [0.4, 0.1, 0.2, 3e-4, 5e-4, 8e-4]
+    H2 = ct.error_hessian(x2, Vd, w)
+    fd2 = np.array([(grad(x2 + h * e) - grad(x2 - h * e)) / (2 * h) for e in np.eye(system.nv)]).T
+    assert np.abs(H2 - fd2).max() <= 1e-6 * np.abs(H2).max()
 
 
 def test_floating_g1_reach_converges_where_the_fixed_pelvis_cannot(system, reach) -> None:

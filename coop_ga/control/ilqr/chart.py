@@ -20,8 +20,8 @@ A system with a free flyer has nq ≠ nv (q = [p; quaternion x y z w; joints], a
     (the flyer's position is free; its quaternion has no bound to violate).  Its velocity and acceleration bounds
     apply to the chart rates ẋ, ẍ (equal to the twist and its rate at x = c; they stay bounds of the chart
     rates away from it).  The task's error and Jacobian are composed with the chart: ``J_x = J(q(x)) D(x)``,
-    ``D = ∂(q_ref ⊕ ξ)/∂ξ`` (``pinocchio.dIntegrate``, the SE(3) right Jacobian on the flyer's block, the
-    identity on the joints); the Newton model's Hessian is exact: ``Dᵀ ∇²_v(wᵀe) D`` plus the chart's own
+    ``D = ∂(q_ref ⊕ ξ)/∂ξ`` (``pinocchio.dIntegrate``: the SE(3) right Jacobian on the flyer's block, the
+    identity on the joints; :func:`flyer_jacobian`); the Newton model's Hessian is exact: ``Dᵀ ∇²_v(wᵀe) D`` plus the chart's own
     curvature on the flyer's block, ``Σ_i g_i ∇²_δ m_i``, g = J_eᵀ w along the tangent and
     ``m(δ) = log6(exp6(ξ)⁻¹ exp6(ξ + δ))`` (:func:`flyer_curvature`).
 
@@ -58,12 +58,14 @@ __all__ = [
 
 
 @lru_cache(maxsize=1)
-def _curvature_function() -> Any:
-    """``(ξ (6), g (6)) → ∇²_δ gᵀ m(δ) at δ = 0`` (6 × 6), m(δ) = log6(exp6(ξ)⁻¹ exp6(ξ + δ)) (CasADi VM).
+def _chart_function() -> Any:
+    """``(ξ (6), g (6)) → (∂m/∂δ, ∇²_δ gᵀm)`` at δ = 0 (6 × 6 each), m(δ) = log6(exp6(ξ)⁻¹ exp6(ξ + δ)) (CasADi VM).
 
     exp6 is :func:`~coop_ga.kinematics.chains.integrate_symbolic` of a lone free flyer (``pinocchio.integrate``
     exactly); log6 to second order: with Y = exp6(ξ)⁻¹ exp6(ξ + δ) = I + X (X = O(δ)), ``log Y = X − ½X² + O(δ³)``,
-    whose top-right block is m's translation part ν and whose skew-symmetric 3 × 3 block is ω^."""
+    whose top-right block is m's translation part ν and whose skew-symmetric 3 × 3 block is ω^.  ∂m/∂δ is the SE(3)
+    right Jacobian (``pinocchio.Jexp6``), here exact at every angle (Pinocchio's loses ~1e-7 near 1e-3 rad, which
+    differences of it magnify), so the chart's gradient and Hessian come from one expression."""
     import casadi as ca
     import pinocchio as pin
 
@@ -89,11 +91,20 @@ def _curvature_function() -> Any:
     A = ca.mtimes(R0.T, R1) - ca.SX.eye(3)  # Y − I: rotation block
     b = ca.mtimes(R0.T, t1 - t0)  # Y − I: translation block
     L = A - 0.5 * ca.mtimes(A, A)  # log Y to second order (rotation block)
-    nu = b - 0.5 * ca.mtimes(A, b)
-    om = 0.5 * ca.vertcat(L[2, 1] - L[1, 2], L[0, 2] - L[2, 0], L[1, 0] - L[0, 1])
-    H, _ = ca.hessian(ca.dot(g, ca.vertcat(nu, om)), d)
-    f = ca.Function("flyer_curvature_at", [xi, g, d], [H])
-    return ca.Function("flyer_curvature", [xi, g], [f(xi, g, ca.DM.zeros(6))])
+    mv = ca.vertcat(
+        b - 0.5 * ca.mtimes(A, b), 0.5 * ca.vertcat(L[2, 1] - L[1, 2], L[0, 2] - L[2, 0], L[1, 0] - L[0, 1])
+    )
+    H, _ = ca.hessian(ca.dot(g, mv), d)
+    f = ca.Function("flyer_chart_at", [xi, g, d], [ca.jacobian(mv, d), H])
+    zero = ca.DM.zeros(6)
+    return ca.Function("flyer_chart", [xi, g], list(f(xi, g, zero)))
+
+
+def flyer_jacobian(xi: Any) -> np.ndarray:
+    """(6, 6): ``∂m/∂δ`` at δ = 0, m(δ) = log6(exp6(ξ)⁻¹ exp6(ξ + δ)) — the derivative of one free flyer's chart
+    ``ξ ↦ q_ref ⊕ ξ`` in the tangent space at q_ref ⊕ ξ (the SE(3) right Jacobian, ``pinocchio.Jexp6``; the
+    identity at ξ = 0); ξ (6,) [m, rad] in LOCAL [v; ω] order."""
+    return np.asarray(_chart_function()(validation.vector(xi, 6, "xi"), np.zeros(6))[0], dtype=float)
 
 
 def flyer_curvature(xi: Any, g: Any) -> np.ndarray:
@@ -103,7 +114,7 @@ def flyer_curvature(xi: Any, g: Any) -> np.ndarray:
     there): the chart's curvature shows only away from its centre."""
     xv = validation.vector(xi, 6, "xi")
     gv = validation.vector(g, 6, "g")
-    return np.asarray(_curvature_function()(xv, gv), dtype=float)
+    return np.asarray(_chart_function()(xv, gv)[1], dtype=float)
 
 
 class FlyerChart:
@@ -148,10 +159,14 @@ class FlyerChart:
         return self.c + self.system.difference(self.q_ref, q)
 
     def dq(self, x: np.ndarray) -> np.ndarray:
-        """D(x) = ∂(q_ref ⊕ ξ)/∂ξ (nv, nv) at ξ = x − c (``pinocchio.dIntegrate``): a chart velocity ẋ moves
-        q(x) by the tangent velocity D ẋ (the identity at x = c and on the 1-DOF joints)."""
-        pin = self._pin
-        return np.asarray(pin.dIntegrate(self.model, self.q_ref, np.asarray(x, float) - self.c, pin.ARG1))
+        """D(x) = ∂(q_ref ⊕ ξ)/∂ξ (nv, nv) at ξ = x − c (``pinocchio.dIntegrate``, :func:`flyer_jacobian` on each
+        flyer's block): a chart velocity ẋ moves q(x) by the tangent velocity D ẋ (the identity at x = c and on the
+        1-DOF joints)."""
+        D = np.eye(self.model.nv)
+        xi = np.asarray(x, float) - self.c
+        for i in self.flyers:
+            D[i : i + 6, i : i + 6] = flyer_jacobian(xi[i : i + 6])
+        return D
 
     def curvature(self, x: np.ndarray, g: np.ndarray) -> np.ndarray:
         """(nv, nv): :func:`flyer_curvature` of every free flyer on its block (zero elsewhere: ⊕ is linear on the
