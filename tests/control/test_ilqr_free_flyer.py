@@ -153,8 +153,9 @@ def test_floating_reach_lands_on_the_primitive_of_gauss_newton_and_ipopt(system,
     expected = (p0 - c) @ R.T + c + np.array(MOVE["translation"])
     for q, tol in ((r.q, 1e-5), (gn.q, 1e-9), (ref.q[-1], 1e-8)):
         assert np.abs(_hands(system, q) - expected).max() <= tol
-    # the chart's double integrator is not the manifold's: the minimum-energy costs agree to a few per cent only
-    assert abs(r.cost - ref.cost) <= 0.05 * ref.cost
+    # the chart's double integrator is not the manifold's (IPOPT's), yet the optima nearly agree (measured: costs
+    # 4e-4 apart relative, end configurations 1.3e-3 apart in the tangent norm)
+    assert abs(r.cost - ref.cost) <= 2e-3 * ref.cost and system.distance(r.q, ref.q[-1]) <= 5e-3
 
 
 def test_bad_input_on_a_free_flyer(system, reach) -> None:
