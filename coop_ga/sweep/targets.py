@@ -157,7 +157,7 @@ class Displacement:
     axis: tuple[float, float, float]  # unit, world frame
     angle: float  # [rad]
     scale: float  # factor
-    qd_init: tuple[float, ...]  # (nq,) [rad/s], for a moving start
+    qd_init: tuple[float, ...]  # (nv,) [rad/s] (nv = nq without a free flyer), for a moving start
 
 
 def _unit(rng: np.random.Generator) -> np.ndarray:
