@@ -179,6 +179,8 @@ class CollisionModel:
         self.capsules: tuple[Capsule, ...] = _capsules(system, capsules)
         self.obstacles: tuple[Sphere | Plane, ...] = _obstacles(obstacles)
         self.nq = int(model.nq)
+        #: Jacobian columns: one per velocity (nv = nq, or nq − 1 with a free flyer: its LOCAL [v; ω])
+        self.nv = int(model.nv)
 
         nc = len(self.capsules)
         self._layout_capsules(model, str(system.name))
@@ -245,7 +247,7 @@ class CollisionModel:
         self._a_j = np.zeros((nc, 3))
         self._b_j = np.zeros((nc, 3))
         self._radius = np.array([c.radius for c in self.capsules], float)
-        self._mask = np.zeros((nc, self.nq), bool)
+        self._mask = np.zeros((nc, self.nv), bool)
         for i, c in enumerate(self.capsules):
             if not model.existFrame(c.frame):
                 raise InvalidInputError(f"capsules: frame '{c.frame}' is not a frame of system '{system_name}'")
@@ -256,8 +258,8 @@ class CollisionModel:
             self._a_j[i] = Rf @ c.a + tf
             self._b_j[i] = Rf @ c.b + tf
             for j in model.supports[int(f.parentJoint)]:
-                if j > 0:
-                    self._mask[i, model.idx_vs[j]] = True
+                if j > 0:  # every velocity of the joint (six for a free flyer)
+                    self._mask[i, model.idx_vs[j] : model.idx_vs[j] + model.nvs[j]] = True
 
     def _self_candidates(self, system: Any, exclude_adjacent: bool, srdf: bool) -> list[tuple[int, int, bool]]:
         """The capsule pairs (i < j) that may collide, with whether they share a branch; the others go to
@@ -516,7 +518,7 @@ class CollisionModel:
         pin, model, data = self._pin, self._model, self._data
         Qa = np.asarray(Q, float)
         knots, idx = np.unique(kk, return_inverse=True)
-        J6 = np.empty((knots.size, 6, self.nq))
+        J6 = np.empty((knots.size, 6, self.nv))
         for i, k in enumerate(knots):
             pin.computeJointJacobians(model, data, Qa[k])
             J6[i] = data.J

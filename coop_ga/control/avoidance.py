@@ -83,7 +83,6 @@ from ..cooperative.manipulability import damped_pinv
 from ..diagnostics import collect_warnings
 from ..errors import InfeasibleConstraintsError, InvalidInputError
 from ..geometry.groups import SimilarityLike
-from ..kinematics.chains import require_nq_equals_nv
 from .base import check_problem, resolve_options
 from .configuration import Configuration
 from .diffik import DiffIKResult, run_result, similarity_error_norm, step_limits
@@ -410,12 +409,6 @@ def avoidance_reach(
         clearance is reported, not part of ``converged``.
     """
     o = resolve_options(AvoidanceOptions, options, overrides, "avoidance_reach")
-    require_nq_equals_nv(
-        task.system.model,
-        "avoidance_reach",
-        "diff_ik_reach with constraints= rows on q̇ (nv columns)",
-        f"task '{task.name}'",
-    )
     cm = check_collision_model(collision_model, task.nq)
     q, Vd = check_problem(task, q_init, target, "q_init")
     labels = tuple(str(s) for s in cm.labels)

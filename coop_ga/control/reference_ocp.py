@@ -219,7 +219,7 @@ class TangentReachingOCP:
         self.system = task.system
         self.nq, self.nv = int(task.nq), int(task.system.nv)
         self.q_init, self.target = check_problem(task, q_init, target, "q_init")
-        self.system._check_quaternions(self.q_init, "q_init")
+        self.system.check_quaternions(self.q_init, "q_init")
         self.qd_init = np.zeros(self.nv) if qd_init is None else check_v(task, qd_init, "qd_init")
         self.horizon = validation.integer(horizon, "horizon", minimum=2)
         self.dt = validation.positive(dt, "dt")

@@ -157,7 +157,7 @@ class Displacement:
     axis: tuple[float, float, float]  # unit, world frame
     angle: float  # [rad]
     scale: float  # factor
-    qd_init: tuple[float, ...]  # (nq,) [rad/s], for a moving start
+    qd_init: tuple[float, ...]  # (nv,) [rad/s] (nv = nq without a free flyer), for a moving start
 
 
 def _unit(rng: np.random.Generator) -> np.ndarray:
@@ -223,7 +223,7 @@ def _tangent_chart(system: Any, q_init: np.ndarray) -> tuple[Any, Any, np.ndarra
 
     lim = system.limits
     x = system.limit_coordinates(q_init)
-    free = system._limit_index < 0
+    free = system.limit_index < 0
     lo = np.where(free, -np.inf, np.asarray(lim.lower, dtype=float) - x)
     hi = np.where(free, np.inf, np.asarray(lim.upper, dtype=float) - x)
     return (

@@ -333,7 +333,7 @@ def _target(job: Mapping[str, Any], task: Any, rng: np.random.Generator, rec: di
             if "level" in t
             else Level(float(t["translation"]), float(t["angle_deg"]), float(t["scale"]))
         )
-        draw = draw_displacement(rng, level, task.nq, float(t.get("qd_max", 0.2)))
+        draw = draw_displacement(rng, level, task.system.nv, float(t.get("qd_max", 0.2)))  # q̇ has nv entries
         parts: dict[str, Any] = {
             "translation": draw.translation,
             "axis": draw.axis,

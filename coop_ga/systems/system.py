@@ -249,7 +249,7 @@ class System:
         self.q0 = validation.configuration(
             self.q0, self.model.nq, "q0", owner=f"system '{self.name}'", joint_names=self.joint_names
         )
-        self._check_quaternions(self.q0, "q0")
+        self.check_quaternions(self.q0, "q0")
         outside = self.limits.describe(self.limit_coordinates(self.q0), tol=0.0)
         if outside:
             raise InvalidInputError(
@@ -322,10 +322,17 @@ class System:
         a = np.asarray(q, dtype=float)
         if self.model.nq == self.model.nv:
             return a
-        idx = self._limit_index
+        idx = self.limit_index
         out = np.zeros(a.shape[:-1] + (self.nv,))
         out[..., idx >= 0] = a[..., idx[idx >= 0]]
         return out
+
+    def distance(self, q0: Any, q1: Any) -> float:
+        """The length ‖difference(q0, q1)‖ of the tangent step from q0 to q1 (nq,) [a mixed norm: rad and m of
+        the joints, and a free flyer's LOCAL translation [m] and rotation angle [rad]]: ``‖q1 − q0‖`` when
+        nq = nv.  Unlike ``‖q1 − q0‖`` it does not add metres to quaternion units, and it is the same for q and
+        the equivalent quaternion −q."""
+        return float(np.linalg.norm(self.difference(q0, q1)))
 
     def require_nq_equals_nv(self, what: str, instead: str) -> None:
         """Raise :class:`UnsupportedJointError` when this system has nq ≠ nv (a free flyer) naming ``what`` (a
@@ -342,7 +349,7 @@ class System:
         a = np.array(q, dtype=float) if out is None else out
         if out is not None and out is not q:
             a[...] = q
-        idx = self._limit_index
+        idx = self.limit_index
         on = idx >= 0
         a[idx[on]] = np.clip(a[idx[on]], self.limits.lower[on], self.limits.upper[on])
         return a
@@ -356,15 +363,16 @@ class System:
         if self.model.nq == self.model.nv:
             return a
         out = self.limit_coordinates(a)
-        free = self._limit_index < 0
+        free = self.limit_index < 0
         if len(a) > 1:
             steps = np.array([self.difference(a[k], a[k + 1]) for k in range(len(a) - 1)])
             out[1:, free] = np.cumsum(steps[:, free], axis=0)
         return out
 
     @property
-    def _limit_index(self) -> np.ndarray:
-        """For each velocity, the q index of its 1-DOF joint's coordinate, or −1 (a free flyer's)."""
+    def limit_index(self) -> np.ndarray:
+        """(nv,) int: for each velocity (q̇ order), the index in q of its 1-DOF joint's coordinate, or −1 for a free
+        flyer's six velocities (they have no position bound; :meth:`limit_coordinates`)."""
         m = self.model
         idx = np.full(m.nv, -1)
         for j in range(1, m.njoints):
@@ -372,8 +380,10 @@ class System:
                 idx[m.idx_vs[j]] = m.idx_qs[j]
         return idx
 
-    def _check_quaternions(self, q: np.ndarray, what: str) -> None:
-        """Raise if a free flyer's quaternion in q is not unit (within QUATERNION_TOLERANCE)."""
+    def check_quaternions(self, q: np.ndarray, what: str) -> None:
+        """Raise :class:`InvalidInputError` naming ``what`` (e.g. ``"q_init"``) if a free flyer's quaternion
+        (x y z w) in the configuration q (nq,) is not unit within
+        :data:`~coop_ga.kinematics.chains.QUATERNION_TOLERANCE`; nothing to check without a free flyer."""
         from ..kinematics.chains import QUATERNION_TOLERANCE
 
         m = self.model
@@ -495,7 +505,7 @@ class System:
         if not isinstance(warn_limits, (bool, np.bool_)):
             raise InvalidInputError(f"warn_limits must be True or False, got {warn_limits!r}")
         if self.model.nq != self.model.nv:
-            self._check_quaternions(a, "q")
+            self.check_quaternions(a, "q")
         if warn_limits and self.limits is not None:
             desc = self.limits.describe(self.limit_coordinates(a), tol=1e-12)
             if desc:

@@ -3,8 +3,7 @@
 The targets move the hands' line / point pair 0.6 m forward, 0.2 m left, 0.3 m up and turn it 0.4 rad about z:
 out of reach of the fixed-pelvis ``g1_arms`` (checked), reached with the floating base, which moves.  The final
 hands are checked with Pinocchio's own forward kinematics, the trajectory against the joint limits (position and
-velocity, in q̇ coordinates), and the quaternion stays unit.  Controllers that are not converted refuse the system
-with an UnsupportedJointError naming themselves and what works instead.
+velocity, in q̇ coordinates), and the quaternion stays unit.  The iLQR on a free flyer: test_ilqr_free_flyer.py.
 """
 
 from __future__ import annotations
@@ -19,11 +18,9 @@ from coop_ga.control import (
     ConfigurationLimit,
     PositionTask,
     VelocityLimit,
-    avoidance_reach,
     constrained_point_reach,
     diff_ik_reach,
     gauss_newton_ik,
-    ilqr_reach,
     impedance_torque,
     nullspace_point_reach,
     run_ik,
@@ -31,7 +28,6 @@ from coop_ga.control import (
 )
 from coop_ga.control.tasks import DualTask, DualTaskSpace
 from coop_ga.cooperative.targets import displaced_target
-from coop_ga.errors import UnsupportedJointError
 from coop_ga.systems.library import g1_floating
 
 MOVE = {"translation": (0.6, 0.2, 0.3), "axis": (0.0, 0.0, 1.0), "angle": 0.4}
@@ -114,19 +110,6 @@ def test_point_task_with_position_and_velocity_limits(system) -> None:
     assert np.linalg.norm(_hands(system, run.trajectory[-1])[0] - goal) <= 1e-5
     assert run.max_position_violation == 0.0 and run.max_velocity_violation <= 1e-9
     assert run.velocities.shape == (run.iterations, system.nv)
-
-
-def test_unconverted_controllers_refuse_a_free_flyer(system) -> None:
-    task = cg.cooperative_task(system, "point_pair")
-    q0 = system.q0
-    Vd = displaced_target(task, q0, translation=(0.05, 0.0, 0.0))
-    calls = {
-        "ilqr_reach": lambda: ilqr_reach(task, q0, Vd),
-        "avoidance_reach": lambda: avoidance_reach(task, q0, Vd, collision_model=None),
-    }
-    for name, call in calls.items():
-        with pytest.raises(UnsupportedJointError, match=rf"{name}.*free flyer.*nq = 24, nv = 23.*use "):
-            call()
 
 
 def test_a_step_moves_q_on_the_manifold_and_refuses_non_finite(system) -> None:

@@ -496,3 +496,14 @@ def test_free_flyer_job_field_loads_the_registry_variant() -> None:
     Vd = displaced_target(task, task.system.q0, **MOVE)
     c = sw.targets.certify(task, task.system.q0, Vd)
     assert c["certified"] and c["error"] < CERT_TOL and c["violation"] == 0.0
+
+
+def test_ilqr_jobs_on_a_free_flyer() -> None:
+    """The iLQR controllers take the floating G1 (its chart, coop_ga.control.ilqr.chart): the 0.6 m target the fixed
+    pelvis cannot reach, and a sampled small target from a moving start (q̇ drawn with nv = 23 entries)."""
+    job = {"system": "g1_arms", "kind": "point_pair", "controller": "ilqr", "target": MOVE, "free_flyer": True}
+    moving = {**job, "controller": "ilqr_moving", "target": {"sampler": "displacement", "level": "small"}}
+    far, mov = sw.run([job, moving])
+    assert far["status"] == "ok" and far["nq"] == 24 and far["converged"] and far["error"] < 1e-5, far.get("exception")
+    assert far["violation"] == 0.0 and far["speed_violation"] == 0.0
+    assert mov["status"] == "ok" and mov["converged"] and mov["violation"] == 0.0, mov.get("exception")

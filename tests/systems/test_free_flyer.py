@@ -81,6 +81,31 @@ def test_non_unit_quaternion_is_refused(floating) -> None:
         systems.System("bad", floating.model, floating.end_frames, q)
 
 
+def test_public_quaternion_check_limit_index_and_distance(floating) -> None:
+    s = floating
+    q = s.q0.copy()
+    q[3:7] *= 3.0
+    with pytest.raises(InvalidInputError, match=r"^q_init of system 'g1_floating'.*norm 3"):
+        s.check_quaternions(q, "q_init")
+    s.check_quaternions(s.q0, "q0")  # unit: nothing raised
+    idx = s.limit_index
+    assert idx.shape == (s.nv,) and np.all(idx[:6] == -1) and np.array_equal(idx[6:], np.arange(7, s.nq))
+    # distance: the norm of the tangent step by Pinocchio's difference (LOCAL translation [m], rotation angle [rad])
+    rng = np.random.default_rng(2)
+    a, v = s.random_q(rng), 0.3 * rng.normal(size=s.nv)  # |ω| < π: the step is the shortest one
+    b = pin.integrate(s.model, a, v)
+    assert s.distance(a, b) == pytest.approx(float(np.linalg.norm(v)), rel=1e-12)
+    turned = s.q0.copy()
+    turned[3:7] = [0.0, 0.0, np.sin(0.25), np.cos(0.25)]  # the pelvis turned 0.5 rad about z, nothing else
+    assert s.distance(s.q0, turned) == pytest.approx(0.5, rel=1e-12)
+    flipped = turned.copy()
+    flipped[3:7] *= -1.0  # the same rotation: zero distance, where ‖q1 − q0‖ adds quaternion units (≈ 2)
+    assert s.distance(turned, flipped) <= 1e-12 and np.linalg.norm(flipped - turned) > 1.9
+    fixed = systems.load("g1_arms")
+    qf = fixed.q0 + 0.1
+    assert fixed.distance(fixed.q0, qf) == float(np.linalg.norm(qf - fixed.q0))
+
+
 def test_from_urdf_with_its_free_flyer() -> None:
     groups = {"base": "root_joint", "arms": [".*_(shoulder|elbow|wrist)_.*", "waist_.*"]}
     s = systems.from_urdf(

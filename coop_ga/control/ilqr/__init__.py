@@ -146,6 +146,15 @@ accepted by the line search on the true (re-evaluated) merit.  An unreachable ta
 ``converged=False`` and a message naming the active constraints and the residual.
 A start outside the limits raises :class:`~coop_ga.errors.InvalidInputError` (use
 ``limit_mode="none"`` to study it).
+A free flyer (nq ≠ nv)
+----------------------
+A system with a free flyer is solved in a local chart of its configuration manifold, ``q(x) = q_ref ⊕ (x − c)``
+(q_ref the start, :class:`RecedingReach` re-centres it at every solve): everything above holds for x (nv) with the
+task's Jacobian and Hessian composed with the chart, a joint's chart coordinate is its own coordinate and the
+flyer's six have no position bound (:mod:`~coop_ga.control.ilqr.chart`: why a chart, what its bounds mean, and
+how the result is mapped back: ``trajectory`` (n+1, nq), ``qd`` (n+1, nv) tangent velocities, ``u`` (n, nv)).
+Without a free flyer no chart is built (results bit-identical).
+
 The package
 -----------
 :mod:`~.problem` (:class:`ReachingOCP`: dynamics, costs, bounds), :mod:`~.options`
@@ -153,7 +162,8 @@ The package
 Riccati/box-DDP pass, roll-outs), :mod:`~.merit` (the augmented merit and its
 :class:`~.merit.Evaluation`, the terminal models), :mod:`~.feasibility` (the strictly feasible
 references and the final blend), :mod:`~.reachability` (the unreachability certificate),
-:mod:`~.solver` (:func:`ilqr_reach`, the AL and iLQR loops, the restart; :class:`RecedingReach`, the same solve
+:mod:`~.chart` (the free flyer's chart: :class:`~.chart.ChartTask`,
+:class:`~.chart.ChartClearance`), :mod:`~.solver` (:func:`ilqr_reach`, the AL and iLQR loops, the restart; :class:`RecedingReach`, the same solve
 set up once and re-run from new starts and targets without the certificate — the inner solver of
 :mod:`coop_ga.control.mpc`) and :mod:`~.results`
 (:class:`ILQRResult`, :class:`ILQRIteration`, the verdict).

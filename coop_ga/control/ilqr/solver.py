@@ -13,8 +13,8 @@ import numpy as np
 from ...diagnostics import collect_warnings
 from ...errors import DegeneratePrimitiveError, InvalidInputError
 from ...geometry.groups import SimilarityLike
-from ...kinematics.chains import require_nq_equals_nv
 from ..base import resolve_options
+from .chart import FlyerChart, chart_problem, chart_reach, to_manifold
 from .feasibility import reference_controls, restore
 from .lq import Condensation, LQStep, add_state_hessian, controls_to, lq_step, second_order_correction
 from .merit import Evaluation, Merit, StateTerms, gauss_newton_hessian, multiplier_estimate, terminal_model
@@ -58,6 +58,10 @@ def ilqr_reach(
         qd_init: (nq,) initial joint velocity [rad/s] (default 0).
         u_init: (n, nq) initial control guess [rad/s²] (default: rest, or braking to rest).
 
+    A system with a free flyer (nq ≠ nv) is solved in a local chart centred at q_init (:mod:`.chart`: why, and what
+    its bounds mean); ``qd_init`` and ``u_init`` then have nv columns, and the result's ``trajectory`` is (n+1, nq)
+    on the manifold, its ``qd`` the tangent velocities (n+1, nv) and its ``u`` the chart's accelerations (n, nv).
+
     Returns:
         :class:`ILQRResult`; every returned trajectory satisfies the bounds (package docstring).  A target
             certified unreachable (package docstring, "Fast honest failure") returns before any iteration.
@@ -74,12 +78,8 @@ def ilqr_reach(
     is built (~0.2 s, once per task and process); ``solve_time_s`` covers everything else.
     """
     o = resolve_options(ILQROptions, options, overrides, "ilqr_reach")
-    require_nq_equals_nv(
-        task.system.model,
-        "ilqr_reach",
-        "diff_ik_reach or gauss_newton_ik (they integrate q on the free flyer)",
-        f"task '{task.name}'",
-    )
+    if task.nq != getattr(task, "nv", task.nq):  # a free flyer: the same solve in a chart (module .chart)
+        return chart_reach(task, q_init, target, o, qd_init, u_init)
     ocp = _problem(task, q_init, target, qd_init, o)
     with collect_warnings() as caught:
         reason = unreachable(ocp, o.tol)
@@ -190,6 +190,9 @@ class RecedingReach:
     def __init__(self, task: Any, options: ILQROptions | None = None, **overrides: Any):
         self.task = task
         self.o = resolve_options(ILQROptions, options, overrides, "RecedingReach")
+        self.chart: FlyerChart | None = None
+        if task.nq != getattr(task, "nv", task.nq):  # a free flyer: each solve in the chart re-centred at its start
+            self.chart, self.task, self.o = chart_problem(task, task.system.q0, self.o)
         self._ocp: ReachingOCP | None = None
         self._cond: Condensation | None = None
 
@@ -207,10 +210,16 @@ class RecedingReach:
 
     def solve(self, q_init: Any, target: SimilarityLike, *, qd_init: Any = None, u_init: Any = None) -> ILQRResult:
         """One solve from (``q_init``, ``qd_init``) (nq,) [rad, rad/s] toward ``target``, starting from the controls
-        ``u_init`` (n, nq) [rad/s²] (default: rest, or braking to rest); see the class docstring."""
+        ``u_init`` (n, nq) [rad/s²] (default: rest, or braking to rest); see the class docstring.  With a free flyer
+        the chart is re-centred at q_init (:mod:`.chart`; ``qd_init``, ``u_init`` with nv columns, the result mapped
+        back to the manifold as :func:`ilqr_reach`'s)."""
+        if self.chart is not None:
+            self.chart.recentre(q_init)
+            q_init = self.chart.c
         ocp = self._problem(q_init, target, qd_init)
         with collect_warnings() as caught:
-            return _Solve(ocp, self.o, u_init, self._cond).run(caught.counts, describe=False)
+            res = _Solve(ocp, self.o, u_init, self._cond).run(caught.counts, describe=False)
+        return res if self.chart is None else to_manifold(res, self.chart)
 
 
 def _state(x: Any, n: int, what: str) -> np.ndarray:

@@ -50,10 +50,12 @@ def check_collision_model(cm: Any, nq: int | None = None) -> Any:
 
 
 def model_distances(cm: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(d (n,) [m], J_d (n, nq) [m/rad])`` of the collision model at q."""
+    """``(d (n,) [m], J_d (n, nv) [m/rad])`` of the collision model at q (nq,) (nv = nq without a free flyer)."""
     d, J = cm.distances_and_jacobian(q)
     d = np.asarray(d, dtype=float).reshape(-1)
-    J = np.asarray(J, dtype=float).reshape(d.shape[0], q.shape[0])
+    J = np.asarray(J, dtype=float)
+    # nv columns (the model's); no pairs: (0, its columns), or (0, nq) when it gives none
+    J = J.reshape(d.shape[0], -1) if d.size else J.reshape(0, J.shape[-1] if J.ndim == 2 else q.shape[0])
     return d, J
 
 

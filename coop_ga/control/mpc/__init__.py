@@ -41,6 +41,11 @@ Three loops, slowest first (:class:`CooperativeMPC`; the physics loop of :mod:`c
 3. **Joint-level tracking** (every physics step, 1 kHz; outside this package): ``τ = RNEA(q, q̇, a + K_p
    (q_r − q) + K_d (q̇_r − q̇))`` along the safety layer's velocity ramp.
 
+A free flyer (nq ≠ nv, e.g. ``load("g1_arms", free_flyer=True)``): every tick solves the iLQR in its local chart
+re-centred at the measured q (:mod:`coop_ga.control.ilqr.chart`); q̇, the command and the plan's velocities and
+controls have nv entries, the feedback of the safety layer is ``difference(q, q_plan)`` and the plan is sampled
+through ``integrate``; the flyer has no position bound.
+
 Bad input: a target that is not a similarity or has NaN → :class:`~coop_ga.errors.InvalidInputError` /
 :class:`~coop_ga.errors.NonFiniteError` naming the time; a state outside the limits, a penetrating pair or an
 infeasible safety QP → :class:`MPCInfeasibleError` (an :class:`~coop_ga.errors.InfeasibleConstraintsError`)

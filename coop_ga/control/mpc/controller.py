@@ -12,7 +12,6 @@ import numpy as np
 from ... import validation
 from ...diagnostics import warn
 from ...errors import InfeasibleConstraintsError, RateWarning
-from ...kinematics.chains import require_nq_equals_nv
 from ..avoidance import ClearanceCost
 from ..base import resolve_options
 from ..configuration import Configuration
@@ -35,8 +34,11 @@ STATE_TOL = 1e-9
 class MPCTick:
     """One MPC tick at ``time`` [s] from the measured (q, q̇).
 
-    acceleration: (nq,) the plan's first control u_0 [rad/s²]; torque: (nq,) RNEA(q, q̇, u_0) [N m] (Pinocchio).
-    plan_t (n+1,) [s, absolute], plan_q, plan_qd (n+1, nq), plan_u (n, nq): the plan (double integrator, Eq 54).
+    acceleration: (nv,) the plan's first control u_0 [rad/s²]; torque: (nv,) RNEA(q, q̇, u_0) [N m] (Pinocchio).
+    plan_t (n+1,) [s, absolute], plan_q (n+1, nq), plan_qd (n+1, nv), plan_u (n, nv): the plan (double integrator,
+    Eq 54; nv = nq without a free flyer, else the plan of the iLQR's chart re-centred at the measured q,
+    :mod:`coop_ga.control.ilqr.chart`: plan_qd the tangent velocities, plan_u the chart's accelerations, u_0 the
+    flyer's twist rate).
     tick_time: wall time of the whole tick [s]; solve_time: the iLQR's own solve time [s]; iterations: iLQR
     iterations; violation: the plan's largest bound violation [rad, rad/s, rad/s²] (0 by construction of the
     iLQR's feasibility blend); min_clearance: the plan's smallest clearance by the collision model at the
@@ -121,14 +123,11 @@ class CooperativeMPC:
         **overrides: Any,
     ):
         self.o = o = resolve_options(MPCOptions, options, overrides, "CooperativeMPC")
-        require_nq_equals_nv(
-            task.system.model,
-            "the MPC controller",
-            "diff_ik_reach (a kinematic loop with the free flyer)",
-            f"task '{task.name}'",
-        )
         self.task = task
         self.nq = int(task.nq)
+        #: velocities (nv = nq, or nq − 1 with a free flyer: q̇, the plan's velocities and accelerations have nv)
+        self.nv = int(getattr(task, "nv", task.nq))
+        self.system = task.system
         self.target = TargetSchedule(target, task)
         self.world = ObstacleWorld(task.system, obstacles, self_collision=self_collision)
         self.lim = task.system.limits
@@ -168,7 +167,9 @@ class CooperativeMPC:
 
     def _state(self, q: Any, qd: Any) -> tuple[np.ndarray, np.ndarray]:
         qv = validation.configuration(q, self.nq, "q", owner=f"task '{self.task.name}'")
-        qdv = validation.configuration(qd, self.nq, "qd", owner=f"task '{self.task.name}'")
+        qdv = validation.configuration(qd, self.nv, "qd", owner=f"task '{self.task.name}'")
+        if self.nq != self.nv:
+            self.system.check_quaternions(qv, "q")
         return qv, qdv
 
     def _infeasible(self, q: np.ndarray, qd: np.ndarray, why: str, active: Sequence[str]) -> MPCInfeasibleError:
@@ -202,8 +203,9 @@ class CooperativeMPC:
         velocity limit or (with ``avoid``) a pair of the collision model penetrates (clearance < 0); ``d`` (n,)
         [m]: the collision model's distances at q with the obstacles placed now, if already known."""
         lim, names = self.lim, self.lim.joint_names
-        active = [f"{names[i]} (lower position limit)" for i in np.flatnonzero(q < lim.lower - STATE_TOL)]
-        active += [f"{names[i]} (upper position limit)" for i in np.flatnonzero(q > lim.upper + STATE_TOL)]
+        x = q if self.nq == self.nv else self.system.limit_coordinates(q)  # the bounded coordinates, in q̇ order
+        active = [f"{names[i]} (lower position limit)" for i in np.flatnonzero(x < lim.lower - STATE_TOL)]
+        active += [f"{names[i]} (upper position limit)" for i in np.flatnonzero(x > lim.upper + STATE_TOL)]
         active += [f"{names[i]} (velocity limit)" for i in np.flatnonzero(np.abs(qd) > lim.velocity + STATE_TOL)]
         if self.o.avoid:
             d = self.world.model.distances(q) if d is None else d
@@ -213,7 +215,8 @@ class CooperativeMPC:
 
     # ------------------------------------------------------------------ the MPC tick
     def _warm_start(self) -> np.ndarray | None:
-        """The previous plan's controls shifted by ``period / dt`` knots, the last one repeated."""
+        """The previous plan's controls shifted by ``period / dt`` knots, the last one repeated (with a free flyer,
+        accelerations of the previous plan's chart: a guess for the chart re-centred at the new state)."""
         if self.plan is None:
             return None
         m, u = self.o.shift, self.plan.plan_u
@@ -277,8 +280,9 @@ class CooperativeMPC:
 
     # ------------------------------------------------------------------ the safety layer
     def sample_plan(self, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """(q, q̇) (nq,) of the current plan at time t [s] (exact double-integrator between knots; held after the
-        last knot at its velocity)."""
+        """(q (nq,), q̇ (nv,)) of the current plan at time t [s] (exact double-integrator between knots; held after
+        the last knot at its velocity).  With a free flyer q moves from the knot by ``integrate(q_k, τ q̇_k + ½τ²u_k)``
+        (the plan's own chart, :mod:`coop_ga.control.ilqr.chart`, agrees with it to second order in τ)."""
         p = self.plan
         if p is None:
             raise InfeasibleConstraintsError("no plan yet: call tick() before filter()")
@@ -287,6 +291,8 @@ class CooperativeMPC:
         k = min(int(s // dt), len(p.plan_u) - 1)
         tau = s - k * dt
         u = p.plan_u[k]
+        if self.nq != self.nv:
+            return self.system.integrate(p.plan_q[k], tau * p.plan_qd[k] + 0.5 * tau * tau * u), p.plan_qd[k] + tau * u
         return p.plan_q[k] + tau * p.plan_qd[k] + 0.5 * tau * tau * u, p.plan_qd[k] + tau * u
 
     def filter(self, t: float, q: Any, qd: Any) -> FilterStep:
@@ -305,7 +311,7 @@ class CooperativeMPC:
         self.check_state(qv, qdv, d)
         q_p, _ = self.sample_plan(t)
         _, qd_p = self.sample_plan(t + o.filter_dt)
-        desired = qd_p + o.feedback * (q_p - qv)
+        desired = qd_p + o.feedback * (q_p - qv if self.nq == self.nv else self.system.difference(qv, q_p))
         try:
             step = solve_step(conf, [JointVelocityTask(desired)], self.limits, o.filter_dt)
         except InfeasibleConstraintsError as exc:
