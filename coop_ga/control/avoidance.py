@@ -509,6 +509,15 @@ class ClearanceCost:
                 return float(np.min(d))
         return float(np.inf)
 
+    def trajectory_pairs(self, Q: np.ndarray, lookahead: float = 0.0) -> np.ndarray | None:
+        """The collision model's pair (m,) of each row of :meth:`trajectory_rows` along Q (K, nq) with the same
+        ``lookahead`` [m] (the model's last pair list: no distance computed twice), or None where the model has no
+        broad phase (:meth:`~coop_ga.collision.model.CollisionModel.close_pairs`)."""
+        close = getattr(self.model, "close_pairs", None)
+        if not callable(close):
+            return None
+        return np.asarray(close(np.asarray(Q, float), self.activation + lookahead)[1], int)
+
     def trajectory_rows(self, Q: np.ndarray, lookahead: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The rows of the hinge within ``lookahead`` [m] of activation along Q (K, nq) (d_i < d_a + lookahead):
         ``(k (m,) the configuration of each row, v (m,) = d_a − d_i [m] (> 0: active), J (m, nq) = ∂d_i/∂q)``;

@@ -257,6 +257,10 @@ class ChartClearance:
     def trajectory_min(self, X: np.ndarray, cutoff: float = np.inf) -> float:
         return float(self.base.trajectory_min(self.chart.to_q_trajectory(X), cutoff))
 
+    def trajectory_pairs(self, X: np.ndarray, lookahead: float = 0.0) -> np.ndarray | None:
+        """The collision model's pair of each row along q(X) (:meth:`~coop_ga.control.avoidance.ClearanceCost.trajectory_pairs`)."""
+        return self.base.trajectory_pairs(self.chart.to_q_trajectory(X), lookahead)
+
     def trajectory_rows(self, X: np.ndarray, lookahead: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The cost's rows along q(X) (:meth:`~coop_ga.control.avoidance.ClearanceCost.trajectory_rows`), each
         Jacobian row times D at its knot."""

@@ -137,15 +137,14 @@ class Merit:
     def rows_with_pairs(self, q: np.ndarray, lookahead: float) -> tuple[ClearanceRows | None, np.ndarray | None]:
         """The clearance rows of the trajectory q (n+1, nq) within ``lookahead`` [m] of activation
         (:meth:`ReachingOCP.clearance_rows`) and the collision model's pair (m,) of each of them (None where the
-        clearance cost cannot list its rows, or its model has no ``close_pairs``: from the pair list that computed
+        clearance cost cannot list its rows or their pairs (``trajectory_pairs``): from the pair list that computed
         the rows, so no distance is computed twice)."""
         ocp = self.ocp
         rows = ocp.clearance_rows(q, lookahead)
-        close = getattr(getattr(ocp.clearance, "model", None), "close_pairs", None)
-        if rows is None or not callable(close):
+        pairs_of = getattr(ocp.clearance, "trajectory_pairs", None)
+        pairs = pairs_of(q[1:], lookahead) if rows is not None and callable(pairs_of) else None
+        if rows is None or pairs is None:
             return rows, None
-        _, pairs, _ = close(q[1:], float(ocp.clearance.activation) + lookahead)
-        pairs = np.asarray(pairs, int)
         return rows, pairs if pairs.shape == rows.v.shape else None
 
     def state_terms(self, ev: Evaluation) -> StateTerms:
