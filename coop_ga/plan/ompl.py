@@ -32,7 +32,8 @@ embedded in the ambient R^nq and kept unit by one more equality row ``|quat|² �
 (:class:`_EmbeddedResidual`, its ambient Jacobian through ``pin.tangentMap``); the box of the ambient space is the
 joints' limits, the flyer's position within ``window`` (at least 1 m) of the start and goals and [−1, 1] for the
 quaternion; the kinematics, validity and the returned path see the quaternion normalised (OMPL keeps it unit
-only to the constraint tolerance).  ``length`` then mixes metres and quaternion units.
+only to the constraint tolerance).  ``length`` sums the tangent steps (:meth:`~coop_ga.systems.System.distance`):
+metres and radians of the flyer's LOCAL twist, never quaternion units.
 
 OMPL's random generator is seeded once per process (``ompl.util.RNG.setSeed`` before its first use), and every
 planner draws its own seed from that one sequence: a plan is reproducible given the plans made before it in the
@@ -168,8 +169,9 @@ class PlanResult:
         ``max_violation`` ≤ 10 × tolerance).  status: OMPL's planner status.  message: why it failed.
     path: (N, nq) the solution interpolated at ``delta`` (empty on failure); waypoints: the planner's states.
     time: total seconds (goal sampling + planning + simplification); goal_time, plan_time, simplify_time.
-    length: joint-space length of the path [rad].  max_violation: the worst ‖r‖ of the path constraint along
-    ``path``.  valid: every waypoint of ``path`` passed :class:`Validity`.  goal_states: goal samples found.
+    length: joint-space length of the path [rad] (a free flyer's tangent steps: its metres and radians too).
+    max_violation: the worst ‖r‖ of the path constraint along ``path``.  valid: every waypoint of ``path``
+    passed :class:`Validity`.  goal_states: goal samples found.
     constraint_calls: calls of the constraint function by OMPL (the finite-difference Jacobian makes 2·nq per
     Jacobian).
     """
@@ -487,7 +489,11 @@ def _finish(ss: Any, status: Any, problem: PlanningProblem, o: PlannerOptions, v
     waypoints = np.array([_unit(s, _state_array(path.getState(i), nq)) for i in range(path.getStateCount())])
     path.interpolate()
     Q = np.array([_unit(s, _state_array(path.getState(i), nq)) for i in range(path.getStateCount())])
-    length = float(np.sum(np.linalg.norm(np.diff(Q, axis=0), axis=1)))
+    length = (
+        float(np.sum(np.linalg.norm(np.diff(Q, axis=0), axis=1)))
+        if s.nq == s.nv
+        else sum(map(s.distance, Q[:-1], Q[1:]))
+    )
     viol = max(float(np.max(np.abs(_value(problem.path_constraint, q)))) for q in Q)
     ok = all(valid(q) for q in Q)
     success = ok and viol <= 10 * o.tolerance

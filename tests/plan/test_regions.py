@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from coop_ga.cooperative import cooperative_task
@@ -279,3 +280,6 @@ def test_ompl_plans_a_free_flyer_with_the_quaternion_embedded():
     assert s.limits.position_violation(s.limit_coordinates(Q)) == 0.0
     assert max(np.linalg.norm(s.difference(Q[k], Q[k + 1])) for k in range(len(Q) - 1)) <= 1.1 * opts.delta
     assert np.linalg.norm(Q[-1, :3] - q0[:3]) > 0.1  # the pelvis moved
+    # the length sums tangent steps (metres and radians), not ‖Δq‖ with quaternion units
+    tangent = sum(np.linalg.norm(pin.difference(s.model, Q[k], Q[k + 1])) for k in range(len(Q) - 1))
+    assert res.length == pytest.approx(tangent, rel=1e-12)
