@@ -98,16 +98,14 @@ def check_problem(task: Any, q: Any, target: SimilarityLike, what: str = "q_init
 
 
 def check_q(task: Any, q: Any, what: str = "q") -> np.ndarray:
-    """A configuration of ``task`` (nq,) as a new float array (:func:`coop_ga.validation.configuration`)."""
-    return validation.configuration(q, task.nq, what, owner=f"task '{task.name}'")
-
-
-def require_one_coordinate_per_velocity(task: Any, what: str, instead: str) -> None:
-    """Refuse a task whose system has a free flyer (nq ≠ nv) in a runner ``what`` written for nq = nv
-    (:func:`~coop_ga.kinematics.chains.require_nq_equals_nv`; ``instead``: what works)."""
-    from ..kinematics.chains import require_nq_equals_nv
-
-    require_nq_equals_nv(task.system.model, what, instead, f"task '{task.name}'")
+    """A configuration of ``task`` (nq,) as a new float array (:func:`coop_ga.validation.configuration`); a free
+    flyer's quaternion must be unit (:meth:`~coop_ga.systems.System.check_quaternions`: a controller would
+    otherwise start from a pose Pinocchio silently normalises)."""
+    qv = validation.configuration(q, task.nq, what, owner=f"task '{task.name}'")
+    system = getattr(task, "system", None)
+    if system is not None and system.nq != system.nv:
+        system.check_quaternions(qv, what)
+    return qv
 
 
 def check_v(task: Any, v: Any, what: str = "velocity") -> np.ndarray:

@@ -77,6 +77,17 @@ def test_point_pair_reached_with_the_floating_base(system, solver) -> None:
     assert np.abs(_hands(system, r.q) - expected).max() <= 10 * tol
 
 
+@pytest.mark.parametrize("solver", [diff_ik_reach, gauss_newton_ik], ids=["diffik", "gauss_newton"])
+def test_a_start_with_a_non_unit_quaternion_is_refused(system, solver) -> None:
+    """Old: diff_ik_reach started from a quaternion of norm 2 and reported converged (Pinocchio normalised it)."""
+    task = cg.cooperative_task(system, "point_pair")
+    q = system.q0.copy()
+    q[3:7] *= 2.0
+    with pytest.raises(cg.errors.InvalidInputError, match=r"quaternion.*norm 2"):
+        solver(task, q, displaced_target(task, system.q0, **MOVE))
+    assert np.linalg.norm(q[3:7]) == 2.0  # the input is not modified
+
+
 def test_line_reached_with_the_floating_base_and_not_without(system) -> None:
     task = cg.cooperative_task(system, "line")
     Vd = displaced_target(task, system.q0, **MOVE)
