@@ -540,11 +540,16 @@ def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any =
     For every knot of ``command`` and every leg: the stance stroke ``|v + ω × p_i| β T`` (the nominal foothold
     p_i) must keep both ends of the stroke (nominal ± half of it) reachable with ``margin`` [m] of workspace
     and inside the joint limits (the legs' reach), and the swing that brings the foot back over it in (1 − β) T
-    on :func:`~coop_ga.legged.gait.swing_arc` (apex ``max(lift_height, blind_lift)``) must need at most the
-    URDF's joint speed (6.18 rad/s).  Returns the worst ratios {"stroke_m", "reach_margin_m",
-    "joint_speed_ratio"}."""
-    from ..legged.gait import swing_arc
+    must need at most the URDF's joint speed (6.18 rad/s) on the :func:`~coop_ga.legged.gait.swing_arc` (apex
+    ``max(lift_height, blind_lift)``).  Blind with the probe, the walker flies the probing swing instead
+    (:func:`~coop_ga.sim.walking_blind.probe_path`, :func:`~coop_ga.sim.walking_blind.probe_reaches`: the stroke
+    plus the probe out and back in the same time): where that needs more than the URDF's joint speed, the
+    probe is shortened until it does not (``probe_scale``, per leg, to 1/32; the walker flies the shortened
+    probe) — a probe the servos cannot fly is not flown (the speed-limited foot would cut its way back).
+    Returns the worst ratios {"stroke_m", "reach_margin_m", "joint_speed_ratio" (the plain swing),
+    "probe_speed_ratio" (the probing swings as shortened)} and "probe_scale" (6,)."""
     from ..legged.legs import hexapod_legs
+    from .walking_blind import probe_reaches
 
     lm = hexapod_legs() if legs is None else legs
     fl = FastLegs(lm)
@@ -553,9 +558,10 @@ def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any =
     nom = nominal_feet(lm, options)
     vlim = np.empty(18)
     vlim[fl.q_index] = np.asarray(lm.velocity_limit, float)
-    s = np.linspace(0.0, 1.0, 41)
-    worst = {"stroke_m": 0.0, "reach_margin_m": math.inf, "joint_speed_ratio": 0.0}
-    lift = max(options.lift_height, options.blind_lift)
+    probe = probe_reaches(lm, options)
+    scale = np.ones(6)
+    worst: dict[str, Any] = {"stroke_m": 0.0, "reach_margin_m": math.inf, "joint_speed_ratio": 0.0}
+    worst["probe_speed_ratio"] = 0.0
     for c in np.asarray(command.values, float):
         for i, leg in enumerate(HEXAPOD_LEGS):
             v_foot = -(np.array([c[0], c[1], 0.0]) + np.cross([0.0, 0.0, c[2]], nom[i]))  # foot velocity in B
@@ -575,10 +581,8 @@ def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any =
                         f"(reach margin {1e3 * m[i]:.1f} mm, limit {1e3 * margin:.0f} mm); lower the speed or the "
                         "cycle time"
                     )
-            arc = swing_arc(ends[1], ends[0], lift, s)[0]
-            qs = np.array([fl.ik(np.where(np.arange(6)[:, None] == i, a, nom))[0] for a in arc])
-            speed = np.abs(np.diff(qs, axis=0)).max(axis=0) / (np.diff(s)[0] * (1 - beta) * T)
-            ratio = float(np.max(speed / vlim))
+            swing = (fl, nom, i, ends[1], ends[0], options)
+            ratio = _swing_speed_ratio(*swing, 0.0, (1 - beta) * T, vlim)
             worst["joint_speed_ratio"] = max(worst["joint_speed_ratio"], ratio)
             if ratio > 1.0:
                 raise InvalidInputError(
@@ -586,7 +590,50 @@ def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any =
                     f"{ratio:.2f}× the URDF joint speed limit ({vlim.max():.2f} rad/s) at T = {T:g} s; lower the speed "
                     "or lengthen the cycle (cycle_time)"
                 )
+            if probe[i] > 0.0:  # the largest probe (bisection on its length) the servos can fly
+                lo, hi = 0.0, float(scale[i])
+                r_hi = _swing_speed_ratio(*swing, hi * probe[i], (1 - beta) * T, vlim)
+                for _ in range(5 if r_hi > 1.0 else 0):
+                    mid = 0.5 * (lo + hi)
+                    lo, hi = (
+                        (mid, hi)
+                        if _swing_speed_ratio(*swing, mid * probe[i], (1 - beta) * T, vlim) <= 1.0
+                        else (lo, mid)
+                    )
+                scale[i] = hi if r_hi <= 1.0 else lo
+                r = r_hi if r_hi <= 1.0 else _swing_speed_ratio(*swing, lo * probe[i], (1 - beta) * T, vlim)
+                worst["probe_speed_ratio"] = max(worst["probe_speed_ratio"], r)
+    worst["probe_scale"] = scale
     return worst
+
+
+def _swing_speed_ratio(
+    fl: FastLegs,
+    nom: np.ndarray,
+    i: int,
+    p0: np.ndarray,
+    p1: np.ndarray,
+    options: WalkingOptions,
+    probe: float,
+    duration: float,
+    vlim: np.ndarray,
+) -> float:
+    """The largest joint speed over the URDF limit ``vlim`` (18,) [rad/s] of leg i's swing (B, the other feet at
+    ``nom`` (6, 3)) from ``p0`` to ``p1`` (3,) [m] in ``duration`` [s]: the arc, or with ``probe`` [m] > 0 the
+    probing swing (:func:`check_command`)."""
+    from ..legged.gait import swing_arc
+    from .walking_blind import probe_path
+
+    s = np.linspace(0.0, 1.0, 161)  # the peak speed within 1 % of a 401-sample path (tested)
+    lift = max(options.lift_height, options.blind_lift)
+    if probe > 0.0:
+        h = options.probe_height + options.touchdown_depth  # as the walker: p1 aimed touchdown_depth below
+        path = probe_path(p0, p1, lift, probe, h, s)
+    else:
+        path = swing_arc(p0, p1, lift, s)[0]
+    qs = np.array([fl.ik(np.where(np.arange(6)[:, None] == i, a, nom))[0] for a in path])
+    speed = np.abs(np.diff(qs, axis=0)).max(axis=0) / (np.diff(s)[0] * duration)
+    return float(np.max(speed / vlim))
 
 
 # ====================================================================== the start
@@ -636,7 +683,6 @@ class _Leg:
     s0: float = 0.0  # the swing progress where ``path`` starts (0, or where a stumble raised it)
     raises: int = 0  # stumbles and step-overs of the current swing
     over_from: float = math.inf  # sim time a step-over began (its arc is ``path``; the search starts at its end)
-    lift_z: float = 0.0  # height of its last lift-off point in W_o
 
 
 class HexapodWalker:
@@ -748,8 +794,7 @@ class HexapodWalker:
         self._faces: dict[int, np.ndarray] = {}
         #: {leg: (distance [m], lift [m], duration [s])} of a step-over that is not the default (:meth:`_step_over`)
         self._moves: dict[int, tuple[float, float, float]] = {}
-        self._probe = self._probe_reaches()
-        self._back = self._back_reaches()
+        self._probe = self._probe_reaches() * self.limits["probe_scale"]  # as far as the servos can fly it
         #: [s] how long the gait has waited for late feet while moving: the command is followed at t − lag
         self.lag = 0.0
 
@@ -957,71 +1002,15 @@ class HexapodWalker:
         if opt.feedback:  # aim below the expected ground: the contact, not the end of the arc, ends the swing
             p1 = p1 - np.array([0.0, 0.0, opt.touchdown_depth])
         leg.arc = (p0, p1, lift, tau_lo)
-        leg.lift_z = float(p0[2])
         leg.path = self._swing_path(i, p0, p1, lift, t)  # sampled once; interpolated at each plan
         leg.mode, leg.s0, leg.raises = 1, 0.0, 0
 
     def _probe_reaches(self) -> np.ndarray:
-        """(6,) [m] how far each leg's blind swing probes past its foothold: its shin reach toward a
-        ``probe_guard`` riser (:func:`~coop_ga.sim.walking_blind.shin_reach`) − the ball's radius +
-        ``probe_margin``; zeros unless blind with feedback and ``probe_guard`` > 0."""
-        opt = self.options
-        if not (opt.blind and opt.feedback and opt.probe_guard > 0):
-            return np.zeros(6)
-        from .walking_blind import shin_reach
+        """(6,) [m] how far each leg's blind swing probes past its foothold
+        (:func:`~coop_ga.sim.walking_blind.probe_reaches`; zeros without the probe)."""
+        from .walking_blind import probe_reaches
 
-        reach = shin_reach(self.legs, opt, guard=opt.probe_guard)
-        return np.maximum(reach - self.hs.foot_radius, 0.0) + opt.probe_margin
-
-    #: ledge heights [m] of the blind search's table (:meth:`_back_reaches`)
-    _BACK_GUARDS = np.arange(0.012, 0.0441, 0.004)
-
-    def _back_reaches(self) -> np.ndarray:
-        """(len(_BACK_GUARDS), 6) [m]: how far past the edge of a ledge of each height in ``_BACK_GUARDS`` behind it
-        (along the body's −x) each foot must stand for its shin to clear the ledge over a stance
-        (:func:`~coop_ga.sim.walking_blind.shin_reach`; 0 where the ball alone clears it); zeros unless blind with
-        feedback and the probe (:meth:`_probe_reaches`)."""
-        out = np.zeros((len(self._BACK_GUARDS), 6))
-        if not np.any(self._probe > 0.0):
-            return out
-        from .walking_blind import shin_reach
-
-        r = self.hs.foot_radius
-        for k, g in enumerate(self._BACK_GUARDS):
-            reach = shin_reach(self.legs, self.options, guard=float(g), direction=(-1.0, 0.0))
-            out[k] = np.where(reach > r + 1e-9, reach, 0.0)
-        return out
-
-    def _search_forward(self, i: int, depth: float) -> float:
-        """How far [m] past the end of its arc leg i's search is at ``depth`` [m] below it: ``search_forward`` ×
-        depth (at most ``search_forward_max``), and blind at least the distance its shin needs past a ledge as
-        high as the foot is now below its lift-off point (:meth:`_back_reaches`; the ledge's edge taken at the
-        arc's end, the nearest it can be), as far as the leg keeps 10 mm of its workspace.  A front leg's shin
-        lies behind its foot: searching 25 mm past the edge of a 22 mm down-step, a front foot's shin slid down
-        the edge for 0.2 s (1 m wave walk on random tiles, blind)."""
-        opt = self.options
-        fwd = min(opt.search_forward * depth, opt.search_forward_max)
-        leg = self._legs[i]
-        assert leg.arc is not None
-        p0, p1 = leg.arc[0], leg.arc[1]
-        ledge = max(leg.lift_z, float(p1[2]) + opt.touchdown_depth) - (float(p1[2]) - depth)
-        k = int(np.searchsorted(self._BACK_GUARDS, ledge))  # the next higher tabulated ledge: conservative
-        if k == 0 or not np.any(self._back[:, i] > 0.0):
-            return fwd
-        need = float(self._back[min(k, len(self._BACK_GUARDS) - 1), i])
-        if need <= fwd:
-            return fwd
-        h = (p1 - p0)[:2]
-        nh = float(np.hypot(h[0], h[1]))
-        if nh < 1e-9:
-            return fwd
-        feet = (np.array([leg.target for leg in self._legs]) - self._pD) @ self._RD
-        for dist in (need, 0.5 * (need + fwd)):
-            p = p1 + np.array([dist * h[0] / nh, dist * h[1] / nh, -depth])
-            feet[i] = self._RD.T @ (p - self._pD)
-            if self.fast.ik(feet)[1][i] >= 0.01:
-                return dist
-        return fwd
+        return probe_reaches(self.legs, self.options)
 
     def _swing_path(self, i: int, p_from: np.ndarray, p1: np.ndarray, lift: float, t: float) -> np.ndarray:
         """Leg i's swing path from ``p_from`` to ``p1`` sampled at ``_ARC_S``: the arc, or blind the probing arc
@@ -1182,7 +1171,7 @@ class HexapodWalker:
         p0, p1 = leg.arc[0], leg.arc[1]
         h = (p1 - p0)[:2]
         nh = float(np.hypot(h[0], h[1]))
-        fwd = self._search_forward(i, depth) / nh if nh > 1e-9 else 0.0
+        fwd = min(opt.search_forward * depth, opt.search_forward_max) / nh if nh > 1e-9 else 0.0
         leg.target = p1 + np.array([fwd * h[0], fwd * h[1], -depth])
 
     def _blocked(self, i: int, t: float, q: np.ndarray) -> bool:

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..legged.gait import swing_arc
 
-__all__ = ["PROBE_DESCENT", "probe_path", "riser_distance", "shin_reach"]
+__all__ = ["PROBE_DESCENT", "probe_path", "probe_reaches", "riser_distance", "shin_reach"]
 
 #: the fraction of a probing swing that descends onto the foothold (the last part)
 PROBE_DESCENT = 0.1
@@ -105,6 +105,16 @@ def shin_reach(
                     a, b = to_u @ (A[j, k] - origin), to_u @ (B[j, k] - origin)
                     out[i] = max(out[i], riser_distance(a, b, float(rho[k]), guard))
     return np.maximum(out, r)
+
+
+def probe_reaches(legs: Any, options: Any) -> np.ndarray:
+    """(6,) [m] how far each leg's blind swing probes past its foothold (:class:`~coop_ga.sim.walking.WalkingOptions`
+    ``probe_guard``, ``probe_margin``): its :func:`shin_reach` toward a ``probe_guard`` riser − the ball's radius +
+    ``probe_margin``; zeros unless blind with feedback and ``probe_guard`` > 0 (no probe)."""
+    if not (options.blind and options.feedback and options.probe_guard > 0):
+        return np.zeros(6)
+    reach = shin_reach(legs, options, guard=options.probe_guard)
+    return np.maximum(reach - float(legs.foot_radius), 0.0) + options.probe_margin
 
 
 def _hexapod_legs() -> tuple[str, ...]:
