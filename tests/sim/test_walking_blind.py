@@ -98,9 +98,9 @@ def _probe_speed(lm, opt, i: int, probe: float, speed: float) -> float:
 
 def test_check_command_accounts_for_the_probing_swing() -> None:
     """Blind, the swing the walker flies is the probe (the stroke plus the probe out and back): check_command
-    measures its joint speed, and where it needs more than the URDF limit (the wave's 0.67 s swing) shortens the
-    probe to the largest one the servos can fly — checked with LegModel's IK on a 5× finer path: at the returned
-    scale ≤ 1.0× (+1 % for the sampling), 1/16 of the probe longer > 1.0×.  With the map there is no probe."""
+    measures its joint speed (against LegModel's own IK on a 2.5× finer path: within 2 %; well above the plain
+    arc's), and where it needs more than the URDF limit (the wave's 0.67 s swing) finds the longest probe that
+    does not: at the returned scale ≤ 1.01×, 1/16 of the probe longer > 1.0×.  With the map there is no probe."""
     from dataclasses import replace
 
     from coop_ga.sim.walking import check_command
@@ -119,16 +119,15 @@ def test_check_command_accounts_for_the_probing_swing() -> None:
         assert np.all(probe > 0.0)
         plain = max(_probe_speed(lm, blind, i, 0.0, speed) for i in range(6))
         assert got["joint_speed_ratio"] == pytest.approx(plain, rel=0.02)
-        flown = [_probe_speed(lm, blind, i, got["probe_scale"][i] * probe[i], speed) for i in range(6)]
-        assert max(flown) == pytest.approx(got["probe_speed_ratio"], rel=0.02)
-        assert max(flown) > plain + 0.2  # the probe's extra path is counted
-        assert max(flown) <= 1.01
-        assert all(f <= 1.01 for f in flown)
+        full = max(_probe_speed(lm, blind, i, probe[i], speed) for i in range(6))
+        assert got["probe_speed_ratio"] == pytest.approx(full, rel=0.02)
+        assert full > plain + 0.3  # the probe's extra path is counted
         for i in range(6):
+            assert _probe_speed(lm, blind, i, got["probe_scale"][i] * probe[i], speed) <= 1.01
             if got["probe_scale"][i] < 1.0:
                 longer = min(got["probe_scale"][i] + 1.0 / 16.0, 1.0) * probe[i]
                 assert _probe_speed(lm, blind, i, longer, speed) > 1.0
         if gait == "tripod":
-            assert np.all(got["probe_scale"] == 1.0)  # 0.9× the limit: the whole probe
+            assert full < 1.0 and np.all(got["probe_scale"] == 1.0)  # 0.9× the limit
         else:
-            assert np.any(got["probe_scale"] < 1.0)  # 0.67 s swings: shortened
+            assert full > 1.0 and np.any(got["probe_scale"] < 1.0)  # 0.67 s swings: 1.07×
