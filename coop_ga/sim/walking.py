@@ -54,8 +54,8 @@ known initial pose) and the 18 joint targets q_D — and the stance feet's ancho
    (weighted least norm, loads ramped in after touchdown and out before lift-off), from the measured state.
    The command is rounded to :data:`TORQUE_QUANTUM` (a servo's duty cycle has a finite resolution; the logged
    ``ctrl`` is then exact in float32); the simulation clips at the URDF effort (1.5 N m) and counts it.  The
-   targets q_D follow the plan at most at ``joint_speed`` × the servos' no-load speed, and a swinging leg's
-   step is shortened where the servo law would ask more than :data:`TORQUE_BUDGET` of the effort at the plan's
+   targets q_D follow the plan at most at ``joint_speed`` × the servos' no-load speed, and the step of a leg that
+   swings (or has just touched down) is shortened where the servo law would ask more than :data:`TORQUE_BUDGET` of the effort at the plan's
    start (``HexapodWalker._servo_limited``).
 
 ``feedback=False`` is the ablation's **open-loop replay of the kinematic plan**: the same gait, footholds and
@@ -865,7 +865,7 @@ class HexapodWalker:
                 self.counts["unsupported_plans"] += 1
         self._pD = self._pD + self._RD @ u[:3] * self.dt
         self._RD = self._RD @ _expm_so3(u[3:] * self.dt)
-        q_new = self._servo_limited(q, qd, self._targets())
+        q_new = self._servo_limited(q, qd, self._targets(), t)
         self._qdD = (q_new - self._qD) / self.dt
         self._qD = q_new
         self._t_plan = t
@@ -876,13 +876,13 @@ class HexapodWalker:
             self._tau_ff = self._feedforward(t, q_new, *self.fast.fk_jac(q_new), self._RD, stance)
         self._record(t, stance, touch, err, u, waiting)
 
-    def _servo_limited(self, q: np.ndarray, qd: np.ndarray, q_new: np.ndarray) -> np.ndarray:
+    def _servo_limited(self, q: np.ndarray, qd: np.ndarray, q_new: np.ndarray, t: float) -> np.ndarray:
         """The plan's joint targets ``q_new`` (18,) [rad] within what the servos can follow from the measured
         ``q``, ``qd`` (18,): each leg's step toward them scaled (its three joints together: scaled one by one they
         left the foot's path — a probing front foot dipped 2 cm onto the tread 12 mm short of a riser, 1 m tripod
         steps walk, blind) to at most ``joint_speed`` × the URDF's no-load speed (``speed_limited_plans``) and, for
-        a leg off the ground, so that the servo law's torque at the plan's start stays within
-        :data:`TORQUE_BUDGET` of the effort (``torque_limited_plans``)."""
+        a leg off the ground or within ``load_ramp`` of its touchdown (at time ``t`` [s]), so that the servo law's
+        torque at the plan's start stays within :data:`TORQUE_BUDGET` of the effort (``torque_limited_plans``)."""
         qi = self.fast.q_index
         dq = q_new - self._qD
         # the servos' speed: a target faster than joint_speed × the URDF's no-load speed needs more torque than
@@ -898,7 +898,12 @@ class HexapodWalker:
         bound = TORQUE_BUDGET * self._effort
         with np.errstate(divide="ignore", invalid="ignore"):
             room = np.where(slope > 0, (bound - tau0) / slope, np.where(slope < 0, (-bound - tau0) / slope, np.inf))
-        free = np.array([leg.mode != 0 for leg in self._legs])
+        # and a leg that has just touched down (within load_ramp): its targets turn from the swing's way to the
+        # stance's at once, while its joints still move at the swing's speed — a front tibia at 4.3 rad/s whose
+        # target turned to −2.4 rad/s as its foot landed on a higher tread asked 1.52 N m (1 m tripod steps walk,
+        # blind: 3 clipped updates, one per landing on a riser's tread)
+        ramp = max(self.options.load_ramp, self.dt)
+        free = np.array([leg.mode != 0 or t - leg.touchdown < ramp for leg in self._legs])
         torque = np.where(free, np.clip(np.min(room[qi], axis=1), 0.0, 1.0), 1.0)
         if np.any(torque < scale):
             self.counts["torque_limited_plans"] += 1
