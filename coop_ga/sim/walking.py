@@ -28,7 +28,9 @@ known initial pose) and the 18 joint targets q_D — and the stance feet's ancho
    (:meth:`~coop_ga.sim.hexapod.HexapodScene.foot_normals`, a foot force sensor's direction; a touch sensor
    cannot tell a riser's vertical face from a tread) tilted more than ``face_tilt`` from vertical — touching
    down against a riser would leave the shin capsule, 15.7 mm wider than the ball, leaning on its edge — then
-   the foot steps over it (up, over ``step_over`` past the face, down).  A foot that reaches the end of its arc
+   the foot steps over it (up, over ``step_over`` past the face, down) — or an *edge*: tilted more than
+   ``edge_tilt`` but not more than ``face_tilt``, the ball resting on a tread's edge, from which it would roll
+   off under load — then it moves onto the tread the edge bounds.  A foot that reaches the end of its arc
    without contact keeps descending at ``search_speed`` (for at most ``search_depth``, moving forward along its
    swing as it goes: away from a down-step's edge it crossed) while the gait clock and the reference wait for
    it; the command's schedule waits too (:attr:`HexapodWalker.lag`), so that the whole commanded path is walked,
