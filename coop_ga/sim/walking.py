@@ -549,7 +549,7 @@ def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any =
     where it needs more than the URDF's joint speed, the longest probe that does not (``probe_scale``, per leg,
     by bisection to 1/32).  That is reported, not refused: the walker flies the whole probe, its joint targets
     at most at ``joint_speed`` × the URDF speed (``speed_limited_plans``), so the foot cuts the probe's corners
-    where the path is faster — the wave's 0.67 s swing needs 1.07× (measured: flying the shortened probe
+    where the path is faster — the wave's 0.67 s swing needs 1.08× (measured: flying the shortened probe
     instead let a shin onto a tile edge in the short wave walk on random tiles, blind).  Returns the worst
     ratios {"stroke_m", "reach_margin_m", "joint_speed_ratio" (the plain swing), "probe_speed_ratio" (the
     probing swing)} and "probe_scale" (6,)."""

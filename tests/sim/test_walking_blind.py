@@ -130,4 +130,4 @@ def test_check_command_accounts_for_the_probing_swing() -> None:
         if gait == "tripod":
             assert full < 1.0 and np.all(got["probe_scale"] == 1.0)  # 0.9× the limit
         else:
-            assert full > 1.0 and np.any(got["probe_scale"] < 1.0)  # 0.67 s swings: 1.07×
+            assert full > 1.0 and np.any(got["probe_scale"] < 1.0)  # 0.67 s swings: 1.08×
