@@ -57,8 +57,8 @@ known initial pose) and the 18 joint targets q_D — and the stance feet's ancho
    The command is rounded to :data:`TORQUE_QUANTUM` (a servo's duty cycle has a finite resolution; the logged
    ``ctrl`` is then exact in float32); the simulation clips at the URDF effort (1.5 N m) and counts it.  The
    targets q_D follow the plan at most at ``joint_speed`` × the servos' no-load speed, and the step of a leg that
-   swings (or has just touched down) is shortened where the servo law would ask more than :data:`TORQUE_BUDGET` of the effort at the plan's
-   start (``HexapodWalker._servo_limited``).
+   swings (or has just touched down) is shortened where the servo law would ask more than :data:`TORQUE_BUDGET` of
+   the effort at the plan's start (``HexapodWalker._servo_limited``).
 
 ``feedback=False`` is the ablation's **open-loop replay of the kinematic plan**: the same gait, footholds and
 swing arcs, but touchdown on schedule (no touch sensors), the stance set from the phase table, no posture
@@ -260,8 +260,8 @@ class WalkingOptions:
         depth (at most ``search_forward_max`` [m]): a foot that finds no ground where it expected it has crossed
         a down-step's edge, and moving away from that edge keeps its shin off it; search_load [N m]: a searching
         leg whose femur and tibia servos push harder than this without foot contact rests on its shin and steps
-        over instead (blind, a leg whose shin lies behind its foot steps back: ``HexapodWalker._blocked``).  load_ramp: [s] feed-forward
-        load ramp after touchdown / before lift-off.  joint_speed: the joint targets move at most this fraction
+        over instead (blind, a leg whose shin lies behind its foot steps back: ``HexapodWalker._blocked``).
+        load_ramp: [s] feed-forward load ramp after touchdown / before lift-off.  joint_speed: the joint targets move at most this fraction
         of the URDF's joint speed (the servos' no-load speed; at 0.7 its back-EMF takes 0.7 of the stall torque,
         leaving 0.45 N m for the PD's tracking error and the load); a faster plan is followed at that speed
         (counted as ``speed_limited_plans``).  At 0.8 the 0.3 N m left was exceeded by a lag of 25 mrad: the 1 m
@@ -1226,9 +1226,10 @@ class HexapodWalker:
         in half the ``step_over_time``.  (The gait waits for it: ten such moves and their searches made the 1 m
         tripod walk on random tiles 3.8 s late, beyond the run's catch-up, 93 % walked; at 0.3 or 0.4
         ``step_over_time``, or without the back-off from the edge, that walk passed but the short wave walk on
-        random tiles laid a front shin on a tile edge — the blind outcomes there swing with small changes.)  A ball left on an edge rolls off it under load: measured, a front foot
-        2 mm past a 17 mm down-step (tilt 15°) dropped onto the lower tile 1 s into its stance, slipped 5 mm and
-        laid its shin on the edge (1 m tripod walk on random tiles, blind).  Only the feet in the air
+        random tiles laid a front shin on a tile edge — the blind outcomes there swing with small changes.)
+        A ball left on an edge rolls off it under load: measured, a front foot 2 mm past a 17 mm down-step (tilt
+        15°) dropped onto the lower tile 1 s into its stance, slipped 5 mm and laid its shin on the edge (1 m tripod
+        walk on random tiles, blind).  Only the feet in the air
         (swinging, searching) are asked: a stance foot's normal decides nothing."""
         airborne = [i for i in np.flatnonzero(touch).tolist() if self._legs[i].mode != 0]
         if not airborne:
