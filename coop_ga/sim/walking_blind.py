@@ -37,7 +37,7 @@ import numpy as np
 
 from ..legged.gait import swing_arc
 
-__all__ = ["PROBE_DESCENT", "probe_path", "riser_distance", "shin_reach"]
+__all__ = ["PROBE_DESCENT", "probe_path", "probe_reaches", "riser_distance", "shin_reach"]
 
 #: the fraction of a probing swing that descends onto the foothold (the last part)
 PROBE_DESCENT = 0.1
@@ -63,16 +63,29 @@ def riser_distance(a: np.ndarray, b: np.ndarray, rho: float, guard: float, sampl
 
 
 def shin_reach(
-    legs: Any, options: Any, *, guard: float = 0.03, stroke: float = 0.08, rise: float = 0.015
+    legs: Any,
+    options: Any,
+    *,
+    guard: float = 0.03,
+    stroke: float = 0.08,
+    rise: float = 0.015,
+    direction: Any = (1.0, 0.0),
 ) -> np.ndarray:
-    """(6,) [m] per leg (:data:`~coop_ga.sim.hexapod.HEXAPOD_LEGS` order): how far ahead of its foot-ball centre a
-    riser of height ``guard`` must stand for the leg's capsules to clear it over a stance (module docstring):
-    body positions over ``stroke`` [m] along x around the nominal stance, raised by 0 … ``rise`` [m]; the foot's
-    ground at z = 0."""
+    """(6,) [m] per leg (:data:`~coop_ga.sim.hexapod.HEXAPOD_LEGS` order): how far from its foot-ball centre,
+    along ``direction`` (a horizontal vector in the body frame; default +x, ahead), a ledge of height ``guard``
+    must stand for the leg's capsules to clear it over a stance (module docstring): body positions over
+    ``stroke`` [m] along x around the nominal stance, raised by 0 … ``rise`` [m]; the foot's ground at z = 0.
+    Toward −x it is the distance a foot must keep past the edge of a tread it stepped down from."""
     from ..legged.contact import leg_segments
     from .walking import nominal_feet
     from .walking_kin import FastLegs
 
+    u = np.asarray(direction, float).reshape(-1)[:2]
+    nu = float(np.hypot(u[0], u[1]))
+    if not nu > 0.0:
+        raise ValueError(f"direction must be a nonzero horizontal vector, got {direction!r}")
+    u = u / nu
+    to_u = np.array([[u[0], u[1], 0.0], [-u[1], u[0], 0.0], [0.0, 0.0, 1.0]])  # x' along the direction
     fl = FastLegs(legs)
     r = float(legs.foot_radius)
     nom = nominal_feet(legs, options)
@@ -89,9 +102,19 @@ def shin_reach(
             for i, j in enumerate(order):
                 origin = np.array([feet[i, 0], feet[i, 1], 0.0])
                 for k in range(3):
-                    e = riser_distance(A[j, k] - origin, B[j, k] - origin, float(rho[k]), guard)
-                    out[i] = max(out[i], e)
+                    a, b = to_u @ (A[j, k] - origin), to_u @ (B[j, k] - origin)
+                    out[i] = max(out[i], riser_distance(a, b, float(rho[k]), guard))
     return np.maximum(out, r)
+
+
+def probe_reaches(legs: Any, options: Any) -> np.ndarray:
+    """(6,) [m] how far each leg's blind swing probes past its foothold (:class:`~coop_ga.sim.walking.WalkingOptions`
+    ``probe_guard``, ``probe_margin``): its :func:`shin_reach` toward a ``probe_guard`` riser − the ball's radius +
+    ``probe_margin``; zeros unless blind with feedback and ``probe_guard`` > 0 (no probe)."""
+    if not (options.blind and options.feedback and options.probe_guard > 0):
+        return np.zeros(6)
+    reach = shin_reach(legs, options, guard=options.probe_guard)
+    return np.maximum(reach - float(legs.foot_radius), 0.0) + options.probe_margin
 
 
 def _hexapod_legs() -> tuple[str, ...]:

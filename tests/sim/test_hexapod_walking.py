@@ -179,24 +179,36 @@ def test_blind_probing_swings_stay_within_the_servos_torque(monkeypatch) -> None
 
 def test_a_searching_leg_that_bears_load_without_contact_steps_over() -> None:
     """A searching foot whose femur and tibia servos push with more than search_load (its shin on an edge) steps
-    over along its swing; one that follows its target keeps searching."""
+    over along its swing — a rear leg (its shin ahead of its foot) forward by step_over; blind, a front leg (its
+    shin behind its foot: shin_reach toward −x 42 mm, toward +x 21 mm at 3.5 cm) back, past that reach (+
+    edge_inset), onto the tread it crossed; one that follows its target keeps searching."""
+    from coop_ga.sim.walking_blind import shin_reach
+
     hs = hexapod_scene(Terrain.flat(), visuals=False)
     opt = WalkingOptions(blind=True)
     q0, pose = standing_start(hs, opt)
     walker = HexapodWalker(hs, VelocityCommand.constant(0.1), opt)
     sim = Simulation(hs.scene, walker, q=q0, base_pose=pose)
     sim.run(0.01)
-    leg = walker._legs[0]
-    p0 = leg.target.copy()
-    leg.arc = (p0, p0 + np.array([0.04, 0.0, 0.0]), 0.02, 0.0)
-    leg.mode, leg.search_from, leg.raises = 2, 0.0, 0
-    j = walker.fast.q_index[0, 1:]
-    q = walker._qD.copy()
-    q[j] -= 0.1 * opt.search_load / opt.kp[1]  # a servo error far below the load: still searching
-    assert not walker._blocked(0, 0.01, q) and leg.mode == 2 and walker.counts["step_overs"] == 0
-    q[j] = walker._qD[j] - 0.8 * opt.search_load / opt.kp[1]  # |(e, e)| = 0.8 √2 search_load / kp
-    assert walker._blocked(0, 0.01, q) and walker.counts["step_overs"] == 1 and leg.raises == 1
-    assert leg.search_from > 0.01 and leg.arc[1][0] > leg.arc[0][0] + 0.9 * opt.step_over  # over, forward
+    back = shin_reach(walker.legs, opt, guard=opt.probe_guard, direction=(-1.0, 0.0))
+    for i, sign in ((2, 1.0), (0, -1.0)):  # lr forward, lf back
+        leg = walker._legs[i]
+        p0 = leg.target.copy()
+        leg.arc = (p0, p0 + np.array([0.04, 0.0, 0.0]), 0.02, 0.0)
+        leg.mode, leg.search_from, leg.raises = 2, 0.0, 0
+        j = walker.fast.q_index[i, 1:]
+        q = walker._qD.copy()
+        steps = walker.counts["step_overs"]
+        q[j] -= 0.1 * opt.search_load / opt.kp[1]  # a servo error far below the load: still searching
+        assert not walker._blocked(i, 0.01, q) and leg.mode == 2 and walker.counts["step_overs"] == steps
+        q[j] = walker._qD[j] - 0.8 * opt.search_load / opt.kp[1]  # |(e, e)| = 0.8 √2 search_load / kp
+        assert walker._blocked(i, 0.01, q) and walker.counts["step_overs"] == steps + 1 and leg.raises == 1
+        step = leg.arc[1][0] - leg.arc[0][0]
+        assert leg.search_from > 0.01
+        if sign > 0:
+            assert step > 0.9 * opt.step_over  # over, forward
+        else:
+            assert step == pytest.approx(-(back[i] + opt.edge_inset), abs=1e-3)  # back, past the shin's reach
 
 
 def test_tour_start_speed_change_turn_stop_and_replay(tmp_path) -> None:

@@ -76,3 +76,58 @@ def test_probe_path_goes_past_the_foothold_and_back_down() -> None:
     assert vx[s[1:] > f1].max() == pytest.approx(vx[s[1:] <= f1].max(), rel=0.02)
     plain = probe_path(p0, p0 + np.array([0.002, 0.0, 0.0]), 0.04, 0.015, 0.011, s)  # no direction: the plain arc
     assert np.allclose(plain, swing_arc(p0, p0 + np.array([0.002, 0.0, 0.0]), 0.04, s)[0])
+
+
+def _probe_speed(lm, opt, i: int, probe: float, speed: float) -> float:
+    """The largest joint speed over the URDF limit of leg i's probing swing of a straight walk at ``speed`` [m/s]
+    (the other feet nominal), by LegModel's own IK (not the walker's FastLegs)."""
+    tab = opt.table()
+    nom = nominal_feet(lm, opt)
+    stroke = np.array([speed * tab.duty * tab.period, 0.0, 0.0])
+    s = np.linspace(0.0, 1.0, 401)
+    h = opt.probe_height + opt.touchdown_depth
+    path = probe_path(nom[i] - 0.5 * stroke, nom[i] + 0.5 * stroke, max(opt.lift_height, opt.blind_lift), probe, h, s)
+    feet = np.repeat(nom[None], len(s), axis=0)
+    feet[:, i] = path
+    q = lm.ik(feet, check_limits=False)
+    rate = np.abs(np.diff(q, axis=0)).max(axis=0) / (np.diff(s)[0] * (1.0 - tab.duty) * tab.period)
+    vlim = np.empty(18)
+    vlim[np.asarray(lm.q_index)] = np.asarray(lm.velocity_limit, float)
+    return float(np.max(rate / vlim))
+
+
+def test_check_command_accounts_for_the_probing_swing() -> None:
+    """Blind, the swing the walker flies is the probe (the stroke plus the probe out and back): check_command
+    measures its joint speed (against LegModel's own IK on a 2.5× finer path: within 2 %; well above the plain
+    arc's), and where it needs more than the URDF limit (the wave's 0.67 s swing) finds the longest probe that
+    does not: at the returned scale ≤ 1.01×, 1/16 of the probe longer > 1.0×.  With the map there is no probe."""
+    from dataclasses import replace
+
+    from coop_ga.sim.walking import check_command
+    from coop_ga.sim.walking_blind import probe_reaches
+    from coop_ga.sim.walking_experiments import straight_command
+
+    lm = hexapod_legs()
+    for gait in ("tripod", "wave"):
+        cmd, opt, _ = straight_command(gait, 1.0)
+        speed = float(cmd.values[:, 0].max())
+        mapped = check_command(cmd, opt, lm)
+        assert mapped["probe_speed_ratio"] == 0.0 and np.all(mapped["probe_scale"] == 1.0)
+        blind = replace(opt, blind=True)
+        got = check_command(cmd, blind, lm)
+        probe = probe_reaches(lm, blind)
+        assert np.all(probe > 0.0)
+        plain = max(_probe_speed(lm, blind, i, 0.0, speed) for i in range(6))
+        assert got["joint_speed_ratio"] == pytest.approx(plain, rel=0.02)
+        full = max(_probe_speed(lm, blind, i, probe[i], speed) for i in range(6))
+        assert got["probe_speed_ratio"] == pytest.approx(full, rel=0.02)
+        assert full > plain + 0.3  # the probe's extra path is counted
+        for i in range(6):
+            assert _probe_speed(lm, blind, i, got["probe_scale"][i] * probe[i], speed) <= 1.01
+            if got["probe_scale"][i] < 1.0:
+                longer = min(got["probe_scale"][i] + 1.0 / 16.0, 1.0) * probe[i]
+                assert _probe_speed(lm, blind, i, longer, speed) > 1.0
+        if gait == "tripod":
+            assert full < 1.0 and np.all(got["probe_scale"] == 1.0)  # 0.9× the limit
+        else:
+            assert full > 1.0 and np.any(got["probe_scale"] < 1.0)  # 0.67 s swings: 1.08×
