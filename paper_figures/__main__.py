@@ -17,7 +17,8 @@ leaves the folder exactly as it was (the failed run's files stay in
 Deterministic: every script draws from its own fixed seed (``--seed`` overrides all of
 them), metrics are rounded to 6 significant digits and NPZ files carry no timestamps, so
 a re-run without code changes leaves the committed files unchanged.  Each figure runs in a
-fresh process (a spawned worker that runs one figure and exits): a library's process-wide
+fresh process (a worker that runs one figure and exits, forked from a server that has imported
+``PRELOAD`` where the platform can): a library's process-wide
 state — OMPL's random generator is seeded once per process and every planner draws its seed
 from that one sequence — would otherwise make a figure depend on which figures its worker ran
 before it.  Only ``--verbose`` runs the figures in this process, one after the other.
@@ -303,6 +304,23 @@ def _list_figures() -> None:
         print(f"{f.key:{kw}s}  {_numbers(f):14s} {f.folder:{fw}s}  {' '.join([f.script, *f.args])}")
 
 
+#: modules a figure's process starts with (forked from a server that imported them once, where the platform can):
+#: ~1 s of imports per figure saved; none of them holds process-wide state a figure changes (MuJoCo and matplotlib
+#: are left out: they pick their GL / plotting backend from the environment at import)
+PRELOAD = ["numpy", "scipy.linalg", "scipy.optimize", "pinocchio", "casadi", "coop_ga", "coop_ga.control",
+           "coop_ga.cooperative", "paper_figures.__main__"]  # fmt: skip
+
+
+def _context(mp: Any) -> Any:
+    """The multiprocessing context of the figures' processes: ``forkserver`` with :data:`PRELOAD` where the
+    platform has it (Linux, macOS), else ``spawn``; each figure still gets a process of its own."""
+    if "forkserver" not in mp.get_all_start_methods():
+        return mp.get_context("spawn")
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(PRELOAD)
+    return ctx
+
+
 def _run_figures(figs: list[Figure], out: Path, extra: list[str], args: Any, say: Any) -> dict[str, dict[str, Any]]:
     """Run ``figs`` in this process (``--verbose``) or each in its own spawned process, ``args.jobs`` at a time;
     reports each as it ends."""
@@ -331,7 +349,7 @@ def _run_figures(figs: list[Figure], out: Path, extra: list[str], args: Any, say
         # worker cannot unpickle a function from
         worker = importlib.import_module("paper_figures.__main__")._worker
         # one figure per process (module docstring): a figure's numbers must not depend on its worker's history
-        ctx = mp.get_context("spawn")
+        ctx = _context(mp)
         with ProcessPoolExecutor(max_workers=args.jobs, mp_context=ctx, max_tasks_per_child=1) as pool:
             futures = [pool.submit(worker, (f, str(out), extra)) for f in figs]
             for i, fut in enumerate(as_completed(futures), 1):
