@@ -159,8 +159,8 @@ class FlyerChart:
         return self.c + self.system.difference(self.q_ref, q)
 
     def dq(self, x: np.ndarray) -> np.ndarray:
-        """D(x) = ∂(q_ref ⊕ ξ)/∂ξ (nv, nv) at ξ = x − c (``pinocchio.dIntegrate``, :func:`flyer_jacobian` on each
-        flyer's block): a chart velocity ẋ moves q(x) by the tangent velocity D ẋ (the identity at x = c and on the
+        """D(x) = ∂(q_ref ⊕ ξ)/∂ξ (nv, nv) at ξ = x − c (what ``pinocchio.dIntegrate`` gives, computed by
+        :func:`flyer_jacobian` on each flyer's block): a chart velocity ẋ moves q(x) by the tangent velocity D ẋ (the identity at x = c and on the
         1-DOF joints)."""
         D = np.eye(self.model.nv)
         xi = np.asarray(x, float) - self.c
