@@ -12,7 +12,7 @@ primitive, body posture control through it, gaits and walking.
 * :mod:`~coop_ga.legged.gait`, :mod:`~coop_ga.legged.walk` — phase-table gaits and walking.
 """
 
-from .body import BodyState, floating_hexapod
+from .body import BodyState, free_flyer_hexapod
 from .contact import leg_capsules, leg_clearance
 from .dynamics import RolloutOptions, RolloutResult, contact_rollout
 from .gait import GAITS, GaitTable, phase_table, swing_arc
@@ -54,7 +54,7 @@ __all__ = [
     "WalkResult",
     "check_command",
     "contact_rollout",
-    "floating_hexapod",
+    "free_flyer_hexapod",
     "hexapod_legs",
     "leg_capsules",
     "leg_clearance",

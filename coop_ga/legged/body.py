@@ -16,12 +16,13 @@ on ``[e12, e13, e23, e0∞, e1∞, e2∞, e3∞]`` (the tangent convention of :m
 θ12 about +z, θ13 = −θ about +y, θ23 about +x).  :func:`body_tangent` builds ξ and
 :meth:`BodyState.moved` applies one step.
 
-:func:`floating_hexapod` is the registered system ``"hexapod_floating"`` (built in
-:mod:`coop_ga.systems.library`): six virtual joints ``body_px, body_py, body_pz`` (world x, y, z)
-and ``body_rz, body_ry, body_rx`` (ZYX Euler angles: R = Rz(yaw) Ry(pitch) Rx(roll)) before the
-18 leg joints, end frames the six feet in world coordinates, the hexapod's visual geometry.
-:meth:`BodyState.floating_q` / :meth:`BodyState.from_floating_q` convert, so that whole-robot
-scenes go through :func:`coop_ga.viz.render_scene` and Pinocchio checks ``feet_world``.
+:func:`free_flyer_hexapod` is the floating hexapod, ``coop_ga.systems.load("hexapod", free_flyer=True)`` (built
+by :func:`coop_ga.systems.library.hexapod_free_flyer`): the body on a Pinocchio free flyer (``root_joint``) before
+the 18 leg joints, ``q = [position (3), quaternion x y z w (4), q_legs (18)]`` (25,), ``q̇ = [v, ω (body frame),
+q̇_legs]`` (24,), end frames the six feet in world coordinates, the hexapod's visual geometry.
+:meth:`BodyState.free_flyer_q` / :meth:`BodyState.from_free_flyer_q` convert (the quaternion is the body's
+rotation itself, no Euler angles), so that whole-robot scenes go through :func:`coop_ga.viz.render_scene` and
+Pinocchio checks ``feet_world``.
 """
 
 from __future__ import annotations
@@ -42,36 +43,33 @@ if TYPE_CHECKING:  # pragma: no cover
     from .legs import LegModel
 
 __all__ = [
-    "FLOATING_SYSTEM",
     "LEG_ORDER",
     "BodyState",
     "body_tangent",
-    "floating_hexapod",
+    "free_flyer_hexapod",
     "rotation_from_rpy",
     "rpy_from_rotation",
     "stance_indices",
 ]
 
-#: the registered name of the floating hexapod (:func:`floating_hexapod`).
-FLOATING_SYSTEM = "hexapod_floating"
 #: this package's leg order (the URDF's; ``coop_ga.legged.legs.LEGS``).
 LEG_ORDER: tuple[str, ...] = ("lf", "lm", "lr", "rf", "rm", "rr")
 #: orthonormality tolerance of a rotation matrix handed to :class:`BodyState` (re-orthonormalised below it).
 _ORTHO_TOL = 1e-6
 
 
-def floating_hexapod() -> System:
-    """The registered system ``"hexapod_floating"`` (24 DOF): the hexapod on six virtual body joints.
+def free_flyer_hexapod() -> System:
+    """The floating hexapod, ``systems.load("hexapod", free_flyer=True)`` (nq = 25, nv = 24).
 
-    ``q = [x, y, z, yaw, pitch, roll, q_legs (18, URDF order)]`` — body position [m] in W and
-    ZYX Euler angles [rad] (R_WB = Rz(yaw) Ry(pitch) Rx(roll)); end frames: the six feet (in the
-    order of the fixed-base ``hexapod``: the tripods (lf, lr, rm), (rf, lm, rr)), world frame.
-    Wide virtual-joint limits (±100 m, yaw ±4π, pitch ±π/2, roll ±π).  Used to render whole-robot
-    scenes and for Pinocchio cross-checks; convert with :meth:`BodyState.floating_q`.
+    ``q = [x, y, z, qx, qy, qz, qw, q_legs (18, URDF order)]``: body position [m] in W and the unit quaternion
+    (x, y, z, w) of R_WB; ``q̇ = [v, ω, q̇_legs]`` with the body twist (v, ω) in B [m/s, rad/s].  End frames: the
+    six feet (in the order of the fixed-base ``hexapod``: the tripods (lf, lr, rm), (rf, lm, rr)), world frame.
+    Used for the contact roll-out, whole-robot scenes and Pinocchio cross-checks; convert with
+    :meth:`BodyState.free_flyer_q` / :meth:`BodyState.from_free_flyer_q`.
     """
     from .. import systems
 
-    return systems.load(FLOATING_SYSTEM)
+    return systems.load("hexapod", free_flyer=True)
 
 
 def rotation_from_rpy(rpy: Any) -> np.ndarray:
@@ -212,10 +210,16 @@ class BodyState:
         return cls(position, Rotation.from_quat(qu / n).as_matrix(), q)
 
     @classmethod
-    def from_floating_q(cls, q24: Any) -> BodyState:
-        """The state of a ``hexapod_floating`` configuration ``[x, y, z, yaw, pitch, roll, q_legs]`` (24,)."""
-        a = vector(q24, 24, "q of hexapod_floating (24,)")
-        return cls(a[:3], rotation_from_rpy(a[[5, 4, 3]]), a[6:])
+    def from_free_flyer_q(cls, q25: Any) -> BodyState:
+        """The state of a free-flyer configuration ``[x, y, z, qx, qy, qz, qw, q_legs]`` (25,) of
+        :func:`free_flyer_hexapod`.  Raises :class:`~coop_ga.errors.InvalidInputError` for another length or a
+        quaternion that is not unit (to ``coop_ga.kinematics.chains.QUATERNION_TOLERANCE``, as every free flyer
+        of coop_ga)."""
+        from scipy.spatial.transform import Rotation
+
+        a = vector(q25, 25, "q of the free-flyer hexapod (25,) = [position, quaternion x y z w, 18 legs]")
+        free_flyer_hexapod().check_quaternions(a, "BodyState.from_free_flyer_q: q")
+        return cls(a[:3], Rotation.from_quat(a[3:7]).as_matrix(), a[7:])
 
     # ------------------------------------------------------------------ read-outs
     def motor(self) -> Multivector:
@@ -237,10 +241,10 @@ class BodyState:
         """``(roll, pitch, yaw)`` [rad] (3,) of the body rotation (ZYX: R = Rz(yaw) Ry(pitch) Rx(roll))."""
         return rpy_from_rotation(self.rotation)
 
-    def floating_q(self) -> np.ndarray:
-        """``[x, y, z, yaw, pitch, roll, q_legs]`` (24,): the configuration of ``hexapod_floating``."""
-        r, p, y = self.rpy()
-        return np.concatenate([self.position, [y, p, r], self.q])
+    def free_flyer_q(self) -> np.ndarray:
+        """``[x, y, z, qx, qy, qz, qw, q_legs]`` (25,): the configuration of :func:`free_flyer_hexapod`
+        (position [m] in W, the unit quaternion of R_WB with w ≥ 0, the 18 leg joints [rad])."""
+        return np.concatenate([self.position, self.quaternion_xyzw(), self.q])
 
     def feet_body(self, legs: LegModel) -> np.ndarray:
         """Feet (6, 3) [m] in B, LEG ORDER: ``legs.fk(q)``."""

@@ -5,10 +5,10 @@ times ``t`` (T,) [s], leg joints ``q`` (T, 18) [rad] (URDF order), body pose ``b
 (position [m] and quaternion (x, y, z, w) in the world W) and ``stance`` (T, 6) bool in the order
 :data:`~coop_ga.legged.legs.LEGS` (lf, lm, lr, rf, rm, rr) — the arrays of ``trajectory.npz``.
 :func:`contact_rollout` asks whether that plan is *dynamically* consistent: it simulates the whole
-robot (the registered system ``hexapod_floating``: six unactuated virtual body joints
-``body_px, body_py, body_pz, body_rz, body_ry, body_rx`` and the 18 leg joints, masses and
-inertias from the URDF) with Pinocchio's constraint dynamics (``pinocchio.constraintDynamics``)
-and reports how far the body drifts from the plan.
+robot (the floating hexapod ``coop_ga.systems.load("hexapod", free_flyer=True)``: the body on an
+unactuated Pinocchio free flyer, q = [position, quaternion x y z w, 18 legs] (25,), q̇ = [v, ω in
+the body frame, 18 leg rates] (24,), masses and inertias from the URDF) with Pinocchio's constraint
+dynamics (``pinocchio.constraintDynamics``) and reports how far the body drifts from the plan.
 
 Model
 -----
@@ -17,17 +17,20 @@ Model
   1.5 N·m).  ``q*`` is the plan interpolated linearly in time, ``q̇*`` its finite-difference rate.
   ``τ_ff`` (optional, on by default) is the static torque of the planned configuration with the
   robot's weight shared equally by the stance feet (vertical forces): ``τ_ff = g(q*) − Σ_i J_iᵀ f_i``
-  (leg rows), the same load model as :func:`coop_ga.legged.walk.static_torques`.  The body joints
-  get no torque.
+  (leg rows), the same load model as :func:`coop_ga.legged.walk.static_torques`.  The free flyer
+  gets no torque.
 * **Contact**: a stance foot is a rigid 3-D point contact (``CONTACT_3D``, infinite friction, no
   unilateral condition), anchored at the point where the simulated foot is when the plan puts the
   leg into stance (it lands where it actually is; the height error of that point against the plan's
   foot is reported).  A touch-down is an inelastic impact (``pinocchio.impulseDynamics``,
   restitution 0): the velocity jumps so that the new contacts are at rest.  A lift-off removes the
   contact.  Constraint drift is held by a Baumgarte corrector.
-* **Integration**: semi-implicit Euler at ``dt`` (all 24 coordinates are 1-DOF joints, so the
-  configuration update is ``q ← q + v dt``); the plan's body pose converted to the virtual joints
-  as ZYX Euler angles (yaw unwrapped over time).
+* **Integration**: semi-implicit Euler at ``dt``: ``v ← v + a dt``, then ``q ← pinocchio.integrate(q,
+  v dt)`` (on the free flyer the body moves by the SE(3) exponential of its twist, the quaternion stays
+  unit; the leg joints by ``q + q̇ dt``).  The plan's body pose enters as it is (position and
+  quaternion, :func:`plan_to_free_flyer_q`); its velocity at the first sample (the initial state) is
+  the finite-difference body twist of the plan (``np.gradient``'s weights on the SE(3) log of the
+  neighbouring poses).
 
 Read-outs (:class:`RolloutResult`): body position and rotation drift against the plan at every plan
 sample [m, rad], joint tracking error, the contact forces in W (the *required* friction coefficient
@@ -48,15 +51,13 @@ from typing import Any
 import numpy as np
 
 from .. import validation
-from ..errors import InvalidInputError, UnknownNameError
+from ..errors import InvalidInputError
 from .legs import LEGS, LegModel
 
-__all__ = ["FLOATING_SYSTEM", "RolloutOptions", "RolloutResult", "contact_rollout", "plan_to_floating_q"]
+__all__ = ["RolloutOptions", "RolloutResult", "contact_rollout", "plan_to_free_flyer_q"]
 
 #: :func:`contact_rollout` refuses a plan that needs more integration steps (bounded work: ~0.1 ms each)
 MAX_STEPS = 5_000_000
-#: The registered system the roll-out simulates (6 virtual body joints + 18 leg joints).
-FLOATING_SYSTEM = "hexapod_floating"
 G = 9.81  # gravity [m/s²] (the model's default gravity is used; this is only for documentation)
 
 
@@ -156,29 +157,6 @@ def _quat_to_matrix(qxyzw: np.ndarray) -> np.ndarray:
     )
 
 
-def _matrix_to_quat(R: np.ndarray) -> np.ndarray:
-    """Rotation matrix (3, 3) → unit quaternion (4,) xyzw with w ≥ 0."""
-    from scipy.spatial.transform import Rotation
-
-    q = Rotation.from_matrix(R).as_quat()
-    return np.asarray(-q if q[3] < 0 else q, dtype=float)
-
-
-def _rz(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _ry(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-
-
-def _rx(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
-
-
 def _check_plan(
     t: Any, q: Any, body: Any, stance: Any, dt: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -211,12 +189,13 @@ def _check_plan(
     return tt, qq, bb, st.copy()
 
 
-def plan_to_floating_q(q: Any, body: Any) -> np.ndarray:
-    """Plan arrays → configurations (T, 24) of ``hexapod_floating``: ``[x, y, z, yaw, pitch, roll, q_legs]``.
+def plan_to_free_flyer_q(q: Any, body: Any) -> np.ndarray:
+    """Plan arrays → configurations (T, 25) of the floating hexapod (``systems.load("hexapod", free_flyer=True)``):
+    ``[x, y, z, qx, qy, qz, qw, q_legs]``.
 
-    ``q`` (T, 18) [rad], ``body`` (T, 7) position [m] + unit quaternion xyzw in W.  The rotation
-    R_WB = Rz(yaw) Ry(pitch) Rx(roll) (ZYX Euler angles); the yaw is unwrapped over the samples so that
-    the virtual joint moves continuously.
+    ``q`` (T, 18) [rad] (URDF order), ``body`` (T, 7) position [m] + quaternion xyzw in W (normalised here; a
+    zero quaternion raises :class:`~coop_ga.errors.InvalidInputError`).  The body pose is taken as it is: no
+    Euler angles, nothing to unwrap.
     """
     qq = validation.array(q, "q")
     bb = validation.array(body, "body")
@@ -226,11 +205,36 @@ def plan_to_floating_q(q: Any, body: Any) -> np.ndarray:
     if not np.all(nrm > 1e-12):
         k = int(np.argmin(nrm[:, 0]))
         raise InvalidInputError(f"body[:, 3:] must be quaternions (x, y, z, w); sample {k} is zero")
-    R = _quat_to_matrix(bb[:, 3:] / nrm)
-    pitch = np.arcsin(np.clip(-R[:, 2, 0], -1.0, 1.0))
-    yaw = np.unwrap(np.arctan2(R[:, 1, 0], R[:, 0, 0]))
-    roll = np.arctan2(R[:, 2, 1], R[:, 2, 2])
-    return np.concatenate([bb[:, :3], yaw[:, None], pitch[:, None], roll[:, None], qq], axis=1)
+    return np.concatenate([bb[:, :3], bb[:, 3:] / nrm, qq], axis=1)
+
+
+def _body_twists(tt: np.ndarray, Qp: np.ndarray) -> np.ndarray:
+    """The plan's body twists (T, 6) ``[v, ω]`` in the body frame [m/s, rad/s] (the free flyer's velocity): the
+    SE(3) log of each step (``pinocchio.difference``) divided by its duration, combined like ``np.gradient``
+    (one-sided at the ends, the weighted mean of the two neighbouring steps inside)."""
+    import pinocchio as pin
+
+    pose = [pin.XYZQUATToSE3(row[:7]) for row in Qp]
+    h = np.diff(tt)
+    step = np.array([pin.log6(pose[k].actInv(pose[k + 1])).vector / h[k] for k in range(tt.size - 1)])
+    out = np.empty((tt.size, 6))
+    out[0], out[-1] = step[0], step[-1]
+    hm, hp = h[:-1, None], h[1:, None]
+    out[1:-1] = (hm * step[1:] + hp * step[:-1]) / (hm + hp)
+    return out
+
+
+def _check_free_flyer(system: Any) -> LegModel:
+    """The legs of ``system`` if its root joint (joint 1, q[0:7], q̇[0:6]) is a free flyer carrying 18 leg joints
+    and nothing else; :class:`~coop_ga.errors.InvalidInputError` otherwise."""
+    legs = LegModel.from_system(system)
+    m = system.model
+    if m.njoints < 2 or m.joints[1].shortname() != "JointModelFreeFlyer" or (m.nq, m.nv) != (7 + legs.nq, 6 + legs.nq):
+        raise InvalidInputError(
+            f"system '{system.name}' is not a free-flyer body + {legs.nq} leg joints (nq = {m.nq}, nv = {m.nv}); "
+            'the roll-out simulates coop_ga.systems.load("hexapod", free_flyer=True)'
+        )
+    return legs
 
 
 class _Rollout:
@@ -247,24 +251,25 @@ class _Rollout:
         self.tt, self.qq, self.bb, self.st = plan
         self.opts = opts
         self.kp, self.kd = gains
-        legs = LegModel.from_system(system)
+        legs = _check_free_flyer(system)
         model = system.model
         self.model, self.data = model, model.createData()
         nv = model.nv
-        if model.nq != nv or nv != 6 + legs.nq:
-            raise InvalidInputError(f"system '{system.name}' is not 6 body joints + {legs.nq} leg joints")
         self.n_legs_q = legs.nq
-        iq = legs.model_q_index.ravel()  # leg joints in the model's q/v (LEGS order, coxa/femur/tibia)
-        leg_idx = np.asarray(legs.q_index).ravel()  # ... and in the 18-vector
-        self.leg_cols = np.empty(legs.nq, dtype=int)
-        self.leg_cols[leg_idx] = iq  # 18-vector entry k ↔ model coordinate leg_cols[k]
-        self.body_cols = np.setdiff1d(np.arange(nv), iq)
-        self.effort = np.asarray(model.effortLimit)[self.leg_cols]
+        leg_idx = np.asarray(legs.q_index).ravel()  # the leg joints (LEGS order, coxa/femur/tibia) in the 18-vector
+        jid = [int(j) for j in np.asarray(legs._joint_ids).ravel()]
+        # 18-vector entry k ↔ model coordinate leg_q[k] of q (25,) and leg_v[k] of q̇ (24,)
+        self.leg_q, self.leg_v = np.empty(legs.nq, dtype=int), np.empty(legs.nq, dtype=int)
+        self.leg_q[leg_idx] = [int(model.idx_qs[j]) for j in jid]
+        self.leg_v[leg_idx] = [int(model.idx_vs[j]) for j in jid]
+        self.effort = np.asarray(model.effortLimit)[self.leg_v]
 
-        self.Qp = np.zeros((self.tt.size, nv))
-        self.Qp[:, self.body_cols] = plan_to_floating_q(self.qq, self.bb)[:, :6]
-        self.Qp[:, self.leg_cols] = self.qq
-        self.Vp = np.gradient(self.Qp, self.tt, axis=0)
+        self.Qp = np.zeros((self.tt.size, model.nq))
+        self.Qp[:, :7] = plan_to_free_flyer_q(self.qq, self.bb)[:, :7]
+        self.Qp[:, self.leg_q] = self.qq
+        self.Vp = np.zeros((self.tt.size, nv))
+        self.Vp[:, :6] = _body_twists(self.tt, self.Qp)
+        self.Vp[:, self.leg_v] = np.gradient(self.qq, self.tt, axis=0)
 
         self.foot_ids = [model.getFrameId(f"{leg}_foot") for leg in LEGS]
         self.foot_joint = [int(model.frames[f].parentJoint) for f in self.foot_ids]
@@ -279,7 +284,7 @@ class _Rollout:
         self.anchors: dict[int, np.ndarray] = {}
         self.td_err: list[float] = []
         T = self.tt.size
-        self.q_out = np.zeros((T, nv))
+        self.q_out = np.zeros((T, model.nq))
         self.on_out = np.zeros((T, 6), dtype=bool)  # contacts active when the sample was recorded
         self.feet_out = np.zeros((T, 6, 3))
         self.tau_out = np.zeros((T, legs.nq))
@@ -303,7 +308,7 @@ class _Rollout:
         for i in np.flatnonzero(st[k]):
             J = pin.getFrameJacobian(model, data, self.foot_ids[i], pin.LOCAL_WORLD_ALIGNED)[:3]
             tau -= J.T @ f
-        return np.asarray(tau[self.leg_cols])
+        return np.asarray(tau[self.leg_v])
 
     def foot_world(self, qk: np.ndarray) -> np.ndarray:
         """The six feet (6, 3) in W [m] at the model configuration ``qk``."""
@@ -346,15 +351,15 @@ class _Rollout:
         self.vs = np.array(v, dtype=float).copy()
 
     def torque(self, qref: np.ndarray, vref: np.ndarray, ff: np.ndarray) -> np.ndarray:
-        """The joint PD torque (18,) toward ``qref``, ``vref`` plus ``ff`` (saturated if asked)."""
-        c = self.leg_cols
-        tau = self.kp * (qref[c] - self.qs[c]) + self.kd * (vref[c] - self.vs[c]) + ff
+        """The joint PD torque (18,) toward the leg references ``qref``, ``vref`` (18,) plus ``ff`` (saturated if
+        asked)."""
+        tau = self.kp * (qref - self.qs[self.leg_q]) + self.kd * (vref - self.vs[self.leg_v]) + ff
         return np.clip(tau, -self.effort, self.effort) if self.opts.saturate else tau
 
     def accelerations(self, tau: np.ndarray) -> np.ndarray:
-        """Constraint dynamics with the leg torques ``tau`` (the body joints get none)."""
+        """Constraint dynamics with the leg torques ``tau`` (the free flyer gets none)."""
         tau_full = np.zeros(self.model.nv)
-        tau_full[self.leg_cols] = tau
+        tau_full[self.leg_v] = tau
         a = self.pin.constraintDynamics(
             self.model, self.data, self.qs, self.vs, tau_full, self.cms, self.cds, self.prox
         )
@@ -372,13 +377,13 @@ class _Rollout:
 
     def interval(self, k: int, dt: float) -> None:
         """Integrate the plan interval [t_k, t_{k+1}] in equal sub-steps ≤ ``dt`` (semi-implicit Euler)."""
-        Qp, Vp, tau_ff = self.Qp, self.Vp, self.tau_ff
+        qq, Vp, tau_ff = self.qq, self.Vp[:, self.leg_v], self.tau_ff
         h_int = self.tt[k + 1] - self.tt[k]
         n_sub = max(1, math.ceil(h_int / dt - 1e-9))
         h = h_int / n_sub
         for s in range(n_sub):
             a0 = s / n_sub
-            qref = (1 - a0) * Qp[k] + a0 * Qp[k + 1]
+            qref = (1 - a0) * qq[k] + a0 * qq[k + 1]
             vref = (1 - a0) * Vp[k] + a0 * Vp[k + 1]
             ff = (1 - a0) * tau_ff[k] + a0 * tau_ff[k + 1]
             tau = self.torque(qref, vref, ff)
@@ -386,7 +391,7 @@ class _Rollout:
             self.n_tot += tau.size
             acc = self.accelerations(tau)
             self.vs = self.vs + h * acc
-            self.qs = self.qs + h * self.vs
+            self.qs = self.pin.integrate(self.model, self.qs, h * self.vs)
             self.n_steps += 1
         self.record(k + 1, tau)
 
@@ -396,7 +401,7 @@ class _Rollout:
         self.contacts(st[0], 0)
         if self.on:
             self.impact()
-        tau = self.torque(self.Qp[0], self.Vp[0], self.tau_ff[0])
+        tau = self.torque(self.qq[0], self.Vp[0, self.leg_v], self.tau_ff[0])
         self.accelerations(tau)
         self.record(0, tau)
         for k in range(self.tt.size - 1):
@@ -414,9 +419,9 @@ class _Rollout:
         drift_p = np.zeros(T)
         drift_r = np.zeros(T)
         for k in range(T):
-            x, y, z, yaw, pitch, roll = self.q_out[k, self.body_cols]
-            R = _rz(yaw) @ _ry(pitch) @ _rx(roll)
-            body_sim[k] = np.concatenate([[x, y, z], _matrix_to_quat(R)])
+            quat = self.q_out[k, 3:7] / np.linalg.norm(self.q_out[k, 3:7])
+            R = _quat_to_matrix(quat)
+            body_sim[k] = np.concatenate([self.q_out[k, :3], -quat if quat[3] < 0 else quat])
             Rp = _quat_to_matrix(bb[k, 3:] / np.linalg.norm(bb[k, 3:]))
             drift_p[k] = float(np.linalg.norm(body_sim[k, :3] - bb[k, :3]))
             c = (np.trace(Rp.T @ R) - 1.0) / 2.0
@@ -427,7 +432,7 @@ class _Rollout:
         """The read-outs of the simulated run (:class:`RolloutResult`)."""
         tt = self.tt
         body_sim, drift_p, drift_r = self.body_drift()
-        q_sim = self.q_out[:, self.leg_cols]
+        q_sim = self.q_out[:, self.leg_q]
         jerr = np.abs(q_sim - self.qq).max(axis=1)
         stance_f = self.f_out[self.on_out]
         swing = ~self.on_out
@@ -482,13 +487,14 @@ def contact_rollout(
         body: (T, 7) planned body pose in W: position [m], quaternion (x, y, z, w).
         stance: (T, 6) bool, leg in stance during [t_k, t_{k+1}) (order lf, lm, lr, rf, rm, rr).
         options: :class:`RolloutOptions` (gains, step, feed-forward, saturation).
-        system: the floating system (default ``coop_ga.systems.load("hexapod_floating")``).
+        system: the floating hexapod (default ``coop_ga.systems.load("hexapod", free_flyer=True)``; a system
+            whose root joint is a free flyer and which has the hexapod's 18 leg joints and six feet).
 
     The simulation starts at the plan's first state (configuration and finite-difference velocity,
-    then the impact of the initial contacts).  Raises :class:`~coop_ga.errors.UnknownNameError` if
-    ``hexapod_floating`` is not registered, :class:`~coop_ga.errors.InvalidInputError` for bad plans.
+    then the impact of the initial contacts).  Raises :class:`~coop_ga.errors.InvalidInputError` for bad plans
+    or a system that is not a free-flyer hexapod.
     """
-    from ..systems import load, names
+    from ..systems import load
 
     opts = options if options is not None else RolloutOptions()
     if not isinstance(opts, RolloutOptions):
@@ -498,9 +504,7 @@ def contact_rollout(
     dt = validation.positive(opts.dt, "options.dt")
     plan = _check_plan(t, q, body, stance, dt)
     if system is None:
-        if FLOATING_SYSTEM not in names():
-            raise UnknownNameError(f"the physics check needs the registered system '{FLOATING_SYSTEM}'")
-        system = load(FLOATING_SYSTEM)
+        system = load("hexapod", free_flyer=True)
     rollout = _Rollout(system, plan, opts, (kp, kd))
     rollout.run(dt)
     return rollout.result(dt)

@@ -327,6 +327,7 @@ class LegModel:
         order = np.argsort(mq.ravel(), kind="stable")
         rank = np.empty(order.size, dtype=int)
         rank[order] = np.arange(order.size)
+        mv = np.array([[int(model.idx_vs[int(j)]) for j in row] for row in jids])  # limits are in q̇ order (nv)
         limits = system.limits
         end_frames = list(getattr(system, "end_frames", ()))
         efi = np.array([end_frames.index(f) if f in end_frames else -1 for f in foot_frames])
@@ -335,10 +336,10 @@ class LegModel:
         return cls(
             legs=legs,
             q_index=ro(rank.reshape(n, 3)),
-            q_lower=ro(np.asarray(limits.lower)[mq]),
-            q_upper=ro(np.asarray(limits.upper)[mq]),
-            effort_limit=ro(np.asarray(limits.effort)[mq]),
-            velocity_limit=ro(np.asarray(limits.velocity)[mq]),
+            q_lower=ro(np.asarray(limits.lower)[mv]),
+            q_upper=ro(np.asarray(limits.upper)[mv]),
+            effort_limit=ro(np.asarray(limits.effort)[mv]),
+            velocity_limit=ro(np.asarray(limits.velocity)[mv]),
             joint_names=tuple((names[int(a)], names[int(b)], names[int(c)]) for a, b, c in jids),
             model_q_index=ro(mq),
             end_frame_index=ro(efi),

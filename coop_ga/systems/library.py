@@ -12,8 +12,11 @@ two_g1              34  two G1s facing each other 1.0 m apart                   
 three_finger_hand   12  Allegro right hand, middle finger locked                    index, thumb, ring tips
 allegro             16  Allegro right hand                                          4 fingertips (sphere)
 hexapod             18  PhantomX-like hexapod (robots/hexapod)                      6 feet
-hexapod_floating    24  the hexapod on 6 virtual body joints (PX PY PZ RZ RY RX)    6 feet (world frame)
 =================  ===  ==========================================================  ==========================
+
+Free-flyer variants (``load(name, free_flyer=True)``, not names of their own): ``g1_arms`` (the G1 with a
+floating pelvis, :func:`g1_floating`) and ``hexapod`` (the body on a free flyer, nq = 25, nv = 24,
+:func:`hexapod_free_flyer`: the floating hexapod of :mod:`coop_ga.legged`).
 
 Every ``q0`` lies strictly inside the joint limits and makes the primitive through the
 end points well defined (except the hexapod's 4-foot sphere, see :func:`_hexapod`).
@@ -459,40 +462,26 @@ def _hexapod() -> System:
     )
 
 
-#: The six virtual joints of ``hexapod_floating`` (joint name, Pinocchio joint model, lower, upper, velocity):
-#: body position x, y, z [m] in the world, then yaw (about world-aligned z), pitch, roll [rad] (ZYX Euler angles:
-#: R_WB = Rz(yaw) Ry(pitch) Rx(roll)).  The limits are wide (nothing a posture or a walk reaches); pitch stops
-#: at ±π/2, where ZYX Euler angles are singular.
-HEXAPOD_BODY_JOINTS = (
-    ("body_px", "JointModelPX", -100.0, 100.0, 10.0),
-    ("body_py", "JointModelPY", -100.0, 100.0, 10.0),
-    ("body_pz", "JointModelPZ", -100.0, 100.0, 10.0),
-    ("body_rz", "JointModelRZ", -4.0 * np.pi, 4.0 * np.pi, 20.0),
-    ("body_ry", "JointModelRY", -0.5 * np.pi, 0.5 * np.pi, 20.0),
-    ("body_rx", "JointModelRX", -np.pi, np.pi, 20.0),
-)
-#: Body height [m] of ``hexapod_floating``'s q0: the stand pose's feet on z = 0 (0.133 sin 1.1 − 0.065 sin 0.3,
-#: the tibia's drop minus the femur's rise; :func:`_hexapod_floating` checks it against Pinocchio's FK).
+#: Body height [m] of the floating hexapod's q0 (``load("hexapod", free_flyer=True)``): the stand pose's feet on
+#: z = 0 (0.133 sin 1.1 − 0.065 sin 0.3, the tibia's drop minus the femur's rise; :func:`hexapod_free_flyer`
+#: checks it against Pinocchio's FK).
 HEXAPOD_STAND_HEIGHT = 0.133 * np.sin(1.1) - 0.065 * np.sin(0.3)
 
 
-@register(
-    "hexapod_floating",
-    "the hexapod on 6 virtual body joints (PX, PY, PZ, RZ, RY, RX) + 18 leg joints; end points the feet (world)",
-)
-def _hexapod_floating() -> System:
-    """The hexapod with a free body, as a fixed-base chain (for rendering and Pinocchio cross-checks).
+@register_free_flyer("hexapod")
+def hexapod_free_flyer() -> System:
+    """The floating hexapod: its body on a real free flyer, nq = 25, nv = 24 (``load("hexapod", free_flyer=True)``,
+    not a registered name of its own).
 
-    Six virtual joints ``body_px, body_py, body_pz`` (prismatic along world x, y, z) then
-    ``body_rz, body_ry, body_rx`` (revolute, ZYX Euler angles) carry ``base_link``: the body
-    pose is ``T(x, y, z) · Rz(yaw) Ry(pitch) Rx(roll)`` (world ← body).  The 18 leg joints
-    follow in URDF order (lf, lm, lr, rf, rm, rr; coxa, femur, tibia), so
-    ``q = [x, y, z, yaw, pitch, roll, q_legs]`` (24,).  The virtual bodies are massless;
-    ``base_link``'s inertia rides on ``body_rx``.  End frames: the six feet in the order of
-    ``hexapod`` (the two tripods).  q0: the stand pose with the body at height
-    :data:`HEXAPOD_STAND_HEIGHT` (feet on z = 0).  Visual geometry: the hexapod URDF's, matched
-    to the appended model by link name.  ``coop_ga.legged.body.BodyState.floating_q`` converts
-    a body pose to these coordinates.
+    The hexapod URDF loaded with a ``JointModelFreeFlyer`` root (``root_joint``: the body pose, q[0:3] position
+    [m] of ``base_link`` in the world, q[3:7] unit quaternion x y z w (world ← body), no position limits;
+    q̇[0:6] its LOCAL [v; ω] [m/s, rad/s] in the body frame), then the 18 leg joints in URDF order (lf, lm, lr, rf,
+    rm, rr; coxa, femur, tibia).  End frames: the feet, as ``hexapod`` (the two tripods), world frame.  q0: the
+    stand pose with the body at :data:`HEXAPOD_STAND_HEIGHT` (feet on z = 0; checked here against Pinocchio's FK,
+    so a changed URDF cannot silently move the stand height).  The walking code (:mod:`coop_ga.legged`) converts
+    with ``BodyState.free_flyer_q`` / ``BodyState.from_free_flyer_q``.  Kinematics only: nothing in the model
+    keeps a foot on the ground (the contact roll-out ``coop_ga.legged.dynamics.contact_rollout`` and the MuJoCo
+    scene ``coop_ga.sim.hexapod_scene`` do).
     """
     import pinocchio as pin
 
@@ -504,48 +493,6 @@ def _hexapod_floating() -> System:
         raise ValueError(
             f"hexapod stand pose: feet {drop} m below the body, HEXAPOD_STAND_HEIGHT says {HEXAPOD_STAND_HEIGHT}"
         )
-    base = pin.Model()
-    parent = 0
-    for name, joint, *_ in HEXAPOD_BODY_JOINTS:
-        parent = base.addJoint(parent, getattr(pin, joint)(), pin.SE3.Identity(), name)
-        base.appendBodyToJoint(parent, pin.Inertia.Zero(), pin.SE3.Identity())
-        base.addJointFrame(parent)
-    mount = base.addFrame(pin.Frame("body_mount", parent, 0, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
-    m = pin.appendModel(base, legs, mount, pin.SE3.Identity())
-    for k, (_, _, lo, hi, vel) in enumerate(HEXAPOD_BODY_JOINTS):
-        m.lowerPositionLimit[k], m.upperPositionLimit[k], m.velocityLimit[k] = lo, hi, vel
-    q0 = np.concatenate([[0.0, 0.0, HEXAPOD_STAND_HEIGHT, 0.0, 0.0, 0.0], np.tile(HEXAPOD_STAND, 6)])
-    return System(
-        name="hexapod_floating",
-        model=m,
-        end_frames=tuple(f"{leg}_foot" for leg in _HEXAPOD_FEET),
-        q0=q0,
-        description=(
-            "the hexapod (robots/hexapod/hexapod.urdf) on six virtual body joints body_px, body_py, body_pz, "
-            "body_rz, body_ry, body_rx (world position, then ZYX Euler angles yaw, pitch, roll), 24 DOF; q = "
-            "[x, y, z, yaw, pitch, roll, 18 leg joints in URDF order].  End points: the six feet (two tripods, "
-            f"as 'hexapod'), world frame.  q0: stand pose, body at z = {HEXAPOD_STAND_HEIGHT} m, feet on z = 0"
-        ),
-        labels=tuple(f"{leg} foot" for leg in _HEXAPOD_FEET),
-        visuals=(_own_visual("hexapod"),),
-    )
-
-
-@register_free_flyer("hexapod")
-def hexapod_free_flyer() -> System:
-    """The hexapod with its body on a real free flyer: nq = 25, nv = 24 (``hexapod_floating`` uses six virtual
-    joints with ±100 m, ±4π limits instead).
-
-    The hexapod URDF loaded with a ``JointModelFreeFlyer`` root (``root_joint``: the body pose, q[0:3] position
-    [m], q[3:7] quaternion x y z w, no position limits; q̇[0:6] its LOCAL [v; ω]), then the 18 leg joints in URDF
-    order.  A ``hexapod_floating`` configuration ``[x, y, z, yaw, pitch, roll, legs]`` is the pose
-    ``T(x, y, z) Rz(yaw) Ry(pitch) Rx(roll)``, the same body pose.  End frames: the feet, as ``hexapod``.  q0: the
-    stand pose with the body at :data:`HEXAPOD_STAND_HEIGHT`.  Kinematics only: nothing here keeps a foot on the
-    ground (the walking code in :mod:`coop_ga.legged` uses ``hexapod_floating``).  ``load("hexapod",
-    free_flyer=True)`` (not a registered name of its own).
-    """
-    import pinocchio as pin
-
     m = pin.buildModelFromUrdf(str(ROBOTS_DIR / "hexapod" / "hexapod.urdf"), pin.JointModelFreeFlyer())
     q0 = np.concatenate([[0.0, 0.0, HEXAPOD_STAND_HEIGHT, 0.0, 0.0, 0.0, 1.0], np.tile(HEXAPOD_STAND, 6)])
     return System(
@@ -553,7 +500,11 @@ def hexapod_free_flyer() -> System:
         model=m,
         end_frames=tuple(f"{leg}_foot" for leg in _HEXAPOD_FEET),
         q0=q0,
-        description="the hexapod with a free-flyer body (root_joint) + 18 leg joints; end points the six feet",
+        description=(
+            "the hexapod (robots/hexapod/hexapod.urdf) with its body on a free flyer (root_joint: position, "
+            "quaternion x y z w) + 18 leg joints in URDF order, nq = 25, nv = 24.  End points: the six feet (two "
+            f"tripods, as 'hexapod'), world frame.  q0: stand pose, body at z = {HEXAPOD_STAND_HEIGHT} m, feet on z = 0"
+        ),
         labels=tuple(f"{leg} foot" for leg in _HEXAPOD_FEET),
         visuals=(_own_visual("hexapod"),),
     )

@@ -87,7 +87,7 @@ def test_trajectory_npz(run):
     import coop_ga as cg
     from coop_ga.legged.body import BodyState
 
-    s = cg.systems.load("hexapod_floating")
+    s = cg.systems.load("hexapod", free_flyer=True)
     m, data = s.model, s.model.createData()
     legs = ("lf", "lm", "lr", "rf", "rm", "rr")
     stance = [leg for leg, on in zip(legs, d["stance"][0]) if on]
@@ -95,7 +95,7 @@ def test_trajectory_npz(run):
     feet = []
     for k in range(0, T, max(1, T // 20)):
         st = BodyState.from_quaternion(d["body"][k, :3], d["body"][k, 3:], d["q"][k])
-        pin.framesForwardKinematics(m, data, st.floating_q())
+        pin.framesForwardKinematics(m, data, st.free_flyer_q())
         feet.append([data.oMf[f].translation.copy() for f in fids])
     feet = np.array(feet)
     assert np.max(np.abs(feet - feet[0])) < 1e-12

@@ -95,9 +95,17 @@ def test_body_states(position, rpy, q, v, omega, dt, pts):
         check(s.to_world, pts)
         check(s.to_body, pts)
         check(s.pose7)
-        check(s.floating_q)
+        q25 = check(s.free_flyer_q)
+        check(BodyState.from_free_flyer_q, q25)
         if s2 is not None:
             assert np.allclose(s2.rotation.T @ s2.rotation, np.eye(3), atol=1e-9)
+
+
+@given(q=vec(25))
+def test_body_state_from_free_flyer_q(q):
+    s = check(BodyState.from_free_flyer_q, q)
+    if s is not None:
+        assert np.allclose(s.rotation.T @ s.rotation, np.eye(3), atol=1e-9)
 
 
 @given(gait=st.one_of(st.sampled_from(["tripod", "ripple", "wave"]), bad), n=st.one_of(st.integers(3, 9), bad),

@@ -1,4 +1,4 @@
-"""The floating body (coop_ga.legged.body) and the ``hexapod_floating`` system."""
+"""The floating body (coop_ga.legged.body) and the floating hexapod (``load("hexapod", free_flyer=True)``)."""
 
 from __future__ import annotations
 
@@ -11,11 +11,10 @@ from coop_ga.errors import InvalidInputError
 from coop_ga.geometry.groups import Similarity, motor_rotor_translation, rotor_matrix
 from coop_ga.geometry.primitives import point, to_euclidean
 from coop_ga.legged.body import (
-    FLOATING_SYSTEM,
     LEG_ORDER,
     BodyState,
     body_tangent,
-    floating_hexapod,
+    free_flyer_hexapod,
     rotation_from_rpy,
     rpy_from_rotation,
     stance_indices,
@@ -72,25 +71,37 @@ def test_motor_and_quaternion_round_trips():
         np.testing.assert_allclose(s.to_body(s.feet_world(L)), fb, atol=1e-12)
 
 
-def test_floating_q_round_trip():
+def test_free_flyer_q_round_trip():
+    """state → q (25,) → state → q is exact to 1e-15, and so is q → state → q from random q (unit quaternions
+    with w ≥ 0, the sign free_flyer_q gives); the quaternion is R_WB's (scipy's, independent of BodyState)."""
+    from scipy.spatial.transform import Rotation
+
     for s in random_states(30):
-        q24 = s.floating_q()
-        assert q24.shape == (24,)
-        back = BodyState.from_floating_q(q24)
-        np.testing.assert_allclose(back.rotation, s.rotation, atol=1e-12)
-        np.testing.assert_allclose(back.position, s.position, atol=0)
+        q25 = s.free_flyer_q()
+        assert q25.shape == (25,)
+        np.testing.assert_allclose(Rotation.from_quat(q25[3:7]).as_matrix(), s.rotation, atol=1e-15)
+        back = BodyState.from_free_flyer_q(q25)
+        np.testing.assert_allclose(back.rotation, s.rotation, atol=1e-15)
+        np.testing.assert_array_equal(back.position, s.position)
         np.testing.assert_array_equal(back.q, s.q)
+        np.testing.assert_allclose(back.free_flyer_q(), q25, rtol=0, atol=1e-15)
+    rng = np.random.default_rng(RNG_SEED)
+    for _ in range(30):
+        quat = Rotation.random(random_state=rng).as_quat()
+        q25 = np.concatenate([rng.uniform(-1, 1, 3), quat if quat[3] >= 0 else -quat, rng.uniform(-1, 1, 18)])
+        np.testing.assert_allclose(BodyState.from_free_flyer_q(q25).free_flyer_q(), q25, rtol=0, atol=1e-15)
 
 
-def test_feet_world_equals_pinocchio_fk_of_hexapod_floating():
-    sysf = floating_hexapod()
-    assert sysf.name == FLOATING_SYSTEM and sysf.nq == 24 and sysf.n_chains == 6
-    assert tuple(sysf.joint_names[:6]) == ("body_px", "body_py", "body_pz", "body_rz", "body_ry", "body_rx")
+def test_feet_world_equals_pinocchio_fk_of_the_free_flyer():
+    sysf = free_flyer_hexapod()
+    assert sysf is cg.systems.load("hexapod", free_flyer=True)
+    assert (sysf.nq, sysf.nv, sysf.n_chains) == (25, 24, 6)
     m, d = sysf.model, sysf.model.createData()
+    assert m.joints[1].shortname() == "JointModelFreeFlyer"
     fids = {f: m.getFrameId(f) for f in sysf.end_frames}
     worst = 0.0
     for s in random_states(60):
-        pin.framesForwardKinematics(m, d, s.floating_q())
+        pin.framesForwardKinematics(m, d, s.free_flyer_q())
         fw = s.feet_world(L)
         for i, leg in enumerate(LEG_ORDER):
             worst = max(worst, float(np.max(np.abs(d.oMf[fids[f"{leg}_foot"]].translation - fw[i]))))
@@ -101,19 +112,18 @@ def test_feet_world_equals_pinocchio_fk_of_hexapod_floating():
     assert worst < 1e-12
     # and the system's own motor FK (coop_ga.kinematics) agrees
     s = random_states(1, seed=3)[0]
-    P = sysf.tree.end_points_array(s.floating_q())
+    P = sysf.tree.end_points_array(s.free_flyer_q())
     fw = s.feet_world(L)
     for k, f in enumerate(sysf.end_frames):
         np.testing.assert_allclose(P[k], fw[LEG_ORDER.index(f[: -len("_foot")])], atol=1e-12)
 
 
-def test_floating_q0_stands_on_the_ground():
-    sysf = cg.systems.load(FLOATING_SYSTEM)
-    s = BodyState.from_floating_q(sysf.q0)
+def test_free_flyer_q0_stands_on_the_ground():
+    sysf = free_flyer_hexapod()
+    s = BodyState.from_free_flyer_q(sysf.q0)
     f = s.feet_world(L)
     np.testing.assert_allclose(f[:, 2], 0.0, atol=1e-15)
-    assert np.all(sysf.q_lower < sysf.q0) and np.all(sysf.q0 < sysf.q_upper)
-    assert sysf.limits.position_violation(sysf.q0) == 0.0
+    assert sysf.limits.position_violation(sysf.limit_coordinates(sysf.q0)) == 0.0
 
 
 def test_moved_is_the_body_twist():
@@ -140,8 +150,12 @@ def test_bad_input():
         BodyState([0, 0, 0], np.eye(3), np.zeros(17))
     with pytest.raises(InvalidInputError, match="zero"):
         BodyState.from_quaternion([0, 0, 0], [0, 0, 0, 0], q)
-    with pytest.raises(InvalidInputError, match="24"):
-        BodyState.from_floating_q(np.zeros(18))
+    with pytest.raises(InvalidInputError, match="25"):
+        BodyState.from_free_flyer_q(np.zeros(24))
+    q25 = BodyState([0, 0, 0], np.eye(3), q).free_flyer_q()
+    q25[6] = 0.9  # |quaternion| = 0.9
+    with pytest.raises(InvalidInputError, match=r"quaternion \(x y z w\).*norm 0\.9.*normalise"):
+        BodyState.from_free_flyer_q(q25)
     # a nearly orthonormal rotation is re-orthonormalised
     R = rotation_from_rpy([0.1, 0.2, 0.3]) + 1e-9
     s = BodyState([0, 0, 0], R, q)

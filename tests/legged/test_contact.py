@@ -42,14 +42,14 @@ def test_link_frames_and_capsules_against_pinocchio():
     of leg_capsules (the ones a coop_ga.sim scene gets), in W, for random configurations and body poses."""
     import pinocchio as pin
 
-    sysf = cg.systems.load("hexapod_floating")
+    sysf = cg.systems.load("hexapod", free_flyer=True)
     m, d = sysf.model, sysf.model.createData()
     caps = {c.frame: c for c in leg_capsules(L, sysf)}
     rng = np.random.default_rng(3)
     for _ in range(20):
         q = L.from_legs(rng.uniform(L.q_lower, L.q_upper))
         s = BodyState.from_rpy(rng.uniform(-0.2, 0.2, 3), rng.uniform(-0.3, 0.3, 3), q)
-        pin.framesForwardKinematics(m, d, s.floating_q())
+        pin.framesForwardKinematics(m, d, s.free_flyer_q())
         F = L.link_frames(q)
         a, b, rho = leg_segments(L, s.position, s.rotation, q)
         for i, leg in enumerate(L.legs):

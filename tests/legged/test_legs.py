@@ -92,14 +92,15 @@ def test_stand_pose_feet_height(legs, pin_ref):
     np.testing.assert_allclose(p, _pin_feet(pin_ref, legs.q_stand), atol=1e-15)
 
 
-def test_floating_system_gives_the_same_legs(legs):
-    if "hexapod_floating" not in systems.names():
-        pytest.skip("system 'hexapod_floating' is not registered")
-    fl = LegModel.from_system(systems.load("hexapod_floating"))
+def test_free_flyer_system_gives_the_same_legs(legs):
+    """The legs read from the free-flyer hexapod (nq = 25, nv = 24: its limits are in q̇ order) are the fixed
+    hexapod's, limits included."""
+    fl = LegModel.from_system(systems.load("hexapod", free_flyer=True))
     assert fl.legs == legs.legs
     np.testing.assert_array_equal(fl.q_index, legs.q_index)
-    np.testing.assert_array_equal(fl.model_q_index, legs.model_q_index + 6)  # after the 6 body joints
-    for a in ("mount_position", "mount_rotation", "femur_joint", "femur_link", "tibia_link", "q_lower", "q_upper"):
+    np.testing.assert_array_equal(fl.model_q_index, legs.model_q_index + 7)  # after position + quaternion
+    names = ("mount_position", "mount_rotation", "femur_joint", "femur_link", "tibia_link")
+    for a in (*names, "q_lower", "q_upper", "effort_limit", "velocity_limit"):
         np.testing.assert_allclose(getattr(fl, a), getattr(legs, a), atol=1e-15, err_msg=a)
 
 
@@ -470,27 +471,32 @@ def test_benchmark_ci_mode_runs_and_checks_its_routes(tmp_path):
 
 # ---------------------------------------------------------------------- optional physics check (item 8)
 def _floating():
-    if "hexapod_floating" not in systems.names():
-        pytest.skip("system 'hexapod_floating' is not registered")
-    return systems.load("hexapod_floating")
+    return systems.load("hexapod", free_flyer=True)
 
 
-def test_plan_to_floating_q_reproduces_the_body_pose():
+def test_plan_to_free_flyer_q_reproduces_the_body_pose():
+    """The plan's body pose (position, quaternion xyzw; a non-unit one normalised) is the free flyer's root pose
+    (Pinocchio FK against scipy's rotation matrix), legs in place."""
     from scipy.spatial.transform import Rotation
 
-    from coop_ga.legged.dynamics import plan_to_floating_q
+    from coop_ga.legged.dynamics import plan_to_free_flyer_q
 
     s = _floating()
     rng = np.random.default_rng(20)
     rot = Rotation.from_euler("ZYX", rng.uniform(-1.0, 1.0, (5, 3)))
-    body = np.concatenate([rng.uniform(-1, 1, (5, 3)), rot.as_quat()], axis=1)
-    q24 = plan_to_floating_q(np.zeros((5, 18)), body)
+    body = np.concatenate([rng.uniform(-1, 1, (5, 3)), 1.5 * rot.as_quat()], axis=1)
+    legs18 = rng.uniform(-0.5, 0.5, (5, 18))
+    q25 = plan_to_free_flyer_q(legs18, body)
+    assert q25.shape == (5, 25)
+    np.testing.assert_array_equal(q25[:, 7:], legs18)
     d = s.model.createData()
-    base = s.model.getJointId("body_rx")
+    base = s.model.getJointId("root_joint")
     for k in range(5):
-        pin.forwardKinematics(s.model, d, q24[k])
+        pin.forwardKinematics(s.model, d, q25[k])
         np.testing.assert_allclose(d.oMi[base].rotation, rot[k].as_matrix(), atol=1e-14)
         np.testing.assert_allclose(d.oMi[base].translation, body[k, :3], atol=1e-15)
+    with pytest.raises(InvalidInputError, match="sample 1 is zero"):
+        plan_to_free_flyer_q(legs18[:2], np.vstack([body[0], np.zeros(7)]))
 
 
 def _standing_plan(legs, s, T=16, duration=0.3):
@@ -552,6 +558,31 @@ def test_rollout_lift_and_place_one_leg(legs):
     assert r4.max_position_drift < r.max_position_drift / 3
 
 
+def test_rollout_free_fall_of_a_tilted_body(legs):
+    """No stance foot: the robot, held in its stand pose by the PD, falls under gravity from rest.  Semi-implicit
+    Euler gives the closed form z_n = z_0 − g h² n (n + 1) / 2 in the WORLD frame whatever the body's tilt (the
+    free flyer's velocity is local: a wrong frame would make a tilted body fall sideways); x, y, the rotation
+    and the legs stay put."""
+    from scipy.spatial.transform import Rotation
+
+    from coop_ga.legged.dynamics import RolloutOptions, contact_rollout
+
+    s = _floating()
+    T, h = 6, RolloutOptions().dt  # 0.2 ms (at 1 ms the light legs' explicit PD damping is unstable)
+    t = np.linspace(0.0, 0.05, T)
+    quat = Rotation.from_euler("ZYX", [0.7, 0.4, -0.5]).as_quat()
+    body = np.tile(np.concatenate([[0.1, -0.2, 0.5], quat]), (T, 1))
+    q = np.tile(legs.q_stand, (T, 1))
+    r = contact_rollout(t, q, body, np.zeros((T, 6), dtype=bool))
+    g = -float(s.model.gravity.linear[2])
+    n = np.round(t / h)
+    np.testing.assert_allclose(r.body[:, 2], 0.5 - g * h**2 * n * (n + 1) / 2, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(r.body[:, :2], body[:, :2], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(r.position_drift, g * h**2 * n * (n + 1) / 2, rtol=0, atol=1e-12)
+    assert r.rotation_drift.max() < 1e-12 and r.joint_error.max() < 1e-12
+    np.testing.assert_allclose(np.linalg.norm(r.body[:, 3:], axis=1), 1.0, atol=1e-15)
+
+
 def test_rollout_bad_plans():
     from coop_ga.legged.dynamics import RolloutOptions, contact_rollout
 
@@ -572,3 +603,5 @@ def test_rollout_bad_plans():
         contact_rollout(t, q, body, st, options={"kp": 1.0})
     with pytest.raises(InvalidInputError):
         contact_rollout(t, q, body, st, options=RolloutOptions(dt=0.0))
+    with pytest.raises(InvalidInputError, match=r"not a free-flyer body \+ 18 leg joints.*free_flyer=True"):
+        contact_rollout(t, q, body, st, system=systems.load("hexapod"))

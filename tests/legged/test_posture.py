@@ -227,7 +227,7 @@ def test_plane_tilt_in_its_own_frame():
 )
 def test_six_dof_with_pinocchio(ground, primitives):
     """(15, −10, 8) mm and roll 5°, pitch −5°, yaw 8° with four feet fixed: the body ends displaced by exactly M (in
-    its start frame), the stance feet stay within 1e-9 m — both from Pinocchio's FK of ``hexapod_floating``."""
+    its start frame), the stance feet stay within 1e-9 m — both from Pinocchio's FK of the free-flyer hexapod."""
     import pinocchio as pin
 
     import coop_ga as cg
@@ -236,13 +236,13 @@ def test_six_dof_with_pinocchio(ground, primitives):
     res = posture_to(s0, FOUR, MOTION, L, PostureOptions(gain=60.0, tol=1e-10, max_steps=200), primitives=primitives)
     assert res.converged, res.message
     assert res.primitives[-1].startswith("point_pair") and len(res.primitives) == len(primitives)
-    sysf = cg.systems.load("hexapod_floating")
+    sysf = cg.systems.load("hexapod", free_flyer=True)
     m, d = sysf.model, sysf.model.createData()
     fids = [m.getFrameId(f"{leg}_foot") for leg in FOUR]
     base = m.getFrameId("base_link")
 
     def fk(s: BodyState):
-        pin.framesForwardKinematics(m, d, s.floating_q())
+        pin.framesForwardKinematics(m, d, s.free_flyer_q())
         return d.oMf[base].copy(), np.array([d.oMf[f].translation for f in fids])
 
     B0, F0 = fk(s0)

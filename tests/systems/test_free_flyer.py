@@ -121,19 +121,24 @@ def test_from_urdf_with_its_free_flyer() -> None:
         systems.from_urdf(_g1_urdf(), ["left_rubber_hand"], free_flyer="yes")
 
 
-def test_hexapod_free_flyer_equals_the_virtual_joints() -> None:
-    from coop_ga.systems.library import hexapod_free_flyer
+def test_hexapod_free_flyer_is_the_fixed_hexapod_moved_by_the_body_pose() -> None:
+    """At random body poses (position, quaternion x y z w) and leg joints the free flyer's feet are the fixed
+    hexapod's feet moved by the pose (p + R f, R from scipy's quaternion); at q0 they stand on z = 0."""
+    from scipy.spatial.transform import Rotation
 
-    free, virtual = hexapod_free_flyer(), systems.load("hexapod_floating")
-    assert (free.nq, free.nv) == (25, 24)
-    np.testing.assert_allclose(free.end_points(free.q0), virtual.end_points(virtual.q0), atol=1e-12)
+    from coop_ga.systems.library import HEXAPOD_STAND_HEIGHT, hexapod_free_flyer
+
+    free, fixed = hexapod_free_flyer(), systems.load("hexapod")
+    assert (free.nq, free.nv) == (25, 24) and free.end_frames == fixed.end_frames
+    np.testing.assert_allclose(free.end_points(free.q0)[:, 2], 0.0, atol=1e-12)
+    assert free.q0[2] == HEXAPOD_STAND_HEIGHT
     rng = np.random.default_rng(2)
     for _ in range(10):
-        qv = virtual.random_q(rng, scale=0.3)
-        x, y, z, yaw, pitch, roll = qv[:6]
-        R = pin.utils.rotate("z", yaw) @ pin.utils.rotate("y", pitch) @ pin.utils.rotate("x", roll)
-        qf = np.concatenate([[x, y, z], pin.Quaternion(R).coeffs(), qv[6:]])  # coeffs: x y z w
-        np.testing.assert_allclose(free.end_points(qf), virtual.end_points(qv), atol=1e-12)
+        legs = fixed.random_q(rng, scale=0.3)
+        p, quat = rng.uniform(-2.0, 2.0, 3), Rotation.random(random_state=rng).as_quat()  # x y z w
+        qf = np.concatenate([p, quat, legs])
+        expected = fixed.end_points(legs) @ Rotation.from_quat(quat).as_matrix().T + p
+        np.testing.assert_allclose(free.end_points(qf), expected, atol=1e-12)
 
 
 def test_registry_loads_the_free_flyer_variants() -> None:

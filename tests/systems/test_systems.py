@@ -37,7 +37,6 @@ TABLE = {
     "three_finger_hand": (12, 3),
     "allegro": (16, 4),
     "hexapod": (18, 6),
-    "hexapod_floating": (24, 6),
 }
 
 
