@@ -419,13 +419,13 @@ def scene_png(exp: Any, legs: Any, states: list[Any], prims: list[Any], ends: li
     import coop_ga as cg
     from coop_ga import viz
     from coop_ga.geometry import center, radius
-    from coop_ga.legged.body import floating_hexapod
+    from coop_ga.legged.body import free_flyer_hexapod
 
-    floating = floating_hexapod()
+    floating = free_flyer_hexapod()
     scene = viz.Scene()
     k6 = ends[1 + [p[0] for p in PHASES].index("six_dof")]
-    scene.robot(floating, states[0].floating_q(), "initial", "t = 0")
-    scene.robot(floating, states[k6].floating_q(), "final", "after the 6-DOF motion")
+    scene.robot(floating, states[0].free_flyer_q(), "initial", "t = 0")
+    scene.robot(floating, states[k6].free_flyer_q(), "final", "after the 6-DOF motion")
     colors = {"sphere": "#d95f02", "circle": "#1f78b4", "point_pair": "#33a02c"}
     for kind, X, lg in prims:
         label = f"{kind.replace('_', ' ')} of {', '.join(lg)}"

@@ -77,12 +77,12 @@ def _terrain_curves(terrain: Any, x0: float, x1: float, y_side: float) -> list[n
     return out
 
 
-def _skeleton(system: Any, q24: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
+def _skeleton(system: Any, q25: np.ndarray) -> tuple[np.ndarray, list[np.ndarray]]:
     """Body hexagon (7, 3) and six leg polylines (4, 3) (coxa, femur, tibia joints, foot) in W."""
     import pinocchio as pin
 
     m, d = system.model, system.model.createData()
-    pin.framesForwardKinematics(m, d, q24)
+    pin.framesForwardKinematics(m, d, q25)
     legs = []
     for leg in ("lf", "lm", "lr", "rf", "rm", "rr"):
         pts = [np.array(d.oMi[m.getJointId(f"{leg}_{j}_joint")].translation) for j in ("coxa", "femur", "tibia")]
@@ -236,14 +236,14 @@ def scene_png(exp: Any, args: Any, res: Any, terrain: Any) -> float:
     """scene.png (module docstring); returns the x where the terrain drawing starts."""
     import coop_ga as cg
     from coop_ga import viz
-    from coop_ga.legged.body import floating_hexapod
+    from coop_ga.legged.body import free_flyer_hexapod
 
-    system = floating_hexapod()
+    system = free_flyer_hexapod()
     k_mid = int(np.argmin(np.abs(res.t - 0.6 * res.t[-1])))
     scene = viz.Scene()
     s0, s1 = res.state(0), res.state(k_mid)
-    scene.robot(system, s0.floating_q(), "initial", label="start")
-    scene.robot(system, s1.floating_q(), "final", label=f"t = {res.t[k_mid]:.2f} s")
+    scene.robot(system, s0.free_flyer_q(), "initial", label="start")
+    scene.robot(system, s1.free_flyer_q(), "final", label=f"t = {res.t[k_mid]:.2f} s")
     for k, role in ((0, "initial"), (k_mid, "final")):
         st = res.stance[k]
         P = _support_polygon(res.contacts[k][st])
@@ -300,10 +300,10 @@ def gif(exp: Any, args: Any, res: Any, terrain: Any, frames: int, x0: float) -> 
     """walk.gif (matplotlib): the skeleton, stance legs red, the support polygon, the COM's projection."""
     from matplotlib.animation import PillowWriter
 
-    from coop_ga.legged.body import floating_hexapod
+    from coop_ga.legged.body import free_flyer_hexapod
 
     plt = exp.pyplot()
-    system = floating_hexapod()
+    system = free_flyer_hexapod()
     T = len(res.t)
     idx = np.unique(np.linspace(0, T - 1, frames).round().astype(int))
     fig = plt.figure(figsize=(5.6, 4.2))
@@ -317,7 +317,7 @@ def gif(exp: Any, args: Any, res: Any, terrain: Any, frames: int, x0: float) -> 
         for k in idx:
             ax3.cla()
             ax3.plot_surface(GX, GY, GZ, color="0.85", alpha=0.5, linewidth=0, shade=False)
-            ring, leg_lines = _skeleton(system, res.state(int(k)).floating_q())
+            ring, leg_lines = _skeleton(system, res.state(int(k)).free_flyer_q())
             ax3.plot(*ring.T, color="0.2", lw=2.2)
             for i, L in enumerate(leg_lines):
                 ax3.plot(*L.T, color="C3" if res.stance[k, i] else "C0", lw=2.0)

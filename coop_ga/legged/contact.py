@@ -130,7 +130,7 @@ def _link_vertices(system: Any, link_meshes: Any) -> dict[str, np.ndarray]:
 
 def leg_capsules(legs: LegModel, system: Any = None) -> tuple[Capsule, ...]:
     """The robot's collision capsules with the planner's contact model: :func:`coop_ga.collision.fit_capsules`
-    of ``system`` (default ``legs.system``; e.g. ``hexapod_floating`` for a simulation) with every tibia
+    of ``system`` (default ``legs.system``; e.g. ``load("hexapod", free_flyer=True)``) with every tibia
     capsule replaced by the shin (:func:`shin_capsule`) and a foot ball (a capsule of length 0, radius
     ``legs.foot_radius``) on every ``{leg}_foot`` frame.  For ``coop_ga.sim.build_scene(system,
     capsules=leg_capsules(legs, system))``: the ground then touches the balls, where the planner's feet are.

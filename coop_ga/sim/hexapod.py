@@ -4,9 +4,10 @@ foot contact sensors and an IMU.
 :func:`hexapod_scene` builds the MuJoCo scene of the registered ``hexapod`` system (18 leg joints, body frame
 B = ``base_link``) with ``floating_base=True``: the body is a free body (``base_link_free``, a MuJoCo
 ``freejoint``) carrying ``base_link``'s inertia, so the robot stands on its feet, can be pushed and can fall.
-The same robot as the registered ``hexapod_floating`` (whose six virtual joints x, y, z, yaw, pitch, roll are
-here the free joint): ``tests/sim/test_hexapod.py`` checks the feet and the body against Pinocchio's FK of
-``hexapod_floating`` at random poses.
+The same robot as the floating hexapod ``load("hexapod", free_flyer=True)`` (Pinocchio's free flyer is here the
+free joint: qpos (position, quaternion w x y z) ↔ q (position, quaternion x y z w); qvel [world linear velocity,
+local angular velocity] ↔ v [local linear, local angular]): ``tests/sim/test_hexapod.py`` checks the feet, the
+body, the feet's velocities and the mass matrix against Pinocchio's at random poses.
 
 Collision geometry (what the robot touches the world with)
 ----------------------------------------------------------

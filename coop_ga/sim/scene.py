@@ -9,8 +9,8 @@ it) or combined from several robots (``pinocchio.appendModel``, prefixed names) 
   relative to its parent's body, carrying the joint (``hinge`` for a revolute, ``slide`` for a
   prismatic joint, same axis) and the joint's inertia ``model.inertias[j]`` (mass, centre of mass,
   full rotational inertia, given to MuJoCo as its principal axes and moments).  MuJoCo refuses a
-  moving body without mass, so a massless joint body with exactly one child joint (the virtual
-  joints of ``hexapod_floating``) is merged with that child into one MuJoCo body that carries both
+  moving body without mass, so a massless joint body with exactly one child joint (e.g. a chain of
+  virtual joints built in code) is merged with that child into one MuJoCo body that carries both
   joints in order (MuJoCo applies a body's joints one after the other, each in the frame moved by
   the previous ones; the child joint sits at its placement in that frame), which is the same
   kinematics.  Joint names are Pinocchio's;

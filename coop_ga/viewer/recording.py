@@ -10,11 +10,14 @@
   :attr:`Recording.alternatives`); the time from ``t`` or ``<prefix>_t`` of the same length, else
   ``metrics['dt_s']`` (else 0.01 s, Eq 61) per row; a target similarity from ``target_versor`` /
   ``target`` of 12 coefficients, a target point from a ``target`` of 3.  Special layouts: the hexapod's
-  ``q`` (T, 18) with ``body`` (T, 7) (position, quaternion xyzw) is played on ``hexapod_floating``
-  (``[x, y, z, yaw, pitch, roll, q_legs]``); ``arm_q_*`` of ``potential_field`` on the ``arm5`` URDF;
+  ``q`` (T, 18) with ``body`` (T, 7) (position, unit quaternion xyzw) is played on the floating hexapod
+  ``load("hexapod", free_flyer=True)`` (q = ``[body, q_legs]`` (T, 25), the quaternion as it is);
+  ``arm_q_*`` of ``potential_field`` on the ``arm5`` URDF;
 * **a physics log** of :mod:`coop_ga.sim` (a folder, or its ``log.npz``, with ``model.xml`` and
   ``metrics.json``): q = ``qpos[:, qpos_index]`` on the system named in ``metrics.json``; a floating base
-  (a free joint whose body is not an object) poses the robot's root; each free object
+  (a free joint whose body is not an object) poses the robot's root (:attr:`Recording.base`) — for the
+  ``hexapod`` it is the body of the floating hexapod instead: q = ``[position, quaternion xyzw, legs]`` (T, 25)
+  on ``load("hexapod", free_flyer=True)``, no base; each free object
   (``object_bodies``) is read from ``model.xml`` as its geoms (box, sphere, cylinder, capsule sizes and
   colours) and posed per frame by MuJoCo's forward kinematics (needs ``mujoco``: the ``sim`` extra).
 """
@@ -214,18 +217,23 @@ def _target_point(data: dict[str, np.ndarray]) -> np.ndarray | None:
 
 
 def _hexapod(p: Path, data: dict[str, np.ndarray], metrics: dict[str, Any]) -> Recording:
-    """``q`` (T, 18) legs + ``body`` (T, 7) → ``hexapod_floating`` q (T, 24)."""
-    from scipy.spatial.transform import Rotation
-
-    from ..legged.body import floating_hexapod, rpy_from_rotation
-
+    """``q`` (T, 18) legs + ``body`` (T, 7) → the floating hexapod's q (T, 25) = ``[body, legs]``."""
     legs, body = validation.array(data["q"], "q"), validation.array(data["body"], "body")
     if body.shape != (len(legs), 7):
         raise InvalidInputError(f"{p}: body must be (T, 7) = position + quaternion xyzw, got {body.shape}")
-    R = Rotation.from_quat(body[:, 3:]).as_matrix()
-    rpy = np.array([rpy_from_rotation(Ri) for Ri in R])
-    Q = np.hstack([body[:, :3], rpy[:, ::-1], legs])  # [x, y, z, yaw, pitch, roll, legs]
-    return Recording(floating_hexapod(), Q, _time(data, "q", len(Q), metrics), source=str(p), key="q")
+    return _free_flyer_hexapod(p, body, legs, _time(data, "q", len(legs), metrics))
+
+
+def _free_flyer_hexapod(p: Path | str, body: np.ndarray, legs: np.ndarray, t: np.ndarray, **kw: Any) -> Recording:
+    """The recording of body poses (T, 7) (position, quaternion xyzw) and legs (T, 18) on the floating hexapod;
+    a quaternion that is not unit raises :class:`InvalidInputError` naming the frame."""
+    from .. import systems
+
+    ff = systems.load("hexapod", free_flyer=True)
+    Q = np.hstack([body, legs])
+    for k, row in enumerate(Q):
+        ff.check_quaternions(row, f"{p}: body pose of frame {k}")
+    return Recording(ff, Q, t, source=str(p), **kw)
 
 
 def _arm5() -> Any:
@@ -262,7 +270,20 @@ def _physics(p: Path, data: dict[str, np.ndarray], metrics: dict[str, Any], syst
     base = _base(mj, model, poses, objects)
     t = data.get("time")
     t = np.asarray(t, float) if t is not None and t.shape == (len(qpos),) else DEFAULT_DT * np.arange(len(qpos))
-    return Recording(sys_, qpos[:, idx], t, base=base, bodies=bodies, source=str(p.parent), key="qpos")
+    if base is not None and sys_ is _system("hexapod"):  # the body on the floating hexapod's free flyer
+        pos, wxyz = base
+        return _free_flyer_hexapod(
+            p.parent, np.hstack([pos, wxyz[:, [1, 2, 3, 0]]]), qpos[:, idx], t, bodies=bodies, key="qpos"
+        )
+    return Recording(
+        sys_,
+        qpos[:, idx],
+        t,
+        base=None if base is None else _matrices(*base),
+        bodies=bodies,
+        source=str(p.parent),
+        key="qpos",
+    )
 
 
 def _body_poses(mj: Any, model: Any, qpos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -295,19 +316,26 @@ def _shapes(mj: Any, model: Any, body: int) -> list[BodyShape]:
     return out
 
 
-def _base(mj: Any, model: Any, poses: tuple[np.ndarray, np.ndarray], objects: list[str]) -> np.ndarray | None:
-    """World poses (T, 4, 4) of a floating robot base (a free joint on a body that is not an object)."""
-    from scipy.spatial.transform import Rotation
-
+def _base(
+    mj: Any, model: Any, poses: tuple[np.ndarray, np.ndarray], objects: list[str]
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """World positions (T, 3) and quaternions (T, 4) wxyz of a floating robot base (a free joint on a body that is
+    not an object), or None."""
     for j in range(model.njnt):
         if int(model.jnt_type[j]) != int(mj.mjtJoint.mjJNT_FREE):
             continue
         b = int(model.jnt_bodyid[j])
         if mj.mj_id2name(model, mj.mjtObj.mjOBJ_BODY, b) in objects:
             continue
-        P, Qt = poses[0][:, b], poses[1][:, b]
-        M = np.tile(np.eye(4), (len(P), 1, 1))
-        M[:, :3, :3] = Rotation.from_quat(Qt[:, [1, 2, 3, 0]]).as_matrix()
-        M[:, :3, 3] = P
-        return M
+        return poses[0][:, b], poses[1][:, b]
     return None
+
+
+def _matrices(P: np.ndarray, wxyz: np.ndarray) -> np.ndarray:
+    """Poses (T, 4, 4) of positions (T, 3) and quaternions (T, 4) wxyz."""
+    from scipy.spatial.transform import Rotation
+
+    M = np.tile(np.eye(4), (len(P), 1, 1))
+    M[:, :3, :3] = Rotation.from_quat(wxyz[:, [1, 2, 3, 0]]).as_matrix()
+    M[:, :3, 3] = P
+    return M

@@ -1,4 +1,4 @@
-"""The hexapod's MuJoCo scene: the gate against Pinocchio (hexapod_floating), terrain heights against Terrain,
+"""The hexapod's MuJoCo scene: the gate against Pinocchio (the free-flyer hexapod), terrain heights against Terrain,
 the planner's leg capsules, sensors and servo damping, bad input."""
 
 from __future__ import annotations
@@ -30,35 +30,72 @@ def scene(kind: str = "flat"):
     return _SCENES[kind]
 
 
-def test_feet_and_body_equal_pinocchio_fk_of_hexapod_floating() -> None:
-    """The gate: at random body poses and in-limit leg joints the MuJoCo feet and body equal Pinocchio's FK of the
-    registered hexapod_floating (its six virtual joints are the free joint here)."""
+def _free_flyer_qpos(hs, data, q25: np.ndarray) -> None:
+    """The free-flyer hexapod's q (25,) = [position, quaternion x y z w, legs] written into MuJoCo's qpos: the
+    free joint holds position then quaternion w x y z, the legs go to their qpos addresses."""
+    a = hs.scene.base_qpos
+    data.qpos[a : a + 3] = q25[:3]
+    data.qpos[a + 3 : a + 7] = q25[[6, 3, 4, 5]]
+    data.qpos[hs.scene.qpos_index] = q25[7:]
+
+
+def _velocity_map(hs, R: np.ndarray) -> np.ndarray:
+    """S (nv_mj, 24) with MuJoCo's qvel = S v for the free flyer's v = [v_local, ω_local, q̇_legs]: the free joint's
+    qvel is [world linear velocity of the body origin (R v_local), local angular velocity (ω)]."""
+    b = hs.scene.base_qvel
+    S = np.zeros((hs.model.nv, 24))
+    S[b : b + 3, 0:3] = R
+    S[b + 3 : b + 6, 3:6] = np.eye(3)
+    S[hs.scene.qvel_index, 6 + np.arange(18)] = 1.0
+    return S
+
+
+def test_feet_body_and_mass_matrix_equal_pinocchio_of_the_free_flyer() -> None:
+    """The gate: at random body poses and in-limit leg joints the MuJoCo feet, body and foot velocities equal
+    Pinocchio's of the free-flyer hexapod (load("hexapod", free_flyer=True)), and so does the mass matrix after the
+    velocity map: M_pin = Sᵀ M_mj S (_velocity_map)."""
     hs = scene()
-    fl = systems.load("hexapod_floating")
-    m, d = fl.model, fl.model.createData()
+    ff = systems.load("hexapod", free_flyer=True)
+    m, d = ff.model, ff.model.createData()
     legs = hexapod_legs()
     rng = np.random.default_rng(3)
     data = mujoco.MjData(hs.model)
-    err_feet = err_body = 0.0
+    err_feet = err_body = err_vel = err_M = 0.0
     for _ in range(25):
         q = np.empty(18)
         q[legs.q_index.ravel()] = rng.uniform(legs.q_lower, legs.q_upper).ravel()
         state = BodyState.from_rpy(rng.uniform(-1, 1, 3), rng.uniform(-0.6, 0.6, 3), q)
-        q24 = state.floating_q()
-        pin.framesForwardKinematics(m, d, q24)
-        hs.scene.set_q(data, q)
-        hs.scene.set_base_pose(data, state.position, np.roll(state.quaternion_xyzw(), 1))
-        mujoco.mj_kinematics(hs.model, data)
+        q25 = state.free_flyer_q()
+        v = rng.normal(size=24)
+        pin.forwardKinematics(m, d, q25, v)
+        pin.updateFramePlacements(m, d)
+        M_pin = pin.crba(m, d, q25)
+        M_pin = np.triu(M_pin) + np.triu(M_pin, 1).T  # crba fills the upper triangle
+        _free_flyer_qpos(hs, data, q25)
+        S = _velocity_map(hs, state.rotation)
+        data.qvel[:] = S @ v
+        mujoco.mj_forward(hs.model, data)
+        M_mj = np.zeros((hs.model.nv, hs.model.nv))
+        mujoco.mj_fullM(hs.model, data, M_mj)  # this MuJoCo: mj_fullM(model, data, dst)
+        err_M = max(err_M, float(np.abs(S.T @ M_mj @ S - M_pin).max() / np.abs(M_pin).max()))
+        vel6 = np.zeros(6)
         for i, leg in enumerate(HEXAPOD_LEGS):
-            err_feet = max(
-                err_feet,
-                float(np.abs(data.site_xpos[hs.foot_sites[i]] - d.oMf[m.getFrameId(f"{leg}_foot")].translation).max()),
-            )
+            f = m.getFrameId(f"{leg}_foot")
+            err_feet = max(err_feet, float(np.abs(data.site_xpos[hs.foot_sites[i]] - d.oMf[f].translation).max()))
+            mujoco.mj_objectVelocity(hs.model, data, mujoco.mjtObj.mjOBJ_SITE, hs.foot_sites[i], vel6, 0)
+            v_pin = pin.getFrameVelocity(m, d, f, pin.LOCAL_WORLD_ALIGNED).linear
+            err_vel = max(err_vel, float(np.abs(vel6[3:] - v_pin).max()))
         b = hs.scene.id_of("body", hs.scene.base_body)
         M = d.oMf[m.getFrameId("base_link")]
         err_body = max(err_body, float(np.abs(data.xpos[b] - M.translation).max()))
         err_body = max(err_body, float(np.abs(data.xmat[b].reshape(3, 3) - M.rotation).max()))
-    assert err_feet < 1e-9 and err_body < 1e-9, (err_feet, err_body)
+        # set_base_pose takes the same quaternion in MuJoCo's order
+        d2 = mujoco.MjData(hs.model)
+        hs.scene.set_q(d2, q)
+        hs.scene.set_base_pose(d2, state.position, np.roll(state.quaternion_xyzw(), 1))
+        np.testing.assert_allclose(d2.qpos, data.qpos, rtol=0, atol=1e-15)
+    assert err_feet < 1e-9 and err_body < 1e-9 and err_vel < 1e-9, (err_feet, err_body, err_vel)
+    assert err_M < 1e-8, err_M
 
 
 @pytest.mark.parametrize("kind", ["flat", "slope", "steps", "random"])

@@ -3,6 +3,7 @@ and the errors for bad input."""
 
 from __future__ import annotations
 
+import math
 import re
 
 import numpy as np
@@ -130,11 +131,13 @@ def test_limits_dynamics_and_motors() -> None:
 
 
 def test_unbounded_effort_gives_an_unlimited_motor() -> None:
-    s = systems.load("hexapod_floating")
+    lf = ("lf_coxa_joint", "lf_femur_joint", "lf_tibia_joint")
+    s = systems.load("hexapod").with_limits(effort=dict.fromkeys(lf, math.inf))
     sc = build_scene(s, visuals=False, collision=False)
-    virtual = sc.actuator_index[:6]
-    assert not np.any(sc.model.actuator_ctrllimited[virtual]) and np.all(
-        sc.model.actuator_ctrllimited[sc.actuator_index[6:]]
+    unbounded = [s.joint_names.index(j) for j in lf]
+    bounded = np.setdiff1d(np.arange(s.nv), unbounded)
+    assert not np.any(sc.model.actuator_ctrllimited[sc.actuator_index[unbounded]]) and np.all(
+        sc.model.actuator_ctrllimited[sc.actuator_index[bounded]]
     )
 
 
@@ -273,8 +276,12 @@ def test_floating_base_kinematics_and_fall(load_system) -> None:
 
 
 def test_floating_base_needs_mass(load_system) -> None:
+    m = pin.Model()  # a massless world-fixed part: a joint on the universe and nothing fixed to it
+    j = m.addJoint(0, pin.JointModelRZ(), pin.SE3.Identity(), "j")
+    m.appendBodyToJoint(j, pin.Inertia.FromSphere(1.0, 0.1), pin.SE3.Identity())
+    m.addFrame(pin.Frame("tip", j, m.addJointFrame(j), pin.SE3.Identity(), pin.FrameType.OP_FRAME))
     with pytest.raises(InvalidInputError, match="no mass"):
-        build_scene(load_system("hexapod_floating"), floating_base=True, visuals=False)
+        build_scene(systems.from_model(m, ["tip"], name="massless_base"), floating_base=True, collision=False)
     fixed = build_scene(load_system("hexapod"), visuals=False)
     with pytest.raises(InvalidInputError, match="floating_base=True"):
         fixed.set_base_pose(fixed.make_data(), (0, 0, 1))

@@ -79,8 +79,9 @@ def test_trajectory_keys_filter_by_name_shape_and_columns():
 
 
 def test_hexapod_layout_plays_on_the_floating_hexapod(tmp_path, load_system, rng):
-    """q (T, 18) + body (T, 7) (position, quaternion xyzw) → hexapod_floating: its feet are the fixed hexapod's
-    feet moved by the body pose."""
+    """q (T, 18) + body (T, 7) (position, quaternion xyzw) → the free-flyer hexapod, q = [body, legs] (the
+    quaternion as it is): its feet are the fixed hexapod's feet moved by the body pose; a non-unit quaternion is
+    refused."""
     from scipy.spatial.transform import Rotation
 
     fixed = load_system("hexapod")
@@ -88,11 +89,15 @@ def test_hexapod_layout_plays_on_the_floating_hexapod(tmp_path, load_system, rng
     rot = Rotation.from_euler("zyx", [[0.3, 0.1, -0.2], [0.0, 0.0, 0.0], [-0.5, 0.2, 0.1]])
     body = np.hstack([[[0.1, 0.0, 0.12], [0.0, 0.0, 0.1], [0.2, -0.1, 0.15]], rot.as_quat()])
     rec = load_recording(_write(tmp_path, q=legs, body=body, t=np.arange(3.0)))
-    assert rec.system.name == "hexapod_floating" and rec.q.shape == (3, 24)
+    assert rec.system is cg.systems.load("hexapod", free_flyer=True) and rec.q.shape == (3, 25)
+    np.testing.assert_array_equal(rec.q, np.hstack([body, legs]))
     for k in range(3):
         feet = rec.system.end_points(rec.q[k])
         expected = fixed.end_points(legs[k]) @ rot[k].as_matrix().T + body[k, :3]
         assert np.allclose(feet, expected, atol=1e-12)
+    body[1, 3:] *= 1.1
+    with pytest.raises(cg.InvalidInputError, match=r"frame 1.*norm 1\.1"):
+        load_recording(_write(tmp_path / "bad", q=legs, body=body, t=np.arange(3.0)))
 
 
 def test_errors_name_the_problem(tmp_path, load_system):
@@ -136,8 +141,9 @@ def test_physics_log(tmp_path, load_system):
 
 
 def test_physics_log_with_a_floating_base(tmp_path, load_system):
-    """A floating hexapod: the base pose comes from its free joint; the feet drawn (system FK moved by the base)
-    are MuJoCo's foot sites of the logged states."""
+    """A floating hexapod: played on the free-flyer hexapod, its body pose from the free joint (MuJoCo's w x y z
+    → x y z w); the feet drawn (free-flyer FK) are MuJoCo's foot sites of the logged states.  Another system
+    with a floating base keeps its base poses (Recording.base)."""
     mujoco = pytest.importorskip("mujoco")
     from coop_ga.sim import Simulation, build_scene
 
@@ -146,13 +152,29 @@ def test_physics_log_with_a_floating_base(tmp_path, load_system):
     sim = Simulation(scene, base_pose=((0.0, 0.0, 0.3), (np.cos(0.2), 0.0, 0.0, np.sin(0.2))))
     log = sim.run(0.03)
     rec = load_recording(log.save(tmp_path / "run"))
-    assert rec.base is not None and rec.base.shape == (len(log.time), 4, 4)
+    assert rec.base is None and rec.system is cg.systems.load("hexapod", free_flyer=True)
+    assert rec.q.shape == (len(log.time), 25) and rec.key == "qpos"
+    np.testing.assert_array_equal(rec.q[:, 7:], log.q)
     model = mujoco.MjModel.from_xml_string((tmp_path / "run" / "model.xml").read_text())
     data = mujoco.MjData(model)
     for k in (0, len(log.time) - 1):
         data.qpos[:] = log.qpos[k]
         mujoco.mj_kinematics(model, data)
         sites = np.array([data.site_xpos[i] for i in scene.site_ids])
-        B = rec.base[k]
-        feet = s.end_points(rec.q[k]) @ B[:3, :3].T + B[:3, 3]
-        assert np.allclose(feet, sites, atol=1e-9)
+        assert np.allclose(rec.system.end_points(rec.q[k]), sites, atol=1e-9)
+    a = scene.base_qpos
+    np.testing.assert_allclose(rec.q[0, :7], log.qpos[0, [a, a + 1, a + 2, a + 4, a + 5, a + 6, a + 3]], atol=1e-15)
+    # a floating base of another system: its root's world poses
+    arm = load_system("three_iiwa14")
+    scene = build_scene(arm, floor=None, visuals=False, collision=False, floating_base=True)
+    log = Simulation(scene, base_pose=((0.0, 0.0, 0.3), (1.0, 0.0, 0.0, 0.0))).run(0.01)
+    rec = load_recording(log.save(tmp_path / "arm"))
+    assert rec.system is arm and rec.base is not None and rec.base.shape == (len(log.time), 4, 4)
+    model = mujoco.MjModel.from_xml_string((tmp_path / "arm" / "model.xml").read_text())
+    data = mujoco.MjData(model)
+    k = len(log.time) - 1
+    data.qpos[:] = log.qpos[k]
+    mujoco.mj_kinematics(model, data)
+    B = rec.base[k]
+    feet = arm.end_points(rec.q[k]) @ B[:3, :3].T + B[:3, 3]
+    assert np.allclose(feet, [data.site_xpos[i] for i in scene.site_ids], atol=1e-9)
