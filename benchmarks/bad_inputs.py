@@ -752,7 +752,8 @@ def _legged_body(b: Builder) -> None:
     b.add("BodyState.from_rpy", "rpy", "inf", G.BodyState.from_rpy, [0, 0, 0], [0, INF, 0], q18)
     b.add("BodyState.from_quaternion", "quaternion", "zero", G.BodyState.from_quaternion, [0, 0, 0], [0] * 4, q18)
     b.add("BodyState.from_quaternion", "quaternion", "NaN", G.BodyState.from_quaternion, [0, 0, 0], [NAN, 0, 0, 1], q18)
-    b.add("BodyState.from_floating_q", "q", "23 entries", G.BodyState.from_floating_q, [0.0] * 23)
+    b.add("BodyState.from_free_flyer_q", "q", "24 entries", G.BodyState.from_free_flyer_q, [0.0] * 24)
+    b.add("BodyState.from_free_flyer_q", "q", "zero quaternion", G.BodyState.from_free_flyer_q, [0.0] * 25)
     st = lambda name: lazy(lambda fx: getattr(fx.state, name))  # noqa: E731
     b.add("BodyState.moved", "dt", "NaN", st("moved"), [0.1, 0, 0], [0, 0, 0], NAN)
     b.add("BodyState.moved", "dt", "a string", st("moved"), [0.1, 0, 0], [0, 0, 0], "0.1")
@@ -1052,12 +1053,19 @@ def _legged_dynamics(b: Builder) -> None:
         b.cases.append(Case("legged", "contact_rollout", arg, bad, rollout(**{arg: v})))
     b.cases.append(Case("legged", "contact_rollout", "options", "a dict", rollout(options={"dt": 1e-3})))
     b.cases.append(Case("legged", "contact_rollout", "dt", "1e-12 s", rollout(options=G.RolloutOptions(dt=1e-12))))
-    b.add("plan_to_floating_q", "body", "zero quaternion", Dy.plan_to_floating_q, np_.zeros((2, 18)), np_.zeros((2, 7)))
     b.add(
-        "plan_to_floating_q",
+        "plan_to_free_flyer_q",
+        "body",
+        "zero quaternion",
+        Dy.plan_to_free_flyer_q,
+        np_.zeros((2, 18)),
+        np_.zeros((2, 7)),
+    )
+    b.add(
+        "plan_to_free_flyer_q",
         "q",
         "NaN",
-        Dy.plan_to_floating_q,
+        Dy.plan_to_free_flyer_q,
         np_.full((2, 18), NAN),
         np_.tile([0, 0, 0, 0, 0, 0, 1.0], (2, 1)),
     )

@@ -1,4 +1,4 @@
-"""The floating body of the hexapod: its pose as an SE(3) motor, the world feet, the floating system.
+"""The floating body of the hexapod: its pose as an SE(3) motor, the world feet, the free-flyer system.
 
 A :class:`BodyState` is the whole robot's configuration: the body pose (position in W, rotation
 W←B) and the 18 leg joints (URDF order, :data:`coop_ga.legged.legs.LEGS`).  The body pose is the

@@ -252,7 +252,8 @@ class LegModel:
         velocity_limit: (6, 3) [rad/s].
         joint_names: per leg the three joint names.
         model_q_index: (6, 3) int, the same joints' indices in the system's full q (= ``q_index`` for the
-            fixed-base hexapod; offset by the body joints of a floating-base model).
+            fixed-base hexapod; offset by 7, the position and quaternion, on the free-flyer hexapod, whose
+            velocities are offset by 6: the limits, read from ``system.limits``, are in q̇ order).
         end_frame_index: (6,) int, index of each leg's ``{leg}_foot`` in ``system.end_frames`` (−1 if not
             an end frame): the system orders its feet as two tripods, this package as :data:`LEGS`.
         mount_position: (6, 3) coxa joint origin in B [m].

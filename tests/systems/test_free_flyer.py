@@ -141,6 +141,33 @@ def test_hexapod_free_flyer_is_the_fixed_hexapod_moved_by_the_body_pose() -> Non
         np.testing.assert_allclose(free.end_points(qf), expected, atol=1e-12)
 
 
+def test_hexapod_free_flyer_reaches_a_far_target_by_flying() -> None:
+    """What a kinematic free flyer tells: the circle of three feet moved 3 m (1.65 m of it up) is reached —
+    converged, and the feet lie on the target circle by Pinocchio's FK — by lifting the whole robot off the ground
+    (the virtual body joints did the same within their ±100 m).  Nothing keeps a foot on the ground here."""
+    import warnings
+
+    from coop_ga import cooperative_task
+    from coop_ga.control import displaced_target, gauss_newton_ik
+    from coop_ga.control.ilqr.reachability import unit_distance
+
+    s = systems.load("hexapod", free_flyer=True)
+    task = cooperative_task(s, "circle")
+    target = displaced_target(task, s.q0, translation=(0.5, -2.45, 1.65))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # degeneracy warnings of trial points far away
+        res = gauss_newton_ik(task, s.q0, target)
+    assert res.converged and res.error < 1e-9
+    d = s.model.createData()
+    pin.framesForwardKinematics(s.model, d, res.q)
+    t, R, sc = target.translation, target.rotation_matrix, target.scale
+    for f in task.end_frames:
+        p = d.oMf[s.model.getFrameId(f)].translation
+        assert sc * unit_distance("circle", R.T @ (p - t) / sc) < 1e-9
+    feet_z = np.array([d.oMf[s.model.getFrameId(f)].translation[2] for f in s.end_frames])
+    assert res.q[2] - s.q0[2] > 1.5 and feet_z.min() > 1.4  # the body flew up, every foot in the air
+
+
 def test_registry_loads_the_free_flyer_variants() -> None:
     from coop_ga.errors import UnsupportedJointError
 
