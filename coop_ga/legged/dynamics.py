@@ -210,7 +210,7 @@ def plan_to_free_flyer_q(q: Any, body: Any) -> np.ndarray:
 
 def _body_twists(tt: np.ndarray, Qp: np.ndarray) -> np.ndarray:
     """The plan's body twists (T, 6) ``[v, ω]`` in the body frame [m/s, rad/s] (the free flyer's velocity): the
-    SE(3) log of each step (``pinocchio.difference``) divided by its duration, combined like ``np.gradient``
+    SE(3) log of each step (what ``pinocchio.difference`` gives on a free flyer) divided by its duration, combined like ``np.gradient``
     (one-sided at the ends, the weighted mean of the two neighbouring steps inside)."""
     import pinocchio as pin
 
@@ -257,7 +257,7 @@ class _Rollout:
         nv = model.nv
         self.n_legs_q = legs.nq
         leg_idx = np.asarray(legs.q_index).ravel()  # the leg joints (LEGS order, coxa/femur/tibia) in the 18-vector
-        jid = [int(j) for j in np.asarray(legs._joint_ids).ravel()]
+        jid = [int(model.getJointId(name)) for names in legs.joint_names for name in names]
         # 18-vector entry k ↔ model coordinate leg_q[k] of q (25,) and leg_v[k] of q̇ (24,)
         self.leg_q, self.leg_v = np.empty(legs.nq, dtype=int), np.empty(legs.nq, dtype=int)
         self.leg_q[leg_idx] = [int(model.idx_qs[j]) for j in jid]
@@ -269,7 +269,8 @@ class _Rollout:
         self.Qp[:, self.leg_q] = self.qq
         self.Vp = np.zeros((self.tt.size, nv))
         self.Vp[:, :6] = _body_twists(self.tt, self.Qp)
-        self.Vp[:, self.leg_v] = np.gradient(self.qq, self.tt, axis=0)
+        self.vq = np.gradient(self.qq, self.tt, axis=0)  # the legs' planned rates (T, 18)
+        self.Vp[:, self.leg_v] = self.vq
 
         self.foot_ids = [model.getFrameId(f"{leg}_foot") for leg in LEGS]
         self.foot_joint = [int(model.frames[f].parentJoint) for f in self.foot_ids]
@@ -377,7 +378,7 @@ class _Rollout:
 
     def interval(self, k: int, dt: float) -> None:
         """Integrate the plan interval [t_k, t_{k+1}] in equal sub-steps ≤ ``dt`` (semi-implicit Euler)."""
-        qq, Vp, tau_ff = self.qq, self.Vp[:, self.leg_v], self.tau_ff
+        qq, Vp, tau_ff = self.qq, self.vq, self.tau_ff
         h_int = self.tt[k + 1] - self.tt[k]
         n_sub = max(1, math.ceil(h_int / dt - 1e-9))
         h = h_int / n_sub
@@ -401,7 +402,7 @@ class _Rollout:
         self.contacts(st[0], 0)
         if self.on:
             self.impact()
-        tau = self.torque(self.qq[0], self.Vp[0, self.leg_v], self.tau_ff[0])
+        tau = self.torque(self.qq[0], self.vq[0], self.tau_ff[0])
         self.accelerations(tau)
         self.record(0, tau)
         for k in range(self.tt.size - 1):
