@@ -116,14 +116,14 @@ def run_one(fig: Figure, out: Path, extra: list[str], verbose: bool) -> dict[str
     """Run one figure's script into a fresh folder, check what it wrote and, if all is well, swap it in
     as ``out/fig.folder`` (module docstring); otherwise ``out/fig.folder`` is left untouched.
 
-    Returns ``{"key", "ok", "seconds", "problems": [...]}``.  The script's stdout/stderr go
+    Returns ``{"key", "ok", "seconds", "cpu_seconds", "problems": [...]}`` (wall and CPU time [s]).  The script's stdout/stderr go
     to ``log.txt`` in its folder (and to the terminal too with ``verbose``)."""
     folder, new, failed, previous = _staging(out, fig)
     _recover(folder, previous)
     _remove(new)  # left over by a run that was killed
     new.mkdir(parents=True)
     try:
-        problems, seconds = _run_checked(fig, new, extra, verbose)
+        problems, seconds, cpu = _run_checked(fig, new, extra, verbose)
         if problems:
             _remove(failed)
             new.rename(failed)
@@ -133,14 +133,14 @@ def run_one(fig: Figure, out: Path, extra: list[str], verbose: bool) -> dict[str
             _remove(failed)
     finally:
         _remove(new)  # an interrupted run (KeyboardInterrupt) leaves nothing behind
-    return {"key": fig.key, "ok": not problems, "seconds": seconds, "problems": problems}
+    return {"key": fig.key, "ok": not problems, "seconds": seconds, "cpu_seconds": cpu, "problems": problems}
 
 
-def _run_checked(fig: Figure, folder: Path, extra: list[str], verbose: bool) -> tuple[list[str], float]:
-    """Run the script into ``folder`` and check its outputs: ``(problems, seconds)``."""
+def _run_checked(fig: Figure, folder: Path, extra: list[str], verbose: bool) -> tuple[list[str], float, float]:
+    """Run the script into ``folder`` and check its outputs: ``(problems, wall seconds, CPU seconds)``."""
     argv = [*fig.args, "--out", str(folder), *extra]
     problems: list[str] = []
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), _cpu_seconds()
     log = io.StringIO()
     try:
         main = load_script(fig.script)
@@ -156,9 +156,17 @@ def _run_checked(fig: Figure, folder: Path, extra: list[str], verbose: bool) -> 
             problems.append(f"{fig.script} exited with status {e.code}")
     except Exception:
         problems.append(f"{fig.script} raised:\n{traceback.format_exc()}")
-    seconds = time.perf_counter() - t0
+    seconds, cpu = time.perf_counter() - t0, _cpu_seconds() - c0
     (folder / LOG_FILE).write_text(log.getvalue())
-    return problems or _output_problems(folder), seconds
+    return problems or _output_problems(folder), seconds, cpu
+
+
+def _cpu_seconds() -> float:
+    """User + system CPU time [s] of this process and its waited-for children (a script's own worker processes)."""
+    import resource
+
+    own, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
 def _output_problems(folder: Path) -> list[str]:
@@ -392,6 +400,7 @@ def main(argv: list[str] | None = None) -> int:
             "jobs": args.jobs,
             "fast": args.fast,
             "figures_s": {k: r["seconds"] for k, r in results.items()},
+            "figures_cpu_s": {k: r["cpu_seconds"] for k, r in results.items()},
         },
         digits=3,
     )

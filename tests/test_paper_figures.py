@@ -303,3 +303,19 @@ def test_verbose_refuses_parallel_jobs(capsys):
         main(["--verbose", "--jobs", "2", "--only", "table01"])
     assert ex.value.code == 2
     assert "--verbose runs the figures in this process" in capsys.readouterr().err
+
+
+def test_timing_json_records_cpu_seconds(tmp_path, monkeypatch):
+    """The run writes wall and CPU seconds per figure (the CPU ones tell what the gallery costs on a loaded
+    machine, where the wall times do not)."""
+    script = tmp_path / "counting.py"
+    script.write_text(COUNTING_SCRIPT)
+    figs = [paper_figures.Figure(f"count{i}", f"count{i}", str(script)) for i in range(2)]
+    monkeypatch.setattr(paper_figures.__main__, "FIGURES", tuple(figs))
+    monkeypatch.setattr(paper_figures.__main__, "select", lambda names: figs)
+    out = tmp_path / "out"
+    assert main(["--out", str(out), "--quiet", "--jobs", "1"]) == 0
+    timing = json.loads((out / "timing.json").read_text())
+    assert set(timing["figures_cpu_s"]) == {"count0", "count1"}
+    assert all(0 <= v < 60 for v in timing["figures_cpu_s"].values())
+    assert set(timing["figures_s"]) == set(timing["figures_cpu_s"])

@@ -63,6 +63,8 @@ leaves them — e.g. a foot target under or through the body — and says which 
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -983,18 +985,27 @@ def check_legs(legs: Any, what: str = "legs") -> LegModel:
     return legs
 
 
-_CACHE: dict[int, tuple[Any, LegModel]] = {}
+#: how many leg models :func:`hexapod_legs` keeps (least recently used first out): each holds its system
+LEGS_CACHE_SIZE = 16
+_CACHE: OrderedDict[int, tuple[Any, LegModel]] = OrderedDict()
+_CACHE_LOCK = threading.Lock()
 
 
 def hexapod_legs(system: Any = None) -> LegModel:
-    """The :class:`LegModel` of ``system`` (default ``coop_ga.systems.load("hexapod")``), cached per system."""
+    """The :class:`LegModel` of ``system`` (default ``coop_ga.systems.load("hexapod")``), cached per system
+    (the :data:`LEGS_CACHE_SIZE` most recently used; a model dropped from the cache stays valid)."""
     if system is None:
         from ..systems import load
 
         system = load("hexapod")
-    hit = _CACHE.get(id(system))
-    if hit is not None and hit[0] is system:
-        return hit[1]
+    with _CACHE_LOCK:
+        hit = _CACHE.get(id(system))
+        if hit is not None and hit[0] is system:  # (an id may be reused by a new system once the old one is gone)
+            _CACHE.move_to_end(id(system))
+            return hit[1]
     legs = LegModel.from_system(system)
-    _CACHE[id(system)] = (system, legs)
+    with _CACHE_LOCK:
+        _CACHE[id(system)] = (system, legs)
+        while len(_CACHE) > LEGS_CACHE_SIZE:
+            _CACHE.popitem(last=False)
     return legs

@@ -40,7 +40,6 @@ Units: m.  Frames: whatever frame the points are given in (B for :func:`stance_t
 from __future__ import annotations
 
 import math
-import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -390,9 +389,6 @@ def _task_kind(kind: str | None, k: int, legs: tuple[str, ...]) -> CooperativeKi
 #: the order of a point pair's two feet in :func:`stance_task` (right side first, rear to front)
 _PAIR_ORDER: tuple[str, ...] = ("rr", "rm", "rf", "lr", "lm", "lf")
 
-_CACHE: dict[tuple[Any, ...], CooperativeTask] = {}
-_LOCK = threading.Lock()
-
 
 def stance_task(
     system: Any, stance_legs: Sequence[str], kind: str | None = None, *, codegen: bool | str = "auto"
@@ -411,8 +407,9 @@ def stance_task(
     evaluated (coplanar feet): choose the kind with :func:`stance_primitive`.
 
     ``codegen``: as :class:`~coop_ga.cooperative.CooperativeTask` (``False``: the CasADi VM, no compilation).
-    Cached per (system, legs, kind, codegen) and safe to share between threads (the cache is guarded by a
-    lock; the task's compiled functions use per-thread buffers)."""
+    Cached by :func:`~coop_ga.cooperative.cooperative_task` (per system, kind, feet and codegen, the
+    :data:`~coop_ga.cooperative.task.TASK_CACHE_SIZE` most recently used) and safe to share between threads (the
+    task's compiled functions use per-thread buffers)."""
     from ..systems import System, load
 
     if isinstance(system, str):
@@ -435,10 +432,5 @@ def stance_task(
     pts = tuple(frames.index(f"{leg}_foot") for leg in legs)
     if codegen not in ("auto", True, False):
         raise InvalidInputError(f"codegen must be 'auto', True or False, got {codegen!r}")
-    key = (id(system), legs, tk, codegen)
-    with _LOCK:
-        t = _CACHE.get(key)
-        if t is None or t.system is not system:
-            t = cooperative_task(system, tk, points=pts, codegen=codegen)
-            _CACHE[key] = t
-    return t
+    # no cache of its own: cooperative_task keeps a bounded one keyed by the same (system, kind, points, codegen)
+    return cooperative_task(system, tk, points=pts, codegen=codegen)

@@ -85,6 +85,23 @@ def test_geometry_read_from_the_urdf_matches_the_readme(legs):
         legs.q_lower[0, 0] = 0.0  # read-only
 
 
+def test_leg_model_cache_is_bounded(monkeypatch):
+    """hexapod_legs keeps the LEGS_CACHE_SIZE most recently used models: a sweep over many systems does not keep
+    every system alive; a model dropped from the cache stays valid and is rebuilt on the next call."""
+    import coop_ga.legged.legs as legs_mod
+
+    monkeypatch.setattr(legs_mod, "_CACHE", legs_mod.OrderedDict())
+    monkeypatch.setattr(legs_mod, "LEGS_CACHE_SIZE", 1)
+    fixed, flyer = systems.load("hexapod"), systems.load("hexapod", free_flyer=True)
+    a = hexapod_legs(fixed)
+    assert hexapod_legs(fixed) is a and len(legs_mod._CACHE) == 1
+    b = hexapod_legs(flyer)
+    assert len(legs_mod._CACHE) == 1 and hexapod_legs(flyer) is b
+    a2 = hexapod_legs(fixed)  # evicted by the flyer's model: rebuilt, equal
+    assert a2 is not a
+    np.testing.assert_array_equal(a2.q_stand, a.q_stand)
+
+
 def test_stand_pose_feet_height(legs, pin_ref):
     p = legs.fk(legs.q_stand)
     np.testing.assert_allclose(p[:, 2], -(0.133 * math.sin(1.1) - 0.065 * math.sin(0.3)), atol=1e-15)
