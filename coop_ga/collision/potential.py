@@ -594,7 +594,10 @@ class _FieldWalk:
         field equilibrium or when the guard leaves no step."""
         C, Q, g, h = self.C, self.Q, self.g, self.h
         E = _field(xe_, C, Q, g) if len(self.S) else -_over_cube(xe_ - g, float(np.linalg.norm(xe_ - g)))
-        nE = float(np.linalg.norm(E))
+        # scaled: np.linalg.norm squares the entries, and a pull of 1e-204 (a goal 1e102 m away) underflowed to 0,
+        # reported as an equilibrium of the field
+        scale = float(np.max(np.abs(E)))
+        nE = scale * float(np.linalg.norm(E / scale)) if scale > 0.0 else 0.0
         if not nE > 1e-12 / max(dist, 1e-300) ** 2:
             self.status = "local_minimum"
             self.message = (

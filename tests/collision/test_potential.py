@@ -143,6 +143,15 @@ def test_free_path_is_the_straight_line():
     assert r.length == pytest.approx(np.hypot(1, 0.5), rel=1e-9)
 
 
+@pytest.mark.parametrize("far", [1e3, 1e20, 1e102, 1e140])
+def test_far_goal_is_walked_toward_not_called_an_equilibrium(far):
+    """A goal far away pulls with |E| = 1/d² (1e-204 at 1e102 m, whose square underflows): the path steps
+    straight toward it until max_iter — never a "local_minimum" (an equilibrium the free field does not have)."""
+    r = potential_path([0, 0, 0], [far, 0, 0], step=0.01, max_iter=50)
+    assert r.status == "max_iterations" and not r.reached
+    np.testing.assert_allclose(r.path[-1], [0.5, 0.0, 0.0], atol=1e-12)
+
+
 def test_random_scenes_never_enter_and_reach():
     """120 seeded random scenes (1–3 spheres near the segment, margin 5 cm): the path never enters a safety
     sphere (exact polyline clearance ≥ 0), and when it reports "reached" it ends within tol of the goal.
