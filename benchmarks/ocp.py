@@ -482,7 +482,7 @@ def run_reference(P: ReferenceProblem, solver: str, repeat: int) -> dict[str, An
     return row
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parser() -> Experiment:
     exp = Experiment(__file__, __doc__, seed=0, out=Path("results/benchmarks/ocp"))
     exp.add("--repeat", type=positive_int, default=3, metavar="N", help="timed iLQR solves per problem (best reported)")
     exp.add(
@@ -512,6 +512,119 @@ def main(argv: list[str] | None = None) -> int:
         metavar="OUT",
         help="also write every number to this JSON file (results.json in --out is always written)",
     )
+    return exp
+
+
+def _meta(args: Any, kw: dict[str, Any], note: str | None, missing: list[str]) -> dict[str, Any]:
+    """The run's settings and machine (``results.json``'s ``meta``)."""
+    import casadi as ca
+
+    return {
+        "casadi": ca.__version__,
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+        "cpus": os.cpu_count(),
+        "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
+        "horizon": args.horizon,
+        "dt": args.dt,
+        "terminal": args.terminal,
+        "ilqr_options": kw,
+        "ilqr_note": note,
+        "missing_solvers": missing,
+    }
+
+
+def _solve_problem(exp: Experiment, name: str, args: Any, kw: dict[str, Any], solvers: list[str], croc: bool):
+    """Every solver on one problem: ``(description, rows)`` (rows[0]: iLQR, rows[1]: iLQR with tol = 0)."""
+    s, desc = make_system(name)
+    task = cg.cooperative_task(s, "circle")
+    q0 = np.array(s.q0)
+    Vd = displaced_target(task, q0, **TARGET)
+    ocp = ReachingOCP(task, q0, Vd, horizon=args.horizon, dt=args.dt)
+    lim = s.limits
+    print(
+        f"\n[{name}] three_franka circle, {desc}: nq = {task.nq}, {args.horizon} knots × {args.dt:g} s, "
+        f"terminal {args.terminal}, initial ‖e‖ = {np.linalg.norm(task.error(q0, Vd)):.3f}",
+        flush=True,
+    )
+    with exp.stage(f"[{name}] iLQR"):
+        rows = [run_ilqr(task, q0, Vd, ocp, lim, args, kw, "iLQR")]
+    with exp.stage(f"[{name}] iLQR (tol = 0)"):
+        rows.append(run_ilqr(task, q0, Vd, ocp, lim, args, {**kw, "tol": 0.0}, "iLQR (tol = 0)"))
+    if solvers:
+        P = ReferenceProblem(ocp, lim, terminal=args.terminal)
+        for solver in solvers:
+            with exp.stage(f"[{name}] {solver}"):
+                rows.append(run_reference(P, solver, args.ref_repeat))
+            r = rows[-1]
+            print(
+                f"  {r['solver']}: Opti build {r['build_time_s']:.2f} s, nlpsol creation "
+                f"{r['nlpsol_creation_s']:.2f} s (not in the solve time)",
+                flush=True,
+            )
+    if croc:
+        with exp.stage(f"[{name}] crocoddyl BoxFDDP"):
+            rows.append(run_boxfddp(ocp, lim, args.repeat))
+    return desc, rows
+
+
+def _compare(rows: list[dict[str, Any]]) -> list[list[str]]:
+    """Costs relative to the best feasible one, times relative to iLQR's, iLQR's time to the optimum (rows are
+    completed in place); the printed table's rows."""
+    ref_t = rows[0]["solve_time_s"]
+    feasible = [r["cost"] for r in rows if r["max_violation"] <= FEASIBLE and r["success"]] or [
+        r["cost"] for r in rows if r["max_violation"] <= FEASIBLE
+    ]
+    jmin = min(feasible) if feasible else np.nan
+    res0 = rows[1].pop("_result")
+    rows[1]["time_to_optimum_s"] = time_to_optimum(res0, jmin) if np.isfinite(jmin) else None
+    ipopt = next((r for r in rows if r["solver"] == "IPOPT" and r["success"]), None)
+    if ipopt is not None:  # within IPOPT's own tolerance (relative) of IPOPT's optimum, and looser levels
+        rows[1]["time_to_ipopt_cost_s"] = {
+            f"{rel:g}": time_to_optimum(res0, ipopt["cost"], rel) for rel in (1e-6, 1e-8, REF_TOL)
+        }
+    rows[0].pop("_result")
+    table = []
+    for r in rows:
+        r["rel_cost"] = (r["cost"] - jmin) / abs(jmin) if np.isfinite(jmin) else np.nan
+        r["time_ratio"] = r["solve_time_s"] / ref_t if ref_t > 0 else np.nan
+        act = r["active"]
+        table.append(
+            [
+                r["solver"],
+                str(r["iterations"]),
+                f"{r['solve_time_s'] * 1e3:.1f}",
+                f"{r['cpu_time_s'] * 1e3:.1f}",
+                f"{r['cost']:.10f}",
+                f"{r['rel_cost']:+.1e}",
+                f"{r['terminal_error']:.2e}",
+                f"{r['max_violation']:.1e}",
+                f"{act['position']}/{act['velocity']}/{act['acceleration']}",
+                f"{r['time_ratio']:.1f}",
+                r["status"][:60],
+            ]
+        )
+    return table
+
+
+#: the printed table's columns (:func:`_compare`)
+_COLUMNS = [
+    "solver",
+    "iter",
+    "solve [ms]",
+    "CPU [ms]",
+    "cost J",
+    "ΔJ/J_best",
+    "‖e(q_n)‖",
+    "max viol",
+    "active q/q̇/u",
+    "t / iLQR",
+    "status",
+]
+
+
+def main(argv: list[str] | None = None) -> int:
+    exp = _parser()
     args = exp.parse(argv)
     problems = list(dict.fromkeys(args.problems))
 
@@ -522,107 +635,16 @@ def main(argv: list[str] | None = None) -> int:
     solvers = [s for s in solvers if s not in missing]
     croc = not args.no_crocoddyl and crocoddyl_available()
     kw, note = ilqr_kwargs(args.terminal)
-    out: dict[str, Any] = {
-        "meta": {
-            "casadi": ca.__version__,
-            "python": platform.python_version(),
-            "machine": platform.machine(),
-            "cpus": os.cpu_count(),
-            "load_average": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
-            "horizon": args.horizon,
-            "dt": args.dt,
-            "terminal": args.terminal,
-            "ilqr_options": kw,
-            "ilqr_note": note,
-            "missing_solvers": missing,
-        },
-        "problems": {},
-    }
+    out: dict[str, Any] = {"meta": _meta(args, kw, note, missing), "problems": {}}
     if note:
         print(f"note: {note}", flush=True)
     for m in missing:
         print(f"note: this CasADi ({ca.__version__}) has no {m} plugin: skipped", flush=True)
 
     for name in problems:
-        s, desc = make_system(name)
-        task = cg.cooperative_task(s, "circle")
-        q0 = np.array(s.q0)
-        Vd = displaced_target(task, q0, **TARGET)
-        ocp = ReachingOCP(task, q0, Vd, horizon=args.horizon, dt=args.dt)
-        lim = s.limits
-        print(
-            f"\n[{name}] three_franka circle, {desc}: nq = {task.nq}, {args.horizon} knots × {args.dt:g} s, "
-            f"terminal {args.terminal}, initial ‖e‖ = {np.linalg.norm(task.error(q0, Vd)):.3f}",
-            flush=True,
-        )
-        with exp.stage(f"[{name}] iLQR"):
-            rows = [run_ilqr(task, q0, Vd, ocp, lim, args, kw, "iLQR")]
-        with exp.stage(f"[{name}] iLQR (tol = 0)"):
-            rows.append(run_ilqr(task, q0, Vd, ocp, lim, args, {**kw, "tol": 0.0}, "iLQR (tol = 0)"))
-        if solvers:
-            P = ReferenceProblem(ocp, lim, terminal=args.terminal)
-            for solver in solvers:
-                with exp.stage(f"[{name}] {solver}"):
-                    rows.append(run_reference(P, solver, args.ref_repeat))
-                r = rows[-1]
-                print(
-                    f"  {r['solver']}: Opti build {r['build_time_s']:.2f} s, nlpsol creation "
-                    f"{r['nlpsol_creation_s']:.2f} s (not in the solve time)",
-                    flush=True,
-                )
-        if croc:
-            with exp.stage(f"[{name}] crocoddyl BoxFDDP"):
-                rows.append(run_boxfddp(ocp, lim, args.repeat))
-        ref_t = rows[0]["solve_time_s"]
-        feasible = [r["cost"] for r in rows if r["max_violation"] <= FEASIBLE and r["success"]] or [
-            r["cost"] for r in rows if r["max_violation"] <= FEASIBLE
-        ]
-        jmin = min(feasible) if feasible else np.nan
-        table = []
-        res0 = rows[1].pop("_result")
-        rows[1]["time_to_optimum_s"] = time_to_optimum(res0, jmin) if np.isfinite(jmin) else None
-        ipopt = next((r for r in rows if r["solver"] == "IPOPT" and r["success"]), None)
-        if ipopt is not None:  # within IPOPT's own tolerance (relative) of IPOPT's optimum, and looser levels
-            rows[1]["time_to_ipopt_cost_s"] = {
-                f"{rel:g}": time_to_optimum(res0, ipopt["cost"], rel) for rel in (1e-6, 1e-8, REF_TOL)
-            }
-        rows[0].pop("_result")
-        for r in rows:
-            r["rel_cost"] = (r["cost"] - jmin) / abs(jmin) if np.isfinite(jmin) else np.nan
-            r["time_ratio"] = r["solve_time_s"] / ref_t if ref_t > 0 else np.nan
-            act = r["active"]
-            table.append(
-                [
-                    r["solver"],
-                    str(r["iterations"]),
-                    f"{r['solve_time_s'] * 1e3:.1f}",
-                    f"{r['cpu_time_s'] * 1e3:.1f}",
-                    f"{r['cost']:.10f}",
-                    f"{r['rel_cost']:+.1e}",
-                    f"{r['terminal_error']:.2e}",
-                    f"{r['max_violation']:.1e}",
-                    f"{act['position']}/{act['velocity']}/{act['acceleration']}",
-                    f"{r['time_ratio']:.1f}",
-                    r["status"][:60],
-                ]
-            )
-        print_table(
-            f"[{name}] reaching OCP (Eq 53–57) with {desc}, three_franka circle",
-            [
-                "solver",
-                "iter",
-                "solve [ms]",
-                "CPU [ms]",
-                "cost J",
-                "ΔJ/J_best",
-                "‖e(q_n)‖",
-                "max viol",
-                "active q/q̇/u",
-                "t / iLQR",
-                "status",
-            ],
-            table,
-        )
+        desc, rows = _solve_problem(exp, name, args, kw, solvers, croc)
+        table = _compare(rows)
+        print_table(f"[{name}] reaching OCP (Eq 53–57) with {desc}, three_franka circle", _COLUMNS, table)
         out["problems"][name] = {"description": desc, "rows": rows}
 
     clearance = None
