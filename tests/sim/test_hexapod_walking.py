@@ -20,7 +20,7 @@ from coop_ga.geometry.groups import Similarity
 from coop_ga.legged import Terrain
 from coop_ga.legged.legs import LEGS, hexapod_legs
 from coop_ga.legged.stance import STANCE_ORDER, stance_task
-from coop_ga.sim import Disturbance, Simulation, replay
+from coop_ga.sim import Disturbance, Simulation, replay, walking
 from coop_ga.sim.hexapod import hexapod_scene
 from coop_ga.sim.walking import (
     HexapodWalker,
@@ -29,6 +29,7 @@ from coop_ga.sim.walking import (
     check_command,
     nominal_feet,
     posture_legs,
+    search_depth_at,
     stance_pose,
     standing_start,
 )
@@ -162,7 +163,6 @@ def test_blind_probing_swings_stay_within_the_servos_torque(monkeypatch) -> None
     asks 1.56 N m of the 1.5 N m (clipped, and counted).  The walker scales such a swinging leg's step so that
     the torque at the plan's start stays within TORQUE_BUDGET of the effort: nothing is clipped, and the walk
     still meets the bar."""
-    from coop_ga.sim import walking
     from coop_ga.sim.walking_experiments import straight_command
 
     cmd, opt, duration = straight_command("ripple", 0.2)
@@ -209,6 +209,111 @@ def test_a_searching_leg_that_bears_load_without_contact_steps_over() -> None:
             assert step > 0.9 * opt.step_over  # over, forward
         else:
             assert step == pytest.approx(-(back[i] + opt.edge_inset), abs=1e-3)  # back, past the shin's reach
+
+
+def _walker_at_rest(opt: WalkingOptions) -> tuple[HexapodWalker, Simulation]:
+    """A blind walker standing on flat ground, 10 ms into its run (its legs all in stance)."""
+    hs = hexapod_scene(Terrain.flat(), visuals=False)
+    q0, pose = standing_start(hs, opt)
+    walker = HexapodWalker(hs, VelocityCommand.constant(0.1), opt)
+    sim = Simulation(hs.scene, walker, q=q0, base_pose=pose)
+    sim.run(0.01)
+    return walker, sim
+
+
+def test_a_search_descends_fast_for_its_first_millimetres() -> None:
+    """A late foot descends at search_fast_speed for its first search_fast_depth, then at search_speed, moving
+    forward along its swing by search_forward × the depth (at most search_forward_max): its target against that
+    closed form at times on both sides of the change (10 mm / 0.12 m/s = 83 ms); search_fast_depth = 0 is the
+    plain search at search_speed."""
+    opt = WalkingOptions(blind=True)
+    assert (opt.search_fast_speed, opt.fast_search_depth, opt.search_speed) == (0.12, 0.01, 0.06)
+    walker, _ = _walker_at_rest(opt)
+    leg = walker._legs[0]
+    p0 = leg.target.copy()
+    p1 = p0 + np.array([0.04, 0.0, 0.0])
+    leg.arc = (p0, p1, 0.02, 0.0)
+    leg.mode, leg.search_from, leg.raises = 2, 0.0, 0
+    touch = np.zeros(6, bool)
+    for t in (0.02, 0.05, 0.08, 0.1, 0.2, 0.5):
+        depth = 0.12 * t if t <= 0.01 / 0.12 else 0.01 + 0.06 * (t - 0.01 / 0.12)
+        assert search_depth_at(opt, t) == pytest.approx(depth, abs=1e-12)
+        walker._search(0, t, walker._qD, touch)  # its servos follow: no load, it keeps searching
+        assert leg.mode == 2
+        forward = min(opt.search_forward * depth, opt.search_forward_max)
+        assert leg.target == pytest.approx(p1 + np.array([forward, 0.0, -depth]), abs=1e-12)
+    plain = replace(opt, search_fast_depth=0.0)
+    assert [search_depth_at(plain, t) for t in (0.05, 0.3)] == pytest.approx([0.003, 0.018], abs=1e-12)
+
+
+@pytest.mark.parametrize("gait", ["tripod", "ripple", "wave"])
+def test_the_late_foot_settings_default_to_the_tripod_only(gait: str) -> None:
+    """search_fast_depth and search_clock default (None) to 10 mm and True for the tripod, to the plain search (0)
+    with the clock stopped for ripple and wave; set explicitly they hold for every gait, and bad values are refused."""
+    opt = WalkingOptions(gait=gait)
+    tripod = gait == "tripod"
+    assert opt.fast_search_depth == (0.01 if tripod else 0.0) and opt.clock_runs_in_search is tripod
+    assert search_depth_at(opt, 0.05) == pytest.approx(0.006 if tripod else 0.003, abs=1e-12)
+    set_ = WalkingOptions(gait=gait, search_fast_depth=0.004, search_clock=not tripod)
+    assert set_.fast_search_depth == 0.004 and set_.clock_runs_in_search is not tripod
+    with pytest.raises(InvalidInputError, match="search_fast_depth"):
+        WalkingOptions(gait=gait, search_fast_depth=-0.01)
+    with pytest.raises(InvalidInputError, match="search_clock"):
+        WalkingOptions(gait=gait, search_clock=1)  # type: ignore[arg-type]
+    with pytest.raises(InvalidInputError, match="search_fast_speed"):
+        WalkingOptions(gait=gait, search_fast_speed=0.0)
+
+
+@pytest.mark.parametrize("search_clock", [True, False])
+def test_the_gait_clock_runs_while_a_foot_steps_over_up_to_the_next_lift_off(search_clock: bool) -> None:
+    """A tripod foot (lf) stepping over a face 0.1 s before the other tripod's lift-off: with search_clock the gait
+    clock runs on for those 0.1 s (20 plans) and then stops — that lift-off waits for the late foot, the plan
+    after plan (held_lift_offs), the other tripod still in stance; without it the clock stops at once."""
+    opt = WalkingOptions(blind=True, search_clock=search_clock)
+    walker, sim = _walker_at_rest(opt)
+    T, dt = walker.table.period, walker.dt
+    assert list(walker.table.offsets) == [0.0, 0.5, 0.0, 0.5, 0.0, 0.5]
+    tau0 = 0.5 * T - 0.1
+    walker._tau_g = walker._tau_prev = tau0
+    leg = walker._legs[0]
+    t0 = float(sim.data.time)
+    leg.arc = (leg.target.copy(), leg.target.copy(), 0.02, 0.0)
+    leg.path = np.repeat(leg.target[None], len(walking._ARC_S), axis=0)
+    leg.mode, leg.over_from, leg.search_from, leg.raises = 2, t0, t0 + opt.step_over_time, 1
+    cmd, touch = np.array([0.1, 0.0, 0.0]), np.zeros(6, bool)
+    waits, taus = [], []
+    held = walker.counts["held_lift_offs"]
+    for k in range(40):
+        waits.append(walker._clock(t0 + k * dt, walker._qD, sim.data, touch, cmd))
+        taus.append(walker._tau_g)
+    modes = [other.mode for other in walker._legs]
+    assert modes == [2, 0, 0, 0, 0, 0]  # still stepping over (0.2 s of 0.45 s), nobody lifted off
+    if search_clock:
+        assert waits == [False] * 19 + [True] * 21
+        assert taus[18] == pytest.approx(tau0 + 19 * dt, abs=1e-12) and taus[18] < 0.5 * T
+        assert taus[19:] == [taus[18]] * 21  # the clock waits just before the lift-off
+        assert walker.counts["held_lift_offs"] == held + 21
+    else:
+        assert waits == [True] * 40 and taus == [tau0] * 40 and walker.counts["held_lift_offs"] == held
+
+
+def test_the_blind_tripod_walks_1m_of_random_tiles_within_the_runs_time() -> None:
+    """The 1 m blind tripod walk on random tiles (seed 0): with the gait clock stopped for every late foot and the
+    search at search_speed throughout, its waits (the schedule's lag) exceed the run's catch-up (one cycle) and it
+    walks 93 % (lag 3.78 s); with search_clock and the fast first 10 mm of search (the tripod's defaults) it waits
+    0.76 s less — its step-overs run while the clock still runs, its searches find the ground sooner — and passes
+    the bar (97.9 %)."""
+    from coop_ga.sim.walking_experiments import row_terrain, straight_command
+
+    cmd, opt, duration = straight_command("tripod", 1.0)
+    runs = {}
+    for name, kw in (("new", {}), ("old", {"search_clock": False, "search_fast_depth": 0.0})):
+        runs[name] = simulate_walk(row_terrain("random", 0), cmd, replace(opt, blind=True, **kw), duration=duration)
+    new, old = (runs[k].metrics() for k in ("new", "old"))
+    assert old["walked_fraction"] < 0.94 and old["schedule_lag_s"] > 3.6, old
+    assert new["passed"] and new["walked_fraction"] > 0.97 and new["schedule_lag_s"] < 3.1, new
+    assert new["events"]["searches"] >= 5 and new["events"]["step_overs"] >= 5, new["events"]
+    assert new["shin_contact_steps"] == 0 and new["max_slip_m"] < 0.005, new
 
 
 def test_tour_start_speed_change_turn_stop_and_replay(tmp_path) -> None:
