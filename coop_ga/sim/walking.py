@@ -325,6 +325,9 @@ class WalkingOptions:
     probe_guard: float = 0.035
     probe_height: float = 0.006
     probe_margin: float = 0.003
+    approach_height: float = 0.002
+    search_ahead: float = 2.0
+    search_margin: float = 0.005
 
     def __post_init__(self) -> None:
         validation.choice(self.gait, GAIT_NAMES, "gait")
@@ -359,6 +362,9 @@ class WalkingOptions:
             "probe_guard",
             "probe_height",
             "probe_margin",
+            "approach_height",
+            "search_ahead",
+            "search_margin",
             "edge_inset",
         ):
             validation.nonnegative(getattr(self, name), name)
@@ -1054,7 +1060,8 @@ class HexapodWalker:
             # the foot landed 37 mm short of a riser, its shin on the edge — 1 m tripod steps walk, blind)
             need = np.minimum(self._workspace_margins(i, plain, t), 0.01)
             for k in (1.0, 0.5, 0.25):
-                path = probe_path(p_from, p1, lift, k * reach, h, _ARC_S, direction=d, approach=self._approach[i])
+                low = self.options.approach_height + self.options.touchdown_depth
+                path = probe_path(p_from, p1, lift, k * reach, h, _ARC_S, d, self._approach[i], low)
                 if np.all(self._workspace_margins(i, path, t) >= need - 1e-9):
                     if self._approach[i] > 0.0:  # coming in low: a contact after the apex is a landing
                         self._legs[i].apex = min(0.5, float(_ARC_S[np.argmax(path[:, 2])]))
@@ -1194,8 +1201,26 @@ class HexapodWalker:
         p0, p1 = leg.arc[0], leg.arc[1]
         h = (p1 - p0)[:2]
         nh = float(np.hypot(h[0], h[1]))
-        fwd = min(opt.search_forward * depth, opt.search_forward_max) / nh if nh > 1e-9 else 0.0
+        fwd = min(opt.search_forward * depth, opt.search_forward_max)
+        if self._approach[i] > 0.0 and nh > 1e-9:
+            fwd = self._search_ahead(i, fwd, depth, p1, h / nh)
+        fwd = fwd / nh if nh > 1e-9 else 0.0
         leg.target = p1 + np.array([fwd * h[0], fwd * h[1], -depth])
+
+    def _search_ahead(self, i: int, fwd: float, depth: float, p1: np.ndarray, u: np.ndarray) -> float:
+        """How far [m] the search of leg i, a leg that comes in low (its shin behind its foot), goes forward from
+        ``p1`` (3,) along ``u`` (2,) at ``depth`` [m]: ``search_ahead`` × ``fwd`` (the other legs' forward), while
+        the leg keeps ``search_margin`` [m] of its workspace there (from D); else no further than ``fwd`` or where
+        it already is (:class:`WalkingOptions`)."""
+        opt = self.options
+        far = opt.search_ahead * fwd
+        if far <= fwd:
+            return fwd
+        feet = (np.array([o.target for o in self._legs]) - self._pD) @ self._RD
+        feet[i] = self._RD.T @ (p1 + np.array([far * u[0], far * u[1], -depth]) - self._pD)
+        if self.fast.ik(feet)[1][i] >= opt.search_margin:
+            return far
+        return max(fwd, min(far, float((self._legs[i].target - p1)[:2] @ u)))
 
     def _blocked(self, i: int, t: float, q: np.ndarray) -> bool:
         """A searching foot without contact whose leg nevertheless bears load — its servos' position error pushes

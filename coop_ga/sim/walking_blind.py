@@ -145,6 +145,7 @@ def probe_path(
     s: np.ndarray,
     direction: np.ndarray | None = None,
     approach: float = 0.0,
+    low_height: float | None = None,
 ) -> np.ndarray:
     """A probing swing (module docstring) sampled at progress ``s`` (n,) → (n, 3) [m]: :func:`swing_arc` from
     ``p0`` (3,) to the far point ``reach`` [m] past ``p1`` (3,) along ``direction`` (horizontal; default: the
@@ -169,7 +170,9 @@ def probe_path(
     f2 = 1.0 - PROBE_DESCENT
     f1 = f2 * (L + reach) / (L + 1.6 * reach)
     fa = f2 * 2.5 * (L - a) / (2.5 * (L - a) + 1.5 * (a + 2.0 * reach)) if a > 0.0 else f1
-    low = top - a * u  # where the arc comes down to the probe's height
+    low = top - a * u  # where the arc comes down (to the probe's height, or low_height above p1)
+    if low_height is not None:
+        low[2] = p1[2] + low_height
     out = np.empty((len(s), 3))
     m = s <= fa
     out[m] = swing_arc(p0, low if a > 0.0 else far, lift, s[m] / fa)[0]
