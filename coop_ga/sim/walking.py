@@ -273,16 +273,26 @@ class WalkingOptions:
         + ``probe_margin`` [m], − the ball's radius) with the ball's bottom ``probe_height`` [m] above the
         expected ground, then comes back and descends: a riser there is touched (a face: stepped over) before
         the foot stands where its shin would lean on it.  ``probe_guard = 0``: no probe.
-        A leg whose shin lies behind its foot (the front legs) also comes in low: its arc comes down to the
-        probe's height as far before the foothold as its shin reaches back toward a ``probe_guard`` ledge
-        (:func:`~coop_ga.sim.walking_blind.approach_lengths`: 33 mm) and goes on at that height, so that a ledge
-        behind the foothold that the shin could meet in the final descent is met by the ball first (a tread:
-        the foot lands on it — a contact after the arc's apex is a landing, not a stumble; a face: stepped
-        over).  Measured without it (1 m walks on random tiles, blind): front feet that had crossed a 21.6 mm
-        down-step high descended 15 mm (ripple) and 24.5 mm (wave) past its edge and laid their shins on it,
-        14.4 / 14.6 mm below its top (164 and 116 shin-contact steps); coming in low with every leg, the middle and
-        rear legs (whose shins reach back 18 and 12 mm, not beyond their reach ahead) stepped over 4 more faces
-        in the ripple walk, 0.4 s each, which the gait waits for (89.6 % walked).
+    approach_height: [m] blind, a leg whose shin lies behind its foot (the front legs) also comes in low: its
+        probing arc comes down to ``approach_height`` above the expected ground (the ball's bottom) as far before
+        the foothold as its shin reaches back toward a ``probe_guard`` ledge
+        (:func:`~coop_ga.sim.walking_blind.approach_lengths`: 33 mm) and goes on from there to the probe's far
+        point, so that a ledge behind the foothold that the shin could meet in the final descent is met by the
+        ball first (a tread: the foot lands on it — a contact after the arc's apex is a landing, not a stumble;
+        a face: stepped over).  Measured without it (1 m walks on random tiles, blind): front feet that had
+        crossed a 21.6 mm down-step high descended 15 mm (ripple) and 24.5 mm (wave) past its edge and laid their
+        shins on it, 14.4 / 14.6 mm below its top (164 and 116 shin-contact steps).  At the probe's height (6 mm)
+        the final descent is 11 mm, within 1 mm of what :func:`~coop_ga.sim.walking_blind.shin_reach` clears
+        (12 mm), and the shin touched an edge 11.1 mm above the ball 18.5 mm behind it in a search (a leg
+        stretched beyond the stance range that reach is measured over); at 2 mm the 1 m ripple walk on random
+        tiles walked 97.8 % instead of 95.3 %.  Coming in low with every leg, the middle and rear legs (whose
+        shins reach back 18 and 12 mm, not beyond their reach ahead) stepped over 4 more faces in that walk,
+        0.4 s each, which the gait waits for (89.6 % walked).
+    search_ahead, search_margin: blind, the search of a leg that comes in low goes forward ``search_ahead`` ×
+        as far as the other legs' (``search_forward``, ``search_forward_max``) while the leg keeps
+        ``search_margin`` [m] of its workspace (from D).  Measured at 1×: a front foot whose arc ended 2 mm above a
+        19 mm tile at its edge searched forward and down and laid its shin on that edge 16 mm behind it, 12.8 mm
+        below its top (short wave walk on random tiles, blind: 165 shin-contact steps; 106 at 1.5×, none at 2×).
     """
 
     gait: str = "tripod"
@@ -565,12 +575,13 @@ def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any =
     where it needs more than the URDF's joint speed, the longest probe that does not (``probe_scale``, per leg,
     by bisection to 1/32).  That is reported, not refused: the walker flies the whole probe, its joint targets
     at most at ``joint_speed`` × the URDF speed (``speed_limited_plans``), so the foot cuts the probe's corners
-    where the path is faster — the wave's 0.67 s swing needs 1.08× (measured: flying the shortened probe
-    instead let a shin onto a tile edge in the short wave walk on random tiles, blind).  Returns the worst
+    where the path is faster — the wave's 0.67 s swing needs 1.13× (its front legs coming in low; 1.05×
+    without; measured: flying the shortened probe instead let a shin onto a tile edge in the short wave walk on
+    random tiles, blind).  Returns the worst
     ratios {"stroke_m", "reach_margin_m", "joint_speed_ratio" (the plain swing), "probe_speed_ratio" (the
     probing swing)} and "probe_scale" (6,)."""
     from ..legged.legs import hexapod_legs
-    from .walking_blind import probe_reaches
+    from .walking_blind import approach_lengths, probe_reaches
 
     lm = hexapod_legs() if legs is None else legs
     fl = FastLegs(lm)
@@ -580,6 +591,7 @@ def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any =
     vlim = np.empty(18)
     vlim[fl.q_index] = np.asarray(lm.velocity_limit, float)
     probe = probe_reaches(lm, options)
+    low = approach_lengths(lm, options)  # the front legs' probe comes in low (WalkingOptions.approach_height)
     scale = np.ones(6)
     worst: dict[str, Any] = {"stroke_m": 0.0, "reach_margin_m": math.inf, "joint_speed_ratio": 0.0}
     worst["probe_speed_ratio"] = 0.0
@@ -602,7 +614,7 @@ def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any =
                         f"(reach margin {1e3 * m[i]:.1f} mm, limit {1e3 * margin:.0f} mm); lower the speed or the "
                         "cycle time"
                     )
-            swing = (fl, nom, i, ends[1], ends[0], options)
+            swing = (fl, nom, i, ends[1], ends[0], options, float(low[i]))
             ratio = _swing_speed_ratio(*swing, 0.0, (1 - beta) * T, vlim)
             worst["joint_speed_ratio"] = max(worst["joint_speed_ratio"], ratio)
             if ratio > 1.0:
@@ -632,13 +644,15 @@ def _swing_speed_ratio(
     p0: np.ndarray,
     p1: np.ndarray,
     options: WalkingOptions,
+    approach: float,
     probe: float,
     duration: float,
     vlim: np.ndarray,
 ) -> float:
     """The largest joint speed over the URDF limit ``vlim`` (18,) [rad/s] of leg i's swing (B, the other feet at
     ``nom`` (6, 3)) from ``p0`` to ``p1`` (3,) [m] in ``duration`` [s]: the arc, or with ``probe`` [m] > 0 the
-    probing swing (:func:`check_command`)."""
+    probing swing (:func:`check_command`), coming in low over ``approach`` [m] (``approach_height``) as the
+    walker's does."""
     from ..legged.gait import swing_arc
     from .walking_blind import probe_path
 
@@ -646,7 +660,8 @@ def _swing_speed_ratio(
     lift = max(options.lift_height, options.blind_lift)
     if probe > 0.0:
         h = options.probe_height + options.touchdown_depth  # as the walker: p1 aimed touchdown_depth below
-        path = probe_path(p0, p1, lift, probe, h, s)
+        low = options.approach_height + options.touchdown_depth
+        path = probe_path(p0, p1, lift, probe, h, s, approach=approach, low_height=low)
     else:
         path = swing_arc(p0, p1, lift, s)[0]
     qs = np.array([fl.ik(np.where(np.arange(6)[:, None] == i, a, nom))[0] for a in path])

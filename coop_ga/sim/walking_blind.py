@@ -26,6 +26,17 @@ middle, 39.4 mm for the rear legs (whose knees stand ahead of their feet); towar
 
 Cost: the probing arc covers the stroke plus the probe, and the way back the probe again, in the same swing time
 (the joint targets then hit the servos' speed limit more often: ``speed_limited_plans``).
+
+The low approach
+----------------
+A down-step's edge *behind* the foothold is the other danger, for a leg whose shin lies behind its foot (the
+front legs: :func:`shin_reach` toward −x of a 35 mm ledge 42.1 mm, toward +x 21.0 mm): the arc crosses the
+edge high, and the foot descending past it lays its shin on the edge once it is more than 12 mm below its top
+(19.9 mm behind the ball at 12.5 mm, 26.8 mm at 15 mm).  So such a leg's probing arc comes down to a small height
+above the expected ground as far before the foothold as its shin reaches back (:func:`approach_lengths`:
+33.1 mm) and goes on from there (``probe_path(approach=…, low_height=…)``): a ledge there higher than the
+ball is then touched by the ball itself — the foot lands on its tread, behind the edge, or steps over its face —
+and the final descent stays within what the shin clears.
 """
 
 from __future__ import annotations
@@ -153,10 +164,10 @@ def probe_path(
     the last :data:`PROBE_DESCENT` of the swing (each part at rest at its ends).  The arc and the way back share
     the rest so that their horizontal speeds peak alike (the arc moves horizontally over the middle 60 % of its
     time): the arc ends at ``f = (1 − PROBE_DESCENT) (L + reach) / (L + 1.6 reach)`` (L: the swing's horizontal
-    length).  With ``approach`` [m] > 0 the arc comes down to that height ``approach`` before ``p1`` (at most
-    half of L) and the foot goes on from there to the far point at that height (module docstring, "The low
-    approach"); the arc, that straight part and the way back then share the time in proportion to 2.5 × and
-    1.5 × their horizontal lengths (their peak speeds over their means).  Without a direction (a swing shorter
+    length).  With ``approach`` [m] > 0 the arc comes down ``approach`` before ``p1`` (at most half of L) to
+    ``low_height`` [m] above ``p1`` (default ``height``) and the foot goes on from there straight to the far
+    point (module docstring, "The low approach"); the arc, that straight part and the way back then share the
+    time in proportion to 2.5 × and 1.5 × their horizontal lengths (their peak speeds over their means).  Without a direction (a swing shorter
     than 5 mm horizontally) or reach it is the plain arc."""
     d = np.asarray((p1 - p0) if direction is None else direction, float)[:2]
     nd = float(np.hypot(d[0], d[1]))
