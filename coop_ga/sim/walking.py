@@ -281,18 +281,22 @@ class WalkingOptions:
         ball first (a tread: the foot lands on it — a contact after the arc's apex is a landing, not a stumble;
         a face: stepped over).  Measured without it (1 m walks on random tiles, blind): front feet that had
         crossed a 21.6 mm down-step high descended 15 mm (ripple) and 24.5 mm (wave) past its edge and laid their
-        shins on it, 14.4 / 14.6 mm below its top (164 and 116 shin-contact steps).  At the probe's height (6 mm)
-        the final descent is 11 mm, within 1 mm of what :func:`~coop_ga.sim.walking_blind.shin_reach` clears
-        (12 mm), and the shin touched an edge 11.1 mm above the ball 18.5 mm behind it in a search (a leg
-        stretched beyond the stance range that reach is measured over); at 2 mm the 1 m ripple walk on random
-        tiles walked 97.8 % instead of 95.3 %.  Coming in low with every leg, the middle and rear legs (whose
-        shins reach back 18 and 12 mm, not beyond their reach ahead) stepped over 4 more faces in that walk,
-        0.4 s each, which the gait waits for (89.6 % walked).
+        shins on it, 14.4 / 14.6 mm below its top (164 and 116 shin-contact steps); with it (6 mm, the probe's
+        height) none.  The final descent is then 11 mm, within 1 mm of what
+        :func:`~coop_ga.sim.walking_blind.shin_reach` clears (12 mm; a shin touched an edge 11.1 mm above the
+        ball 18.5 mm behind it in a search, its leg stretched beyond the stance range that reach is measured
+        over).  At 2 mm the 1 m ripple walk on random tiles walked 97.8 % instead of 95.3 %, but the ball slid
+        along the expected ground and a front foot landed at the approach's start, 17 mm short of a riser the
+        probe never reached (1 m tripod walk on steps, blind: 594 shin-contact steps).  Coming in low with every
+        leg, the middle and rear legs (whose shins reach back 18 and 12 mm, not beyond their reach ahead) stepped
+        over 4 more faces in the ripple walk, 0.4 s each, which the gait waits for (89.6 % walked).
     search_ahead, search_margin: blind, the search of a leg that comes in low goes forward ``search_ahead`` ×
         as far as the other legs' (``search_forward``, ``search_forward_max``) while the leg keeps
-        ``search_margin`` [m] of its workspace (from D).  Measured at 1×: a front foot whose arc ended 2 mm above a
-        19 mm tile at its edge searched forward and down and laid its shin on that edge 16 mm behind it, 12.8 mm
-        below its top (short wave walk on random tiles, blind: 165 shin-contact steps; 106 at 1.5×, none at 2×).
+        ``search_margin`` [m] of its workspace (from D).  Measured at 1× (the default): a front foot whose arc
+        ended 2 mm above a 19 mm tile at its edge searched forward and down and laid its shin on that edge 16 mm
+        behind it, 12.8 mm below its top (short wave walk on random tiles, blind: 165 shin-contact steps; 106 at
+        1.5×, none at 2×); but at 2× the front legs, stretched, pressed against their reach and stepped back
+        (:meth:`HexapodWalker._blocked`: 1 s), and the 1 m ripple walk on random tiles walked 93.6 %.
     """
 
     gait: str = "tripod"
@@ -335,8 +339,8 @@ class WalkingOptions:
     probe_guard: float = 0.035
     probe_height: float = 0.006
     probe_margin: float = 0.003
-    approach_height: float = 0.002
-    search_ahead: float = 2.0
+    approach_height: float = 0.006
+    search_ahead: float = 1.0
     search_margin: float = 0.005
 
     def __post_init__(self) -> None:
