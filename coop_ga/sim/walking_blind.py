@@ -26,6 +26,17 @@ middle, 39.4 mm for the rear legs (whose knees stand ahead of their feet); towar
 
 Cost: the probing arc covers the stroke plus the probe, and the way back the probe again, in the same swing time
 (the joint targets then hit the servos' speed limit more often: ``speed_limited_plans``).
+
+The low approach
+----------------
+A down-step's edge *behind* the foothold is the other danger, for a leg whose shin lies behind its foot (the
+front legs: :func:`shin_reach` toward −x of a 35 mm ledge 42.1 mm, toward +x 21.0 mm): the arc crosses the
+edge high, and the foot descending past it lays its shin on the edge once it is more than 12 mm below its top
+(19.9 mm behind the ball at 12.5 mm, 26.8 mm at 15 mm).  So such a leg's probing arc comes down to a small height
+above the expected ground as far before the foothold as its shin reaches back (:func:`approach_lengths`:
+33.1 mm) and goes on from there (``probe_path(approach=…, low_height=…)``): a ledge there higher than the
+ball is then touched by the ball itself — the foot lands on its tread, behind the edge, or steps over its face —
+and the final descent stays within what the shin clears.
 """
 
 from __future__ import annotations
@@ -37,7 +48,7 @@ import numpy as np
 
 from ..legged.gait import swing_arc
 
-__all__ = ["PROBE_DESCENT", "probe_path", "probe_reaches", "riser_distance", "shin_reach"]
+__all__ = ["PROBE_DESCENT", "approach_lengths", "probe_path", "probe_reaches", "riser_distance", "shin_reach"]
 
 #: the fraction of a probing swing that descends onto the foothold (the last part)
 PROBE_DESCENT = 0.1
@@ -117,6 +128,19 @@ def probe_reaches(legs: Any, options: Any) -> np.ndarray:
     return np.maximum(reach - float(legs.foot_radius), 0.0) + options.probe_margin
 
 
+def approach_lengths(legs: Any, options: Any) -> np.ndarray:
+    """(6,) [m] how far before its foothold each leg's blind probing swing comes down to the probe's height
+    (module docstring, "The low approach"): for a leg whose shin lies behind its foot (its :func:`shin_reach`
+    toward −x beyond that toward +x, both toward a ``probe_guard`` ledge: the front legs, 42.1 vs 21.0 mm for the
+    registered hexapod) that reach − the ball's radius (33.1 mm); zeros for the other legs and unless blind with
+    feedback and ``probe_guard`` > 0 (no probe)."""
+    if not (options.blind and options.feedback and options.probe_guard > 0):
+        return np.zeros(6)
+    back = shin_reach(legs, options, guard=options.probe_guard, direction=(-1.0, 0.0))
+    ahead = shin_reach(legs, options, guard=options.probe_guard)
+    return np.where(back > ahead + 1e-9, back - float(legs.foot_radius), 0.0)
+
+
 def _hexapod_legs() -> tuple[str, ...]:
     from .hexapod import HEXAPOD_LEGS
 
@@ -131,6 +155,8 @@ def probe_path(
     height: float,
     s: np.ndarray,
     direction: np.ndarray | None = None,
+    approach: float = 0.0,
+    low_height: float | None = None,
 ) -> np.ndarray:
     """A probing swing (module docstring) sampled at progress ``s`` (n,) → (n, 3) [m]: :func:`swing_arc` from
     ``p0`` (3,) to the far point ``reach`` [m] past ``p1`` (3,) along ``direction`` (horizontal; default: the
@@ -138,19 +164,33 @@ def probe_path(
     the last :data:`PROBE_DESCENT` of the swing (each part at rest at its ends).  The arc and the way back share
     the rest so that their horizontal speeds peak alike (the arc moves horizontally over the middle 60 % of its
     time): the arc ends at ``f = (1 − PROBE_DESCENT) (L + reach) / (L + 1.6 reach)`` (L: the swing's horizontal
-    length).  Without a direction (a swing shorter than 5 mm horizontally) or reach it is the plain arc."""
+    length).  With ``approach`` [m] > 0 the arc comes down ``approach`` before ``p1`` (at most half of L) to
+    ``low_height`` [m] above ``p1`` (default ``height``) and the foot goes on from there straight to the far
+    point (module docstring, "The low approach"); the arc, that straight part and the way back then share the
+    time in proportion to 2.5 × and 1.5 × their horizontal lengths (their peak speeds over their means).  Without a direction (a swing shorter
+    than 5 mm horizontally) or reach it is the plain arc."""
     d = np.asarray((p1 - p0) if direction is None else direction, float)[:2]
     nd = float(np.hypot(d[0], d[1]))
     if nd < 0.005 or reach <= 0.0:
         return swing_arc(p0, p1, lift, s)[0]
+    u = np.array([d[0] / nd, d[1] / nd, 0.0])
     top = np.array([p1[0], p1[1], p1[2] + height])
-    far = top + reach * np.array([d[0] / nd, d[1] / nd, 0.0])
+    far = top + reach * u
     L = float(np.hypot(*(far - p0)[:2])) - reach
+    a = min(max(approach, 0.0), 0.5 * L)
     f2 = 1.0 - PROBE_DESCENT
     f1 = f2 * (L + reach) / (L + 1.6 * reach)
+    fa = f2 * 2.5 * (L - a) / (2.5 * (L - a) + 1.5 * (a + 2.0 * reach)) if a > 0.0 else f1
+    low = top - a * u  # where the arc comes down (to the probe's height, or low_height above p1)
+    if low_height is not None:
+        low[2] = p1[2] + low_height
     out = np.empty((len(s), 3))
-    a = s <= f1
-    out[a] = swing_arc(p0, far, lift, s[a] / f1)[0]
+    m = s <= fa
+    out[m] = swing_arc(p0, low if a > 0.0 else far, lift, s[m] / fa)[0]
+    if a > 0.0:  # on at that height to the far point
+        f1 = fa + (f2 - fa) * (a + reach) / (a + 2.0 * reach)
+        m = (s > fa) & (s <= f1)
+        out[m] = low + _smooth((s[m] - fa) / (f1 - fa))[:, None] * (far - low)
     b = (s > f1) & (s <= f2)
     out[b] = far + _smooth((s[b] - f1) / (f2 - f1))[:, None] * (top - far)
     c = s > f2

@@ -13,7 +13,7 @@ from coop_ga.legged.contact import leg_segments
 from coop_ga.legged.gait import swing_arc
 from coop_ga.legged.legs import hexapod_legs
 from coop_ga.sim.walking import WalkingOptions, nominal_feet
-from coop_ga.sim.walking_blind import PROBE_DESCENT, probe_path, riser_distance, shin_reach
+from coop_ga.sim.walking_blind import PROBE_DESCENT, approach_lengths, probe_path, riser_distance, shin_reach
 from coop_ga.sim.walking_kin import FastLegs
 
 
@@ -78,6 +78,48 @@ def test_probe_path_goes_past_the_foothold_and_back_down() -> None:
     assert np.allclose(plain, swing_arc(p0, p0 + np.array([0.002, 0.0, 0.0]), 0.04, s)[0])
 
 
+def test_approach_lengths_are_the_front_shins_reach_back() -> None:
+    """Blind, the legs whose shins lie behind their feet (shin_reach toward −x beyond that toward +x, 35 mm ledge:
+    the front legs, 42.1 vs 21.0 mm) come in low over their reach back − the ball's radius (33.1 mm); the middle
+    (27.4 mm both ways) and rear legs do not; with the map or without the probe no leg does."""
+    lm = hexapod_legs()
+    blind = WalkingOptions(blind=True)
+    back = shin_reach(lm, blind, guard=0.035, direction=(-1.0, 0.0))
+    ahead = shin_reach(lm, blind, guard=0.035)
+    assert back[[0, 3]] == pytest.approx(0.0421, abs=5e-4) and ahead[[0, 3]] == pytest.approx(0.0210, abs=5e-4)
+    got = approach_lengths(lm, blind)
+    assert got[[0, 3]] == pytest.approx(back[[0, 3]] - lm.foot_radius, abs=1e-12)
+    assert got[[0, 3]] == pytest.approx(0.0331, abs=5e-4)
+    assert np.all(got[[1, 2, 4, 5]] == 0.0)
+    assert np.all(approach_lengths(lm, WalkingOptions()) == 0.0)
+    assert np.all(approach_lengths(lm, WalkingOptions(blind=True, probe_guard=0.0)) == 0.0)
+
+
+def test_probe_path_comes_in_low_before_the_foothold() -> None:
+    """With an approach of 33 mm at 7 mm above the foothold: the arc ends 33 mm before it at that height (at the
+    time share 2.5 (L − a) : 1.5 (a + 2 reach) of the first 90 %), the foot then goes straight on, never higher
+    than the probe's 11 mm, to the far point 15 mm past it, back over it and down onto it; no approach: the
+    probe of old, unchanged."""
+    p0, p1 = np.array([0.0, 0.0, 0.01]), np.array([0.08, 0.0, 0.01])
+    s = np.linspace(0.0, 1.0, 4001)
+    path = probe_path(p0, p1, 0.04, 0.015, 0.011, s, approach=0.033, low_height=0.007)
+    assert np.allclose(path[0], p0) and np.allclose(path[-1], p1)
+    fa = (1.0 - PROBE_DESCENT) * 2.5 * 0.047 / (2.5 * 0.047 + 1.5 * (0.033 + 0.03))
+    k = int(np.argmin(np.abs(s - fa)))
+    assert np.allclose(path[k], [0.047, 0.0, 0.017], atol=2e-5)  # 33 mm before p1, 7 mm above it
+    arc = swing_arc(p0, np.array([0.047, 0.0, 0.017]), 0.04, s[: k + 1] / fa)[0]
+    assert np.allclose(path[: k + 1], arc, atol=1e-9)
+    on = path[k:][path[k:, 0] >= path[k:, 0].max() - 1e-12][0]
+    assert on == pytest.approx([0.095, 0.0, 0.021], abs=1e-5)  # the far point
+    j = k + int(np.argmax(path[k:, 0]))
+    assert np.all(np.diff(path[k : j + 1, 0]) >= -1e-12)  # straight on to it
+    assert np.all(path[k:, 2] <= 0.021 + 1e-12) and np.all(path[k:, 2] >= 0.01 - 1e-12)
+    old = probe_path(p0, p1, 0.04, 0.015, 0.011, s)
+    assert np.array_equal(probe_path(p0, p1, 0.04, 0.015, 0.011, s, approach=0.0), old)
+    short = probe_path(p0, np.array([0.03, 0.0, 0.01]), 0.04, 0.015, 0.011, s, approach=0.033)
+    assert short[:, 0].min() >= -1e-12 and np.isclose(short[-1, 0], 0.03)  # at most half the swing: 15 mm
+
+
 def _probe_speed(lm, opt, i: int, probe: float, speed: float) -> float:
     """The largest joint speed over the URDF limit of leg i's probing swing of a straight walk at ``speed`` [m/s]
     (the other feet nominal), by LegModel's own IK (not the walker's FastLegs)."""
@@ -86,7 +128,10 @@ def _probe_speed(lm, opt, i: int, probe: float, speed: float) -> float:
     stroke = np.array([speed * tab.duty * tab.period, 0.0, 0.0])
     s = np.linspace(0.0, 1.0, 401)
     h = opt.probe_height + opt.touchdown_depth
-    path = probe_path(nom[i] - 0.5 * stroke, nom[i] + 0.5 * stroke, max(opt.lift_height, opt.blind_lift), probe, h, s)
+    low = {"approach": approach_lengths(lm, opt)[i], "low_height": opt.approach_height + opt.touchdown_depth}
+    path = probe_path(
+        nom[i] - 0.5 * stroke, nom[i] + 0.5 * stroke, max(opt.lift_height, opt.blind_lift), probe, h, s, **low
+    )
     feet = np.repeat(nom[None], len(s), axis=0)
     feet[:, i] = path
     q = lm.ik(feet, check_limits=False)
