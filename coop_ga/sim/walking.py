@@ -629,8 +629,8 @@ def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any =
     where it needs more than the URDF's joint speed, the longest probe that does not (``probe_scale``, per leg,
     by bisection to 1/32).  That is reported, not refused: the walker flies the whole probe, its joint targets
     at most at ``joint_speed`` × the URDF speed (``speed_limited_plans``), so the foot cuts the probe's corners
-    where the path is faster — the wave's 0.67 s swing needs 1.13× (its front legs coming in low; 1.05×
-    without; measured: flying the shortened probe instead let a shin onto a tile edge in the short wave walk on
+    where the path is faster — the front legs' probes, coming in low, need 1.035× in the tripod's 0.8 s swing
+    and 1.24× in the wave's 0.67 s (1.05× without; measured: flying the shortened probe instead let a shin onto a tile edge in the short wave walk on
     random tiles, blind).  Returns the worst
     ratios {"stroke_m", "reach_margin_m", "joint_speed_ratio" (the plain swing), "probe_speed_ratio" (the
     probing swing)} and "probe_scale" (6,)."""

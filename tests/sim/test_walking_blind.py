@@ -144,8 +144,9 @@ def _probe_speed(lm, opt, i: int, probe: float, speed: float) -> float:
 def test_check_command_accounts_for_the_probing_swing() -> None:
     """Blind, the swing the walker flies is the probe (the stroke plus the probe out and back): check_command
     measures its joint speed (against LegModel's own IK on a 2.5× finer path: within 2 %; well above the plain
-    arc's), and where it needs more than the URDF limit (the wave's 0.67 s swing) finds the longest probe that
-    does not: at the returned scale ≤ 1.01×, 1/16 of the probe longer > 1.0×.  With the map there is no probe."""
+    arc's), and where it needs more than the URDF limit (the front legs' probes, coming in low; the wave's 0.67 s
+    swing) finds the longest probe that does not: at the returned scale ≤ 1.01×, 1/16 of the probe longer > 1.0×.
+    With the map there is no probe."""
     from dataclasses import replace
 
     from coop_ga.sim.walking import check_command
@@ -172,7 +173,10 @@ def test_check_command_accounts_for_the_probing_swing() -> None:
             if got["probe_scale"][i] < 1.0:
                 longer = min(got["probe_scale"][i] + 1.0 / 16.0, 1.0) * probe[i]
                 assert _probe_speed(lm, blind, i, longer, speed) > 1.0
+        # the front legs come in low (approach_lengths): 1.035× the limit in the tripod's 0.8 s swing, 1.24× in
+        # the wave's 0.67 s; the other legs' probes fit in the tripod
+        assert full > 1.0 and np.all(got["probe_scale"][[0, 3]] < 1.0)
         if gait == "tripod":
-            assert full < 1.0 and np.all(got["probe_scale"] == 1.0)  # 0.9× the limit
+            assert full == pytest.approx(1.035, abs=0.01) and np.all(got["probe_scale"][[1, 2, 4, 5]] == 1.0)
         else:
-            assert full > 1.0 and np.any(got["probe_scale"] < 1.0)  # 0.67 s swings: 1.08×
+            assert full == pytest.approx(1.24, abs=0.01)
