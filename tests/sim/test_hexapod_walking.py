@@ -264,6 +264,16 @@ def test_the_late_foot_settings_default_to_the_tripod_only(gait: str) -> None:
         WalkingOptions(gait=gait, search_fast_speed=0.0)
 
 
+@pytest.mark.parametrize("gait", ["tripod", "ripple", "wave"])
+def test_search_ahead_defaults_to_twice_for_the_wave_only(gait: str) -> None:
+    """search_ahead (None) is 2 for the wave, 1 for the tripod and the ripple; set, it holds for every gait;
+    negative is refused."""
+    assert WalkingOptions(gait=gait).search_ahead_factor == (2.0 if gait == "wave" else 1.0)
+    assert WalkingOptions(gait=gait, search_ahead=1.5).search_ahead_factor == 1.5
+    with pytest.raises(InvalidInputError, match="search_ahead"):
+        WalkingOptions(gait=gait, search_ahead=-1.0)
+
+
 @pytest.mark.parametrize("search_clock", [True, False])
 def test_the_gait_clock_runs_while_a_foot_steps_over_up_to_the_next_lift_off(search_clock: bool) -> None:
     """A tripod foot (lf) stepping over a face 0.1 s before the other tripod's lift-off: with search_clock the gait
