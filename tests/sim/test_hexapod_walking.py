@@ -310,9 +310,9 @@ def test_the_gait_clock_runs_while_a_foot_steps_over_up_to_the_next_lift_off(sea
 def test_the_blind_tripod_walks_1m_of_random_tiles_within_the_runs_time() -> None:
     """The 1 m blind tripod walk on random tiles (seed 0): with the gait clock stopped for every late foot and the
     search at search_speed throughout, its waits (the schedule's lag) exceed the run's catch-up (one cycle) and it
-    walks 93 % (lag 3.78 s); with search_clock and the fast first 10 mm of search (the tripod's defaults) it waits
-    0.76 s less — its step-overs run while the clock still runs, its searches find the ground sooner — and passes
-    the bar (97.9 %)."""
+    walks 94.5 % (lag 3.60 s); with search_clock and the fast first 10 mm of search (the tripod's defaults) it waits
+    0.79 s less — its step-overs run while the clock still runs, its searches find the ground sooner — and passes
+    the bar (98.9 %)."""
     from coop_ga.sim.walking_experiments import row_terrain, straight_command
 
     cmd, opt, duration = straight_command("tripod", 1.0)
@@ -320,8 +320,10 @@ def test_the_blind_tripod_walks_1m_of_random_tiles_within_the_runs_time() -> Non
     for name, kw in (("new", {}), ("old", {"search_clock": False, "search_fast_depth": 0.0})):
         runs[name] = simulate_walk(row_terrain("random", 0), cmd, replace(opt, blind=True, **kw), duration=duration)
     new, old = (runs[k].metrics() for k in ("new", "old"))
-    assert old["walked_fraction"] < 0.94 and old["schedule_lag_s"] > 3.6, old
-    assert new["passed"] and new["walked_fraction"] > 0.97 and new["schedule_lag_s"] < 3.1, new
+    # measured on this code: old 94.5 %, lag 3.60 s (93.1 %, 3.78 s before the front legs came in low); new
+    # 98.9 %, lag 2.81 s
+    assert not old["passed"] and old["walked_fraction"] < 0.95 and old["schedule_lag_s"] > 3.5, old
+    assert new["passed"] and new["walked_fraction"] > 0.97 and new["schedule_lag_s"] < 3.0, new
     assert new["events"]["searches"] >= 5 and new["events"]["step_overs"] >= 5, new["events"]
     assert new["shin_contact_steps"] == 0 and new["max_slip_m"] < 0.005, new
 
