@@ -164,6 +164,7 @@ def test_script_quiet_run_has_empty_stderr(tmp_path):
             "--out",
             str(tmp_path),
             "--quiet",
+            "--fast",  # every output still written; 4 animation frames (30 took 28 of the run's 37 s)
             "--duration",
             "0.5",
         ],
