@@ -110,6 +110,13 @@ __all__ = [
 
 #: the gaits of :func:`coop_ga.legged.gait.phase_table`
 GAIT_NAMES: tuple[str, ...] = ("tripod", "ripple", "wave")
+#: the blind search's options whose None means "per gait", and their defaults (measured per gait: the
+#: blind walks on random tiles swing with small changes; :class:`WalkingOptions` gives the measurements)
+PER_GAIT_DEFAULTS: dict[str, dict[str, float | bool]] = {
+    "search_clock": {"tripod": True, "ripple": False, "wave": False},
+    "search_fast_depth": {"tripod": 0.01, "ripple": 0.0, "wave": 0.0},
+    "search_ahead": {"tripod": 1.0, "ripple": 1.0, "wave": 2.0},
+}
 G = 9.81
 _MODES = {"stance": 0, "swing": 1, "search": 2}
 #: plane rows of a similarity twist the stance plane can see (Table 1): e13, e23 (tilt), e3∞ (offset)
@@ -304,11 +311,11 @@ class WalkingOptions:
         a face: stepped over).  Measured without it (1 m walks on random tiles, blind): front feet that had
         crossed a 21.6 mm down-step high descended 15 mm (ripple) and 24.5 mm (wave) past its edge and laid their
         shins on it, 14.4 / 14.6 mm below its top (164 and 116 shin-contact steps); with it (6 mm, the probe's
-        height) none — measured on an earlier state of the walker (before ``search_ahead``,
-        ``search_margin`` and ``search_clock``; which change made the difference is not measured): today, ``approach_height = 0`` walks those two 1 m rows
-        97.5 % (ripple) and 100.0 % (wave) with no shin contact (seed 0), so its need there is not shown
-        any more; it is kept because every row of the bar was measured with it.  The final descent is then
-        11 mm, within 1 mm of what
+        height) none — measured on an earlier state of the walker (before ``search_ahead``, ``search_margin``
+        and ``search_clock``; which change made the difference is not measured): today, ``approach_height = 0``
+        walks those two 1 m rows 97.5 % (ripple) and 100.0 % (wave) with no shin contact (seed 0), so its need
+        there is not shown any more; it is kept because every row of the bar was measured with it.  The final
+        descent is then 11 mm, within 1 mm of what
         :func:`~coop_ga.sim.walking_blind.shin_reach` clears (12 mm; a shin touched an edge 11.1 mm above the
         ball 18.5 mm behind it in a search, its leg stretched beyond the stance range that reach is measured
         over).  At 2 mm the 1 m ripple walk on random tiles walked 97.8 % instead of 95.3 %, but the ball slid
@@ -448,24 +455,25 @@ class WalkingOptions:
 
         return float(self.cycle_time) if self.cycle_time is not None else CYCLE_TIME[self.gait]
 
+    def _per_gait(self, name: str) -> Any:
+        """Option ``name``, or where it is None its default for this gait (:data:`PER_GAIT_DEFAULTS`)."""
+        value = getattr(self, name)
+        return PER_GAIT_DEFAULTS[name][self.gait] if value is None else value
+
     @property
     def clock_runs_in_search(self) -> bool:
         """``search_clock``, or its default: True for the tripod only."""
-        return self.gait == "tripod" if self.search_clock is None else bool(self.search_clock)
+        return bool(self._per_gait("search_clock"))
 
     @property
     def search_ahead_factor(self) -> float:
         """``search_ahead``, or its default: 2 for the wave, 1 for the tripod and the ripple."""
-        if self.search_ahead is None:
-            return 2.0 if self.gait == "wave" else 1.0
-        return float(self.search_ahead)
+        return float(self._per_gait("search_ahead"))
 
     @property
     def fast_search_depth(self) -> float:
         """``search_fast_depth`` [m], or its default: 0.01 for the tripod, 0 (none) for ripple and wave."""
-        if self.search_fast_depth is None:
-            return 0.01 if self.gait == "tripod" else 0.0
-        return float(self.search_fast_depth)
+        return float(self._per_gait("search_fast_depth"))
 
     @property
     def accel(self) -> float:
@@ -643,8 +651,8 @@ def check_command(command: VelocityCommand, options: WalkingOptions, legs: Any =
     by bisection to 1/32).  That is reported, not refused: the walker flies the whole probe, its joint targets
     at most at ``joint_speed`` × the URDF speed (``speed_limited_plans``), so the foot cuts the probe's corners
     where the path is faster — the front legs' probes, coming in low, need 1.035× in the tripod's 0.8 s swing
-    and 1.24× in the wave's 0.67 s (1.05× without; measured: flying the shortened probe instead let a shin onto a tile edge in the short wave walk on
-    random tiles, blind).  Returns the worst
+    and 1.24× in the wave's 0.67 s (1.05× without; measured: flying the shortened probe instead let a shin onto
+    a tile edge in the short wave walk on random tiles, blind).  Returns the worst
     ratios {"stroke_m", "reach_margin_m", "joint_speed_ratio" (the plain swing), "probe_speed_ratio" (the
     probing swing)} and "probe_scale" (6,)."""
     from ..legged.legs import hexapod_legs
@@ -1292,7 +1300,8 @@ class HexapodWalker:
 
     def _search_ahead(self, i: int, fwd: float, depth: float, p1: np.ndarray, u: np.ndarray) -> float:
         """How far [m] the search of leg i, a leg that comes in low (its shin behind its foot), goes forward from
-        ``p1`` (3,) along ``u`` (2,) at ``depth`` [m]: :attr:`~WalkingOptions.search_ahead_factor` × ``fwd`` (the other legs' forward), while
+        ``p1`` (3,) along ``u`` (2,) at ``depth`` [m]: :attr:`~WalkingOptions.search_ahead_factor` × ``fwd``
+        (the other legs' forward), while
         the leg keeps ``search_margin`` [m] of its workspace there (from D); else no further than ``fwd`` or where
         it already is (:class:`WalkingOptions`)."""
         opt = self.options
